@@ -1,0 +1,14 @@
+//! mavterm: a terminal ground-control station for MAVLink vehicles.
+//!
+//! Layout: `link` turns bytes into frames at the edges (transports, framing, connection strings);
+//! `proto` holds sans-I/O protocol state machines; `app` is the pure core (state + event in,
+//! effects out); `ui` renders panes from state only; `sim` is the simulated vehicle; `headless`
+//! runs the core without a terminal.
+
+pub mod clock;
+pub mod link;
+pub mod proto;
+pub mod sim;
+
+/// The MAVLink dialect mavterm speaks: ardupilotmega, which includes common.
+pub use mavlink::dialects::ardupilotmega as dialect;

@@ -1,0 +1,287 @@
+//! MAVLink frames as bytes: our own framing, so the raw bytes (and our own sequence numbers) survive.
+//!
+//! The `mavlink` crate's connection objects rewrite outgoing sequence numbers, accept only MAVLink 2
+//! by default and drop frames whose message id the dialect does not know. A ground station that
+//! counts loss from sequence gaps and forwards frames unchanged cannot live with any of that, so
+//! framing (finding frames in a byte stream, checking the CRC) is done here, and only the payload
+//! decode is handed to the crate's generated dialect code.
+
+use crate::dialect::MavMessage;
+use mavlink::{MavlinkVersion, Message};
+
+/// Start byte of a MAVLink 1 frame.
+pub const MAGIC_V1: u8 = 0xFE;
+/// Start byte of a MAVLink 2 frame.
+pub const MAGIC_V2: u8 = 0xFD;
+/// MAVLink 2 incompatibility flag: the frame carries a 13-byte signature after the CRC.
+pub const IFLAG_SIGNED: u8 = 0x01;
+/// Length of a MAVLink 2 signature (link id, 48-bit timestamp, 48-bit signature).
+pub const SIGNATURE_LEN: usize = 13;
+/// Largest possible frame: v2 header (10) + payload (255) + CRC (2) + signature (13).
+pub const MAX_FRAME_LEN: usize = 10 + 255 + 2 + SIGNATURE_LEN;
+
+/// CRC-16/MCRF4XX (the "X.25" accumulate of the MAVLink C library), seed 0xFFFF.
+#[inline]
+pub fn crc_accumulate(crc: u16, byte: u8) -> u16 {
+    let mut tmp = byte ^ (crc as u8);
+    tmp ^= tmp << 4;
+    let tmp = tmp as u16;
+    (crc >> 8) ^ (tmp << 8) ^ (tmp << 3) ^ (tmp >> 4)
+}
+
+/// CRC over `data` followed by the message's CRC_EXTRA byte, as MAVLink defines it.
+pub fn frame_crc(data: &[u8], crc_extra: u8) -> u16 {
+    let mut crc = 0xFFFFu16;
+    for &b in data {
+        crc = crc_accumulate(crc, b);
+    }
+    crc_accumulate(crc, crc_extra)
+}
+
+/// The CRC_EXTRA byte of a message id in our dialect (ardupilotmega, which includes common),
+/// or `None` if the dialect does not know the id.
+pub fn crc_extra(msgid: u32) -> Option<u8> {
+    // The generated `extra_crc` answers 0 for unknown ids; a few real messages could in
+    // principle have extra 0, so ask the dialect whether the id exists.
+    let extra = MavMessage::extra_crc(msgid);
+    if extra != 0 || MavMessage::default_message_from_id(msgid).is_some() {
+        Some(extra)
+    } else {
+        None
+    }
+}
+
+/// Protocol version of a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+pub enum Version {
+    V1,
+    V2,
+}
+
+impl Version {
+    pub fn to_mavlink(self) -> MavlinkVersion {
+        match self {
+            Version::V1 => MavlinkVersion::V1,
+            Version::V2 => MavlinkVersion::V2,
+        }
+    }
+}
+
+/// One frame as it came off the wire: its exact bytes, the header fields, and the decoded
+/// message when the dialect knows the id.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    /// The frame exactly as received, magic byte to the end of the signature.
+    pub raw: Vec<u8>,
+    pub version: Version,
+    pub seq: u8,
+    pub sysid: u8,
+    pub compid: u8,
+    pub msgid: u32,
+    pub incompat_flags: u8,
+    pub compat_flags: u8,
+    /// `Some` only for known message ids whose payload decoded.
+    pub message: Option<MavMessage>,
+}
+
+impl Frame {
+    /// Length of the payload as sent (MAVLink 2 truncates trailing zeros).
+    pub fn payload_len(&self) -> usize {
+        self.raw[1] as usize
+    }
+
+    /// The payload bytes as sent.
+    pub fn payload(&self) -> &[u8] {
+        let start = self.header_len();
+        &self.raw[start..start + self.payload_len()]
+    }
+
+    fn header_len(&self) -> usize {
+        match self.version {
+            Version::V1 => 6,
+            Version::V2 => 10,
+        }
+    }
+
+    /// True when a MAVLink 2 frame carries a signature.
+    pub fn is_signed(&self) -> bool {
+        self.version == Version::V2 && self.incompat_flags & IFLAG_SIGNED != 0
+    }
+
+    /// The 13 signature bytes (link id, timestamp, signature), kept for later verification.
+    pub fn signature(&self) -> Option<&[u8]> {
+        if self.is_signed() {
+            Some(&self.raw[self.raw.len() - SIGNATURE_LEN..])
+        } else {
+            None
+        }
+    }
+
+    /// Name of the message, or `UNKNOWN_<id>` for ids the dialect does not know.
+    pub fn name(&self) -> String {
+        match &self.message {
+            Some(m) => m.message_name().to_string(),
+            None => format!("UNKNOWN_{}", self.msgid),
+        }
+    }
+}
+
+/// Header fields of a frame we send.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Header {
+    pub sysid: u8,
+    pub compid: u8,
+    pub seq: u8,
+}
+
+/// Serialize `msg` into a complete frame with exactly the header given (our own sequence).
+/// MAVLink 2 payloads have trailing zeros removed (keeping at least one byte), as the spec says.
+pub fn encode(version: Version, header: Header, msg: &MavMessage) -> Vec<u8> {
+    let mut payload = [0u8; 255];
+    let msgid = msg.message_id();
+    let mut len = msg.ser(version.to_mavlink(), &mut payload);
+    if version == Version::V2 {
+        while len > 1 && payload[len - 1] == 0 {
+            len -= 1;
+        }
+    }
+    let extra = MavMessage::extra_crc(msgid);
+    let mut out = Vec::with_capacity(len + 12);
+    match version {
+        Version::V1 => {
+            out.extend_from_slice(&[
+                MAGIC_V1,
+                len as u8,
+                header.seq,
+                header.sysid,
+                header.compid,
+                msgid as u8,
+            ]);
+        }
+        Version::V2 => {
+            let id = msgid.to_le_bytes();
+            out.extend_from_slice(&[
+                MAGIC_V2,
+                len as u8,
+                0,
+                0,
+                header.seq,
+                header.sysid,
+                header.compid,
+                id[0],
+                id[1],
+                id[2],
+            ]);
+        }
+    }
+    out.extend_from_slice(&payload[..len]);
+    let crc = frame_crc(&out[1..], extra);
+    out.extend_from_slice(&crc.to_le_bytes());
+    out
+}
+
+/// Decode a frame's bytes on their own (exactly one whole frame). Convenience for tests and tools.
+pub fn decode_one(bytes: &[u8]) -> Option<Frame> {
+    let mut p = crate::link::parser::FrameParser::new();
+    let mut out = None;
+    p.push(bytes, |f| {
+        if out.is_none() {
+            out = Some(f)
+        }
+    });
+    p.end_of_datagram(|f| {
+        if out.is_none() {
+            out = Some(f)
+        }
+    });
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dialect as apm;
+
+    fn gcs_heartbeat() -> MavMessage {
+        MavMessage::HEARTBEAT(apm::HEARTBEAT_DATA {
+            custom_mode: 0,
+            mavtype: apm::MavType::MAV_TYPE_GCS,
+            autopilot: apm::MavAutopilot::MAV_AUTOPILOT_INVALID,
+            base_mode: apm::MavModeFlag::empty(),
+            system_status: apm::MavState::MAV_STATE_ACTIVE,
+            mavlink_version: 3,
+        })
+    }
+
+    #[test]
+    fn crc_matches_known_check_value() {
+        // CRC-16/MCRF4XX check value for "123456789" is 0x6F91.
+        let mut crc = 0xFFFFu16;
+        for b in b"123456789" {
+            crc = crc_accumulate(crc, *b);
+        }
+        assert_eq!(crc, 0x6F91);
+    }
+
+    #[test]
+    fn heartbeat_v2_is_byte_exact() {
+        let bytes = encode(
+            Version::V2,
+            Header {
+                sysid: 255,
+                compid: 190,
+                seq: 7,
+            },
+            &gcs_heartbeat(),
+        );
+        // Payload: custom_mode u32=0, type=6 (GCS), autopilot=8 (INVALID), base_mode=0,
+        // system_status=4 (ACTIVE), mavlink_version=3. CRC_EXTRA of HEARTBEAT is 50.
+        let mut expect = vec![
+            0xFD, 9, 0, 0, 7, 255, 190, 0, 0, 0, 0, 0, 0, 0, 6, 8, 0, 4, 3,
+        ];
+        let crc = frame_crc(&expect[1..], 50);
+        expect.extend_from_slice(&crc.to_le_bytes());
+        assert_eq!(bytes, expect);
+    }
+
+    #[test]
+    fn heartbeat_v1_round_trips() {
+        let h = Header {
+            sysid: 1,
+            compid: 1,
+            seq: 200,
+        };
+        let bytes = encode(Version::V1, h, &gcs_heartbeat());
+        assert_eq!(bytes[0], MAGIC_V1);
+        assert_eq!(bytes.len(), 6 + 9 + 2);
+        let f = decode_one(&bytes).expect("decodes");
+        assert_eq!((f.sysid, f.compid, f.seq, f.msgid), (1, 1, 200, 0));
+        assert_eq!(f.message, Some(gcs_heartbeat()));
+        assert_eq!(f.raw, bytes);
+    }
+
+    #[test]
+    fn v2_truncates_trailing_zeros_but_keeps_one_byte() {
+        let msg = MavMessage::PARAM_REQUEST_LIST(apm::PARAM_REQUEST_LIST_DATA {
+            target_system: 0,
+            target_component: 0,
+        });
+        let bytes = encode(
+            Version::V2,
+            Header {
+                sysid: 1,
+                compid: 1,
+                seq: 0,
+            },
+            &msg,
+        );
+        assert_eq!(bytes[1], 1, "payload length");
+        assert_eq!(decode_one(&bytes).unwrap().message, Some(msg));
+    }
+
+    #[test]
+    fn unknown_id_has_no_crc_extra() {
+        assert_eq!(crc_extra(0), Some(50));
+        assert_eq!(crc_extra(0x00ABCDEF), None);
+    }
+}
