@@ -7,3 +7,6 @@ pub mod spec;
 pub use frame::{Frame, Header, Version};
 pub use parser::{FrameParser, ParserStats};
 pub use spec::LinkSpec;
+
+/// Index of a link in the order the links were given.
+pub type LinkId = usize;

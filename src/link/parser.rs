@@ -13,7 +13,9 @@
 //! - A frame whose payload does not decode (e.g. an enum value newer than our dialect) is still a
 //!   frame: counted in `decode_errors`, handed on with `message: None`.
 
-use super::frame::{crc_extra, frame_crc, Frame, Version, IFLAG_SIGNED, MAGIC_V1, MAGIC_V2, SIGNATURE_LEN};
+use super::frame::{
+    crc_extra, frame_crc, Frame, Version, IFLAG_SIGNED, MAGIC_V1, MAGIC_V2, SIGNATURE_LEN,
+};
 use crate::dialect::MavMessage;
 use mavlink::Message;
 
@@ -275,8 +277,8 @@ fn valid_frame_starts_inside(d: &[u8], span: usize) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::link::frame::{encode, Header};
     use crate::dialect as apm;
+    use crate::link::frame::{encode, Header};
 
     fn hb(seq: u8, version: Version) -> Vec<u8> {
         let msg = MavMessage::HEARTBEAT(apm::HEARTBEAT_DATA {
@@ -287,7 +289,15 @@ mod tests {
             system_status: apm::MavState::MAV_STATE_STANDBY,
             mavlink_version: 3,
         });
-        encode(version, Header { sysid: 1, compid: 1, seq }, &msg)
+        encode(
+            version,
+            Header {
+                sysid: 1,
+                compid: 1,
+                seq,
+            },
+            &msg,
+        )
     }
 
     fn seqs(frames: &[Frame]) -> Vec<u8> {
@@ -365,7 +375,9 @@ mod tests {
     #[test]
     fn unknown_id_counts_and_keeps_raw() {
         // A v2 frame with msgid 0x00BEEF (not in the dialect), 3 payload bytes, arbitrary CRC.
-        let unk = vec![0xFD, 3, 0, 0, 42, 1, 1, 0xEF, 0xBE, 0x00, 1, 2, 3, 0xAA, 0xBB];
+        let unk = vec![
+            0xFD, 3, 0, 0, 42, 1, 1, 0xEF, 0xBE, 0x00, 1, 2, 3, 0xAA, 0xBB,
+        ];
         let mut bytes = hb(41, Version::V2);
         bytes.extend(&unk);
         bytes.extend(hb(43, Version::V2));

@@ -13,7 +13,8 @@ use std::str::FromStr;
 pub const DEFAULT_BAUD: u32 = 57_600;
 
 /// The list printed with every parse error.
-pub const ACCEPTED_FORMS: &str = "accepted forms: udpin:ADDR:PORT, udpout:HOST:PORT, tcp:HOST:PORT, \
+pub const ACCEPTED_FORMS: &str =
+    "accepted forms: udpin:ADDR:PORT, udpout:HOST:PORT, tcp:HOST:PORT, \
 tcpin:ADDR:PORT, serial:PATH[:BAUD], PATH,BAUD, udp://[HOST]:PORT, udpout://HOST:PORT, \
 tcp://HOST:PORT, serial://PATH[:BAUD], sim://[?vehicles=N&...], tlog:PATH";
 
@@ -45,7 +46,9 @@ pub enum SpecError {
     UnknownScheme { input: String, scheme: String },
     #[error("link spec `{input}`: missing `:PORT` after `{host}`; {ACCEPTED_FORMS}")]
     MissingPort { input: String, host: String },
-    #[error("link spec `{input}`: port `{port}` is not a number from 1 to 65535; {ACCEPTED_FORMS}")]
+    #[error(
+        "link spec `{input}`: port `{port}` is not a number from 1 to 65535; {ACCEPTED_FORMS}"
+    )]
     BadPort { input: String, port: String },
     #[error("link spec `{input}`: missing host before `:{port}`; {ACCEPTED_FORMS}")]
     MissingHost { input: String, port: u16 },

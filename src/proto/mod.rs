@@ -1,1 +1,5 @@
 //! Sans-I/O protocol state machines.
+
+pub mod loss;
+pub mod modes;
+pub mod vehicles;

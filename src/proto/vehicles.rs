@@ -1,0 +1,371 @@
+//! The registry of systems and components heard, built from HEARTBEAT.
+//!
+//! Keyed by (sysid, compid). A component is *lost* after a timeout without a heartbeat and *back*
+//! when heard again. Our own heartbeats echoed by a router are not a vehicle; anything else using
+//! our sysid, or two different vehicles on one sysid:compid, is flagged rather than merged.
+
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
+
+use crate::clock::{Micros, SECOND};
+use crate::dialect::{MavAutopilot, MavModeFlag, MavState, MavType, HEARTBEAT_DATA};
+use crate::link::{LinkId, Version};
+use crate::proto::modes;
+
+/// Default time without a heartbeat after which a component is lost.
+pub const DEFAULT_LOST_TIMEOUT: Micros = 5 * SECOND;
+
+/// (sysid, compid)
+pub type VehicleKey = (u8, u8);
+
+/// Name of an enum value without its MAVLink prefix: `MAV_TYPE_QUADROTOR` → `QUADROTOR`.
+pub fn short_name<T: std::fmt::Debug>(v: &T, prefix: &str) -> String {
+    let s = format!("{v:?}");
+    s.strip_prefix(prefix).unwrap_or(&s).to_string()
+}
+
+/// One system/component heard by heartbeat.
+#[derive(Debug, Clone)]
+pub struct Vehicle {
+    pub sysid: u8,
+    pub compid: u8,
+    pub mavtype: MavType,
+    pub autopilot: MavAutopilot,
+    pub base_mode: MavModeFlag,
+    pub custom_mode: u32,
+    pub system_status: MavState,
+    pub mavlink_version: u8,
+    /// MAVLink version of the frames its heartbeats came in.
+    pub frame_version: Version,
+    pub first_heard: Micros,
+    pub last_heard: Micros,
+    hb_times: VecDeque<Micros>,
+    /// Links this component has been heard on.
+    pub links: BTreeSet<LinkId>,
+    pub lost: bool,
+    pub heartbeats: u64,
+    pub reboots: u32,
+    last_boot_ms: Option<u32>,
+    /// Set when a heartbeat from the same sysid:compid described a different vehicle.
+    pub conflict: Option<String>,
+    /// Set when the component uses the ground station's own sysid.
+    pub uses_gcs_sysid: bool,
+}
+
+impl Vehicle {
+    pub fn armed(&self) -> bool {
+        self.base_mode
+            .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED)
+    }
+    pub fn mode_name(&self) -> String {
+        if self
+            .base_mode
+            .contains(MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)
+            || self.autopilot == MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA
+        {
+            modes::mode_name(self.autopilot, self.mavtype, self.custom_mode)
+        } else if self.mavtype == MavType::MAV_TYPE_GCS {
+            "-".into()
+        } else {
+            format!("BASE({:#04x})", self.base_mode.bits())
+        }
+    }
+    pub fn type_name(&self) -> String {
+        short_name(&self.mavtype, "MAV_TYPE_")
+    }
+    pub fn autopilot_name(&self) -> String {
+        short_name(&self.autopilot, "MAV_AUTOPILOT_")
+    }
+    pub fn status_name(&self) -> String {
+        short_name(&self.system_status, "MAV_STATE_")
+    }
+    /// True for components that fly (or drive): what commands are sent to.
+    pub fn is_autopilot(&self) -> bool {
+        self.autopilot != MavAutopilot::MAV_AUTOPILOT_INVALID
+            && self.mavtype != MavType::MAV_TYPE_GCS
+    }
+    /// Heartbeat rate in Hz over the last few heartbeats (0 until two are heard).
+    pub fn heartbeat_hz(&self) -> f64 {
+        match (self.hb_times.front(), self.hb_times.back()) {
+            (Some(a), Some(b)) if b > a => {
+                (self.hb_times.len() - 1) as f64 * SECOND as f64 / (b - a) as f64
+            }
+            _ => 0.0,
+        }
+    }
+    /// Seconds since the last heartbeat.
+    pub fn age_secs(&self, now: Micros) -> f64 {
+        now.saturating_sub(self.last_heard) as f64 / SECOND as f64
+    }
+}
+
+/// What the registry noticed; the app turns these into operator notices.
+#[derive(Debug, Clone, PartialEq)]
+pub enum VehicleEvent {
+    Found(VehicleKey),
+    Lost(VehicleKey),
+    Back(VehicleKey),
+    Rebooted(VehicleKey, &'static str),
+    Conflict(VehicleKey, String),
+    UsesGcsSysid(VehicleKey),
+}
+
+/// All components heard by heartbeat.
+#[derive(Debug, Clone)]
+pub struct Registry {
+    vehicles: BTreeMap<VehicleKey, Vehicle>,
+    pub lost_timeout: Micros,
+    own: VehicleKey,
+}
+
+impl Registry {
+    /// `own` is our (sysid, compid): its echoes are ignored.
+    pub fn new(own: VehicleKey, lost_timeout: Micros) -> Self {
+        Self {
+            vehicles: BTreeMap::new(),
+            lost_timeout,
+            own,
+        }
+    }
+
+    pub fn get(&self, key: VehicleKey) -> Option<&Vehicle> {
+        self.vehicles.get(&key)
+    }
+    pub fn iter(&self) -> impl Iterator<Item = &Vehicle> {
+        self.vehicles.values()
+    }
+    pub fn len(&self) -> usize {
+        self.vehicles.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.vehicles.is_empty()
+    }
+
+    /// Account a HEARTBEAT from `key` heard on `link` at `now`.
+    pub fn on_heartbeat(
+        &mut self,
+        link: LinkId,
+        key: VehicleKey,
+        hb: &HEARTBEAT_DATA,
+        version: Version,
+        now: Micros,
+    ) -> Vec<VehicleEvent> {
+        let mut events = Vec::new();
+        if key == self.own {
+            if hb.mavtype == MavType::MAV_TYPE_GCS {
+                return events; // our own heartbeat echoed back by a router
+            }
+        }
+        let uses_gcs_sysid = key.0 == self.own.0;
+        match self.vehicles.get_mut(&key) {
+            None => {
+                let mut hb_times = VecDeque::with_capacity(8);
+                hb_times.push_back(now);
+                self.vehicles.insert(
+                    key,
+                    Vehicle {
+                        sysid: key.0,
+                        compid: key.1,
+                        mavtype: hb.mavtype,
+                        autopilot: hb.autopilot,
+                        base_mode: hb.base_mode,
+                        custom_mode: hb.custom_mode,
+                        system_status: hb.system_status,
+                        mavlink_version: hb.mavlink_version,
+                        frame_version: version,
+                        first_heard: now,
+                        last_heard: now,
+                        hb_times,
+                        links: BTreeSet::from([link]),
+                        lost: false,
+                        heartbeats: 1,
+                        reboots: 0,
+                        last_boot_ms: None,
+                        conflict: None,
+                        uses_gcs_sysid,
+                    },
+                );
+                events.push(VehicleEvent::Found(key));
+                if uses_gcs_sysid {
+                    events.push(VehicleEvent::UsesGcsSysid(key));
+                }
+            }
+            Some(v) => {
+                if v.mavtype != hb.mavtype || v.autopilot != hb.autopilot {
+                    let detail = format!(
+                        "{}:{} heard as {}/{} and as {}/{}{}",
+                        key.0,
+                        key.1,
+                        v.type_name(),
+                        v.autopilot_name(),
+                        short_name(&hb.mavtype, "MAV_TYPE_"),
+                        short_name(&hb.autopilot, "MAV_AUTOPILOT_"),
+                        if v.links.contains(&link) {
+                            String::new()
+                        } else {
+                            format!(" (on link {link})")
+                        }
+                    );
+                    if v.conflict.as_deref() != Some(detail.as_str()) {
+                        events.push(VehicleEvent::Conflict(key, detail.clone()));
+                    }
+                    v.conflict = Some(detail);
+                }
+                if v.lost {
+                    v.lost = false;
+                    v.hb_times.clear();
+                    events.push(VehicleEvent::Back(key));
+                }
+                v.mavtype = hb.mavtype;
+                v.autopilot = hb.autopilot;
+                v.base_mode = hb.base_mode;
+                v.custom_mode = hb.custom_mode;
+                v.system_status = hb.system_status;
+                v.mavlink_version = hb.mavlink_version;
+                v.frame_version = version;
+                v.last_heard = now;
+                v.heartbeats += 1;
+                v.links.insert(link);
+                if v.hb_times.len() == 8 {
+                    v.hb_times.pop_front();
+                }
+                v.hb_times.push_back(now);
+            }
+        }
+        events
+    }
+
+    /// SYSTEM_TIME from a component: `time_boot_ms` going backwards means it rebooted.
+    pub fn on_system_time(&mut self, key: VehicleKey, time_boot_ms: u32) -> Vec<VehicleEvent> {
+        let Some(v) = self.vehicles.get_mut(&key) else {
+            return Vec::new();
+        };
+        let rebooted = matches!(v.last_boot_ms, Some(prev) if time_boot_ms + 1000 < prev);
+        v.last_boot_ms = Some(time_boot_ms);
+        if rebooted {
+            v.reboots += 1;
+            vec![VehicleEvent::Rebooted(key, "boot time went backwards")]
+        } else {
+            Vec::new()
+        }
+    }
+
+    /// The component's sequence numbers restarted after silence (see `loss`).
+    pub fn on_sequence_restart(&mut self, key: VehicleKey) -> Vec<VehicleEvent> {
+        match self.vehicles.get_mut(&key) {
+            Some(v) => {
+                v.reboots += 1;
+                vec![VehicleEvent::Rebooted(
+                    key,
+                    "sequence restarted after silence",
+                )]
+            }
+            None => Vec::new(),
+        }
+    }
+
+    /// Mark components lost whose last heartbeat is older than the timeout.
+    pub fn tick(&mut self, now: Micros) -> Vec<VehicleEvent> {
+        let mut events = Vec::new();
+        for (key, v) in self.vehicles.iter_mut() {
+            if !v.lost && now.saturating_sub(v.last_heard) >= self.lost_timeout {
+                v.lost = true;
+                events.push(VehicleEvent::Lost(*key));
+            }
+        }
+        events
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn hb(mavtype: MavType, autopilot: MavAutopilot, armed: bool, mode: u32) -> HEARTBEAT_DATA {
+        let mut base_mode = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
+        if armed {
+            base_mode |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+        }
+        HEARTBEAT_DATA {
+            custom_mode: mode,
+            mavtype,
+            autopilot,
+            base_mode,
+            system_status: MavState::MAV_STATE_STANDBY,
+            mavlink_version: 3,
+        }
+    }
+    fn copter(armed: bool, mode: u32) -> HEARTBEAT_DATA {
+        hb(
+            MavType::MAV_TYPE_QUADROTOR,
+            MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+            armed,
+            mode,
+        )
+    }
+
+    #[test]
+    fn found_then_lost_then_back() {
+        let mut r = Registry::new((255, 190), DEFAULT_LOST_TIMEOUT);
+        let ev = r.on_heartbeat(0, (1, 1), &copter(false, 0), Version::V2, 0);
+        assert_eq!(ev, vec![VehicleEvent::Found((1, 1))]);
+        for i in 1..4 {
+            r.on_heartbeat(0, (1, 1), &copter(true, 4), Version::V2, i * SECOND);
+        }
+        let v = r.get((1, 1)).unwrap();
+        assert!(v.armed());
+        assert_eq!(v.mode_name(), "GUIDED");
+        assert_eq!(v.type_name(), "QUADROTOR");
+        assert_eq!(v.autopilot_name(), "ARDUPILOTMEGA");
+        assert_eq!(v.status_name(), "STANDBY");
+        assert!((v.heartbeat_hz() - 1.0).abs() < 1e-9);
+        assert!(r.tick(7 * SECOND).is_empty());
+        assert_eq!(r.tick(8 * SECOND), vec![VehicleEvent::Lost((1, 1))]);
+        assert!(r.tick(9 * SECOND).is_empty(), "lost only once");
+        let ev = r.on_heartbeat(1, (1, 1), &copter(false, 0), Version::V2, 10 * SECOND);
+        assert_eq!(ev, vec![VehicleEvent::Back((1, 1))]);
+        assert_eq!(r.get((1, 1)).unwrap().links, BTreeSet::from([0, 1]));
+    }
+
+    #[test]
+    fn own_echo_ignored_but_sysid_clash_flagged() {
+        let mut r = Registry::new((255, 190), DEFAULT_LOST_TIMEOUT);
+        let gcs = hb(
+            MavType::MAV_TYPE_GCS,
+            MavAutopilot::MAV_AUTOPILOT_INVALID,
+            false,
+            0,
+        );
+        assert!(r
+            .on_heartbeat(0, (255, 190), &gcs, Version::V2, 0)
+            .is_empty());
+        assert!(r.is_empty());
+        let ev = r.on_heartbeat(0, (255, 1), &copter(false, 0), Version::V2, 0);
+        assert!(ev.contains(&VehicleEvent::UsesGcsSysid((255, 1))));
+        assert!(r.get((255, 1)).unwrap().uses_gcs_sysid);
+    }
+
+    #[test]
+    fn two_vehicles_on_one_sysid_are_flagged() {
+        let mut r = Registry::new((255, 190), DEFAULT_LOST_TIMEOUT);
+        r.on_heartbeat(0, (1, 1), &copter(false, 0), Version::V2, 0);
+        let plane = hb(
+            MavType::MAV_TYPE_FIXED_WING,
+            MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+            false,
+            0,
+        );
+        let ev = r.on_heartbeat(1, (1, 1), &plane, Version::V2, 1);
+        assert!(matches!(&ev[0], VehicleEvent::Conflict((1, 1), d) if d.contains("FIXED_WING")));
+        assert!(r.get((1, 1)).unwrap().conflict.is_some());
+    }
+
+    #[test]
+    fn reboot_from_boot_time() {
+        let mut r = Registry::new((255, 190), DEFAULT_LOST_TIMEOUT);
+        r.on_heartbeat(0, (1, 1), &copter(false, 0), Version::V2, 0);
+        assert!(r.on_system_time((1, 1), 50_000).is_empty());
+        assert!(r.on_system_time((1, 1), 50_900).is_empty());
+        assert_eq!(r.on_system_time((1, 1), 300).len(), 1);
+        assert_eq!(r.get((1, 1)).unwrap().reboots, 1);
+    }
+}
