@@ -5,7 +5,9 @@
 //! effects out); `ui` renders panes from state only; `sim` is the simulated vehicle; `headless`
 //! runs the core without a terminal.
 
+pub mod app;
 pub mod clock;
+pub mod keymap;
 pub mod link;
 pub mod proto;
 pub mod sim;

@@ -2,4 +2,5 @@
 
 pub mod loss;
 pub mod modes;
+pub mod streams;
 pub mod vehicles;

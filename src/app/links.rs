@@ -1,0 +1,142 @@
+//! What the core knows about each link: state, parser counters, per-source sequence statistics,
+//! and frame/byte rates.
+
+use std::collections::BTreeMap;
+
+use crate::clock::{Micros, SECOND};
+use crate::link::ParserStats;
+use crate::proto::loss::SeqTracker;
+
+/// Up, down (with the reason), or not yet connected.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum LinkState {
+    Connecting,
+    Up,
+    Down(String),
+}
+
+impl LinkState {
+    /// `up`, `connecting` or `down: <reason>`.
+    pub fn label(&self) -> String {
+        match self {
+            LinkState::Connecting => "connecting".into(),
+            LinkState::Up => "up".into(),
+            LinkState::Down(r) => format!("down: {r}"),
+        }
+    }
+}
+
+/// Statistics for one source (sysid, compid) on one link.
+#[derive(Debug, Clone, Default)]
+pub struct SourceStats {
+    pub seq: SeqTracker,
+    /// Every frame heard, duplicates included.
+    pub frames: u64,
+    pub last_heard: Micros,
+}
+
+/// Frames and bytes per second over the last few whole seconds.
+#[derive(Debug, Clone, Default)]
+pub struct RateMeter {
+    /// (second, frames, bytes) for the last [`RateMeter::SECONDS`] seconds.
+    buckets: [(u64, u64, u64); 4],
+}
+
+impl RateMeter {
+    const SECONDS: u64 = 4;
+
+    pub fn add(&mut self, now: Micros, frames: u64, bytes: u64) {
+        let sec = now / SECOND;
+        let b = &mut self.buckets[(sec % Self::SECONDS) as usize];
+        if b.0 != sec {
+            *b = (sec, 0, 0);
+        }
+        b.1 += frames;
+        b.2 += bytes;
+    }
+
+    /// (frames/s, bytes/s) over the completed seconds before `now`.
+    pub fn rates(&self, now: Micros) -> (f64, f64) {
+        let cur = now / SECOND;
+        let span = (Self::SECONDS - 1).min(cur);
+        if span == 0 {
+            return (0.0, 0.0);
+        }
+        let (mut f, mut b) = (0, 0);
+        for &(sec, frames, bytes) in &self.buckets {
+            if sec < cur && sec + span >= cur {
+                f += frames;
+                b += bytes;
+            }
+        }
+        (f as f64 / span as f64, b as f64 / span as f64)
+    }
+}
+
+/// One link as the core tracks it.
+#[derive(Debug, Clone)]
+pub struct LinkStatus {
+    pub spec: String,
+    pub state: LinkState,
+    pub parser: ParserStats,
+    pub sources: BTreeMap<(u8, u8), SourceStats>,
+    pub rate: RateMeter,
+    /// Per-source rows shown in the links pane.
+    pub expanded: bool,
+}
+
+impl LinkStatus {
+    pub fn new(spec: String) -> Self {
+        Self {
+            spec,
+            state: LinkState::Connecting,
+            parser: ParserStats::default(),
+            sources: BTreeMap::new(),
+            rate: RateMeter::default(),
+            expanded: false,
+        }
+    }
+
+    /// (received, lost) summed over all sources, since start.
+    pub fn totals(&self) -> (u64, u64) {
+        self.sources
+            .values()
+            .fold((0, 0), |(r, l), s| (r + s.seq.received, l + s.seq.lost))
+    }
+
+    /// (received, lost) summed over all sources in the sliding window.
+    pub fn window_totals(&self, now: Micros) -> (u64, u64) {
+        self.sources.values().fold((0, 0), |(r, l), s| {
+            let (wr, wl) = s.seq.window_counts(now);
+            (r + wr, l + wl)
+        })
+    }
+}
+
+/// Loss percent from (received, lost).
+pub fn loss_pct((received, lost): (u64, u64)) -> f64 {
+    if received + lost == 0 {
+        0.0
+    } else {
+        100.0 * lost as f64 / (received + lost) as f64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rate_meter_averages_completed_seconds() {
+        let mut r = RateMeter::default();
+        for s in 0..5u64 {
+            for i in 0..10u64 {
+                r.add(s * SECOND + i * 100_000, 1, 20);
+            }
+        }
+        let (f, b) = r.rates(5 * SECOND + 1);
+        assert_eq!((f, b), (10.0, 200.0));
+        // Silence: rates fall to zero once the window has passed.
+        assert_eq!(r.rates(20 * SECOND), (0.0, 0.0));
+    }
+}

@@ -1,0 +1,64 @@
+//! The message log: STATUSTEXT from vehicles and mavterm's own notices, newest last.
+
+use std::collections::VecDeque;
+
+use crate::clock::Micros;
+
+/// How many messages are kept.
+pub const MAX_NOTICES: usize = 1000;
+
+/// RFC-5424 severities as MAVLink uses them (0 = EMERGENCY … 7 = DEBUG).
+pub const SEVERITY_NAMES: [&str; 8] = [
+    "EMERG", "ALERT", "CRIT", "ERROR", "WARN", "NOTICE", "INFO", "DEBUG",
+];
+
+pub const SEV_ERROR: u8 = 3;
+pub const SEV_WARNING: u8 = 4;
+pub const SEV_NOTICE: u8 = 5;
+pub const SEV_INFO: u8 = 6;
+
+/// One line in the message log.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Notice {
+    pub t: Micros,
+    pub severity: u8,
+    /// The sender for STATUSTEXT; `None` for mavterm's own notices.
+    pub source: Option<(u8, u8)>,
+    pub text: String,
+}
+
+impl Notice {
+    pub fn severity_name(&self) -> &'static str {
+        SEVERITY_NAMES
+            .get(self.severity as usize)
+            .copied()
+            .unwrap_or("?")
+    }
+}
+
+/// Bounded log of notices.
+#[derive(Debug, Clone, Default)]
+pub struct Notices {
+    items: VecDeque<Notice>,
+    /// Total ever pushed (so views can tell something new arrived).
+    pub total: u64,
+}
+
+impl Notices {
+    pub fn push(&mut self, n: Notice) {
+        if self.items.len() == MAX_NOTICES {
+            self.items.pop_front();
+        }
+        self.items.push_back(n);
+        self.total += 1;
+    }
+    pub fn iter(&self) -> impl DoubleEndedIterator<Item = &Notice> + ExactSizeIterator {
+        self.items.iter()
+    }
+    pub fn len(&self) -> usize {
+        self.items.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.items.is_empty()
+    }
+}

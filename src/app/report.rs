@@ -1,0 +1,92 @@
+//! The headless JSON report (`--report json`): one object with links and vehicles.
+//!
+//! Field names and meanings are a contract with scripts: `links[].spec/state/frames/bytes/
+//! crc_errors/unknown_ids/sources[].{sysid,compid,received,lost,duplicates,reordered,loss_pct}`,
+//! `vehicles[].{sysid,compid,type,autopilot,mode,armed,system_status,lost}`. Extra fields may be
+//! added, never renamed.
+
+use serde_json::{json, Value};
+
+use super::links::{loss_pct, LinkState};
+use super::App;
+
+fn round2(v: f64) -> f64 {
+    (v * 100.0).round() / 100.0
+}
+
+impl App {
+    /// The report as a JSON value.
+    pub fn report(&self) -> Value {
+        let now = self.now;
+        let links: Vec<Value> = self
+            .links
+            .iter()
+            .map(|l| {
+                let sources: Vec<Value> = l
+                    .sources
+                    .iter()
+                    .map(|(&(sysid, compid), s)| {
+                        json!({
+                            "sysid": sysid,
+                            "compid": compid,
+                            "received": s.seq.received,
+                            "lost": s.seq.lost,
+                            "duplicates": s.seq.duplicates,
+                            "reordered": s.seq.reordered,
+                            "restarts": s.seq.restarts,
+                            "frames": s.frames,
+                            "loss_pct": round2(s.seq.loss_pct()),
+                            "loss_pct_10s": round2(s.seq.window_loss_pct(now)),
+                        })
+                    })
+                    .collect();
+                let (state, reason) = match &l.state {
+                    LinkState::Up => ("up", None),
+                    LinkState::Connecting => ("connecting", None),
+                    LinkState::Down(r) => ("down", Some(r.clone())),
+                };
+                json!({
+                    "spec": l.spec,
+                    "state": state,
+                    "reason": reason,
+                    "frames": l.parser.frames,
+                    "bytes": l.parser.bytes,
+                    "crc_errors": l.parser.crc_errors,
+                    "unknown_ids": l.parser.unknown_ids,
+                    "truncated": l.parser.truncated,
+                    "decode_errors": l.parser.decode_errors,
+                    "garbage_bytes": l.parser.garbage_bytes,
+                    "signed_frames": l.parser.signed_frames,
+                    "v1_frames": l.parser.v1_frames,
+                    "v2_frames": l.parser.v2_frames,
+                    "loss_pct": round2(loss_pct(l.totals())),
+                    "sources": sources,
+                })
+            })
+            .collect();
+        let vehicles: Vec<Value> = self
+            .vehicles
+            .iter()
+            .map(|v| {
+                json!({
+                    "sysid": v.sysid,
+                    "compid": v.compid,
+                    "type": v.type_name(),
+                    "autopilot": v.autopilot_name(),
+                    "mode": v.mode_name(),
+                    "custom_mode": v.custom_mode,
+                    "armed": v.armed(),
+                    "system_status": v.status_name(),
+                    "lost": v.lost,
+                    "heartbeats": v.heartbeats,
+                    "heartbeat_hz": round2(v.heartbeat_hz()),
+                    "links": v.links.iter().collect::<Vec<_>>(),
+                    "reboots": v.reboots,
+                    "conflict": v.conflict,
+                    "uses_gcs_sysid": v.uses_gcs_sysid,
+                })
+            })
+            .collect();
+        json!({ "links": links, "vehicles": vehicles })
+    }
+}
