@@ -11,6 +11,7 @@ pub mod keymap;
 pub mod link;
 pub mod proto;
 pub mod sim;
+pub mod ui;
 
 /// The MAVLink dialect mavterm speaks: ardupilotmega, which includes common.
 pub use mavlink::dialects::ardupilotmega as dialect;

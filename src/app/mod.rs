@@ -466,6 +466,9 @@ impl App {
             Action::PrevVehicle => self.cycle_target(false),
             Action::Help => self.ui.help = true,
             Action::Cancel => {}
+            // Far enough to clamp at either end of any list.
+            Action::Top => self.move_selection(-(1 << 30)),
+            Action::Bottom => self.move_selection(1 << 30),
         }
     }
 
