@@ -121,7 +121,7 @@ impl Action {
         (
             Action::ToggleExpand,
             "toggle_expand",
-            "expand/collapse the selected link",
+            "expand/collapse the selected link, or target the selected vehicle",
         ),
         (
             Action::NextVehicle,
@@ -305,6 +305,8 @@ pub struct Keymap {
     /// Actions the source file listed (even with no keys): when layered on top of another keymap
     /// these replace that keymap's keys for the action, so `help = []` unbinds.
     listed: BTreeSet<Action>,
+    /// Keys in the order the files listed them: the first key of an action is its hint.
+    order: Vec<Key>,
 }
 
 impl Default for Keymap {
@@ -336,6 +338,7 @@ impl Keymap {
         let mut bindings: BTreeMap<Key, Action> = BTreeMap::new();
         let mut clashes: BTreeMap<Key, BTreeSet<Action>> = BTreeMap::new();
         let mut listed = BTreeSet::new();
+        let mut order = Vec::new();
         for (name, keys) in &file.bindings {
             let action = Action::from_name(name.get_ref());
             match action {
@@ -359,6 +362,7 @@ impl Keymap {
                     }
                     Ok(key) => {
                         let Some(action) = action else { continue };
+                        order.push(key);
                         match bindings.insert(key, action) {
                             Some(prev) if prev != action => {
                                 let set = clashes.entry(key).or_default();
@@ -392,7 +396,11 @@ impl Keymap {
                 problems,
             });
         }
-        Ok(Keymap { bindings, listed })
+        Ok(Keymap {
+            bindings,
+            listed,
+            order,
+        })
     }
 
     /// Read a keymap file (no layering).
@@ -439,6 +447,9 @@ impl Keymap {
         self.bindings
             .extend(over.bindings.iter().map(|(k, a)| (*k, *a)));
         self.listed.extend(over.listed.iter().copied());
+        let mut order = over.order.clone();
+        order.extend(self.order.iter().filter(|k| !over.order.contains(k)));
+        self.order = order;
         self
     }
 
@@ -446,15 +457,16 @@ impl Keymap {
         self.bindings.get(key).copied()
     }
 
-    /// Keys bound to `action`, plain keys first (they make the best hints).
+    /// Keys bound to `action`, in the order the keymap file lists them (the first makes the
+    /// hint); keys added to `bindings` by hand come last.
     pub fn keys_for(&self, action: Action) -> Vec<Key> {
-        let mut keys: Vec<Key> = self
-            .bindings
-            .iter()
-            .filter(|(_, a)| **a == action)
-            .map(|(k, _)| *k)
-            .collect();
-        keys.sort_by_key(|k| (k.ctrl || k.alt, !matches!(k.code, KeyCode::Char(_)), *k));
+        let bound = |k: &Key| self.bindings.get(k) == Some(&action);
+        let mut keys: Vec<Key> = Vec::new();
+        for k in self.order.iter().chain(self.bindings.keys()) {
+            if bound(k) && !keys.contains(k) {
+                keys.push(*k);
+            }
+        }
         keys
     }
 }

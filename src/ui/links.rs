@@ -24,22 +24,43 @@ pub fn human(n: f64) -> String {
     }
 }
 
-fn pct(p: f64) -> String {
-    format!("{p:.1}%")
+/// (header, width) of the numeric columns: full names when wide, terse when not.
+fn columns(wide: bool) -> [(&'static str, u16); 9] {
+    if wide {
+        [
+            ("FR/S", 5),
+            ("B/S", 6),
+            ("LOSS10s", 7),
+            ("LOSS", 6),
+            ("CRC", 4),
+            ("RX", 7),
+            ("LOST", 5),
+            ("DUP", 4),
+            ("REORD", 5),
+        ]
+    } else {
+        [
+            ("F/S", 4),
+            ("B/S", 5),
+            ("L10s", 5),
+            ("LOSS", 5),
+            ("CRC", 3),
+            ("RX", 6),
+            ("LOST", 4),
+            ("DUP", 3),
+            ("REO", 3),
+        ]
+    }
 }
 
-const COLS: [(&str, u16); 10] = [
-    ("STATE", 0), // width decided by the pane width
-    ("FR/S", 5),
-    ("B/S", 6),
-    ("LOSS10", 6),
-    ("LOSS", 6),
-    ("CRC", 4),
-    ("RX", 7),
-    ("LOST", 5),
-    ("DUP", 4),
-    ("REORD", 5),
-];
+/// Loss percent in at most 5 characters.
+fn pct(p: f64) -> String {
+    if p >= 9.95 {
+        format!("{p:.0}%")
+    } else {
+        format!("{p:.1}%")
+    }
+}
 
 fn link_row<'a>(
     id: usize,
@@ -93,18 +114,19 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let block = pane_block(app, Pane::Links, format!(" ({})", app.links.len()), theme);
     let inner = block.inner(area);
     frame.render_widget(block, area);
-    let fixed: u16 = COLS.iter().map(|c| c.1 + 1).sum();
+    let cols = columns(inner.width >= 120);
+    let fixed: u16 = cols.iter().map(|c| c.1 + 1).sum::<u16>() + 1;
     let rest = inner.width.saturating_sub(fixed) as usize;
     // Spec and state share what the numbers leave; the spec gets more.
-    let state_w = (rest * 2 / 5).clamp(4, 24);
-    let spec_w = rest.saturating_sub(state_w).max(4);
+    let state_w = (rest * 2 / 5).clamp(4, 40);
+    let spec_w = rest.saturating_sub(state_w).clamp(4, 48);
     let mut widths = vec![
         Constraint::Length(spec_w as u16),
         Constraint::Length(state_w as u16),
     ];
-    widths.extend(COLS[1..].iter().map(|c| Constraint::Length(c.1)));
-    let mut header = vec!["LINK"];
-    header.extend(COLS.iter().map(|c| c.0));
+    widths.extend(cols.iter().map(|c| Constraint::Length(c.1)));
+    let mut header = vec!["LINK", "STATE"];
+    header.extend(cols.iter().map(|c| c.0));
 
     let now = app.now;
     let mut rows = Vec::new();
@@ -123,7 +145,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             rows.push(
                 Row::new(vec![
                     Cell::from(format!("   └ {sys}:{comp}")),
-                    Cell::from(format!("{} frames", s.frames)),
+                    Cell::from(""),
                     Cell::from(""),
                     Cell::from(""),
                     Cell::from(pct(q.window_loss_pct(now))),

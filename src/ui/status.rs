@@ -10,13 +10,14 @@ use super::Theme;
 use crate::app::App;
 use crate::keymap::Action;
 
-/// Actions worth a hint, with the short word shown.
+/// Actions worth a hint, with the short word shown, most important first: when the bar is
+/// short the last ones are dropped. Shown in this order too.
 const HINTS: &[(Action, &str)] = &[
     (Action::Quit, "quit"),
+    (Action::Help, "help"),
     (Action::FocusNext, "focus"),
     (Action::NextVehicle, "target"),
     (Action::ToggleExpand, "expand"),
-    (Action::Help, "help"),
 ];
 
 /// `target 1:1 STABILIZE disarmed`, `target 1:1 (lost)` or `no target`.
@@ -37,18 +38,22 @@ pub fn target_text(app: &App) -> String {
     }
 }
 
-/// `q quit  tab focus  ? help` from the keymap in use.
-pub fn hints_text(app: &App) -> String {
-    HINTS
-        .iter()
-        .filter_map(|(a, word)| {
-            app.keymap
-                .keys_for(*a)
-                .first()
-                .map(|k| format!("{k} {word}"))
-        })
-        .collect::<Vec<_>>()
-        .join("  ")
+/// `q quit  ? help  tab focus ...` from the keymap in use, as many as fit in `width`.
+pub fn hints_text(app: &App, width: usize) -> String {
+    let mut out = String::new();
+    for (a, word) in HINTS {
+        let Some(k) = app.keymap.keys_for(*a).into_iter().next() else {
+            continue;
+        };
+        let hint = format!("{k} {word}");
+        let sep = if out.is_empty() { "" } else { "  " };
+        if out.chars().count() + sep.len() + hint.chars().count() > width {
+            break;
+        }
+        out.push_str(sep);
+        out.push_str(&hint);
+    }
+    out
 }
 
 pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
@@ -59,12 +64,15 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         Some(_) => theme.good(),
         None => theme.dim(),
     };
+    let target = target_text(app);
+    let used = clock.len() + 2 + target.chars().count() + 4;
+    let hints = hints_text(app, (area.width as usize).saturating_sub(used));
     let line = Line::from(vec![
         Span::styled(clock, theme.header()),
         Span::raw("  "),
-        Span::styled(target_text(app), target_style),
+        Span::styled(target, target_style),
         Span::raw("  │ "),
-        Span::styled(hints_text(app), theme.dim()),
+        Span::styled(hints, theme.dim()),
     ]);
     frame.render_widget(Paragraph::new(line), area);
 }

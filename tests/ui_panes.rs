@@ -1,0 +1,185 @@
+//! Pane snapshots and layout robustness, with an `App` driven by real encoded frames.
+
+mod common;
+
+use mavterm::app::{App, Pane};
+use mavterm::ui::{self, buffer_to_text, Theme};
+use ratatui::backend::TestBackend;
+use ratatui::layout::Rect;
+use ratatui::{Frame, Terminal};
+
+type PaneFn = fn(&App, &mut Frame, Rect, &Theme);
+
+fn draw(app: &App, w: u16, h: u16, f: impl Fn(&App, &mut Frame)) -> String {
+    let mut t = Terminal::new(TestBackend::new(w, h)).unwrap();
+    t.draw(|frame| f(app, frame)).unwrap();
+    buffer_to_text(t.backend().buffer())
+}
+
+fn pane(app: &App, w: u16, h: u16, p: PaneFn) -> String {
+    draw(app, w, h, |a, f| p(a, f, f.area(), &Theme::PLAIN))
+}
+
+const SIZES: [(u16, u16); 2] = [(80, 24), (200, 60)];
+
+#[test]
+fn vehicles_pane() {
+    let d = common::scene();
+    for (w, h) in SIZES {
+        insta::assert_snapshot!(
+            format!("vehicles_{w}x{h}"),
+            pane(&d.app, w, h, ui::vehicles::render)
+        );
+    }
+}
+
+#[test]
+fn links_pane() {
+    let d = common::scene();
+    for (w, h) in SIZES {
+        insta::assert_snapshot!(
+            format!("links_{w}x{h}"),
+            pane(&d.app, w, h, ui::links::render)
+        );
+    }
+}
+
+#[test]
+fn messages_pane() {
+    let d = common::scene();
+    for (w, h) in SIZES {
+        insta::assert_snapshot!(
+            format!("messages_{w}x{h}"),
+            pane(&d.app, w, h, ui::messages::render)
+        );
+    }
+}
+
+#[test]
+fn status_bar() {
+    let d = common::scene();
+    for (w, h) in SIZES {
+        insta::assert_snapshot!(
+            format!("status_{w}x{h}"),
+            pane(&d.app, w, 1.min(h), ui::status::render)
+        );
+    }
+    let empty = common::Drive::new(&common::LINKS);
+    let text = pane(&empty.app, 80, 1, ui::status::render);
+    assert!(text.contains("no target"), "{text}");
+}
+
+#[test]
+fn full_screen() {
+    let d = common::scene();
+    for (w, h) in SIZES {
+        insta::assert_snapshot!(format!("screen_{w}x{h}"), draw(&d.app, w, h, ui::render));
+    }
+}
+
+#[test]
+fn help_popup_lists_every_binding_of_the_active_keymap() {
+    let mut d = common::scene();
+    d.key(21 * mavterm::clock::SECOND, "?");
+    assert!(d.app.ui.help);
+    for (w, h) in SIZES {
+        insta::assert_snapshot!(format!("help_{w}x{h}"), draw(&d.app, w, h, ui::render));
+    }
+    let text = draw(&d.app, 200, 60, ui::render);
+    for (action, _, desc) in mavterm::keymap::Action::ALL {
+        for key in d.app.keymap.keys_for(*action) {
+            assert!(text.contains(&key.to_string()), "{key} missing");
+        }
+        assert!(text.contains(desc), "{desc} missing");
+    }
+    // The popup follows the keymap in use.
+    let vim =
+        mavterm::keymap::Keymap::from_toml(include_str!("../keymaps/vim.toml"), "vim").unwrap();
+    d.app.keymap = mavterm::keymap::Keymap::default().with_overrides(&vim);
+    let text = draw(&d.app, 200, 60, ui::render);
+    assert!(text.contains("k, up"), "{text}");
+}
+
+#[test]
+fn no_panic_at_any_small_size() {
+    let mut d = common::scene();
+    for focus in Pane::ALL {
+        d.app.ui.focus = focus;
+        for help in [false, true] {
+            d.app.ui.help = help;
+            for w in 0..=40 {
+                for h in 0..=20 {
+                    let mut t = Terminal::new(TestBackend::new(w, h)).unwrap();
+                    t.draw(|f| ui::render(&d.app, f)).unwrap();
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn focused_pane_survives_when_space_is_short() {
+    let mut d = common::scene();
+    d.app.ui.focus = Pane::Messages;
+    let text = draw(&d.app, 80, 8, ui::render);
+    assert!(text.contains("*Messages"), "{text}");
+    assert!(text.contains("Crash: Disarming"), "{text}");
+    // The others are reduced to a title line.
+    assert!(text.contains("─ Vehicles (5)"), "{text}");
+}
+
+#[test]
+fn no_color_theme_emits_no_colour() {
+    use ratatui::style::Color;
+    let d = common::scene();
+    let mut t = Terminal::new(TestBackend::new(120, 40)).unwrap();
+    t.draw(|f| ui::render_with(&d.app, f, &Theme::PLAIN))
+        .unwrap();
+    let buf = t.backend().buffer();
+    assert!(buf
+        .content()
+        .iter()
+        .all(|c| c.fg == Color::Reset && c.bg == Color::Reset));
+    t.draw(|f| ui::render_with(&d.app, f, &Theme::default()))
+        .unwrap();
+    assert!(t
+        .backend()
+        .buffer()
+        .content()
+        .iter()
+        .any(|c| c.fg != Color::Reset));
+    assert_eq!(Theme::from_no_color(Some("1".into())), Theme::PLAIN);
+    assert_eq!(Theme::from_no_color(Some("".into())), Theme::default());
+    assert_eq!(Theme::from_no_color(None), Theme::default());
+}
+
+#[test]
+fn idle_app_is_not_dirty_after_a_draw_within_the_same_second() {
+    let mut d = common::scene();
+    // The start of a second in which nothing times out (3:1 is lost at 21.04 s, the rest at 25 s),
+    // so every step below stays within it.
+    let t0 = 22 * mavterm::clock::SECOND;
+    d.tick(t0);
+    assert!(d.app.take_dirty(), "fresh state must be drawn");
+    d.tick(t0 + 100_000);
+    assert!(!d.app.take_dirty(), "nothing changed within the second");
+    d.key(t0 + 200_000, "tab");
+    assert!(d.app.take_dirty(), "a key changes the screen");
+    d.tick(t0 + 300_000);
+    assert!(!d.app.take_dirty());
+    d.tick(t0 + mavterm::clock::SECOND);
+    assert!(d.app.take_dirty(), "the clock on screen moved");
+}
+
+#[test]
+fn scrolling_messages_moves_the_window() {
+    let mut d = common::scene();
+    d.app.ui.focus = Pane::Messages;
+    let before = pane(&d.app, 80, 5, ui::messages::render);
+    assert!(before.contains("Crash: Disarming"), "{before}");
+    d.key(d.app.now, "up");
+    d.key(d.app.now, "up");
+    let after = pane(&d.app, 80, 5, ui::messages::render);
+    assert!(!after.contains("Crash: Disarming"), "{after}");
+    assert!(after.contains("2 newer below"), "{after}");
+}
