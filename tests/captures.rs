@@ -40,10 +40,22 @@ fn every_capture_decodes_exactly_like_pymavlink() {
     let exp = expected();
     for (name, e) in exp.as_object().unwrap() {
         let (frames, stats) = frames_of(name);
-        assert_eq!(frames.len() as u64, e["frames"].as_u64().unwrap(), "{name} frames");
+        assert_eq!(
+            frames.len() as u64,
+            e["frames"].as_u64().unwrap(),
+            "{name} frames"
+        );
         let decoded = frames.iter().filter(|f| f.message.is_some()).count() as u64;
-        assert_eq!(decoded, e["decoded_by_pymavlink"].as_u64().unwrap(), "{name} decoded");
-        assert_eq!(stats.crc_errors + stats.truncated + stats.garbage_bytes, 0, "{name}");
+        assert_eq!(
+            decoded,
+            e["decoded_by_pymavlink"].as_u64().unwrap(),
+            "{name} decoded"
+        );
+        assert_eq!(
+            stats.crc_errors + stats.truncated + stats.garbage_bytes,
+            0,
+            "{name}"
+        );
 
         // Sources and sequence gaps.
         let mut trackers: BTreeMap<String, SeqTracker> = BTreeMap::new();
@@ -53,8 +65,10 @@ fn every_capture_decodes_exactly_like_pymavlink() {
                 .or_default()
                 .record(f.seq, i as u64 * 1000);
         }
-        let sources: BTreeMap<String, u64> =
-            trackers.iter().map(|(k, t)| (k.clone(), t.received)).collect();
+        let sources: BTreeMap<String, u64> = trackers
+            .iter()
+            .map(|(k, t)| (k.clone(), t.received))
+            .collect();
         let exp_sources: BTreeMap<String, u64> = e["sources"]
             .as_object()
             .unwrap()
@@ -83,7 +97,10 @@ fn every_capture_decodes_exactly_like_pymavlink() {
 #[test]
 fn vehicle_capture_semantics() {
     let exp = expected();
-    for name in ["copter-flight.vehicle.tlog", "copter-mavftp-params.vehicle.tlog"] {
+    for name in [
+        "copter-flight.vehicle.tlog",
+        "copter-mavftp-params.vehicle.tlog",
+    ] {
         let e = &exp[name];
         let (frames, _) = frames_of(name);
         let mut modes: Vec<String> = Vec::new();
@@ -160,7 +177,10 @@ fn headless_report_on_flight_capture() {
     assert_eq!(link["crc_errors"], 0);
     assert_eq!(link["unknown_ids"], 0);
     let src = &link["sources"][0];
-    assert_eq!((src["sysid"].as_u64(), src["compid"].as_u64()), (Some(1), Some(1)));
+    assert_eq!(
+        (src["sysid"].as_u64(), src["compid"].as_u64()),
+        (Some(1), Some(1))
+    );
     assert_eq!(src["received"], 11648);
     assert_eq!(src["lost"], 0);
     assert_eq!(src["loss_pct"], 0.0);
@@ -171,7 +191,12 @@ fn headless_report_on_flight_capture() {
     assert_eq!(v["armed"], false);
     assert_eq!(v["heartbeats"], 88);
     // 41 STATUSTEXTs from the vehicle plus our own notices.
-    let texts = r.app.notices.iter().filter(|n| n.source == Some((1, 1)) && !n.text.starts_with("vehicle ")).count();
+    let texts = r
+        .app
+        .notices
+        .iter()
+        .filter(|n| n.source == Some((1, 1)) && !n.text.starts_with("vehicle "))
+        .count();
     assert_eq!(texts, 41);
     // Lost 5 s after the last heartbeat.
     r.advance_to(90_000_000);

@@ -10,7 +10,7 @@ use std::time::Duration;
 
 use serde_json::Value;
 
-fn source<'a>(report: &'a Value, sysid: u64) -> &'a Value {
+fn source(report: &Value, sysid: u64) -> &Value {
     report["links"][0]["sources"]
         .as_array()
         .unwrap()
@@ -49,7 +49,11 @@ fn pymavlink_sequence_pattern_and_our_heartbeat() {
     );
     let py: Value = serde_json::from_slice(&py.stdout).unwrap();
     let out = mavterm.wait_with_output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let report: Value = serde_json::from_slice(&out.stdout).unwrap();
 
     // pymavlink decoded our heartbeat: good CRC, our ids, GCS type.
@@ -69,19 +73,42 @@ fn pymavlink_sequence_pattern_and_our_heartbeat() {
 
     let s1 = source(&report, 1);
     assert_eq!(
-        (&s1["received"], &s1["lost"], &s1["duplicates"], &s1["reordered"]),
-        (&Value::from(97), &Value::from(3), &Value::from(1), &Value::from(1)),
+        (
+            &s1["received"],
+            &s1["lost"],
+            &s1["duplicates"],
+            &s1["reordered"]
+        ),
+        (
+            &Value::from(97),
+            &Value::from(3),
+            &Value::from(1),
+            &Value::from(1)
+        ),
         "{s1}"
     );
     assert_eq!(s1["loss_pct"], 3.0);
     let s2 = source(&report, 2);
     assert_eq!(
-        (&s2["received"], &s2["lost"], &s2["duplicates"], &s2["reordered"]),
-        (&Value::from(75), &Value::from(24), &Value::from(2), &Value::from(0)),
+        (
+            &s2["received"],
+            &s2["lost"],
+            &s2["duplicates"],
+            &s2["reordered"]
+        ),
+        (
+            &Value::from(75),
+            &Value::from(24),
+            &Value::from(2),
+            &Value::from(0)
+        ),
         "{s2}"
     );
     let s3 = source(&report, 3);
-    assert_eq!((&s3["received"], &s3["lost"]), (&Value::from(20), &Value::from(0)));
+    assert_eq!(
+        (&s3["received"], &s3["lost"]),
+        (&Value::from(20), &Value::from(0))
+    );
 
     let vehicles = report["vehicles"].as_array().unwrap();
     assert_eq!(vehicles.len(), 3);

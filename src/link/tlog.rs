@@ -21,9 +21,9 @@ pub enum TlogError {
 
 /// Length of the frame starting at `d[0]`, from its header; `None` if not enough bytes.
 fn frame_len(d: &[u8]) -> Option<usize> {
-    match d.first()? {
-        &MAGIC_V1 => Some(6 + *d.get(1)? as usize + 2),
-        &MAGIC_V2 => {
+    match *d.first()? {
+        MAGIC_V1 => Some(6 + *d.get(1)? as usize + 2),
+        MAGIC_V2 => {
             let plen = *d.get(1)? as usize;
             let flags = *d.get(2)?;
             let sig = if flags & IFLAG_SIGNED != 0 {

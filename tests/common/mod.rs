@@ -21,7 +21,9 @@ pub fn python() -> PathBuf {
 
 /// A path under tests/.
 pub fn test_path(rel: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests").join(rel)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests")
+        .join(rel)
 }
 
 /// A free localhost port (bound and released; good enough for tests on one machine).
