@@ -163,3 +163,68 @@ async fn missing_serial_device_is_down_not_fatal() {
     // The other link is unaffected.
     assert_eq!(rep["links"][1]["state"], "up");
 }
+
+#[tokio::test]
+async fn tcpin_serves_several_clients() {
+    use tokio::io::AsyncReadExt;
+    let port = common::free_tcp_port();
+    let spec: LinkSpec = format!("tcpin:127.0.0.1:{port}").parse().unwrap();
+    let clock = RealClock::new();
+    let mut app = App::new(AppConfig {
+        links: vec![spec.to_string()],
+        ..AppConfig::default()
+    });
+    let mut mgr = LinkManager::start(
+        std::slice::from_ref(&spec),
+        LinkIdentity {
+            sysid: 255,
+            compid: 190,
+        },
+    );
+    assert!(
+        pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
+            a.links[0].state == LinkState::Up
+        })
+        .await
+    );
+    let mut a = tokio::net::TcpStream::connect(("127.0.0.1", port))
+        .await
+        .unwrap();
+    let mut b = tokio::net::TcpStream::connect(("127.0.0.1", port))
+        .await
+        .unwrap();
+    // Each client's stream is framed on its own: interleaved halves must not corrupt.
+    let fa = vehicle_heartbeat(0);
+    let mut fb = vehicle_heartbeat(0);
+    fb[5] = 2; // sysid 2
+    let n = fb.len();
+    let crc = mavterm::link::frame::frame_crc(&fb[1..n - 2], 50);
+    fb[n - 2..].copy_from_slice(&crc.to_le_bytes());
+    a.write_all(&fa[..5]).await.unwrap();
+    b.write_all(&fb[..7]).await.unwrap();
+    tokio::time::sleep(Duration::from_millis(50)).await;
+    a.write_all(&fa[5..]).await.unwrap();
+    b.write_all(&fb[7..]).await.unwrap();
+    assert!(
+        pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
+            a.vehicles.len() == 2
+        })
+        .await
+    );
+    assert_eq!(app.links[0].parser.crc_errors, 0);
+    // Both clients get our heartbeat.
+    let fx = app.update(clock.now() + 2_000_000, mavterm::app::Event::Tick);
+    mgr.apply(fx);
+    for s in [&mut a, &mut b] {
+        let mut buf = [0u8; 512];
+        let n = tokio::time::timeout(Duration::from_secs(3), s.read(&mut buf))
+            .await
+            .expect("heartbeat arrives")
+            .unwrap();
+        let frames = mavterm::link::FrameParser::new().parse_all(&buf[..n]);
+        assert!(
+            frames.iter().any(|f| f.sysid == 255 && f.compid == 190),
+            "{frames:?}"
+        );
+    }
+}
