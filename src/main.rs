@@ -58,7 +58,17 @@ fn main() -> Result<()> {
         options,
     }) = &cli.command
     {
-        return rt.block_on(mavterm::sim::serve_cli(listen, *vehicles, options));
+        let mut cfg = mavterm::sim::SimConfig::from_query(options)?;
+        if let Some(n) = vehicles {
+            cfg.vehicles = *n;
+        }
+        eprintln!("mavterm sim: serving {} vehicle(s) on {listen}; Ctrl-C to stop", cfg.vehicles);
+        return rt.block_on(async {
+            tokio::select! {
+                r = mavterm::sim::serve(listen, cfg) => r.map_err(anyhow::Error::from),
+                _ = tokio::signal::ctrl_c() => Ok(()),
+            }
+        });
     }
 
     if cli.headless {

@@ -10,6 +10,7 @@ use crate::keymap::Key;
 use crate::link::tlog::{read_tlog, TlogRecord};
 use crate::link::tx::LinkTx;
 use crate::link::{FrameParser, LinkSpec, ParserStats};
+use crate::sim::{Sim, SimConfig};
 
 /// How often the core gets a `Tick` in virtual time.
 pub const TICK: Micros = 100_000;
@@ -72,6 +73,18 @@ impl VirtualSource for TlogSource {
             .get(self.next)
             .map(|r| r.time_us.saturating_sub(self.t0))
             .unwrap_or(Micros::MAX)
+    }
+}
+
+impl VirtualSource for Sim {
+    fn receive(&mut self, now: Micros, bytes: &[u8]) {
+        Sim::receive(self, now, bytes)
+    }
+    fn poll(&mut self, now: Micros) -> Vec<u8> {
+        Sim::poll(self, now)
+    }
+    fn next_deadline(&self) -> Micros {
+        Sim::next_deadline(self)
     }
 }
 
@@ -167,7 +180,11 @@ impl VirtualRunner {
                     epoch = epoch.or(src.start_time());
                     sources.push(Box::new(src));
                 }
-                LinkSpec::Sim { query } => sources.push(crate::sim::virtual_source(query)?),
+                LinkSpec::Sim { query } => {
+                    let cfg = SimConfig::from_query(query)
+                        .map_err(|e| RunnerError::Sim(e.to_string()))?;
+                    sources.push(Box::new(Sim::new(cfg)));
+                }
                 other => return Err(RunnerError::NotVirtual(other.to_string())),
             }
         }

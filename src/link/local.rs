@@ -10,7 +10,9 @@ use super::spec::LinkSpec;
 use super::tlog::read_tlog;
 use super::transport::LocalIngest;
 use super::tx::LinkTx;
+use crate::clock::Micros;
 use crate::dialect::MavMessage;
+use crate::sim::{Sim, SimConfig};
 
 pub(crate) async fn run_local(
     spec: &LinkSpec,
@@ -39,7 +41,31 @@ pub(crate) async fn run_local(
             while out.recv().await.is_some() {}
             Ok(())
         }
-        LinkSpec::Sim { .. } => Err("simulated vehicle not built in".into()),
+        LinkSpec::Sim { query } => {
+            let cfg = SimConfig::from_query(query).map_err(|e| format!("sim: {e}"))?;
+            let mut sim = Sim::new(cfg);
+            ingest.up();
+            let start = tokio::time::Instant::now();
+            let now = || start.elapsed().as_micros() as Micros;
+            loop {
+                // Wake at the sim's next deadline (at most every 10 ms), or when we send.
+                let due = sim.next_deadline().saturating_sub(now()).min(10_000);
+                tokio::select! {
+                    _ = tokio::time::sleep(Duration::from_micros(due)) => {}
+                    m = out.recv() => match m {
+                        Some(msg) => {
+                            let bytes = tx.encode(&msg);
+                            sim.receive(now(), &bytes);
+                        }
+                        None => return Ok(()),
+                    },
+                }
+                let bytes = sim.poll(now());
+                if !bytes.is_empty() {
+                    ingest.feed(&bytes, tx);
+                }
+            }
+        }
         _ => Err("not a local link".into()),
     }
 }
