@@ -62,7 +62,10 @@ fn main() -> Result<()> {
         if let Some(n) = vehicles {
             cfg.vehicles = *n;
         }
-        eprintln!("mavterm sim: serving {} vehicle(s) on {listen}; Ctrl-C to stop", cfg.vehicles);
+        eprintln!(
+            "mavterm sim: serving {} vehicle(s) on {listen}; Ctrl-C to stop",
+            cfg.vehicles
+        );
         return rt.block_on(async {
             tokio::select! {
                 r = mavterm::sim::serve(listen, cfg) => r.map_err(anyhow::Error::from),

@@ -30,6 +30,8 @@ pub trait VirtualSource {
     fn poll(&mut self, now: Micros) -> Vec<u8>;
     /// When the source next has something to emit (`Micros::MAX` for never).
     fn next_deadline(&self) -> Micros;
+    /// For tests that look at a source's own truth (e.g. the sim's impairment counts).
+    fn as_any(&self) -> &dyn std::any::Any;
 }
 
 /// Replays a tlog on the virtual clock, record times relative to the first record.
@@ -68,6 +70,9 @@ impl VirtualSource for TlogSource {
         }
         out
     }
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
     fn next_deadline(&self) -> Micros {
         self.records
             .get(self.next)
@@ -85,6 +90,9 @@ impl VirtualSource for Sim {
     }
     fn next_deadline(&self) -> Micros {
         Sim::next_deadline(self)
+    }
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
     }
 }
 
@@ -195,6 +203,11 @@ impl VirtualRunner {
 
     pub fn now(&self) -> Micros {
         self.now
+    }
+
+    /// The source behind link `i`.
+    pub fn source(&self, i: usize) -> Option<&dyn VirtualSource> {
+        self.links.get(i).map(|l| l.src.as_ref())
     }
 
     pub fn quit_requested(&self) -> bool {
