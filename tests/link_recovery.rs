@@ -36,6 +36,22 @@ fn vehicle_heartbeat(seq: u8) -> Vec<u8> {
     )
 }
 
+/// An app and a link manager on one link.
+fn start(spec: &LinkSpec) -> (App, LinkManager, RealClock) {
+    let app = App::new(AppConfig {
+        links: vec![spec.to_string()],
+        ..AppConfig::default()
+    });
+    let mgr = LinkManager::start(
+        std::slice::from_ref(spec),
+        LinkIdentity {
+            sysid: 255,
+            compid: 190,
+        },
+    );
+    (app, mgr, RealClock::new())
+}
+
 /// Pump link events into the app until `cond` holds or `timeout` passes.
 async fn pump_until(
     app: &mut App,
@@ -60,18 +76,7 @@ async fn pump_until(
 async fn tcp_peer_goes_away_and_comes_back() {
     let port = common::free_tcp_port();
     let spec: LinkSpec = format!("tcp:127.0.0.1:{port}").parse().unwrap();
-    let clock = RealClock::new();
-    let mut app = App::new(AppConfig {
-        links: vec![spec.to_string()],
-        ..AppConfig::default()
-    });
-    let mut mgr = LinkManager::start(
-        std::slice::from_ref(&spec),
-        LinkIdentity {
-            sysid: 255,
-            compid: 190,
-        },
-    );
+    let (mut app, mut mgr, clock) = start(&spec);
 
     // Nobody listening yet: down with a reason.
     assert!(
@@ -169,18 +174,7 @@ async fn tcpin_serves_several_clients() {
     use tokio::io::AsyncReadExt;
     let port = common::free_tcp_port();
     let spec: LinkSpec = format!("tcpin:127.0.0.1:{port}").parse().unwrap();
-    let clock = RealClock::new();
-    let mut app = App::new(AppConfig {
-        links: vec![spec.to_string()],
-        ..AppConfig::default()
-    });
-    let mut mgr = LinkManager::start(
-        std::slice::from_ref(&spec),
-        LinkIdentity {
-            sysid: 255,
-            compid: 190,
-        },
-    );
+    let (mut app, mut mgr, clock) = start(&spec);
     assert!(
         pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
             a.links[0].state == LinkState::Up

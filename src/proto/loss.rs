@@ -219,7 +219,8 @@ impl SeqTracker {
     }
 }
 
-fn pct(lost: u64, received: u64) -> f64 {
+/// Loss percent: lost / (received + lost), 0 when nothing was expected.
+pub fn pct(lost: u64, received: u64) -> f64 {
     if received + lost == 0 {
         0.0
     } else {
