@@ -6,7 +6,9 @@
 //! runs the core without a terminal.
 
 pub mod app;
+pub mod cli;
 pub mod clock;
+pub mod headless;
 pub mod keymap;
 pub mod link;
 pub mod proto;

@@ -1,6 +1,7 @@
 //! Pane snapshots and layout robustness, with an `App` driven by real encoded frames.
 
-mod common;
+mod ui_fixture;
+use ui_fixture as common;
 
 use mavterm::app::{App, Pane};
 use mavterm::ui::{self, buffer_to_text, Theme};

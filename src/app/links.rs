@@ -115,11 +115,7 @@ impl LinkStatus {
 
 /// Loss percent from (received, lost).
 pub fn loss_pct((received, lost): (u64, u64)) -> f64 {
-    if received + lost == 0 {
-        0.0
-    } else {
-        100.0 * lost as f64 / (received + lost) as f64
-    }
+    crate::proto::loss::pct(lost, received)
 }
 
 #[cfg(test)]

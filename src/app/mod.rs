@@ -72,6 +72,7 @@ pub enum Event {
 
 /// What the core wants done.
 #[derive(Debug, Clone, PartialEq)]
+#[allow(clippy::large_enum_variant)] // short-lived; boxing every message buys nothing
 pub enum Effect {
     /// Send a message on one link, or on every link when `link` is `None`.
     Send {

@@ -136,7 +136,16 @@ impl FrameParser {
             }
             let data = &self.buf[self.start..];
             match check(data) {
-                Candidate::NeedMore => return,
+                Candidate::NeedMore => {
+                    // At the end of a datagram nothing more will come: if a real frame starts
+                    // inside what this candidate claims, the candidate was garbage.
+                    if at_boundary && valid_frame_starts_inside(data, data.len()) {
+                        self.stats.garbage_bytes += 1;
+                        self.start += 1;
+                        continue;
+                    }
+                    return;
+                }
                 Candidate::Reject => {
                     self.stats.garbage_bytes += 1;
                     self.start += 1;
@@ -156,11 +165,13 @@ impl FrameParser {
                     emit(frame);
                 }
                 Candidate::Unknown(len) => {
-                    let confirmed = match data.get(len) {
+                    let followed_by_frame = match data.get(len) {
                         Some(&b) => b == MAGIC_V1 || b == MAGIC_V2,
                         None if at_boundary => true,
                         None => return, // wait for the next byte
                     };
+                    // A checkable frame starting inside the span wins over an uncheckable one.
+                    let confirmed = followed_by_frame && !valid_frame_starts_inside(data, len);
                     if confirmed {
                         let frame = self.build(len, false);
                         self.start += len;
@@ -426,6 +437,52 @@ mod tests {
         assert_eq!(frames[0].signature(), Some(&sig[..]));
         assert!(frames[0].message.is_some());
         assert_eq!(p.stats().signed_frames, 1);
+    }
+
+    /// Tiny deterministic generator for the garbage tests.
+    fn xorshift(state: &mut u64) -> u64 {
+        *state ^= *state << 13;
+        *state ^= *state >> 7;
+        *state ^= *state << 17;
+        *state
+    }
+
+    #[test]
+    fn random_garbage_never_hides_a_real_frame() {
+        let mut rng = 0x9E37_79B9_7F4A_7C15u64;
+        for round in 0..200 {
+            let mut bytes = Vec::new();
+            let mut expect = Vec::new();
+            for i in 0..20u8 {
+                let n = (xorshift(&mut rng) % 40) as usize;
+                for _ in 0..n {
+                    // Plenty of magic bytes in the garbage.
+                    let b = match xorshift(&mut rng) % 6 {
+                        0 => MAGIC_V2,
+                        1 => MAGIC_V1,
+                        _ => xorshift(&mut rng) as u8,
+                    };
+                    bytes.push(b);
+                }
+                let v = if i % 3 == 0 { Version::V1 } else { Version::V2 };
+                bytes.extend(hb(i, v));
+                expect.push(i);
+            }
+            let mut p = FrameParser::new();
+            let mut got = Vec::new();
+            // Odd chunk sizes, as a serial port delivers.
+            let chunk = 1 + (round % 17);
+            for c in bytes.chunks(chunk) {
+                p.push(c, |f| got.push(f));
+            }
+            p.end_of_datagram(|f| got.push(f));
+            let real: Vec<u8> = got
+                .iter()
+                .filter(|f| f.message.is_some())
+                .map(|f| f.seq)
+                .collect();
+            assert_eq!(real, expect, "round {round}");
+        }
     }
 
     #[test]

@@ -47,6 +47,7 @@ struct Bucket {
 /// Sequence tracking and loss counters for one source on one link.
 #[derive(Debug, Clone)]
 pub struct SeqTracker {
+    first: Option<u8>,
     last: Option<u8>,
     last_time: Micros,
     /// Which of the 256 sequence numbers have been received in the current lap (bit per seq).
@@ -62,6 +63,7 @@ pub struct SeqTracker {
 impl Default for SeqTracker {
     fn default() -> Self {
         Self {
+            first: None,
             last: None,
             last_time: 0,
             seen: [0; 4],
@@ -110,6 +112,7 @@ impl SeqTracker {
         let silence = now.saturating_sub(self.last_time);
         let outcome = match self.last {
             None => {
+                self.first = Some(seq);
                 self.last = Some(seq);
                 self.set_seen(seq, true);
                 self.received += 1;
@@ -141,6 +144,7 @@ impl SeqTracker {
                 } else if silence >= RESTART_SILENCE && (d == 0 || seq < last) {
                     // Backward (or same) after silence: the sender restarted.
                     self.restarts += 1;
+                    self.first = Some(seq);
                     self.seen = [0; 4];
                     self.set_seen(seq, true);
                     self.last = Some(seq);
@@ -199,13 +203,24 @@ impl SeqTracker {
         pct(lost, rx)
     }
 
+    /// Sequence number of the newest in-order frame.
+    pub fn last_seq(&self) -> Option<u8> {
+        self.last
+    }
+
+    /// Sequence number of the first frame heard (after the last restart).
+    pub fn first_seq(&self) -> Option<u8> {
+        self.first
+    }
+
     /// Time of the last frame.
     pub fn last_time(&self) -> Micros {
         self.last_time
     }
 }
 
-fn pct(lost: u64, received: u64) -> f64 {
+/// Loss percent: lost / (received + lost), 0 when nothing was expected.
+pub fn pct(lost: u64, received: u64) -> f64 {
     if received + lost == 0 {
         0.0
     } else {

@@ -150,10 +150,8 @@ impl Registry {
         now: Micros,
     ) -> Vec<VehicleEvent> {
         let mut events = Vec::new();
-        if key == self.own {
-            if hb.mavtype == MavType::MAV_TYPE_GCS {
-                return events; // our own heartbeat echoed back by a router
-            }
+        if key == self.own && hb.mavtype == MavType::MAV_TYPE_GCS {
+            return events; // our own heartbeat echoed back by a router
         }
         let uses_gcs_sysid = key.0 == self.own.0;
         match self.vehicles.get_mut(&key) {

@@ -1,1 +1,263 @@
-//! The simulated vehicle(s) behind `sim://`.
+//! The simulated vehicle(s) behind `sim://`: a pure, deterministic state machine.
+//!
+//! Bytes from the GCS go in with [`Sim::receive`]; [`Sim::poll`] advances simulated time and
+//! returns what the vehicles emit after the link impairments. Time is always handed in, so the
+//! same config, seed and inputs at the same times give byte-identical output; a virtual clock
+//! can jump straight to [`Sim::next_deadline`]. `server` puts the same machine on a real socket.
+//!
+//! Modules: `config` (query string), `rng` (seeded PRNG), `vehicle` (state and flight model),
+//! `handlers` (GCS messages and commands), `telemetry` (messages out), `streams` (rates),
+//! `params` + `param_pck` (parameter table, packed file), `mavftp` (FTP server), `impair` (link).
+
+pub mod config;
+pub mod handlers;
+pub mod impair;
+pub mod mavftp;
+pub mod param_pck;
+pub mod params;
+pub mod rng;
+pub mod server;
+pub mod streams;
+pub mod telemetry;
+pub mod vehicle;
+
+pub use config::{SimConfig, SimError};
+pub use impair::{LinkTruth, SimTruth};
+pub use server::serve;
+pub use vehicle::SimVehicle;
+
+use crate::clock::Micros;
+use crate::dialect::{MavMessage, MavResult};
+use crate::link::frame::{crc_extra, encode, frame_crc, Header, Version, MAGIC_V2};
+use crate::link::parser::FrameParser;
+use impair::{ImpairConfig, Impairer};
+use params::ParamTable;
+use rng::Rng;
+use std::path::PathBuf;
+use vehicle::TICK;
+
+/// Message id of COMMAND_LONG and COMMAND_ACK.
+const COMMAND_LONG_ID: u32 = 76;
+const COMMAND_ACK_ID: u32 = 77;
+
+/// One or more simulated vehicles on one simulated link.
+#[derive(Debug)]
+pub struct Sim {
+    cfg: SimConfig,
+    vehicles: Vec<SimVehicle>,
+    seqs: Vec<u8>,
+    parser: FrameParser,
+    impair: Impairer,
+    in_rng: Rng,
+    /// The next tick to run; every tick before it has run.
+    next_tick: Micros,
+    /// Latest time seen (poll or receive): time never goes back.
+    clock: Micros,
+}
+
+/// The state file of vehicle `index`: the configured path for the first, `PATH.<sysid>` for
+/// the others, so each vehicle keeps its own parameters.
+fn state_path(base: &Option<PathBuf>, index: usize, sysid: u8) -> Option<PathBuf> {
+    let base = base.as_ref()?;
+    if index == 0 {
+        return Some(base.clone());
+    }
+    let mut s = base.as_os_str().to_owned();
+    s.push(format!(".{sysid}"));
+    Some(PathBuf::from(s))
+}
+
+impl Sim {
+    pub fn new(cfg: SimConfig) -> Sim {
+        let table = ParamTable::copter(cfg.params);
+        let mut vehicles = Vec::with_capacity(cfg.vehicles as usize);
+        for i in 0..cfg.vehicles.max(1) as usize {
+            let sysid = cfg.sysid.saturating_add(i as u8).min(254);
+            let path = state_path(&cfg.state, i, sysid);
+            let mut params = table.clone();
+            if let Some(p) = &path {
+                if let Err(e) = params.load_if_exists(p) {
+                    tracing::warn!("sim: cannot read parameter state {}: {e}", p.display());
+                }
+            }
+            vehicles.push(SimVehicle::new(sysid, i, cfg.seed, params, path));
+        }
+        let impair = Impairer::new(
+            ImpairConfig {
+                loss: cfg.loss,
+                dup: cfg.dup,
+                reorder: cfg.reorder,
+                corrupt: cfg.corrupt,
+                latency: cfg.latency_ms.saturating_mul(1000),
+                baud: cfg.baud,
+            },
+            Rng::derive(cfg.seed, 0x11A7),
+        );
+        Sim {
+            seqs: vec![0; vehicles.len()],
+            vehicles,
+            parser: FrameParser::new(),
+            impair,
+            in_rng: Rng::derive(cfg.seed, 0x1A),
+            next_tick: 0,
+            clock: 0,
+            cfg,
+        }
+    }
+
+    pub fn config(&self) -> &SimConfig {
+        &self.cfg
+    }
+
+    /// Bytes from the GCS (any chunking). Messages addressed to a vehicle's sysid (or 0 =
+    /// broadcast) are handled at `now`, after the simulation has advanced to `now`.
+    pub fn receive(&mut self, now: Micros, bytes: &[u8]) {
+        let now = self.advance(now);
+        let mut frames = Vec::new();
+        self.parser.push(bytes, |f| frames.push(f));
+        for f in frames {
+            // Our own vehicles' frames echoed back (a UDP broadcast loop) are not commands.
+            if self.vehicles.iter().any(|v| v.sysid == f.sysid) {
+                continue;
+            }
+            if self.cfg.impair_in
+                && (self.in_rng.chance(self.cfg.loss) || self.in_rng.chance(self.cfg.corrupt))
+            {
+                for v in &self.vehicles {
+                    self.impair
+                        .truth_mut()
+                        .per_sysid
+                        .entry(v.sysid)
+                        .or_default()
+                        .inbound_dropped += 1;
+                }
+                continue;
+            }
+            let from = (f.sysid, f.compid);
+            match &f.message {
+                Some(msg) => {
+                    for i in 0..self.vehicles.len() {
+                        self.vehicles[i].handle(now, from, msg);
+                        self.flush(i, now);
+                    }
+                }
+                None if f.msgid == COMMAND_LONG_ID => self.unknown_command(now, from, f.payload()),
+                None => {}
+            }
+        }
+    }
+
+    /// A COMMAND_LONG whose command id the dialect does not know did not decode; ArduPilot
+    /// answers such commands with MAV_RESULT_UNSUPPORTED, so build that ACK by hand.
+    fn unknown_command(&mut self, now: Micros, from: (u8, u8), payload: &[u8]) {
+        // Wire layout: 7 floats (28 bytes), command u16, target_system u8, target_component u8.
+        let mut p = [0u8; 33];
+        let n = payload.len().min(33);
+        p[..n].copy_from_slice(&payload[..n]);
+        let command = u16::from_le_bytes([p[28], p[29]]);
+        for i in 0..self.vehicles.len() {
+            if !self.vehicles[i].for_me(p[30], p[31]) {
+                continue;
+            }
+            // COMMAND_ACK: command u16, result u8, progress u8, result_param2 i32,
+            // target_system u8, target_component u8.
+            let mut ack = Vec::with_capacity(10);
+            ack.extend_from_slice(&command.to_le_bytes());
+            ack.push(MavResult::MAV_RESULT_UNSUPPORTED as u8);
+            ack.extend_from_slice(&[0, 0, 0, 0, 0, from.0, from.1]);
+            let sysid = self.vehicles[i].sysid;
+            let compid = self.vehicles[i].compid;
+            let seq = self.next_seq(i);
+            let frame = encode_raw(Header { sysid, compid, seq }, COMMAND_ACK_ID, &ack);
+            self.impair.push(now, sysid, frame);
+        }
+    }
+
+    /// Advance the simulation to `now` and return the bytes due by `now` (after impairments and
+    /// the byte-rate queue).
+    pub fn poll(&mut self, now: Micros) -> Vec<u8> {
+        let now = self.advance(now);
+        self.impair.take_due(now)
+    }
+
+    /// The earliest time something will next be emitted or change; never before the latest time
+    /// the sim has seen.
+    pub fn next_deadline(&self) -> Micros {
+        let mut t = self
+            .vehicles
+            .iter()
+            .map(|v| v.next_event(self.next_tick))
+            .min()
+            .unwrap_or(self.next_tick);
+        if let Some(d) = self.impair.next_due() {
+            t = t.min(d);
+        }
+        t.max(self.clock)
+    }
+
+    /// Ground truth of the impairments, per vehicle sysid.
+    pub fn truth(&self) -> SimTruth {
+        self.impair.truth().clone()
+    }
+
+    pub fn vehicle(&self, sysid: u8) -> Option<&SimVehicle> {
+        self.vehicles.iter().find(|v| v.sysid == sysid)
+    }
+
+    pub fn vehicles(&self) -> &[SimVehicle] {
+        &self.vehicles
+    }
+
+    /// Run every tick up to `now`; returns the effective time (never earlier than before).
+    fn advance(&mut self, now: Micros) -> Micros {
+        let now = now.max(self.clock);
+        self.clock = now;
+        while self.next_tick <= now {
+            let t = self.next_tick;
+            for i in 0..self.vehicles.len() {
+                self.vehicles[i].tick(t);
+                self.flush(i, t);
+            }
+            self.next_tick += TICK;
+        }
+        now
+    }
+
+    fn next_seq(&mut self, i: usize) -> u8 {
+        let s = self.seqs[i];
+        self.seqs[i] = s.wrapping_add(1);
+        s
+    }
+
+    /// Encode vehicle `i`'s pending messages (own sequence counter) into the link.
+    fn flush(&mut self, i: usize, t: Micros) {
+        let msgs: Vec<MavMessage> = self.vehicles[i].drain();
+        let sysid = self.vehicles[i].sysid;
+        let compid = self.vehicles[i].compid;
+        for m in msgs {
+            let seq = self.next_seq(i);
+            let frame = encode(Version::V2, Header { sysid, compid, seq }, &m);
+            self.impair.push(t, sysid, frame);
+        }
+    }
+}
+
+/// Frame a raw payload as MAVLink 2 (trailing zeros trimmed), for messages the dialect types
+/// cannot express.
+fn encode_raw(h: Header, msgid: u32, payload: &[u8]) -> Vec<u8> {
+    let mut len = payload.len();
+    while len > 1 && payload[len - 1] == 0 {
+        len -= 1;
+    }
+    let id = msgid.to_le_bytes();
+    let mut out = vec![
+        MAGIC_V2, len as u8, 0, 0, h.seq, h.sysid, h.compid, id[0], id[1], id[2],
+    ];
+    out.extend_from_slice(&payload[..len]);
+    let crc = frame_crc(&out[1..], crc_extra(msgid).unwrap_or(0));
+    out.extend_from_slice(&crc.to_le_bytes());
+    out
+}
+
+#[cfg(test)]
+mod tests;

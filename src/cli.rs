@@ -1,0 +1,115 @@
+//! Command-line options.
+
+use std::path::PathBuf;
+
+use clap::{Parser, Subcommand, ValueEnum};
+
+use crate::link::LinkSpec;
+
+/// A terminal ground-control station for MAVLink vehicles.
+#[derive(Debug, Parser)]
+#[command(name = "mavterm", version, about)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Option<Command>,
+
+    /// A link to open (repeatable). Default: `sim://`, the embedded simulated vehicle.
+    /// Forms: udpin:ADDR:PORT, udpout:HOST:PORT, tcp:HOST:PORT, tcpin:ADDR:PORT,
+    /// serial:PATH[:BAUD], PATH,BAUD, udp://[HOST]:PORT, udpout://HOST:PORT, tcp://HOST:PORT,
+    /// serial://PATH[:BAUD], sim://[?options], tlog:PATH.
+    #[arg(long = "link", value_name = "SPEC", value_parser = parse_spec)]
+    pub links: Vec<LinkSpec>,
+
+    /// Our MAVLink system id.
+    #[arg(long, default_value_t = 255)]
+    pub sysid: u8,
+
+    /// Our MAVLink component id.
+    #[arg(long, default_value_t = 190)]
+    pub compid: u8,
+
+    /// Seconds without a heartbeat before a vehicle is shown lost.
+    #[arg(long, default_value_t = 5.0, value_name = "SECONDS")]
+    pub lost_timeout: f64,
+
+    /// Run without a terminal.
+    #[arg(long)]
+    pub headless: bool,
+
+    /// Headless: how long to run before reporting.
+    #[arg(long, value_name = "SECONDS")]
+    pub duration: Option<f64>,
+
+    /// Headless: print a report at the end.
+    #[arg(long, value_enum)]
+    pub report: Option<ReportFormat>,
+
+    /// Headless: replay recorded input (keys, snapshots) from FILE.
+    #[arg(long, value_name = "FILE")]
+    pub input: Option<PathBuf>,
+
+    /// Headless: screen size for replay, WIDTHxHEIGHT.
+    #[arg(long, value_name = "WxH", default_value = "120x40", value_parser = parse_size)]
+    pub size: (u16, u16),
+
+    /// Headless: directory for `snapshot NAME` screens (default: stdout).
+    #[arg(long, value_name = "DIR")]
+    pub screens: Option<PathBuf>,
+
+    /// Key bindings to layer over the defaults.
+    #[arg(long, value_name = "FILE")]
+    pub keymap: Option<PathBuf>,
+
+    /// Highest redraw rate of the terminal UI.
+    #[arg(long, default_value_t = 10)]
+    pub fps: u32,
+
+    /// Terminal UI: record the keys typed, in the replay format, to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub record: Option<PathBuf>,
+
+    /// Write the log (tracing) to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub log: Option<PathBuf>,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Serve simulated vehicle(s) to any GCS, in real time, until Ctrl-C.
+    Sim {
+        /// Where to serve: tcp:ADDR:PORT (listen), udpin:ADDR:PORT, udpout:HOST:PORT.
+        #[arg(long, value_parser = parse_spec)]
+        listen: LinkSpec,
+        /// Number of vehicles (sysid 1, 2, ...).
+        #[arg(long)]
+        vehicles: Option<u8>,
+        /// More sim options, as in sim://?OPTIONS (e.g. "loss=0.1&seed=7").
+        #[arg(long, default_value = "")]
+        options: String,
+    },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ReportFormat {
+    Json,
+}
+
+fn parse_spec(s: &str) -> Result<LinkSpec, String> {
+    s.parse::<LinkSpec>().map_err(|e| e.to_string())
+}
+
+fn parse_size(s: &str) -> Result<(u16, u16), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("size `{s}`: expected WIDTHxHEIGHT, e.g. 120x40"))?;
+    let w: u16 = w
+        .parse()
+        .map_err(|_| format!("size `{s}`: width `{w}` is not a number"))?;
+    let h: u16 = h
+        .parse()
+        .map_err(|_| format!("size `{s}`: height `{h}` is not a number"))?;
+    if w == 0 || h == 0 {
+        return Err(format!("size `{s}`: width and height must be at least 1"));
+    }
+    Ok((w, h))
+}

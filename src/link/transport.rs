@@ -1,0 +1,389 @@
+//! One tokio task per link: it owns the socket or port, frames what it reads (framing first,
+//! decoding second), and encodes what the core asks it to send with its own sequence numbers.
+//!
+//! A link that cannot open, or that drops, reports `down: <reason>` and is retried with a capped
+//! exponential backoff; the program never stops because one link failed.
+
+use std::net::SocketAddr;
+use std::time::Duration;
+
+use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
+use tokio::net::{TcpListener, TcpStream, UdpSocket};
+use tokio::sync::mpsc;
+
+use super::parser::{FrameParser, ParserStats};
+use super::spec::LinkSpec;
+use super::tx::LinkTx;
+use super::{Frame, LinkId};
+use crate::app::links::LinkState;
+use crate::app::{add_stats, stats_delta};
+use crate::dialect::MavMessage;
+
+/// First retry delay after a link fails.
+pub const BACKOFF_START: Duration = Duration::from_millis(500);
+/// Longest retry delay.
+pub const BACKOFF_MAX: Duration = Duration::from_secs(5);
+/// How many UDP peers an `udpin` link replies to.
+const MAX_UDP_PEERS: usize = 8;
+
+/// What a link task reports to the core.
+#[derive(Debug, Clone)]
+pub enum LinkEvent {
+    /// Frames read, and the increase of the parser counters that produced them.
+    Frames {
+        frames: Vec<Frame>,
+        stats: ParserStats,
+    },
+    State(LinkState),
+}
+
+/// Our identity on the links.
+#[derive(Debug, Clone, Copy)]
+pub struct LinkIdentity {
+    pub sysid: u8,
+    pub compid: u8,
+}
+
+/// The core's handle on a running link task.
+#[derive(Debug)]
+pub struct LinkHandle {
+    pub id: LinkId,
+    pub spec: LinkSpec,
+    tx: mpsc::UnboundedSender<MavMessage>,
+    task: tokio::task::JoinHandle<()>,
+}
+
+impl LinkHandle {
+    /// Queue a message for sending. Dropped silently if the link task has ended.
+    pub fn send(&self, msg: MavMessage) {
+        let _ = self.tx.send(msg);
+    }
+}
+
+impl Drop for LinkHandle {
+    fn drop(&mut self) {
+        self.task.abort();
+    }
+}
+
+type EventTx = mpsc::UnboundedSender<(LinkId, LinkEvent)>;
+
+/// Parser plus the bookkeeping to report counter increases.
+struct Ingest {
+    id: LinkId,
+    parser: FrameParser,
+    reported: ParserStats,
+    events: EventTx,
+}
+
+impl Ingest {
+    fn new(id: LinkId, events: EventTx) -> Self {
+        Self {
+            id,
+            parser: FrameParser::new(),
+            reported: ParserStats::default(),
+            events,
+        }
+    }
+
+    /// Frame `bytes`; `datagram` says they were one whole UDP packet.
+    fn feed(&mut self, bytes: &[u8], datagram: bool, tx: &mut LinkTx) {
+        let mut frames = Vec::new();
+        self.parser.push(bytes, |f| frames.push(f));
+        if datagram {
+            self.parser.end_of_datagram(|f| frames.push(f));
+        }
+        let now = *self.parser.stats();
+        let delta = stats_delta(&now, &self.reported);
+        self.reported = now;
+        tx.observe(&now);
+        let _ = self.events.send((
+            self.id,
+            LinkEvent::Frames {
+                frames,
+                stats: delta,
+            },
+        ));
+    }
+
+    fn state(&self, s: LinkState) {
+        let _ = self.events.send((self.id, LinkEvent::State(s)));
+    }
+}
+
+/// Start the task for one link.
+pub fn spawn_link(id: LinkId, spec: LinkSpec, me: LinkIdentity, events: EventTx) -> LinkHandle {
+    let (tx, rx) = mpsc::unbounded_channel();
+    let task_spec = spec.clone();
+    let task = tokio::spawn(async move {
+        run_link(id, task_spec, me, events, rx).await;
+    });
+    LinkHandle { id, spec, tx, task }
+}
+
+async fn run_link(
+    id: LinkId,
+    spec: LinkSpec,
+    me: LinkIdentity,
+    events: EventTx,
+    mut out: mpsc::UnboundedReceiver<MavMessage>,
+) {
+    let mut ingest = Ingest::new(id, events);
+    let mut tx = LinkTx::new(me.sysid, me.compid);
+    let mut backoff = BACKOFF_START;
+    loop {
+        ingest.state(LinkState::Connecting);
+        let result = match &spec {
+            LinkSpec::UdpIn { addr, port } => {
+                udp_in(addr, *port, &mut ingest, &mut tx, &mut out, &mut backoff).await
+            }
+            LinkSpec::UdpOut { host, port } => {
+                udp_out(host, *port, &mut ingest, &mut tx, &mut out, &mut backoff).await
+            }
+            LinkSpec::TcpClient { host, port } => {
+                match TcpStream::connect((host.as_str(), *port)).await {
+                    Ok(s) => {
+                        let _ = s.set_nodelay(true);
+                        backoff = BACKOFF_START;
+                        ingest.state(LinkState::Up);
+                        stream_loop(s, &mut ingest, &mut tx, &mut out).await
+                    }
+                    Err(e) => Err(format!("connect {host}:{port}: {e}")),
+                }
+            }
+            LinkSpec::TcpServer { addr, port } => {
+                tcp_server(addr, *port, &mut ingest, &mut tx, &mut out, &mut backoff).await
+            }
+            LinkSpec::Serial { path, baud } => {
+                match tokio_serial::SerialStream::open(&tokio_serial::new(path, *baud)) {
+                    Ok(s) => {
+                        backoff = BACKOFF_START;
+                        ingest.state(LinkState::Up);
+                        stream_loop(s, &mut ingest, &mut tx, &mut out).await
+                    }
+                    Err(e) => Err(format!("{path}: {e}")),
+                }
+            }
+            LinkSpec::Sim { .. } | LinkSpec::Tlog { .. } => {
+                crate::link::local::run_local(
+                    &spec,
+                    &mut ingest_adapter(&mut ingest),
+                    &mut tx,
+                    &mut out,
+                )
+                .await
+            }
+        };
+        let reason = match result {
+            Ok(()) => return,
+            Err(r) => r,
+        };
+        tracing::warn!(link = id, %reason, "link down");
+        ingest.state(LinkState::Down(reason));
+        // Keep draining outgoing messages while down so the queue does not grow.
+        let sleep = tokio::time::sleep(backoff);
+        tokio::pin!(sleep);
+        loop {
+            tokio::select! {
+                _ = &mut sleep => break,
+                m = out.recv() => if m.is_none() { return },
+            }
+        }
+        backoff = (backoff * 2).min(BACKOFF_MAX);
+    }
+}
+
+/// Feeds bytes read by a local (in-process) link into the link's parser.
+pub struct LocalIngest<'a> {
+    ingest: &'a mut Ingest,
+}
+
+impl LocalIngest<'_> {
+    pub fn feed(&mut self, bytes: &[u8], tx: &mut LinkTx) {
+        self.ingest.feed(bytes, false, tx);
+    }
+    pub fn up(&mut self) {
+        self.ingest.state(LinkState::Up);
+    }
+}
+
+fn ingest_adapter(ingest: &mut Ingest) -> LocalIngest<'_> {
+    LocalIngest { ingest }
+}
+
+async fn stream_loop<S: AsyncRead + AsyncWrite + Unpin>(
+    mut s: S,
+    ingest: &mut Ingest,
+    tx: &mut LinkTx,
+    out: &mut mpsc::UnboundedReceiver<MavMessage>,
+) -> Result<(), String> {
+    let mut buf = vec![0u8; 4096];
+    loop {
+        tokio::select! {
+            r = s.read(&mut buf) => match r {
+                Ok(0) => return Err("connection closed".into()),
+                Ok(n) => ingest.feed(&buf[..n], false, tx),
+                Err(e) => return Err(format!("read: {e}")),
+            },
+            m = out.recv() => match m {
+                Some(msg) => {
+                    let bytes = tx.encode(&msg);
+                    if let Err(e) = s.write_all(&bytes).await {
+                        return Err(format!("write: {e}"));
+                    }
+                }
+                None => return Ok(()),
+            },
+        }
+    }
+}
+
+async fn udp_in(
+    addr: &str,
+    port: u16,
+    ingest: &mut Ingest,
+    tx: &mut LinkTx,
+    out: &mut mpsc::UnboundedReceiver<MavMessage>,
+    backoff: &mut Duration,
+) -> Result<(), String> {
+    let sock = UdpSocket::bind((addr, port))
+        .await
+        .map_err(|e| format!("bind {addr}:{port}: {e}"))?;
+    *backoff = BACKOFF_START;
+    ingest.state(LinkState::Up);
+    // Peers heard, most recent first: replies go to each.
+    let mut peers: Vec<SocketAddr> = Vec::new();
+    let mut buf = vec![0u8; 65536];
+    loop {
+        tokio::select! {
+            r = sock.recv_from(&mut buf) => match r {
+                Ok((n, from)) => {
+                    peers.retain(|p| *p != from);
+                    peers.insert(0, from);
+                    peers.truncate(MAX_UDP_PEERS);
+                    ingest.feed(&buf[..n], true, tx);
+                }
+                // ICMP port-unreachable from a peer that went away shows up here on some
+                // systems: not a reason to close the socket.
+                Err(e) => tracing::debug!("udp recv: {e}"),
+            },
+            m = out.recv() => match m {
+                Some(msg) => {
+                    if peers.is_empty() { continue; }
+                    let bytes = tx.encode(&msg);
+                    for p in &peers {
+                        let _ = sock.send_to(&bytes, p).await;
+                    }
+                }
+                None => return Ok(()),
+            },
+        }
+    }
+}
+
+async fn udp_out(
+    host: &str,
+    port: u16,
+    ingest: &mut Ingest,
+    tx: &mut LinkTx,
+    out: &mut mpsc::UnboundedReceiver<MavMessage>,
+    backoff: &mut Duration,
+) -> Result<(), String> {
+    let target = tokio::net::lookup_host((host, port))
+        .await
+        .map_err(|e| format!("resolve {host}: {e}"))?
+        .next()
+        .ok_or_else(|| format!("resolve {host}: no address"))?;
+    let local: SocketAddr = if target.is_ipv6() {
+        "[::]:0".parse().expect("addr")
+    } else {
+        "0.0.0.0:0".parse().expect("addr")
+    };
+    let sock = UdpSocket::bind(local)
+        .await
+        .map_err(|e| format!("bind: {e}"))?;
+    sock.connect(target)
+        .await
+        .map_err(|e| format!("connect {target}: {e}"))?;
+    *backoff = BACKOFF_START;
+    ingest.state(LinkState::Up);
+    let mut buf = vec![0u8; 65536];
+    loop {
+        tokio::select! {
+            r = sock.recv(&mut buf) => match r {
+                Ok(n) => ingest.feed(&buf[..n], true, tx),
+                Err(e) => tracing::debug!("udp recv: {e}"),
+            },
+            m = out.recv() => match m {
+                Some(msg) => {
+                    let bytes = tx.encode(&msg);
+                    let _ = sock.send(&bytes).await;
+                }
+                None => return Ok(()),
+            },
+        }
+    }
+}
+
+async fn tcp_server(
+    addr: &str,
+    port: u16,
+    ingest: &mut Ingest,
+    tx: &mut LinkTx,
+    out: &mut mpsc::UnboundedReceiver<MavMessage>,
+    backoff: &mut Duration,
+) -> Result<(), String> {
+    let listener = TcpListener::bind((addr, port))
+        .await
+        .map_err(|e| format!("listen {addr}:{port}: {e}"))?;
+    *backoff = BACKOFF_START;
+    ingest.state(LinkState::Up);
+    // Each client has its own parser (their byte streams must not interleave); readers report
+    // counter increases to the shared event channel under the link's id.
+    let mut writers: Vec<tokio::net::tcp::OwnedWriteHalf> = Vec::new();
+    let (totals_tx, mut totals_rx) = mpsc::unbounded_channel::<ParserStats>();
+    let mut totals = ParserStats::default();
+    loop {
+        tokio::select! {
+            a = listener.accept() => match a {
+                Ok((stream, peer)) => {
+                    let _ = stream.set_nodelay(true);
+                    tracing::info!(%peer, "tcp client connected");
+                    let (mut rd, wr) = stream.into_split();
+                    writers.push(wr);
+                    let mut client = Ingest::new(ingest.id, ingest.events.clone());
+                    let totals_tx = totals_tx.clone();
+                    tokio::spawn(async move {
+                        let mut buf = vec![0u8; 4096];
+                        let mut dummy_tx = LinkTx::new(0, 0);
+                        while let Ok(n) = rd.read(&mut buf).await {
+                            if n == 0 { break; }
+                            let before = *client.parser.stats();
+                            client.feed(&buf[..n], false, &mut dummy_tx);
+                            let _ = totals_tx.send(stats_delta(client.parser.stats(), &before));
+                        }
+                    });
+                }
+                Err(e) => tracing::warn!("accept: {e}"),
+            },
+            Some(d) = totals_rx.recv() => {
+                add_stats(&mut totals, &d);
+                tx.observe(&totals);
+            }
+            m = out.recv() => match m {
+                Some(msg) => {
+                    if writers.is_empty() { continue; }
+                    let bytes = tx.encode(&msg);
+                    let mut alive = Vec::with_capacity(writers.len());
+                    for mut w in writers.drain(..) {
+                        if w.write_all(&bytes).await.is_ok() {
+                            alive.push(w);
+                        }
+                    }
+                    writers = alive;
+                }
+                None => return Ok(()),
+            },
+        }
+    }
+}

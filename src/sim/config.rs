@@ -1,0 +1,229 @@
+//! `sim://?key=value&...` options, parsed into a [`SimConfig`].
+
+use std::path::PathBuf;
+
+/// Why the simulator could not be configured or served. Each message names the offending part.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    #[error("sim option `{key}`: unknown option; known options: {KNOWN_KEYS}")]
+    UnknownKey { key: String },
+    #[error("sim option `{key}`: bad value `{value}`: {why}")]
+    BadValue {
+        key: String,
+        value: String,
+        why: String,
+    },
+    #[error("sim server: cannot listen on `{0}`: use tcp:ADDR:PORT, tcpin:ADDR:PORT, udpin:ADDR:PORT or udpout:HOST:PORT")]
+    UnsupportedListen(String),
+    #[error("sim server: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// Listed in the unknown-key error so the operator sees what is accepted.
+pub const KNOWN_KEYS: &str = "vehicles, sysid, loss, dup, reorder, corrupt, latency_ms, seed, params, baud, state, impair_in";
+
+/// How many vehicles, which ids, and how bad the simulated link is.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimConfig {
+    /// Number of vehicles, 1..=250; vehicle i has sysid `sysid + i`.
+    pub vehicles: u8,
+    /// System id of the first vehicle.
+    pub sysid: u8,
+    /// Probability that an outgoing frame is dropped.
+    pub loss: f64,
+    /// Probability that an outgoing frame is sent twice.
+    pub dup: f64,
+    /// Probability that an outgoing frame is swapped with the one after it.
+    pub reorder: f64,
+    /// Probability that one bit of an outgoing frame is flipped (the receiver sees a CRC error).
+    pub corrupt: f64,
+    /// One-way delay added to every frame.
+    pub latency_ms: u64,
+    /// Seed of every random choice the simulator makes.
+    pub seed: u64,
+    /// Parameter count: 0 = the real ArduCopter set; more pads with extra names, fewer truncates.
+    pub params: usize,
+    /// Radio byte rate (10 bits per byte); `None` = unlimited.
+    pub baud: Option<u32>,
+    /// Parameter store: loaded at start if present, rewritten after each PARAM_SET.
+    pub state: Option<PathBuf>,
+    /// Also apply loss/corruption to bytes coming from the GCS.
+    pub impair_in: bool,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        SimConfig {
+            vehicles: 1,
+            sysid: 1,
+            loss: 0.0,
+            dup: 0.0,
+            reorder: 0.0,
+            corrupt: 0.0,
+            latency_ms: 0,
+            seed: 1,
+            params: 0,
+            baud: None,
+            state: None,
+            impair_in: false,
+        }
+    }
+}
+
+fn bad(key: &str, value: &str, why: impl Into<String>) -> SimError {
+    SimError::BadValue {
+        key: key.to_string(),
+        value: value.to_string(),
+        why: why.into(),
+    }
+}
+
+fn prob(key: &str, value: &str) -> Result<f64, SimError> {
+    let p: f64 = value
+        .parse()
+        .map_err(|_| bad(key, value, "expected a probability from 0 to 1"))?;
+    if !(0.0..=1.0).contains(&p) {
+        return Err(bad(key, value, "expected a probability from 0 to 1"));
+    }
+    Ok(p)
+}
+
+fn num<T: std::str::FromStr>(key: &str, value: &str, what: &str) -> Result<T, SimError> {
+    value
+        .parse()
+        .map_err(|_| bad(key, value, format!("expected {what}")))
+}
+
+impl SimConfig {
+    /// Parse the text after `sim://?`. An empty string gives the defaults. A leading `?` is
+    /// tolerated. Keys may repeat; the last one wins.
+    pub fn from_query(q: &str) -> Result<SimConfig, SimError> {
+        let mut c = SimConfig::default();
+        let q = q.strip_prefix('?').unwrap_or(q);
+        for part in q.split('&').filter(|p| !p.is_empty()) {
+            let (key, value) = part.split_once('=').unwrap_or((part, ""));
+            match key {
+                "vehicles" => {
+                    let n: u8 = num(key, value, "a number of vehicles from 1 to 250")?;
+                    if n == 0 || n > 250 {
+                        return Err(bad(
+                            key,
+                            value,
+                            "expected a number of vehicles from 1 to 250",
+                        ));
+                    }
+                    c.vehicles = n;
+                }
+                "sysid" => {
+                    let n: u8 = num(key, value, "a system id from 1 to 254")?;
+                    if n == 0 || n == 255 {
+                        return Err(bad(key, value, "expected a system id from 1 to 254"));
+                    }
+                    c.sysid = n;
+                }
+                "loss" => c.loss = prob(key, value)?,
+                "dup" => c.dup = prob(key, value)?,
+                "reorder" => c.reorder = prob(key, value)?,
+                "corrupt" => c.corrupt = prob(key, value)?,
+                "latency_ms" => c.latency_ms = num(key, value, "milliseconds (a whole number)")?,
+                "seed" => c.seed = num(key, value, "an unsigned 64-bit number")?,
+                "params" => {
+                    let n: usize = num(key, value, "a parameter count from 0 to 65534")?;
+                    if n > 65_534 {
+                        return Err(bad(
+                            key,
+                            value,
+                            "expected a parameter count from 0 to 65534",
+                        ));
+                    }
+                    c.params = n;
+                }
+                "baud" => {
+                    let b: u32 = num(key, value, "a positive baud rate")?;
+                    if b == 0 {
+                        return Err(bad(key, value, "expected a positive baud rate"));
+                    }
+                    c.baud = Some(b);
+                }
+                "state" => {
+                    if value.is_empty() {
+                        return Err(bad(key, value, "expected a file path"));
+                    }
+                    c.state = Some(PathBuf::from(value));
+                }
+                "impair_in" => {
+                    c.impair_in = match value {
+                        "" | "1" | "true" | "yes" => true,
+                        "0" | "false" | "no" => false,
+                        _ => return Err(bad(key, value, "expected true or false")),
+                    }
+                }
+                _ => {
+                    return Err(SimError::UnknownKey {
+                        key: key.to_string(),
+                    })
+                }
+            }
+        }
+        if c.sysid as usize + c.vehicles as usize - 1 > 254 {
+            return Err(bad(
+                "vehicles",
+                &c.vehicles.to_string(),
+                format!(
+                    "sysid {} + {} vehicles would pass system id 254",
+                    c.sysid, c.vehicles
+                ),
+            ));
+        }
+        Ok(c)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn empty_query_is_default() {
+        assert_eq!(SimConfig::from_query("").unwrap(), SimConfig::default());
+        assert_eq!(SimConfig::from_query("?").unwrap(), SimConfig::default());
+    }
+
+    #[test]
+    fn full_query_parses() {
+        let c = SimConfig::from_query(
+            "vehicles=3&sysid=1&loss=0.1&dup=0.01&reorder=0.02&corrupt=0.001&latency_ms=50&seed=7&params=1300&baud=57600&state=/tmp/x.parm",
+        )
+        .unwrap();
+        assert_eq!(c.vehicles, 3);
+        assert_eq!(c.loss, 0.1);
+        assert_eq!(c.dup, 0.01);
+        assert_eq!(c.reorder, 0.02);
+        assert_eq!(c.corrupt, 0.001);
+        assert_eq!(c.latency_ms, 50);
+        assert_eq!(c.seed, 7);
+        assert_eq!(c.params, 1300);
+        assert_eq!(c.baud, Some(57600));
+        assert_eq!(c.state, Some(PathBuf::from("/tmp/x.parm")));
+    }
+
+    #[test]
+    fn errors_name_the_key() {
+        for (q, key) in [
+            ("bogus=1", "bogus"),
+            ("loss=2", "loss"),
+            ("loss=abc", "loss"),
+            ("vehicles=0", "vehicles"),
+            ("vehicles=999", "vehicles"),
+            ("sysid=255", "sysid"),
+            ("baud=0", "baud"),
+            ("seed=-1", "seed"),
+            ("latency_ms=1.5", "latency_ms"),
+            ("sysid=250&vehicles=10", "vehicles"),
+            ("state=", "state"),
+        ] {
+            let e = SimConfig::from_query(q).unwrap_err().to_string();
+            assert!(e.contains(&format!("`{key}`")), "{q}: {e}");
+        }
+    }
+}

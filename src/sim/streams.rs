@@ -1,0 +1,179 @@
+//! Which telemetry messages a vehicle sends, and when: ArduPilot's stream groups
+//! (REQUEST_DATA_STREAM) and per-message intervals (MAV_CMD_SET_MESSAGE_INTERVAL).
+//!
+//! Everything starts off, as on ArduPilot with SRx_ rates at 0: a GCS must ask.
+
+use crate::clock::Micros;
+use std::collections::BTreeMap;
+
+/// Message ids the simulator can stream.
+pub mod id {
+    pub const HEARTBEAT: u32 = 0;
+    pub const SYS_STATUS: u32 = 1;
+    pub const SYSTEM_TIME: u32 = 2;
+    pub const GPS_RAW_INT: u32 = 24;
+    pub const RAW_IMU: u32 = 27;
+    pub const SCALED_PRESSURE: u32 = 29;
+    pub const ATTITUDE: u32 = 30;
+    pub const LOCAL_POSITION_NED: u32 = 32;
+    pub const GLOBAL_POSITION_INT: u32 = 33;
+    pub const RC_CHANNELS: u32 = 65;
+    pub const SERVO_OUTPUT_RAW: u32 = 36;
+    pub const MISSION_CURRENT: u32 = 42;
+    pub const NAV_CONTROLLER_OUTPUT: u32 = 62;
+    pub const VFR_HUD: u32 = 74;
+    pub const POWER_STATUS: u32 = 125;
+    pub const BATTERY_STATUS: u32 = 147;
+    pub const AUTOPILOT_VERSION: u32 = 148;
+    pub const MEMINFO: u32 = 152;
+    pub const AHRS: u32 = 163;
+    pub const EKF_STATUS_REPORT: u32 = 193;
+    pub const VIBRATION: u32 = 241;
+    pub const HOME_POSITION: u32 = 242;
+    pub const EXTENDED_SYS_STATE: u32 = 245;
+}
+
+/// ArduCopter's MAV_DATA_STREAM groups (GCS_Mavlink.cpp `STREAM_*` tables), restricted to the
+/// messages the simulator implements.
+pub fn stream_group(stream_id: u8) -> &'static [u32] {
+    use id::*;
+    match stream_id {
+        1 => &[RAW_IMU, SCALED_PRESSURE],
+        2 => &[
+            SYS_STATUS,
+            POWER_STATUS,
+            MEMINFO,
+            MISSION_CURRENT,
+            GPS_RAW_INT,
+            NAV_CONTROLLER_OUTPUT,
+        ],
+        3 => &[SERVO_OUTPUT_RAW, RC_CHANNELS],
+        6 => &[GLOBAL_POSITION_INT, LOCAL_POSITION_NED],
+        10 => &[ATTITUDE],
+        11 => &[VFR_HUD],
+        12 => &[
+            AHRS,
+            SYSTEM_TIME,
+            EKF_STATUS_REPORT,
+            VIBRATION,
+            BATTERY_STATUS,
+        ],
+        _ => &[],
+    }
+}
+
+/// All stream groups, for MAV_DATA_STREAM_ALL (0).
+pub const ALL_GROUPS: [u8; 7] = [1, 2, 3, 6, 10, 11, 12];
+
+/// True when the simulator can produce message `msgid` on request or on a stream.
+pub fn streamable(msgid: u32) -> bool {
+    ALL_GROUPS.iter().any(|g| stream_group(*g).contains(&msgid)) || msgid == id::EXTENDED_SYS_STATE
+}
+
+/// Per-message intervals and due times. BTreeMap keeps emission order deterministic.
+#[derive(Debug, Clone, Default)]
+pub struct Streams {
+    interval: BTreeMap<u32, Micros>,
+    due: BTreeMap<u32, Micros>,
+}
+
+/// Interval used for "default rate" (SET_MESSAGE_INTERVAL param2 = 0): 4 Hz, the rate
+/// GCSs usually request.
+pub const DEFAULT_INTERVAL: Micros = 250_000;
+
+impl Streams {
+    /// Set (`Some`) or stop (`None`) a message; the first one goes out at the next tick.
+    pub fn set_interval(&mut self, now: Micros, msgid: u32, interval: Option<Micros>) {
+        match interval {
+            Some(i) if i > 0 => {
+                self.interval.insert(msgid, i);
+                self.due.insert(msgid, now);
+            }
+            _ => {
+                self.interval.remove(&msgid);
+                self.due.remove(&msgid);
+            }
+        }
+    }
+
+    pub fn interval(&self, msgid: u32) -> Option<Micros> {
+        self.interval.get(&msgid).copied()
+    }
+
+    /// REQUEST_DATA_STREAM: a rate for a whole group (0 = all groups); rate 0 or stop clears.
+    pub fn request_stream(&mut self, now: Micros, stream_id: u8, rate_hz: u16, start: bool) {
+        let groups: Vec<u8> = if stream_id == 0 {
+            ALL_GROUPS.to_vec()
+        } else {
+            vec![stream_id]
+        };
+        let interval = (start && rate_hz > 0).then(|| 1_000_000 / rate_hz as Micros);
+        for g in groups {
+            for &m in stream_group(g) {
+                self.set_interval(now, m, interval);
+            }
+        }
+    }
+
+    /// Messages due at `now`, in id order; each is rescheduled one interval later (or from
+    /// `now` if it fell more than an interval behind, so a stall does not cause a burst).
+    pub fn take_due(&mut self, now: Micros) -> Vec<u32> {
+        let mut out = Vec::new();
+        for (&m, due) in self.due.iter_mut() {
+            if *due <= now {
+                out.push(m);
+                let i = self.interval[&m];
+                *due += i;
+                if *due <= now {
+                    *due = now + i;
+                }
+            }
+        }
+        out
+    }
+
+    /// Earliest due time of any stream.
+    pub fn next_due(&self) -> Option<Micros> {
+        self.due.values().copied().min()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn off_until_asked_then_at_rate() {
+        let mut s = Streams::default();
+        assert!(s.take_due(0).is_empty());
+        s.request_stream(0, 6, 4, true);
+        let mut n = 0;
+        for t in (0..1_000_000).step_by(10_000) {
+            n += s
+                .take_due(t)
+                .iter()
+                .filter(|&&m| m == id::GLOBAL_POSITION_INT)
+                .count();
+        }
+        assert_eq!(n, 4);
+        s.request_stream(1_000_000, 6, 4, false);
+        assert_eq!(s.next_due(), None);
+    }
+
+    #[test]
+    fn all_and_interval_override() {
+        let mut s = Streams::default();
+        s.request_stream(0, 0, 2, true);
+        for g in ALL_GROUPS {
+            for m in stream_group(g) {
+                assert_eq!(s.interval(*m), Some(500_000));
+            }
+        }
+        s.set_interval(0, id::ATTITUDE, Some(50_000));
+        assert_eq!(s.interval(id::ATTITUDE), Some(50_000));
+        s.set_interval(0, id::ATTITUDE, None);
+        assert_eq!(s.interval(id::ATTITUDE), None);
+        assert!(streamable(id::BATTERY_STATUS));
+        assert!(!streamable(id::HEARTBEAT));
+    }
+}

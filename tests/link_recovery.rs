@@ -1,0 +1,224 @@
+//! Links that fail: a TCP peer that goes away and comes back, a serial device that is missing.
+//! The program keeps running, shows the link down with a reason, and reconnects.
+
+mod common;
+
+use std::time::Duration;
+
+use mavterm::app::links::LinkState;
+use mavterm::app::{App, AppConfig};
+use mavterm::clock::{Clock, RealClock};
+use mavterm::dialect::{self, MavMessage};
+use mavterm::link::frame::{encode, Header, Version};
+use mavterm::link::manager::{run_for, LinkManager};
+use mavterm::link::transport::LinkIdentity;
+use mavterm::link::LinkSpec;
+use tokio::io::AsyncWriteExt;
+use tokio::net::TcpListener;
+
+fn vehicle_heartbeat(seq: u8) -> Vec<u8> {
+    let msg = MavMessage::HEARTBEAT(dialect::HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype: dialect::MavType::MAV_TYPE_QUADROTOR,
+        autopilot: dialect::MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        base_mode: dialect::MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+        system_status: dialect::MavState::MAV_STATE_STANDBY,
+        mavlink_version: 3,
+    });
+    encode(
+        Version::V2,
+        Header {
+            sysid: 1,
+            compid: 1,
+            seq,
+        },
+        &msg,
+    )
+}
+
+/// An app and a link manager on one link.
+fn start(spec: &LinkSpec) -> (App, LinkManager, RealClock) {
+    let app = App::new(AppConfig {
+        links: vec![spec.to_string()],
+        ..AppConfig::default()
+    });
+    let mgr = LinkManager::start(
+        std::slice::from_ref(spec),
+        LinkIdentity {
+            sysid: 255,
+            compid: 190,
+        },
+    );
+    (app, mgr, RealClock::new())
+}
+
+/// Pump link events into the app until `cond` holds or `timeout` passes.
+async fn pump_until(
+    app: &mut App,
+    mgr: &mut LinkManager,
+    clock: &RealClock,
+    timeout: Duration,
+    cond: impl Fn(&App) -> bool,
+) -> bool {
+    let end = tokio::time::Instant::now() + timeout;
+    while !cond(app) {
+        let ev = tokio::select! {
+            _ = tokio::time::sleep_until(end) => return false,
+            ev = mgr.next_event() => ev.unwrap(),
+        };
+        let fx = app.update(clock.now(), ev);
+        mgr.apply(fx);
+    }
+    true
+}
+
+#[tokio::test]
+async fn tcp_peer_goes_away_and_comes_back() {
+    let port = common::free_tcp_port();
+    let spec: LinkSpec = format!("tcp:127.0.0.1:{port}").parse().unwrap();
+    let (mut app, mut mgr, clock) = start(&spec);
+
+    // Nobody listening yet: down with a reason.
+    assert!(
+        pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
+            matches!(&a.links[0].state, LinkState::Down(r) if r.contains("connect"))
+        })
+        .await,
+        "{:?}",
+        app.links[0].state
+    );
+
+    // Server up: the link connects and counts frames.
+    let listener = TcpListener::bind(("127.0.0.1", port)).await.unwrap();
+    let (mut sock, _) = tokio::time::timeout(Duration::from_secs(8), listener.accept())
+        .await
+        .expect("mavterm reconnects")
+        .unwrap();
+    for seq in 0..5 {
+        sock.write_all(&vehicle_heartbeat(seq)).await.unwrap();
+    }
+    assert!(
+        pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
+            a.links[0].parser.frames == 5 && a.links[0].state == LinkState::Up
+        })
+        .await
+    );
+
+    // Server goes away: down again.
+    drop(sock);
+    drop(listener);
+    assert!(
+        pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
+            matches!(a.links[0].state, LinkState::Down(_))
+        })
+        .await
+    );
+
+    // And comes back: reconnect, count again.
+    let listener = TcpListener::bind(("127.0.0.1", port)).await.unwrap();
+    let (mut sock, _) = tokio::time::timeout(Duration::from_secs(8), listener.accept())
+        .await
+        .expect("mavterm reconnects again")
+        .unwrap();
+    for seq in 5..10 {
+        sock.write_all(&vehicle_heartbeat(seq)).await.unwrap();
+    }
+    assert!(
+        pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
+            a.links[0].parser.frames == 10 && a.links[0].state == LinkState::Up
+        })
+        .await
+    );
+    let src = &app.links[0].sources[&(1, 1)];
+    assert_eq!((src.seq.received, src.seq.lost), (10, 0));
+    // The operator was told.
+    let texts: Vec<&str> = app.notices.iter().map(|n| n.text.as_str()).collect();
+    assert!(
+        texts.iter().filter(|t| t.contains(" down: ")).count() >= 2,
+        "{texts:?}"
+    );
+    assert!(
+        texts.iter().filter(|t| t.ends_with(" up")).count() >= 2,
+        "{texts:?}"
+    );
+}
+
+#[tokio::test]
+async fn missing_serial_device_is_down_not_fatal() {
+    let spec: LinkSpec = "serial:/dev/mavterm-no-such-port:115200".parse().unwrap();
+    let udp: LinkSpec = format!("udpin:127.0.0.1:{}", common::free_udp_port())
+        .parse()
+        .unwrap();
+    let app = run_for(
+        &[spec, udp],
+        AppConfig::default(),
+        Duration::from_millis(1500),
+    )
+    .await;
+    let rep = app.report();
+    let serial = &rep["links"][0];
+    assert_eq!(serial["state"], "down");
+    assert!(
+        serial["reason"]
+            .as_str()
+            .unwrap()
+            .contains("/dev/mavterm-no-such-port"),
+        "{serial}"
+    );
+    // The other link is unaffected.
+    assert_eq!(rep["links"][1]["state"], "up");
+}
+
+#[tokio::test]
+async fn tcpin_serves_several_clients() {
+    use tokio::io::AsyncReadExt;
+    let port = common::free_tcp_port();
+    let spec: LinkSpec = format!("tcpin:127.0.0.1:{port}").parse().unwrap();
+    let (mut app, mut mgr, clock) = start(&spec);
+    assert!(
+        pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
+            a.links[0].state == LinkState::Up
+        })
+        .await
+    );
+    let mut a = tokio::net::TcpStream::connect(("127.0.0.1", port))
+        .await
+        .unwrap();
+    let mut b = tokio::net::TcpStream::connect(("127.0.0.1", port))
+        .await
+        .unwrap();
+    // Each client's stream is framed on its own: interleaved halves must not corrupt.
+    let fa = vehicle_heartbeat(0);
+    let mut fb = vehicle_heartbeat(0);
+    fb[5] = 2; // sysid 2
+    let n = fb.len();
+    let crc = mavterm::link::frame::frame_crc(&fb[1..n - 2], 50);
+    fb[n - 2..].copy_from_slice(&crc.to_le_bytes());
+    a.write_all(&fa[..5]).await.unwrap();
+    b.write_all(&fb[..7]).await.unwrap();
+    tokio::time::sleep(Duration::from_millis(50)).await;
+    a.write_all(&fa[5..]).await.unwrap();
+    b.write_all(&fb[7..]).await.unwrap();
+    assert!(
+        pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
+            a.vehicles.len() == 2
+        })
+        .await
+    );
+    assert_eq!(app.links[0].parser.crc_errors, 0);
+    // Both clients get our heartbeat.
+    let fx = app.update(clock.now() + 2_000_000, mavterm::app::Event::Tick);
+    mgr.apply(fx);
+    for s in [&mut a, &mut b] {
+        let mut buf = [0u8; 512];
+        let n = tokio::time::timeout(Duration::from_secs(3), s.read(&mut buf))
+            .await
+            .expect("heartbeat arrives")
+            .unwrap();
+        let frames = mavterm::link::FrameParser::new().parse_all(&buf[..n]);
+        assert!(
+            frames.iter().any(|f| f.sysid == 255 && f.compid == 190),
+            "{frames:?}"
+        );
+    }
+}
