@@ -1,3 +1,5 @@
 //! Running mavterm without a terminal: virtual-clock runs, recorded-input replay, reports.
 
+pub mod replay;
 pub mod runner;
+pub mod script;

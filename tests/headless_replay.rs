@@ -1,0 +1,108 @@
+//! Headless replay against the simulated vehicle on the virtual clock.
+
+use mavterm::app::{AppConfig, Pane};
+use mavterm::headless::replay::{run_script, ReplayOptions};
+use mavterm::headless::runner::VirtualRunner;
+use mavterm::headless::script::Script;
+use mavterm::link::LinkSpec;
+
+fn runner(query: &str) -> VirtualRunner {
+    let spec: LinkSpec = format!("sim://?{query}").parse().unwrap();
+    VirtualRunner::from_specs(&[spec], AppConfig::default()).unwrap()
+}
+
+const SCRIPT: &str = "\
+# focus the links pane, expand the link, look around
+1.0 snapshot start
+2.5 key tab
+2.6 key enter
+5 snapshot links-expanded
+5.5 key ?
+6 snapshot help
+6.5 key esc
+8 text \"n\"
+10 snapshot end
+12 quit
+";
+
+fn replay(query: &str, size: (u16, u16)) -> (String, mavterm::headless::replay::ReplayOutcome) {
+    let script = Script::parse(SCRIPT).unwrap();
+    let mut r = runner(query);
+    let mut out = Vec::new();
+    let opts = ReplayOptions {
+        size,
+        ..ReplayOptions::default()
+    };
+    let outcome = run_script(&script, &mut r, &opts, &mut out).unwrap();
+    assert_eq!(r.app.ui.focus, Pane::Links);
+    (String::from_utf8(out).unwrap(), outcome)
+}
+
+#[test]
+fn replay_is_byte_identical_and_runs_to_the_end() {
+    let (a, outcome) = replay("seed=7&loss=0.05", (120, 40));
+    let (b, _) = replay("seed=7&loss=0.05", (120, 40));
+    assert_eq!(a, b, "same input must give the same screens");
+    assert!(outcome.completed);
+    assert_eq!(outcome.steps_run, 10);
+    assert_eq!(
+        outcome.snapshots,
+        ["start", "links-expanded", "help", "end"]
+    );
+    assert_eq!(outcome.end, 12_000_000);
+    // Four headers, each followed by 40 screen lines.
+    assert_eq!(a.matches("=== snapshot ").count(), 4);
+    assert_eq!(a.lines().count(), 4 * 41);
+    assert!(a.contains("=== snapshot help at 6s (120x40) ==="), "{a}");
+    let help = a.split("=== snapshot").nth(3).unwrap();
+    assert!(help.contains("show/hide key help"), "{help}");
+    let end = a.split("=== snapshot").nth(4).unwrap();
+    assert!(
+        !end.contains("show/hide key help"),
+        "esc closed help: {end}"
+    );
+    assert!(end.contains("*Links"), "{end}");
+    assert!(
+        a.lines().all(|l| !l.ends_with(' ')),
+        "trailing spaces trimmed"
+    );
+    // A different seed gives a different run (the screens really depend on the input).
+    let (c, _) = replay("seed=8&loss=0.05", (120, 40));
+    assert_ne!(a, c);
+}
+
+#[test]
+fn snapshots_go_to_files_at_the_requested_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = Script::parse("1 snapshot one\n2 snapshot two\n").unwrap();
+    let mut r = runner("seed=1");
+    let opts = ReplayOptions {
+        size: (80, 24),
+        screens_dir: Some(dir.path().join("screens")),
+        ..ReplayOptions::default()
+    };
+    let mut out = Vec::new();
+    let outcome = run_script(&script, &mut r, &opts, &mut out).unwrap();
+    assert!(outcome.completed);
+    assert!(out.is_empty());
+    let one = std::fs::read_to_string(dir.path().join("screens/one.txt")).unwrap();
+    assert_eq!(one.lines().count(), 24);
+    assert!(one.lines().all(|l| l.chars().count() <= 80));
+    assert!(one.contains("Vehicles"), "{one}");
+    assert!(dir.path().join("screens/two.txt").exists());
+}
+
+#[test]
+fn quitting_early_is_not_a_complete_run() {
+    let script = Script::parse("1 key q\n2 snapshot never\n").unwrap();
+    let mut r = runner("seed=1");
+    let outcome = run_script(&script, &mut r, &ReplayOptions::default(), &mut Vec::new()).unwrap();
+    assert!(!outcome.completed);
+    assert_eq!(outcome.steps_run, 1);
+    assert!(outcome.snapshots.is_empty());
+    // A quit key as the last step is the script running to its end.
+    let script = Script::parse("1 snapshot s\n2 key q\n").unwrap();
+    let mut r = runner("seed=1");
+    let outcome = run_script(&script, &mut r, &ReplayOptions::default(), &mut Vec::new()).unwrap();
+    assert!(outcome.completed);
+}
