@@ -181,10 +181,21 @@ impl Script {
                     }
                     Step::Text(s)
                 }
+                "key" => {
+                    // The key name is the first word even when it is `#`.
+                    let arg = arg.trim();
+                    let (name, tail) = arg.split_once(char::is_whitespace).unwrap_or((arg, ""));
+                    if !strip_comment(tail).trim().is_empty() {
+                        return Err(err(format!("unexpected `{}` after the key", tail.trim())));
+                    }
+                    if name.is_empty() {
+                        return Err(err("`key` needs a key name, e.g. `key tab`".into()));
+                    }
+                    Step::Key(name.parse().map_err(|e| err(format!("{e}")))?)
+                }
                 _ => {
                     let arg = strip_comment(arg).trim();
                     match verb {
-                        "key" => Step::Key(arg.parse().map_err(|e| err(format!("{e}")))?),
                         "snapshot" if valid_name(arg) => Step::Snapshot(arg.to_string()),
                         "snapshot" => {
                             return Err(err(format!(
@@ -245,6 +256,8 @@ mod tests {
             ("1 text \"takeoff\n", 1, "unterminated"),
             ("1 snapshot ../etc\n", 1, "snapshot name"),
             ("1 quit\n2 key a\n", 2, "after `quit`"),
+            ("1 key a b\n", 1, "unexpected `b`"),
+            ("1 key\n", 1, "needs a key name"),
             ("\n\n1.1234567 key a", 3, "not a time"),
         ] {
             match Script::parse(text) {
