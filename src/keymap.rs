@@ -339,7 +339,10 @@ impl Keymap {
         let mut clashes: BTreeMap<Key, BTreeSet<Action>> = BTreeMap::new();
         let mut listed = BTreeSet::new();
         let mut order = Vec::new();
-        for (name, keys) in &file.bindings {
+        // In file order, so problems are listed top to bottom.
+        let mut entries: Vec<_> = file.bindings.iter().collect();
+        entries.sort_by_key(|(name, _)| name.span().start);
+        for (name, keys) in entries {
             let action = Action::from_name(name.get_ref());
             match action {
                 Some(a) => {
