@@ -13,6 +13,7 @@ pub mod keymap;
 pub mod link;
 pub mod proto;
 pub mod sim;
+pub mod tui;
 pub mod ui;
 
 /// The MAVLink dialect mavterm speaks: ardupilotmega, which includes common.

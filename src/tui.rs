@@ -1,0 +1,387 @@
+//! The terminal front end: crossterm input, ratatui output, the core in between.
+//!
+//! The terminal is put back (alternate screen left, cursor shown, raw mode off) on every way
+//! out: normal return, error, Ctrl-C/SIGTERM, and panic (a panic hook restores first, then runs
+//! the previous hook so the message lands on a sane screen). Redraws happen only when the core
+//! says something changed (`App::take_dirty`), at most `fps` times a second, so an idle screen
+//! writes nothing between clock ticks.
+
+use std::fs::File;
+use std::io::{self, Write};
+use std::panic::PanicHookInfo;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use crossterm::event::{self as ct, KeyEventKind, KeyModifiers};
+use crossterm::terminal::{
+    disable_raw_mode, enable_raw_mode, EnterAlternateScreen, LeaveAlternateScreen,
+};
+use ratatui::backend::{Backend, CrosstermBackend};
+use ratatui::Terminal;
+use tokio::sync::mpsc;
+
+use crate::app::{App, Effect, Event};
+use crate::clock::{Clock, Micros};
+use crate::headless::script::key_line;
+use crate::keymap::{Key, KeyCode};
+use crate::ui::{self, Theme};
+
+/// Front-end settings.
+#[derive(Debug, Clone)]
+pub struct TuiOptions {
+    /// Most redraws per second.
+    pub fps: u32,
+    /// Append the operator's keys to this file in the replay script format.
+    pub record: Option<PathBuf>,
+    pub theme: Theme,
+}
+
+impl Default for TuiOptions {
+    fn default() -> Self {
+        Self {
+            fps: 10,
+            record: None,
+            theme: Theme::default(),
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum TuiError {
+    #[error("terminal: {0}")]
+    Terminal(#[from] io::Error),
+    #[error("key recording {path}: {source}")]
+    Record { path: PathBuf, source: io::Error },
+}
+
+/// A crossterm key event as a core [`Key`]; `None` for releases and keys we have no name for.
+pub fn key_from_crossterm(ev: ct::KeyEvent) -> Option<Key> {
+    if ev.kind == KeyEventKind::Release {
+        return None;
+    }
+    let ctrl = ev.modifiers.contains(KeyModifiers::CONTROL);
+    let alt = ev.modifiers.contains(KeyModifiers::ALT);
+    let shift = ev.modifiers.contains(KeyModifiers::SHIFT);
+    let code = match ev.code {
+        // Shift is already in the character ('G'); ctrl letters are lower case in keymaps.
+        ct::KeyCode::Char(c) if ctrl => KeyCode::Char(c.to_ascii_lowercase()),
+        ct::KeyCode::Char(c) => KeyCode::Char(c),
+        ct::KeyCode::Enter => KeyCode::Enter,
+        ct::KeyCode::Esc => KeyCode::Esc,
+        ct::KeyCode::Tab if shift => KeyCode::BackTab,
+        ct::KeyCode::Tab => KeyCode::Tab,
+        ct::KeyCode::BackTab => KeyCode::BackTab,
+        ct::KeyCode::Backspace => KeyCode::Backspace,
+        ct::KeyCode::Delete => KeyCode::Delete,
+        ct::KeyCode::Up => KeyCode::Up,
+        ct::KeyCode::Down => KeyCode::Down,
+        ct::KeyCode::Left => KeyCode::Left,
+        ct::KeyCode::Right => KeyCode::Right,
+        ct::KeyCode::PageUp => KeyCode::PageUp,
+        ct::KeyCode::PageDown => KeyCode::PageDown,
+        ct::KeyCode::Home => KeyCode::Home,
+        ct::KeyCode::End => KeyCode::End,
+        ct::KeyCode::F(n) => KeyCode::F(n),
+        _ => return None,
+    };
+    Some(Key { code, ctrl, alt })
+}
+
+/// Redraw if the core says the screen changed. Returns whether it drew. Shared by the terminal
+/// loop and the benchmark, so what is measured is what runs.
+pub fn draw_if_dirty<B: Backend>(
+    terminal: &mut Terminal<B>,
+    app: &mut App,
+    theme: &Theme,
+) -> Result<bool, B::Error> {
+    if !app.take_dirty() {
+        return Ok(false);
+    }
+    terminal.draw(|f| ui::render_with(app, f, theme))?;
+    Ok(true)
+}
+
+type PanicHook = dyn Fn(&PanicHookInfo<'_>) + Sync + Send + 'static;
+
+struct GuardState {
+    out: Box<dyn Write + Send>,
+    raw: bool,
+    active: bool,
+}
+
+impl GuardState {
+    fn restore(&mut self) -> io::Result<()> {
+        if !std::mem::take(&mut self.active) {
+            return Ok(());
+        }
+        // Raw mode first: even if the writes fail the shell gets its line discipline back.
+        let raw = if self.raw { disable_raw_mode() } else { Ok(()) };
+        crossterm::execute!(self.out, LeaveAlternateScreen, crossterm::cursor::Show)?;
+        self.out.flush()?;
+        raw
+    }
+}
+
+/// Owns the terminal's modes while alive; puts them back on drop and on panic.
+pub struct TerminalGuard {
+    state: Arc<Mutex<GuardState>>,
+    prev_hook: Arc<PanicHook>,
+}
+
+impl TerminalGuard {
+    /// Raw mode + alternate screen + hidden cursor on stdout.
+    pub fn enter() -> io::Result<TerminalGuard> {
+        TerminalGuard::enter_with(Box::new(io::stdout()), true)
+    }
+
+    /// The same on any writer; `raw_mode: false` leaves the tty's mode alone (for tests).
+    pub fn enter_with(out: Box<dyn Write + Send>, raw_mode: bool) -> io::Result<TerminalGuard> {
+        let prev_hook: Arc<PanicHook> = Arc::from(std::panic::take_hook());
+        let state = Arc::new(Mutex::new(GuardState {
+            out,
+            raw: raw_mode,
+            active: true,
+        }));
+        {
+            let state = Arc::clone(&state);
+            let prev = Arc::clone(&prev_hook);
+            std::panic::set_hook(Box::new(move |info| {
+                // try_lock: a panic while the state is held must not deadlock the hook.
+                if let Ok(mut s) = state.try_lock() {
+                    let _ = s.restore();
+                }
+                prev(info);
+            }));
+        }
+        let guard = TerminalGuard { state, prev_hook };
+        {
+            let mut s = guard.lock();
+            if raw_mode {
+                enable_raw_mode()?; // on error, drop restores what was done
+            }
+            crossterm::execute!(s.out, EnterAlternateScreen, crossterm::cursor::Hide)?;
+        }
+        Ok(guard)
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, GuardState> {
+        self.state.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Put the terminal back now (idempotent); reports errors that `Drop` would swallow.
+    pub fn restore(&self) -> io::Result<()> {
+        self.lock().restore()
+    }
+}
+
+impl Drop for TerminalGuard {
+    fn drop(&mut self) {
+        let _ = self.lock().restore();
+        // The hook cannot be changed while panicking (that would abort); ours is harmless then.
+        if !std::thread::panicking() {
+            let prev = Arc::clone(&self.prev_hook);
+            std::panic::set_hook(Box::new(move |info| prev(info)));
+        }
+    }
+}
+
+/// Writes the operator's keys as a replay script.
+struct Recorder {
+    path: PathBuf,
+    file: File,
+}
+
+impl Recorder {
+    fn create(path: &Path) -> Result<Recorder, TuiError> {
+        let err = |source| TuiError::Record {
+            path: path.to_path_buf(),
+            source,
+        };
+        let mut file = File::create(path).map_err(err)?;
+        writeln!(
+            file,
+            "# mavterm key recording: replay with --headless --input FILE"
+        )
+        .map_err(err)?;
+        Ok(Recorder {
+            path: path.to_path_buf(),
+            file,
+        })
+    }
+
+    fn key(&mut self, t: Micros, key: Key) -> Result<(), TuiError> {
+        // Line by line, so a crash keeps everything typed before it.
+        writeln!(self.file, "{}", key_line(t, key)).map_err(|source| TuiError::Record {
+            path: self.path.clone(),
+            source,
+        })
+    }
+}
+
+/// Reads terminal events on a thread (crossterm's reads block) until dropped.
+struct InputThread {
+    stop: Arc<AtomicBool>,
+    handle: Option<std::thread::JoinHandle<()>>,
+}
+
+impl InputThread {
+    fn spawn(tx: mpsc::UnboundedSender<io::Result<ct::Event>>) -> InputThread {
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = Arc::clone(&stop);
+        let handle = std::thread::spawn(move || {
+            // Poll with a timeout so the thread notices `stop` and never eats input after exit.
+            while !flag.load(Ordering::Relaxed) {
+                let ev = match ct::poll(Duration::from_millis(50)) {
+                    Ok(false) => continue,
+                    Ok(true) => ct::read(),
+                    Err(e) => Err(e),
+                };
+                let failed = ev.is_err();
+                if tx.send(ev).is_err() || failed {
+                    break;
+                }
+            }
+        });
+        InputThread {
+            stop,
+            handle: Some(handle),
+        }
+    }
+}
+
+impl Drop for InputThread {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
+}
+
+/// Hand effects to the edge; a closed channel means the edge is gone, which only matters for
+/// `Quit`, and the loop checks `app.quit` itself.
+fn forward(effects: &mpsc::UnboundedSender<Effect>, fx: Vec<Effect>) {
+    for e in fx {
+        let _ = effects.send(e);
+    }
+}
+
+/// Run the terminal UI until the operator quits (or Ctrl-C / SIGTERM), returning the final
+/// state. `events` carries the link side's core events (frames, link states) stamped with
+/// `clock`'s time; every effect the core produces (sends, file writes, quit) goes to
+/// `effects`. The loop also ticks the core at `fps`.
+pub async fn run_terminal(
+    mut app: App,
+    mut events: mpsc::Receiver<(Micros, Event)>,
+    effects: mpsc::UnboundedSender<Effect>,
+    clock: impl Clock,
+    opts: TuiOptions,
+) -> Result<App, TuiError> {
+    let mut recorder = opts.record.as_deref().map(Recorder::create).transpose()?;
+    let guard = TerminalGuard::enter()?;
+    let mut terminal = Terminal::new(CrosstermBackend::new(io::stdout()))?;
+    terminal.clear()?;
+    let (input_tx, mut input_rx) = mpsc::unbounded_channel();
+    let input = InputThread::spawn(input_tx);
+    let period = Duration::from_secs_f64(1.0 / f64::from(opts.fps.clamp(1, 120)));
+    let mut frames = tokio::time::interval(period);
+    frames.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    let mut sigint = std::pin::pin!(tokio::signal::ctrl_c());
+    #[cfg(unix)]
+    let mut sigterm = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())?;
+    let mut events_open = true;
+    let result: Result<(), TuiError> = loop {
+        #[cfg(unix)]
+        let term = sigterm.recv();
+        #[cfg(not(unix))]
+        let term = std::future::pending::<Option<()>>();
+        tokio::select! {
+            _ = frames.tick() => {
+                forward(&effects, app.update(clock.now(), Event::Tick));
+                if let Err(e) = draw_if_dirty(&mut terminal, &mut app, &opts.theme) {
+                    break Err(e.into());
+                }
+            }
+            ev = events.recv(), if events_open => match ev {
+                Some((t, ev)) => forward(&effects, app.update(t, ev)),
+                None => events_open = false,
+            },
+            input = input_rx.recv() => match input {
+                Some(Ok(ct::Event::Key(k))) => {
+                    if let Some(key) = key_from_crossterm(k) {
+                        let t = clock.now();
+                        if let Some(r) = recorder.as_mut() {
+                            if let Err(e) = r.key(t, key) {
+                                break Err(e);
+                            }
+                        }
+                        forward(&effects, app.update(t, Event::Key(key)));
+                    }
+                }
+                Some(Ok(ct::Event::Resize(..))) => {
+                    forward(&effects, app.update(clock.now(), Event::Resize));
+                }
+                Some(Ok(_)) => {}
+                Some(Err(e)) => break Err(e.into()),
+                None => break Ok(()),
+            },
+            _ = &mut sigint => break Ok(()),
+            _ = term => break Ok(()),
+        }
+        if app.quit {
+            break Ok(());
+        }
+    };
+    drop(input);
+    drop(terminal);
+    guard.restore()?;
+    result.map(|()| app)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ev(code: ct::KeyCode, m: KeyModifiers) -> ct::KeyEvent {
+        ct::KeyEvent::new(code, m)
+    }
+
+    #[test]
+    fn crossterm_keys_become_keymap_keys() {
+        let k = |code, m| key_from_crossterm(ev(code, m)).map(|k| k.to_string());
+        assert_eq!(
+            k(ct::KeyCode::Char('q'), KeyModifiers::NONE).as_deref(),
+            Some("q")
+        );
+        assert_eq!(
+            k(ct::KeyCode::Char('G'), KeyModifiers::SHIFT).as_deref(),
+            Some("G")
+        );
+        assert_eq!(
+            k(ct::KeyCode::Char('C'), KeyModifiers::CONTROL).as_deref(),
+            Some("ctrl-c")
+        );
+        assert_eq!(
+            k(ct::KeyCode::Tab, KeyModifiers::SHIFT).as_deref(),
+            Some("backtab")
+        );
+        assert_eq!(
+            k(ct::KeyCode::BackTab, KeyModifiers::SHIFT).as_deref(),
+            Some("backtab")
+        );
+        assert_eq!(
+            k(ct::KeyCode::Char(' '), KeyModifiers::NONE).as_deref(),
+            Some("space")
+        );
+        assert_eq!(
+            k(ct::KeyCode::F(5), KeyModifiers::ALT).as_deref(),
+            Some("alt-f5")
+        );
+        assert_eq!(k(ct::KeyCode::CapsLock, KeyModifiers::NONE), None);
+        let mut release = ev(ct::KeyCode::Char('q'), KeyModifiers::NONE);
+        release.kind = KeyEventKind::Release;
+        assert_eq!(key_from_crossterm(release), None);
+    }
+}
