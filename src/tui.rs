@@ -161,7 +161,12 @@ impl TerminalGuard {
             if raw_mode {
                 enable_raw_mode()?; // on error, drop restores what was done
             }
-            crossterm::execute!(s.out, EnterAlternateScreen, crossterm::cursor::Hide)?;
+            crossterm::execute!(
+                s.out,
+                EnterAlternateScreen,
+                crossterm::terminal::Clear(crossterm::terminal::ClearType::All),
+                crossterm::cursor::Hide
+            )?;
         }
         Ok(guard)
     }
@@ -281,8 +286,9 @@ pub async fn run_terminal(
 ) -> Result<App, TuiError> {
     let mut recorder = opts.record.as_deref().map(Recorder::create).transpose()?;
     let guard = TerminalGuard::enter()?;
+    // No `terminal.clear()`: it asks the terminal for the cursor position, which fails (times
+    // out) on terminals that do not answer; the guard already cleared the alternate screen.
     let mut terminal = Terminal::new(CrosstermBackend::new(io::stdout()))?;
-    terminal.clear()?;
     let (input_tx, mut input_rx) = mpsc::unbounded_channel();
     let input = InputThread::spawn(input_tx);
     let period = Duration::from_secs_f64(1.0 / f64::from(opts.fps.clamp(1, 120)));

@@ -1,0 +1,130 @@
+//! The real terminal path under a pseudo-terminal (util-linux `script`): run_terminal enters the
+//! alternate screen and raw mode, and leaves them on quit and on panic.
+//!
+//! The parent test re-runs this test binary's ignored `child_*` tests inside `script`, so the
+//! child's stdout is a real tty, then inspects everything the child wrote to it.
+
+use std::io::Write;
+use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::{Duration, Instant};
+
+use mavterm::app::{App, AppConfig};
+use mavterm::clock::{Clock, Micros, RealClock};
+use mavterm::tui::{run_terminal, TuiOptions};
+
+const ENTER_ALT: &str = "\x1b[?1049h";
+const LEAVE_ALT: &str = "\x1b[?1049l";
+
+/// A real clock that panics on its `n`th reading: a panic in the middle of the UI loop.
+struct PanicClock(RealClock, AtomicU32, u32);
+
+impl Clock for PanicClock {
+    fn now(&self) -> Micros {
+        if self.1.fetch_add(1, Ordering::SeqCst) + 1 == self.2 {
+            panic!("clock exploded");
+        }
+        self.0.now()
+    }
+}
+
+fn run_child(clock: impl Clock + 'static) {
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    let (_tx, rx) = tokio::sync::mpsc::channel(16);
+    let (fx, _fx_rx) = tokio::sync::mpsc::unbounded_channel();
+    let app = rt
+        .block_on(run_terminal(
+            App::new(AppConfig::default()),
+            rx,
+            fx,
+            clock,
+            TuiOptions::default(),
+        ))
+        .unwrap();
+    assert!(app.quit);
+    println!("CHILD-DONE");
+}
+
+#[test]
+#[ignore = "run by pty tests inside a pseudo-terminal"]
+fn child_quits_on_q() {
+    run_child(RealClock::new());
+}
+
+#[test]
+#[ignore = "run by pty tests inside a pseudo-terminal"]
+fn child_panics() {
+    run_child(PanicClock(RealClock::new(), AtomicU32::new(0), 5));
+}
+
+/// Run `child` under `script`, typing `input` after a moment; returns (success, output).
+fn under_pty(child: &str, input: &[u8]) -> (bool, String) {
+    let exe = std::env::current_exe().unwrap();
+    // The pty has no size until told; 0x0 would draw nothing.
+    let cmd = format!(
+        "stty cols 100 rows 30; {} --ignored --exact --nocapture {child}",
+        exe.display()
+    );
+    let mut p = Command::new("script")
+        .args(["-qec", &cmd, "/dev/null"])
+        .env("TERM", "xterm-256color")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("util-linux `script` is needed for the pty tests");
+    let mut stdin = p.stdin.take().unwrap();
+    std::thread::sleep(Duration::from_millis(800));
+    stdin.write_all(input).unwrap();
+    stdin.flush().unwrap();
+    let start = Instant::now();
+    while p.try_wait().unwrap().is_none() {
+        assert!(start.elapsed() < Duration::from_secs(20), "{child} hung");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    drop(stdin);
+    let out = p.wait_with_output().unwrap();
+    let text =
+        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    (out.status.success(), text)
+}
+
+#[test]
+fn quit_key_restores_the_terminal() {
+    let (ok, out) = under_pty("child_quits_on_q", b"q");
+    assert!(ok, "{out}");
+    let enter = out
+        .find(ENTER_ALT)
+        .unwrap_or_else(|| panic!("never entered: {out:?}"));
+    let leave = out
+        .rfind(LEAVE_ALT)
+        .unwrap_or_else(|| panic!("never left: {out:?}"));
+    assert!(enter < leave);
+    // Something was drawn in between, and the test harness printed after the restore.
+    assert!(out[enter..leave].contains("Vehicles"), "{out:?}");
+    assert!(out[leave..].contains("CHILD-DONE"), "{out:?}");
+}
+
+#[test]
+fn panic_restores_the_terminal_before_the_message() {
+    let (ok, out) = under_pty("child_panics", b"");
+    assert!(!ok, "the child panicked: {out}");
+    let leave = out
+        .rfind(LEAVE_ALT)
+        .unwrap_or_else(|| panic!("never left: {out:?}"));
+    let msg = out
+        .find("clock exploded")
+        .unwrap_or_else(|| panic!("no message: {out:?}"));
+    assert!(
+        leave < msg,
+        "restore must come before the panic message: {out:?}"
+    );
+    // Raw mode was off when the message printed: the tty turned its `\n` into `\r\n` (raw
+    // mode disables that output processing).
+    let nl = msg + out[msg..].find('\n').unwrap();
+    assert_eq!(&out[nl - 1..nl], "\r", "raw mode still on: {out:?}");
+    assert!(!out.contains("CHILD-DONE"));
+}
