@@ -184,3 +184,20 @@ fn scrolling_messages_moves_the_window() {
     assert!(!after.contains("Crash: Disarming"), "{after}");
     assert!(after.contains("2 newer below"), "{after}");
 }
+
+#[test]
+fn any_key_closes_help_but_quit_still_quits() {
+    let mut d = common::scene();
+    let t = d.app.now;
+    d.key(t, "?");
+    assert!(d.app.ui.help);
+    d.key(t, "x"); // unbound
+    assert!(!d.app.ui.help);
+    d.key(t, "?");
+    d.key(t, "tab"); // bound: closes help, does not move focus
+    assert!(!d.app.ui.help);
+    assert_eq!(d.app.ui.focus, Pane::Vehicles);
+    d.key(t, "?");
+    d.key(t, "q");
+    assert!(d.app.quit);
+}

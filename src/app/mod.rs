@@ -222,11 +222,15 @@ impl App {
                 stats,
             } => self.on_frames(link, frames, stats, &mut fx),
             Event::LinkState { link, state } => self.on_link_state(link, state),
-            Event::Key(key) => {
-                if let Some(action) = self.keymap.lookup(&key) {
-                    self.on_action(action, &mut fx);
+            Event::Key(key) => match self.keymap.lookup(&key) {
+                Some(action) => self.on_action(action, &mut fx),
+                // Any key closes help, bound or not.
+                None if self.ui.help => {
+                    self.ui.help = false;
+                    self.dirty = true;
                 }
-            }
+                None => {}
+            },
             Event::Resize => self.dirty = true,
         }
         fx
