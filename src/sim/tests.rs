@@ -195,7 +195,23 @@ fn prearm_refusal_until_position_then_arm() {
     assert!(hb
         .base_mode
         .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED));
-    assert_eq!(hb.system_status, MavState::MAV_STATE_ACTIVE);
+    assert_eq!(
+        hb.system_status,
+        MavState::MAV_STATE_STANDBY,
+        "armed on the ground"
+    );
+    g.set_mode(mode::GUIDED);
+    g.takeoff(5.0);
+    g.run_for(1_000_000);
+    let hb = g.frames.iter().rev().find_map(|f| match &f.message {
+        Some(MavMessage::HEARTBEAT(h)) => Some(h.clone()),
+        _ => None,
+    });
+    assert_eq!(
+        hb.unwrap().system_status,
+        MavState::MAV_STATE_ACTIVE,
+        "flying"
+    );
 }
 
 #[test]
