@@ -232,6 +232,43 @@ mod tests {
         server.abort();
     }
 
+    /// Read until a heartbeat from each of two vehicles arrived; returns their sysids.
+    async fn read_heartbeats(s: &mut tokio::net::TcpStream) -> std::collections::BTreeSet<u8> {
+        let mut parser = crate::link::FrameParser::new();
+        let mut buf = vec![0u8; 4096];
+        let mut seen = std::collections::BTreeSet::new();
+        while seen.len() < 2 {
+            let n = s.read(&mut buf).await.unwrap();
+            assert!(n > 0, "server closed");
+            parser.push(&buf[..n], |f| {
+                if f.msgid == 0 {
+                    seen.insert(f.sysid);
+                }
+            });
+        }
+        seen
+    }
+
+    #[tokio::test]
+    async fn every_tcp_client_gets_every_byte() {
+        let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let addr = listener.local_addr().unwrap();
+        let server = tokio::spawn(serve_tcp(
+            listener,
+            SimConfig::from_query("vehicles=2").unwrap(),
+        ));
+        let mut a = tokio::net::TcpStream::connect(addr).await.unwrap();
+        let mut b = tokio::net::TcpStream::connect(addr).await.unwrap();
+        let got = tokio::time::timeout(Duration::from_secs(5), async {
+            (read_heartbeats(&mut a).await, read_heartbeats(&mut b).await)
+        })
+        .await
+        .expect("heartbeats within 5 s");
+        let want: std::collections::BTreeSet<u8> = [1, 2].into();
+        assert_eq!(got, (want.clone(), want));
+        server.abort();
+    }
+
     #[tokio::test]
     async fn unsupported_spec_is_an_error() {
         let e = serve(
