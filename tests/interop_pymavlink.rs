@@ -21,6 +21,7 @@ fn source(report: &Value, sysid: u64) -> &Value {
 
 #[test]
 fn pymavlink_sequence_pattern_and_our_heartbeat() {
+    let python = common::python(); // before the clock starts: it may have to make the venv
     let port = common::free_udp_port();
     let mavterm = Command::new(common::mavterm())
         .args([
@@ -37,7 +38,7 @@ fn pymavlink_sequence_pattern_and_our_heartbeat() {
         .spawn()
         .unwrap();
     std::thread::sleep(Duration::from_millis(700));
-    let py = Command::new(common::python())
+    let py = Command::new(python)
         .arg(common::test_path("py/udp_pattern.py"))
         .arg(port.to_string())
         .output()

@@ -217,7 +217,7 @@ pub fn encode(params: &[PckParam], total_params: u16, read_size: usize) -> Vec<u
         }
         let suffix = &name[common..];
         let vsize = p.ptype.size();
-        let mut packed_len = 2 + suffix.len() + vsize * if p.default.is_some() { 2 } else { 1 };
+        let packed_len = 2 + suffix.len() + vsize * if p.default.is_some() { 2 } else { 1 };
         // ArduPilot's rule: if the entry would end just past a block boundary by less than one
         // value, pad so the value starts in the next block.
         if vsize > 1 {
@@ -225,10 +225,8 @@ pub fn encode(params: &[PckParam], total_params: u16, read_size: usize) -> Vec<u
             if ofs_mod > 0 && ofs_mod < vsize {
                 let pad = vsize - ofs_mod;
                 out.extend(std::iter::repeat_n(0u8, pad));
-                packed_len += pad;
             }
         }
-        let _ = packed_len;
         let flags = if p.default.is_some() { 0x10 } else { 0 };
         out.push(p.ptype as u8 | flags);
         out.push(common as u8 | (((suffix.len() - 1) as u8) << 4));

@@ -117,7 +117,8 @@ impl SimVehicle {
             mavtype: MavType::MAV_TYPE_QUADROTOR,
             autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
             base_mode: base,
-            system_status: if self.armed {
+            // As the real ArduCopter capture shows: STANDBY until airborne, even when armed.
+            system_status: if self.armed && !self.landed {
                 MavState::MAV_STATE_ACTIVE
             } else {
                 MavState::MAV_STATE_STANDBY

@@ -195,7 +195,23 @@ fn prearm_refusal_until_position_then_arm() {
     assert!(hb
         .base_mode
         .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED));
-    assert_eq!(hb.system_status, MavState::MAV_STATE_ACTIVE);
+    assert_eq!(
+        hb.system_status,
+        MavState::MAV_STATE_STANDBY,
+        "armed on the ground"
+    );
+    g.set_mode(mode::GUIDED);
+    g.takeoff(5.0);
+    g.run_for(1_000_000);
+    let hb = g.frames.iter().rev().find_map(|f| match &f.message {
+        Some(MavMessage::HEARTBEAT(h)) => Some(h.clone()),
+        _ => None,
+    });
+    assert_eq!(
+        hb.unwrap().system_status,
+        MavState::MAV_STATE_ACTIVE,
+        "flying"
+    );
 }
 
 #[test]
@@ -818,4 +834,103 @@ fn mavftp_download_through_the_sim() {
             })
             .collect::<Vec<_>>()
     );
+}
+
+#[test]
+fn command_int_and_set_mode_message() {
+    let mut g = Gcs::new("");
+    g.run_until(vehicle::EKF_GPS_AT + 100_000);
+    #[allow(deprecated)]
+    g.send(MavMessage::SET_MODE(SET_MODE_DATA {
+        custom_mode: mode::GUIDED,
+        target_system: 1,
+        base_mode: MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+    }));
+    g.run_for(20_000);
+    assert_eq!(
+        g.last_ack(),
+        (MavCmd::MAV_CMD_DO_SET_MODE, MAV_RESULT_ACCEPTED)
+    );
+    assert_eq!(g.v().custom_mode(), mode::GUIDED);
+    g.arm(false);
+    g.send(MavMessage::COMMAND_INT(COMMAND_INT_DATA {
+        command: MavCmd::MAV_CMD_NAV_TAKEOFF,
+        z: 3.0,
+        target_system: 1,
+        target_component: 1,
+        ..Default::default()
+    }));
+    g.run_for(20_000);
+    assert_eq!(
+        g.last_ack(),
+        (MavCmd::MAV_CMD_NAV_TAKEOFF, MAV_RESULT_ACCEPTED)
+    );
+    g.run_for(4_000_000);
+    assert!((g.v().relative_alt_m() - 3.0).abs() < 0.01);
+    // Addressed to another system: ignored, no ACK.
+    let n = g.acks().len();
+    g.send(MavMessage::COMMAND_INT(COMMAND_INT_DATA {
+        command: MavCmd::MAV_CMD_NAV_LAND,
+        target_system: 9,
+        target_component: 1,
+        ..Default::default()
+    }));
+    g.run_for(20_000);
+    assert_eq!(g.acks().len(), n);
+    assert_eq!(g.v().custom_mode(), mode::GUIDED);
+}
+
+#[test]
+fn gps_fix_comes_after_four_seconds() {
+    let mut g = Gcs::new("");
+    assert_eq!(
+        g.command(
+            MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+            [24.0, 500_000.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            0
+        ),
+        MAV_RESULT_ACCEPTED
+    );
+    g.run_until(6_000_000);
+    let fixes: Vec<(u64, GpsFixType)> = g
+        .frames
+        .iter()
+        .filter_map(|f| match &f.message {
+            Some(MavMessage::GPS_RAW_INT(m)) => Some((m.time_usec, m.fix_type)),
+            _ => None,
+        })
+        .collect();
+    assert!(fixes.len() >= 11);
+    for (t, fix) in fixes {
+        let want = if t < vehicle::GPS_FIX_AT {
+            GpsFixType::GPS_FIX_TYPE_NO_GPS
+        } else {
+            GpsFixType::GPS_FIX_TYPE_3D_FIX
+        };
+        assert_eq!(fix, want, "at {t}");
+    }
+}
+
+#[test]
+fn inbound_impairment_drops_gcs_frames() {
+    let mut g = Gcs::new("loss=0.5&impair_in=1&seed=4");
+    g.run_until(100_000);
+    for _ in 0..200 {
+        g.send(MavMessage::PARAM_REQUEST_READ(PARAM_REQUEST_READ_DATA {
+            param_index: 0,
+            target_system: 1,
+            target_component: 1,
+            param_id: "".into(),
+        }));
+    }
+    g.run_for(100_000);
+    let t = g.sim.truth().get(1);
+    let replies = g.frames.iter().filter(|f| f.msgid == 22).count() as u64;
+    assert!((60..140).contains(&t.inbound_dropped), "{t:?}");
+    // Only requests that got through were answered (and some answers were lost on the way out).
+    assert!(
+        replies > 0 && replies <= 200 - t.inbound_dropped,
+        "{replies} {t:?}"
+    );
+    assert_eq!(g.frames.len() as u64 + t.dropped, t.generated);
 }

@@ -3,20 +3,79 @@
 
 use std::path::PathBuf;
 
-/// The Python with pymavlink: `$MAVTERM_PYTHON`, else the venv `.ci/run` makes under target/.
-/// Missing Python is a failure with instructions, never a silent skip.
+/// The Python with pymavlink: `$MAVTERM_PYTHON`, else a venv under target/ that is made (with
+/// pymavlink from PyPI) the first time a test needs it, so `cargo test` works on a fresh clone.
 pub fn python() -> PathBuf {
     if let Some(p) = std::env::var_os("MAVTERM_PYTHON") {
         return PathBuf::from(p);
     }
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/venv/bin/python");
-    assert!(
-        p.exists(),
-        "{} not found: run `bash .ci/run` once (it creates the venv with pymavlink), \
-         or set MAVTERM_PYTHON to a Python that has pymavlink",
-        p.display()
-    );
-    p
+    static VENV: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    VENV.get_or_init(ensure_venv).clone()
+}
+
+fn ensure_venv() -> PathBuf {
+    let target = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target");
+    let py = target.join("venv/bin/python");
+    let ok = |py: &PathBuf| {
+        py.exists()
+            && std::process::Command::new(py)
+                .args(["-c", "import pymavlink"])
+                .output()
+                .map(|o| o.status.success())
+                .unwrap_or(false)
+    };
+    if ok(&py) {
+        return py;
+    }
+    // Test binaries run in parallel: one makes the venv, the others wait for it.
+    std::fs::create_dir_all(&target).unwrap();
+    let lock = target.join("venv.lock");
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(300);
+    loop {
+        match std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&lock)
+        {
+            Ok(_) => break,
+            Err(_) if std::time::Instant::now() < deadline => {
+                std::thread::sleep(std::time::Duration::from_millis(200));
+                if ok(&py) {
+                    return py;
+                }
+            }
+            Err(e) => panic!("waiting for {}: {e}", lock.display()),
+        }
+    }
+    let run = |args: &[&str]| {
+        let st = std::process::Command::new(args[0])
+            .args(&args[1..])
+            .status()
+            .unwrap_or_else(|e| panic!("{args:?}: {e}"));
+        assert!(
+            st.success(),
+            "{args:?} failed: install python3 with venv support, or set MAVTERM_PYTHON"
+        );
+    };
+    let venv = target.join("venv");
+    let result = std::panic::catch_unwind(|| {
+        if !py.exists() {
+            run(&["python3", "-m", "venv", venv.to_str().unwrap()]);
+        }
+        let pip = venv.join("bin/pip");
+        run(&[
+            pip.to_str().unwrap(),
+            "install",
+            "--quiet",
+            "--disable-pip-version-check",
+            "pymavlink==2.4.50",
+        ]);
+    });
+    let _ = std::fs::remove_file(&lock);
+    if let Err(e) = result {
+        std::panic::resume_unwind(e);
+    }
+    py
 }
 
 /// A path under tests/.
