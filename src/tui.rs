@@ -350,6 +350,34 @@ pub async fn run_terminal(
 mod tests {
     use super::*;
 
+    #[test]
+    fn recording_is_a_replayable_script() {
+        use crate::headless::script::{Script, Step};
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("keys.txt");
+        let mut r = Recorder::create(&path).unwrap();
+        let keys = ["tab", "ctrl-p", "#", "space", "?", "backtab"];
+        for (i, k) in keys.iter().enumerate() {
+            r.key(520_000 + i as u64 * 1_000, k.parse().unwrap())
+                .unwrap();
+        }
+        drop(r);
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(text.contains("\n0.52 key tab\n"), "{text}");
+        let script = Script::load(&path).unwrap();
+        let back: Vec<(Micros, Step)> = script.steps.into_iter().map(|s| (s.t, s.step)).collect();
+        let want: Vec<(Micros, Step)> = keys
+            .iter()
+            .enumerate()
+            .map(|(i, k)| (520_000 + i as u64 * 1_000, Step::Key(k.parse().unwrap())))
+            .collect();
+        assert_eq!(back, want);
+        assert!(matches!(
+            Recorder::create(&dir.path().join("no/such/dir.txt")),
+            Err(TuiError::Record { .. })
+        ));
+    }
+
     fn ev(code: ct::KeyCode, m: KeyModifiers) -> ct::KeyEvent {
         ct::KeyEvent::new(code, m)
     }

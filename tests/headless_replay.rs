@@ -1,7 +1,7 @@
 //! Headless replay against the simulated vehicle on the virtual clock.
 
 use mavterm::app::{AppConfig, Pane};
-use mavterm::headless::replay::{run_script, ReplayOptions};
+use mavterm::headless::replay::{run_script, run_script_on_specs, ReplayError, ReplayOptions};
 use mavterm::headless::runner::VirtualRunner;
 use mavterm::headless::script::Script;
 use mavterm::link::LinkSpec;
@@ -105,4 +105,32 @@ fn quitting_early_is_not_a_complete_run() {
     let mut r = runner("seed=1");
     let outcome = run_script(&script, &mut r, &ReplayOptions::default(), &mut Vec::new()).unwrap();
     assert!(outcome.completed);
+}
+
+#[test]
+fn replay_on_specs_builds_the_runner_and_refuses_real_links() {
+    let script = Script::parse("1 key tab\n2 snapshot s\n").unwrap();
+    let specs: Vec<LinkSpec> = vec!["sim://?seed=2".parse().unwrap()];
+    let mut out = Vec::new();
+    let (outcome, app) = run_script_on_specs(
+        &script,
+        &specs,
+        AppConfig::default(),
+        &ReplayOptions::default(),
+        &mut out,
+    )
+    .unwrap();
+    assert!(outcome.completed);
+    assert_eq!(app.ui.focus, Pane::Links);
+    assert_eq!(app.vehicles.len(), 1);
+    let udp: Vec<LinkSpec> = vec!["udpin:0.0.0.0:14550".parse().unwrap()];
+    let e = run_script_on_specs(
+        &script,
+        &udp,
+        AppConfig::default(),
+        &ReplayOptions::default(),
+        &mut out,
+    )
+    .unwrap_err();
+    assert!(matches!(e, ReplayError::Runner(_)), "{e}");
 }

@@ -8,10 +8,12 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use super::runner::VirtualRunner;
+use super::runner::{RunnerError, VirtualRunner};
 use super::script::{format_secs, Script, Step};
+use crate::app::{App, AppConfig};
 use crate::clock::Micros;
 use crate::keymap::{Key, KeyCode};
+use crate::link::LinkSpec;
 use crate::ui::{buffer_to_text, render_to_buffer, Theme};
 
 /// Screen size when none is given.
@@ -60,6 +62,8 @@ pub enum ReplayError {
     },
     #[error("writing replay output: {0}")]
     Output(#[from] std::io::Error),
+    #[error("replay links: {0}")]
+    Runner(#[from] RunnerError),
 }
 
 /// The screen as plain text right now.
@@ -140,4 +144,18 @@ pub fn run_script(
     outcome.end = runner.now();
     out.flush()?;
     Ok(outcome)
+}
+
+/// Convenience for the CLI: build a [`VirtualRunner`] on `specs` (sim:// and tlog: only) and run
+/// `script` on it; returns the outcome and the final state (for a report).
+pub fn run_script_on_specs(
+    script: &Script,
+    specs: &[LinkSpec],
+    cfg: AppConfig,
+    opts: &ReplayOptions,
+    out: &mut dyn Write,
+) -> Result<(ReplayOutcome, App), ReplayError> {
+    let mut runner = VirtualRunner::from_specs(specs, cfg)?;
+    let outcome = run_script(script, &mut runner, opts, out)?;
+    Ok((outcome, runner.app))
 }
