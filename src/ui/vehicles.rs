@@ -2,7 +2,7 @@
 //!
 //! The target is marked `>`; lost components are dimmed with "lost Ns ago"; a sysid clash or a
 //! component using our GCS sysid is flagged in red (and in words, for NO_COLOR). Narrow screens
-//! drop the autopilot and link columns.
+//! drop the autopilot column and abbreviate flags.
 
 use ratatui::layout::{Constraint, Rect};
 use ratatui::style::Style;
@@ -31,7 +31,7 @@ pub fn age_text(v: &Vehicle, now: crate::clock::Micros) -> String {
 pub fn flags_text(v: &Vehicle, wide: bool) -> String {
     let mut f = Vec::new();
     if v.uses_gcs_sysid {
-        f.push("GCS SYSID!".to_string());
+        f.push(if wide { "GCS SYSID!" } else { "GCSID!" }.to_string());
     }
     if let Some(c) = &v.conflict {
         f.push(if wide {
@@ -76,10 +76,8 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         Constraint::Length(12),
         Constraint::Length(4),
     ]);
-    if wide {
-        header.push("LINKS");
-        widths.push(Constraint::Length(5));
-    }
+    header.push(if wide { "LINKS" } else { "LINK" });
+    widths.push(Constraint::Length(if wide { 5 } else { 4 }));
     header.push("FLAGS");
     widths.push(Constraint::Min(5));
 
@@ -114,10 +112,8 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             Cell::from(age_text(v, app.now)),
             Cell::from(format!("{:.1}", v.heartbeat_hz())),
         ]);
-        if wide {
-            let links: Vec<String> = v.links.iter().map(|l| l.to_string()).collect();
-            cells.push(Cell::from(links.join(",")));
-        }
+        let links: Vec<String> = v.links.iter().map(|l| l.to_string()).collect();
+        cells.push(Cell::from(links.join(",")));
         cells.push(Cell::from(Span::styled(flags_text(v, wide), theme.alert())));
         let style = if is_target && !v.lost {
             base.add_modifier(ratatui::style::Modifier::BOLD)
