@@ -201,3 +201,20 @@ fn any_key_closes_help_but_quit_still_quits() {
     d.key(t, "q");
     assert!(d.app.quit);
 }
+
+#[test]
+fn home_and_end_jump_to_either_end() {
+    let mut d = common::scene();
+    let t = d.app.now;
+    d.key(t, "end");
+    assert_eq!(d.app.ui.vehicle_sel, d.app.vehicles.len() - 1);
+    d.key(t, "home");
+    assert_eq!(d.app.ui.vehicle_sel, 0);
+    d.app.ui.focus = Pane::Messages;
+    d.key(t, "home"); // oldest message
+    assert_eq!(d.app.ui.msg_scroll, d.app.notices.len() - 1);
+    let text = pane(&d.app, 80, 5, ui::messages::render);
+    assert!(text.contains("link udpin:0.0.0.0:14550 up"), "{text}");
+    d.key(t, "end");
+    assert_eq!(d.app.ui.msg_scroll, 0);
+}
