@@ -60,7 +60,7 @@ fn child_panics() {
     run_child(PanicClock(RealClock::new(), AtomicU32::new(0), 5));
 }
 
-/// Run `child` under `script`, typing `input` after a moment; returns (success, output).
+/// Run `child` under `script`, typing `input` until it exits; returns (success, output).
 fn under_pty(child: &str, input: &[u8]) -> (bool, String) {
     let exe = std::env::current_exe().unwrap();
     // The pty has no size until told; 0x0 would draw nothing.
@@ -77,13 +77,17 @@ fn under_pty(child: &str, input: &[u8]) -> (bool, String) {
         .spawn()
         .expect("util-linux `script` is needed for the pty tests");
     let mut stdin = p.stdin.take().unwrap();
-    std::thread::sleep(Duration::from_millis(800));
-    stdin.write_all(input).unwrap();
-    stdin.flush().unwrap();
+    // Type `input` every half second until the child exits: a slow machine may not be in raw
+    // mode yet the first time.
     let start = Instant::now();
+    let mut next_type = start + Duration::from_millis(500);
     while p.try_wait().unwrap().is_none() {
-        assert!(start.elapsed() < Duration::from_secs(20), "{child} hung");
-        std::thread::sleep(Duration::from_millis(50));
+        assert!(start.elapsed() < Duration::from_secs(30), "{child} hung");
+        if !input.is_empty() && Instant::now() >= next_type {
+            let _ = stdin.write_all(input).and_then(|()| stdin.flush());
+            next_type += Duration::from_millis(500);
+        }
+        std::thread::sleep(Duration::from_millis(20));
     }
     drop(stdin);
     let out = p.wait_with_output().unwrap();
