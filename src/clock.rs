@@ -13,7 +13,7 @@ pub trait Clock {
 }
 
 /// Wall-clock time since the clock was made.
-#[derive(Debug)]
+#[derive(Debug, Clone, Copy)]
 pub struct RealClock(std::time::Instant);
 
 impl RealClock {

@@ -5,11 +5,19 @@ use std::time::Duration;
 use anyhow::{bail, Context, Result};
 use clap::Parser;
 
-use mavterm::app::AppConfig;
+use mavterm::app::{App, AppConfig, Effect};
 use mavterm::cli::{Cli, Command, ReportFormat};
 use mavterm::clock::SECOND;
+use mavterm::clock::{Clock, RealClock};
+use mavterm::headless::replay::{run_script, ReplayOptions};
 use mavterm::headless::runner::{all_virtual, VirtualRunner};
+use mavterm::headless::script::Script;
+use mavterm::keymap::Keymap;
+use mavterm::link::manager::LinkManager;
+use mavterm::link::transport::LinkIdentity;
 use mavterm::link::LinkSpec;
+use mavterm::tui::{run_terminal, TuiOptions};
+use mavterm::ui::Theme;
 
 fn init_logging(path: Option<&std::path::Path>) -> Result<()> {
     let Some(path) = path else { return Ok(()) };
@@ -74,9 +82,11 @@ fn main() -> Result<()> {
         });
     }
 
+    let keymap = Keymap::load_user(cli.keymap.as_deref())?;
+
     if cli.headless {
-        if cli.input.is_some() {
-            bail!("--input replay is not built in yet");
+        if let Some(input) = &cli.input {
+            return replay(&cli, input, &links, keymap);
         }
         let Some(ReportFormat::Json) = cli.report else {
             bail!("--headless needs --report json or --input FILE");
@@ -96,5 +106,102 @@ fn main() -> Result<()> {
         println!("{}", serde_json::to_string(&app.report())?);
         return Ok(());
     }
-    bail!("the terminal UI is not built in yet; use --headless --report json")
+    if cli.input.is_some() || cli.report.is_some() {
+        bail!("--input and --report need --headless");
+    }
+    rt.block_on(terminal(&cli, &links, keymap))
+}
+
+/// `--headless --input FILE`: replay recorded input on a virtual clock; exit 0 only if the script
+/// ran to its end.
+fn replay(cli: &Cli, input: &std::path::Path, links: &[LinkSpec], keymap: Keymap) -> Result<()> {
+    let script = Script::load(input)?;
+    let mut runner = VirtualRunner::from_specs(links, app_config(cli))?;
+    runner.app.keymap = keymap;
+    if let Some(dir) = &cli.screens {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let opts = ReplayOptions {
+        size: cli.size,
+        screens_dir: cli.screens.clone(),
+        ..ReplayOptions::default()
+    };
+    let stdout = std::io::stdout();
+    let outcome = run_script(&script, &mut runner, &opts, &mut stdout.lock())?;
+    if let Some(ReportFormat::Json) = cli.report {
+        println!("{}", serde_json::to_string(&runner.app.report())?);
+    }
+    if !outcome.completed {
+        bail!(
+            "the script stopped after {} of its steps (the app quit early)",
+            outcome.steps_run
+        );
+    }
+    Ok(())
+}
+
+/// The terminal front end over real links (and `sim://` in real time).
+async fn terminal(cli: &Cli, links: &[LinkSpec], keymap: Keymap) -> Result<()> {
+    let mut cfg = app_config(cli);
+    cfg.links = links.iter().map(|s| s.to_string()).collect();
+    cfg.epoch = chrono::Utc::now();
+    let mut app = App::new(cfg);
+    app.keymap = keymap;
+    let clock = RealClock::new();
+    let mut mgr = LinkManager::start(
+        links,
+        LinkIdentity {
+            sysid: cli.sysid,
+            compid: cli.compid,
+        },
+    );
+    let (ev_tx, ev_rx) = tokio::sync::mpsc::channel(1024);
+    let (fx_tx, mut fx_rx) = tokio::sync::mpsc::unbounded_channel();
+    // The link side: link reports in, the core's sends out.
+    let link_clock = clock;
+    let pump = tokio::spawn(async move {
+        loop {
+            tokio::select! {
+                ev = mgr.next_event() => match ev {
+                    Some(ev) => {
+                        if ev_tx.send((link_clock.now(), ev)).await.is_err() {
+                            break;
+                        }
+                    }
+                    None => break,
+                },
+                fx = fx_rx.recv() => match fx {
+                    Some(fx) => {
+                        for other in mgr.apply(vec![fx]) {
+                            if let Effect::WriteFile { path, contents } = other {
+                                if let Err(e) = write_atomic(&path, &contents) {
+                                    tracing::error!("writing {}: {e}", path.display());
+                                }
+                            }
+                        }
+                    }
+                    None => break,
+                },
+            }
+        }
+    });
+    let opts = TuiOptions {
+        fps: cli.fps,
+        record: cli.record.clone(),
+        theme: Theme::from_env(),
+    };
+    let result = run_terminal(app, ev_rx, fx_tx, clock, opts).await;
+    pump.abort();
+    result?;
+    Ok(())
+}
+
+/// Write a file so that a crash never leaves it half written: temp file, fsync, rename.
+fn write_atomic(path: &std::path::Path, contents: &[u8]) -> std::io::Result<()> {
+    use std::io::Write;
+    let tmp = path.with_extension("tmp~");
+    let mut f = std::fs::File::create(&tmp)?;
+    f.write_all(contents)?;
+    f.sync_all()?;
+    std::fs::rename(&tmp, path)
 }

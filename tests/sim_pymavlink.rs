@@ -51,5 +51,8 @@ fn pymavlink_gcs_against_sim_server() {
         "pymavlink script failed ({}):\n--- stdout\n{stdout}\n--- stderr\n{stderr}",
         out.status
     );
-    assert!(server.0.try_wait().unwrap().is_none(), "server stopped early");
+    assert!(
+        server.0.try_wait().unwrap().is_none(),
+        "server stopped early"
+    );
 }
