@@ -26,13 +26,35 @@ impl LinkState {
     }
 }
 
+/// How soon a repeated frame must follow the original to be a duplicate (radios and routers
+/// repeat within milliseconds).
+pub const DUPLICATE_WINDOW: Micros = 500_000;
+
 /// Statistics for one source (sysid, compid) on one link.
 #[derive(Debug, Clone, Default)]
 pub struct SourceStats {
     pub seq: SeqTracker,
+    /// CRC and time of the last frame heard with each sequence number: the same CRC again within
+    /// [`DUPLICATE_WINDOW`] is a true duplicate; anything else is new content from a sender that
+    /// does not count its sequence (some do not), and must still be read.
+    crcs: Vec<Option<(u16, Micros)>>,
     /// Every frame heard, duplicates included.
     pub frames: u64,
     pub last_heard: Micros,
+}
+
+impl SourceStats {
+    /// Remember `crc` for `seq` at `now`; true if the last frame with that seq was the same
+    /// frame, heard within [`DUPLICATE_WINDOW`].
+    pub fn same_as_before(&mut self, seq: u8, crc: u16, now: Micros) -> bool {
+        if self.crcs.is_empty() {
+            self.crcs = vec![None; 256];
+        }
+        matches!(
+            self.crcs[seq as usize].replace((crc, now)),
+            Some((c, t)) if c == crc && now < t + DUPLICATE_WINDOW
+        )
+    }
 }
 
 /// Frames and bytes per second over the last few whole seconds.
@@ -83,6 +105,8 @@ pub struct LinkStatus {
     pub rate: RateMeter,
     /// Per-source rows shown in the links pane.
     pub expanded: bool,
+    /// The last "down" reason the operator was told of, so retries do not repeat it.
+    pub notified_down: Option<String>,
 }
 
 impl LinkStatus {
@@ -94,6 +118,7 @@ impl LinkStatus {
             sources: BTreeMap::new(),
             rate: RateMeter::default(),
             expanded: false,
+            notified_down: None,
         }
     }
 

@@ -222,6 +222,10 @@ impl App {
                 stats,
             } => self.on_frames(link, frames, stats, &mut fx),
             Event::LinkState { link, state } => self.on_link_state(link, state),
+            Event::Key(key) if key == Key::ctrl('c') => {
+                // Ctrl-C always quits, whatever the keymap says: raw mode has turned off SIGINT.
+                self.on_action(Action::Quit, &mut fx);
+            }
             Event::Key(key) => match self.keymap.lookup(&key) {
                 Some(action) => self.on_action(action, &mut fx),
                 // Any key closes help, bound or not.
@@ -262,9 +266,17 @@ impl App {
         let spec = l.spec.clone();
         l.state = state.clone();
         match state {
-            LinkState::Up => self.notice(SEV_INFO, None, format!("link {spec} up")),
+            LinkState::Up => {
+                l.notified_down = None;
+                self.notice(SEV_INFO, None, format!("link {spec} up"))
+            }
             LinkState::Down(reason) => {
-                self.notice(SEV_WARNING, None, format!("link {spec} down: {reason}"))
+                // A link retried with the same failure is told of once.
+                if l.notified_down.as_ref() != Some(&reason) {
+                    l.notified_down = Some(reason.clone());
+                    self.notice(SEV_WARNING, None, format!("link {spec} down: {reason}"))
+                }
+                self.dirty = true;
             }
             LinkState::Connecting => self.dirty = true,
         }
@@ -289,21 +301,30 @@ impl App {
         self.dirty = true;
         for frame in frames {
             let key = (frame.sysid, frame.compid);
-            let outcome = {
+            let (outcome, repeat) = {
                 let src = self.links[link].sources.entry(key).or_default();
                 src.frames += 1;
                 src.last_heard = now;
-                src.seq.record(frame.seq, now)
+                let repeat = src.same_as_before(frame.seq, frame.crc(), now);
+                (src.seq.record(frame.seq, now), repeat)
             };
             if outcome == SeqOutcome::Restart {
                 let ev = self.vehicles.on_sequence_restart(key);
                 self.on_vehicle_events(ev, fx);
             }
-            if outcome == SeqOutcome::Duplicate {
-                continue; // a duplicate carries nothing new
+            if outcome == SeqOutcome::Duplicate && repeat {
+                continue; // the same frame again carries nothing new
             }
-            let Some(msg) = &frame.message else {
-                continue;
+            let fallback;
+            let msg = match &frame.message {
+                Some(m) => m,
+                None => match heartbeat_fallback(&frame) {
+                    Some(m) => {
+                        fallback = m;
+                        &fallback
+                    }
+                    None => continue,
+                },
             };
             match msg {
                 MavMessage::HEARTBEAT(hb) => {
@@ -497,6 +518,29 @@ impl App {
             }
         }
     }
+}
+
+/// A HEARTBEAT whose payload the dialect refused (an enum value newer than our dialect, from a
+/// newer or third-party stack): read its nine bytes by hand, so the component is still listed.
+/// Unknown type/autopilot/state become GENERIC/GENERIC/UNINIT.
+fn heartbeat_fallback(frame: &Frame) -> Option<MavMessage> {
+    use dialect::{MavAutopilot, MavModeFlag, MavState, MavType};
+    use num_traits::FromPrimitive;
+    if frame.msgid != 0 {
+        return None;
+    }
+    let mut p = [0u8; 9];
+    let payload = frame.payload();
+    let n = payload.len().min(9);
+    p[..n].copy_from_slice(&payload[..n]);
+    Some(MavMessage::HEARTBEAT(dialect::HEARTBEAT_DATA {
+        custom_mode: u32::from_le_bytes([p[0], p[1], p[2], p[3]]),
+        mavtype: MavType::from_u8(p[4]).unwrap_or(MavType::MAV_TYPE_GENERIC),
+        autopilot: MavAutopilot::from_u8(p[5]).unwrap_or(MavAutopilot::MAV_AUTOPILOT_GENERIC),
+        base_mode: MavModeFlag::from_bits_truncate(p[6]),
+        system_status: MavState::from_u8(p[7]).unwrap_or(MavState::MAV_STATE_UNINIT),
+        mavlink_version: p[8],
+    }))
 }
 
 /// Add parser counter increases to a running total.

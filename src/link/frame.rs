@@ -117,6 +117,12 @@ impl Frame {
         }
     }
 
+    /// The frame's CRC as sent (two bytes before any signature).
+    pub fn crc(&self) -> u16 {
+        let end = self.raw.len() - if self.is_signed() { SIGNATURE_LEN } else { 0 };
+        u16::from_le_bytes([self.raw[end - 2], self.raw[end - 1]])
+    }
+
     /// Name of the message, or `UNKNOWN_<id>` for ids the dialect does not know.
     pub fn name(&self) -> String {
         match &self.message {

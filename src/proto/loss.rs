@@ -122,10 +122,20 @@ impl SeqTracker {
             Some(last) => {
                 let d = seq.wrapping_sub(last);
                 let back = last.wrapping_sub(seq);
-                if d == 0 && silence < RESTART_SILENCE {
+                if silence >= RESTART_SILENCE && (d == 0 || seq < last) {
+                    // Backward (or same) after silence: the sender restarted.
+                    self.restarts += 1;
+                    self.first = Some(seq);
+                    self.seen = [0; 4];
+                    self.set_seen(seq, true);
+                    self.last = Some(seq);
+                    self.received += 1;
+                    self.bucket(now).received += 1;
+                    SeqOutcome::Restart
+                } else if d == 0 {
                     self.duplicates += 1;
                     SeqOutcome::Duplicate
-                } else if d != 0 && back <= REORDER_WINDOW {
+                } else if back <= REORDER_WINDOW {
                     if self.is_seen(seq) {
                         self.duplicates += 1;
                         SeqOutcome::Duplicate
@@ -141,16 +151,6 @@ impl SeqTracker {
                         b.lost -= 1;
                         SeqOutcome::Reordered
                     }
-                } else if silence >= RESTART_SILENCE && (d == 0 || seq < last) {
-                    // Backward (or same) after silence: the sender restarted.
-                    self.restarts += 1;
-                    self.first = Some(seq);
-                    self.seen = [0; 4];
-                    self.set_seen(seq, true);
-                    self.last = Some(seq);
-                    self.received += 1;
-                    self.bucket(now).received += 1;
-                    SeqOutcome::Restart
                 } else {
                     // Forward by d: d - 1 lost in between.
                     let mut s = last;
@@ -304,6 +304,21 @@ mod tests {
             t.record(s, t0 + i as u64 * 10_000);
         }
         assert_eq!((t.lost, t.restarts, t.received), (0, 1, 110));
+    }
+
+    #[test]
+    fn reboot_to_a_nearby_lower_seq_is_a_restart_not_a_reorder() {
+        let mut t = SeqTracker::new();
+        for (i, s) in (0..10u8).enumerate() {
+            t.record(s, i as u64 * 10_000);
+        }
+        // Rebooted after 3 s: starts again at 0, only 9 below the last seq.
+        assert_eq!(t.record(0, 3 * SECOND), SeqOutcome::Restart);
+        assert_eq!(t.record(1, 3 * SECOND + 10_000), SeqOutcome::InOrder);
+        assert_eq!(
+            (t.lost, t.reordered, t.duplicates, t.restarts),
+            (0, 0, 0, 1)
+        );
     }
 
     #[test]

@@ -14,6 +14,9 @@ use crate::proto::modes;
 /// Default time without a heartbeat after which a component is lost.
 pub const DEFAULT_LOST_TIMEOUT: Micros = 5 * SECOND;
 
+/// Heartbeats closer together than this are copies of one (e.g. heard on two links).
+pub const HEARTBEAT_COPY_WINDOW: Micros = 100_000;
+
 /// (sysid, compid)
 pub type VehicleKey = (u8, u8);
 
@@ -223,10 +226,17 @@ impl Registry {
                 v.last_heard = now;
                 v.heartbeats += 1;
                 v.links.insert(link);
-                if v.hb_times.len() == 8 {
-                    v.hb_times.pop_front();
+                // The same heartbeat heard again on a second link is not a second heartbeat.
+                let copy = v
+                    .hb_times
+                    .back()
+                    .is_some_and(|&t| now < t + HEARTBEAT_COPY_WINDOW);
+                if !copy {
+                    if v.hb_times.len() == 8 {
+                        v.hb_times.pop_front();
+                    }
+                    v.hb_times.push_back(now);
                 }
-                v.hb_times.push_back(now);
             }
         }
         events
@@ -237,7 +247,8 @@ impl Registry {
         let Some(v) = self.vehicles.get_mut(&key) else {
             return Vec::new();
         };
-        let rebooted = matches!(v.last_boot_ms, Some(prev) if time_boot_ms + 1000 < prev);
+        let rebooted =
+            matches!(v.last_boot_ms, Some(prev) if time_boot_ms < prev.saturating_sub(1000));
         v.last_boot_ms = Some(time_boot_ms);
         if rebooted {
             v.reboots += 1;
@@ -355,6 +366,36 @@ mod tests {
         let ev = r.on_heartbeat(1, (1, 1), &plane, Version::V2, 1);
         assert!(matches!(&ev[0], VehicleEvent::Conflict((1, 1), d) if d.contains("FIXED_WING")));
         assert!(r.get((1, 1)).unwrap().conflict.is_some());
+    }
+
+    #[test]
+    fn heartbeat_rate_is_not_doubled_by_a_second_link() {
+        let mut r = Registry::new((255, 190), DEFAULT_LOST_TIMEOUT);
+        for i in 0..5 {
+            r.on_heartbeat(0, (1, 1), &copter(false, 0), Version::V2, i * SECOND);
+            r.on_heartbeat(
+                1,
+                (1, 1),
+                &copter(false, 0),
+                Version::V2,
+                i * SECOND + 20_000,
+            );
+        }
+        let v = r.get((1, 1)).unwrap();
+        assert!(
+            (v.heartbeat_hz() - 1.0).abs() < 1e-9,
+            "{}",
+            v.heartbeat_hz()
+        );
+        assert_eq!(v.links.len(), 2);
+    }
+
+    #[test]
+    fn boot_time_near_the_top_of_u32_does_not_overflow() {
+        let mut r = Registry::new((255, 190), DEFAULT_LOST_TIMEOUT);
+        r.on_heartbeat(0, (1, 1), &copter(false, 0), Version::V2, 0);
+        assert!(r.on_system_time((1, 1), u32::MAX - 10).is_empty());
+        assert!(r.on_system_time((1, 1), u32::MAX).is_empty());
     }
 
     #[test]
