@@ -29,7 +29,7 @@ pub struct Cli {
     pub compid: u8,
 
     /// Seconds without a heartbeat before a vehicle is shown lost.
-    #[arg(long, default_value_t = 5.0, value_name = "SECONDS")]
+    #[arg(long, default_value_t = 5.0, value_name = "SECONDS", value_parser = parse_duration)]
     pub lost_timeout: f64,
 
     /// Run without a terminal.
@@ -37,7 +37,7 @@ pub struct Cli {
     pub headless: bool,
 
     /// Headless: how long to run before reporting.
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(long, value_name = "SECONDS", value_parser = parse_duration)]
     pub duration: Option<f64>,
 
     /// Headless: print a report at the end.
@@ -96,6 +96,16 @@ pub enum ReportFormat {
 
 fn parse_spec(s: &str) -> Result<LinkSpec, String> {
     s.parse::<LinkSpec>().map_err(|e| e.to_string())
+}
+
+/// Seconds: a finite number from 0 to a year.
+fn parse_duration(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && (0.0..=31_536_000.0).contains(&v) => Ok(v),
+        _ => Err(format!(
+            "`{s}` is not a number of seconds from 0 to 31536000"
+        )),
+    }
 }
 
 fn parse_size(s: &str) -> Result<(u16, u16), String> {

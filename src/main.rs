@@ -66,10 +66,12 @@ fn main() -> Result<()> {
         options,
     }) = &cli.command
     {
-        let mut cfg = mavterm::sim::SimConfig::from_query(options)?;
-        if let Some(n) = vehicles {
-            cfg.vehicles = *n;
-        }
+        // --vehicles is the query's `vehicles`, with the same checks.
+        let query = match vehicles {
+            Some(n) => format!("{options}&vehicles={n}"),
+            None => options.clone(),
+        };
+        let cfg = mavterm::sim::SimConfig::from_query(&query)?;
         eprintln!(
             "mavterm sim: serving {} vehicle(s) on {listen}; Ctrl-C to stop",
             cfg.vehicles

@@ -147,12 +147,23 @@ impl TerminalGuard {
         {
             let state = Arc::clone(&state);
             let prev = Arc::clone(&prev_hook);
+            let ui_thread = std::thread::current().id();
             std::panic::set_hook(Box::new(move |info| {
                 // try_lock: a panic while the state is held must not deadlock the hook.
-                if let Ok(mut s) = state.try_lock() {
-                    let _ = s.restore();
-                }
+                let restored = match state.try_lock() {
+                    Ok(mut s) => {
+                        let was_active = s.active;
+                        let _ = s.restore();
+                        was_active
+                    }
+                    Err(_) => false,
+                };
                 prev(info);
+                // A panic on another thread (a link task) would leave the UI drawing on a
+                // terminal we just gave back: end the program instead, with the message shown.
+                if restored && std::thread::current().id() != ui_thread {
+                    std::process::exit(101);
+                }
             }));
         }
         let guard = TerminalGuard { state, prev_hook };

@@ -338,9 +338,11 @@ async fn tcp_server(
         .map_err(|e| format!("listen {addr}:{port}: {e}"))?;
     *backoff = BACKOFF_START;
     ingest.state(LinkState::Up);
-    // Each client has its own parser (their byte streams must not interleave); readers report
-    // counter increases to the shared event channel under the link's id.
-    let mut writers: Vec<tokio::net::tcp::OwnedWriteHalf> = Vec::new();
+    // Each client has its own parser (their byte streams must not interleave) and its own task,
+    // which reads, and writes what it is handed through a bounded queue: a stalled client loses
+    // its own frames instead of holding up the others. The JoinSet ends them with the link.
+    let mut clients: tokio::task::JoinSet<()> = tokio::task::JoinSet::new();
+    let mut writers: Vec<mpsc::Sender<std::sync::Arc<Vec<u8>>>> = Vec::new();
     let (totals_tx, mut totals_rx) = mpsc::unbounded_channel::<ParserStats>();
     let mut totals = ParserStats::default();
     loop {
@@ -349,20 +351,10 @@ async fn tcp_server(
                 Ok((stream, peer)) => {
                     let _ = stream.set_nodelay(true);
                     tracing::info!(%peer, "tcp client connected");
-                    let (mut rd, wr) = stream.into_split();
-                    writers.push(wr);
-                    let mut client = Ingest::new(ingest.id, ingest.events.clone());
-                    let totals_tx = totals_tx.clone();
-                    tokio::spawn(async move {
-                        let mut buf = vec![0u8; 4096];
-                        let mut dummy_tx = LinkTx::new(0, 0);
-                        while let Ok(n) = rd.read(&mut buf).await {
-                            if n == 0 { break; }
-                            let before = *client.parser.stats();
-                            client.feed(&buf[..n], false, &mut dummy_tx);
-                            let _ = totals_tx.send(stats_delta(client.parser.stats(), &before));
-                        }
-                    });
+                    let (wtx, wrx) = mpsc::channel(CLIENT_QUEUE);
+                    writers.push(wtx);
+                    let client = Ingest::new(ingest.id, ingest.events.clone());
+                    clients.spawn(serve_client(stream, client, wrx, totals_tx.clone()));
                 }
                 Err(e) => tracing::warn!("accept: {e}"),
             },
@@ -370,19 +362,54 @@ async fn tcp_server(
                 add_stats(&mut totals, &d);
                 tx.observe(&totals);
             }
+            Some(_) = clients.join_next(), if !clients.is_empty() => {}
             m = out.recv() => match m {
                 Some(msg) => {
+                    writers.retain(|w| !w.is_closed());
                     if writers.is_empty() { continue; }
-                    let bytes = tx.encode(&msg);
-                    let mut alive = Vec::with_capacity(writers.len());
-                    for mut w in writers.drain(..) {
-                        if w.write_all(&bytes).await.is_ok() {
-                            alive.push(w);
-                        }
+                    let bytes = std::sync::Arc::new(tx.encode(&msg));
+                    for w in &writers {
+                        // Full queue: this client is not reading; drop the frame for it alone.
+                        let _ = w.try_send(bytes.clone());
                     }
-                    writers = alive;
                 }
                 None => return Ok(()),
+            },
+        }
+    }
+}
+
+/// Frames a `tcpin` client may have waiting before its frames are dropped.
+const CLIENT_QUEUE: usize = 256;
+
+/// One `tcpin` client: read and frame its bytes; write what the link sends.
+async fn serve_client(
+    stream: TcpStream,
+    mut client: Ingest,
+    mut out: mpsc::Receiver<std::sync::Arc<Vec<u8>>>,
+    totals: mpsc::UnboundedSender<ParserStats>,
+) {
+    let (mut rd, mut wr) = stream.into_split();
+    let mut buf = vec![0u8; 4096];
+    // Clients' own versions are not tracked: the link's sender decides for all of them.
+    let mut unused_tx = LinkTx::new(0, 0);
+    loop {
+        tokio::select! {
+            r = rd.read(&mut buf) => match r {
+                Ok(0) | Err(_) => return,
+                Ok(n) => {
+                    let before = *client.parser.stats();
+                    client.feed(&buf[..n], false, &mut unused_tx);
+                    let _ = totals.send(stats_delta(client.parser.stats(), &before));
+                }
+            },
+            m = out.recv() => match m {
+                Some(bytes) => {
+                    if wr.write_all(&bytes).await.is_err() {
+                        return;
+                    }
+                }
+                None => return,
             },
         }
     }

@@ -119,7 +119,7 @@ impl Impairer {
     /// Radio queue: frames leave one after another at `baud` (10 bits per byte, as on a UART).
     /// A frame that would wait longer than half a second is dropped, like a full radio buffer.
     fn enqueue(&mut self, t: Micros, sysid: u8, frame: Vec<u8>) {
-        let release = t + self.cfg.latency;
+        let release = t.saturating_add(self.cfg.latency);
         let due = match self.cfg.baud {
             None => release,
             Some(baud) => {
@@ -131,7 +131,7 @@ impl Impairer {
                     return;
                 }
                 let dur = (frame.len() as u64 * 10 * 1_000_000).div_ceil(baud as u64);
-                self.busy_until = start + dur;
+                self.busy_until = start.saturating_add(dur);
                 self.busy_until
             }
         };
