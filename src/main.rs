@@ -9,8 +9,9 @@ use mavterm::app::{App, AppConfig, Effect};
 use mavterm::cli::{Cli, Command, ReportFormat};
 use mavterm::clock::SECOND;
 use mavterm::clock::{Clock, RealClock};
+use mavterm::headless::realtime::RealTimeRunner;
 use mavterm::headless::replay::{run_script, ReplayOptions};
-use mavterm::headless::runner::{all_virtual, VirtualRunner};
+use mavterm::headless::runner::{all_virtual, Driver, VirtualRunner};
 use mavterm::headless::script::Script;
 use mavterm::keymap::Keymap;
 use mavterm::link::manager::LinkManager;
@@ -88,7 +89,7 @@ fn main() -> Result<()> {
 
     if cli.headless {
         if let Some(input) = &cli.input {
-            return replay(&cli, input, &links, keymap);
+            return replay(&cli, input, &links, keymap, rt.handle());
         }
         let Some(ReportFormat::Json) = cli.report else {
             bail!("--headless needs --report json or --input FILE");
@@ -116,10 +117,16 @@ fn main() -> Result<()> {
 
 /// `--headless --input FILE`: replay recorded input on a virtual clock; exit 0 only if the script
 /// ran to its end.
-fn replay(cli: &Cli, input: &std::path::Path, links: &[LinkSpec], keymap: Keymap) -> Result<()> {
+/// With only `sim://` and `tlog:` links the run is on a virtual clock (fast, deterministic);
+/// otherwise the script's times are real seconds on real links.
+fn replay(
+    cli: &Cli,
+    input: &std::path::Path,
+    links: &[LinkSpec],
+    keymap: Keymap,
+    rt: &tokio::runtime::Handle,
+) -> Result<()> {
     let script = Script::load(input)?;
-    let mut runner = VirtualRunner::from_specs(links, app_config(cli))?;
-    runner.app.keymap = keymap;
     if let Some(dir) = &cli.screens {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
@@ -129,9 +136,19 @@ fn replay(cli: &Cli, input: &std::path::Path, links: &[LinkSpec], keymap: Keymap
         ..ReplayOptions::default()
     };
     let stdout = std::io::stdout();
-    let outcome = run_script(&script, &mut runner, &opts, &mut stdout.lock())?;
+    let (outcome, report) = if all_virtual(links) {
+        let mut runner = VirtualRunner::from_specs(links, app_config(cli))?;
+        runner.app.keymap = keymap;
+        let outcome = run_script(&script, &mut runner, &opts, &mut stdout.lock())?;
+        (outcome, runner.app.report())
+    } else {
+        let mut runner = RealTimeRunner::start(rt.clone(), links, app_config(cli));
+        runner.app_mut().keymap = keymap;
+        let outcome = run_script(&script, &mut runner, &opts, &mut stdout.lock())?;
+        (outcome, runner.app().report())
+    };
     if let Some(ReportFormat::Json) = cli.report {
-        println!("{}", serde_json::to_string(&runner.app.report())?);
+        println!("{}", serde_json::to_string(&report)?);
     }
     if !outcome.completed {
         bail!(

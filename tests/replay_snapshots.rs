@@ -120,3 +120,38 @@ fn binary_exit_status_says_whether_the_script_ran_to_the_end() {
     );
     assert!(String::from_utf8_lossy(&out.stdout).contains("=== snapshot s"));
 }
+
+#[test]
+fn binary_replays_on_a_real_tcp_link_in_real_time() {
+    let port = common::free_tcp_port();
+    let _server = common::sim_server(port, "seed=4");
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("real.txt");
+    std::fs::write(&script, "2.5 snapshot live\n3 quit\n").unwrap();
+    let started = std::time::Instant::now();
+    let out = run_binary(&[
+        "--link",
+        &format!("tcp:127.0.0.1:{port}"),
+        "--headless",
+        "--input",
+        script.to_str().unwrap(),
+        "--size",
+        "80x24",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        started.elapsed() >= std::time::Duration::from_millis(2900),
+        "ran in real time"
+    );
+    let screen = String::from_utf8_lossy(&out.stdout);
+    assert!(screen.contains("=== snapshot live"), "{screen}");
+    assert!(screen.contains("1:1     QUADROTOR  STABILIZE"), "{screen}");
+    assert!(
+        screen.contains(&format!("tcp:127.0.0.1:{port}")),
+        "{screen}"
+    );
+}

@@ -4,41 +4,13 @@
 
 mod common;
 
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
-
-/// Kills the server when the test ends, pass or fail.
-struct Server(std::process::Child);
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
+use std::process::Command;
 
 #[test]
 fn pymavlink_gcs_against_sim_server() {
     let python = common::python();
     let port = common::free_tcp_port();
-    let mut server = Server(
-        Command::new(common::mavterm())
-            .args(["sim", "--listen", &format!("tcp:127.0.0.1:{port}")])
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap(),
-    );
-    // Wait until it listens.
-    let start = Instant::now();
-    while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
-        assert!(
-            start.elapsed() < Duration::from_secs(10),
-            "sim server did not start listening on port {port}"
-        );
-        assert!(server.0.try_wait().unwrap().is_none(), "sim server exited");
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    let mut server = common::sim_server(port, "");
     let out = Command::new(&python)
         .arg(common::test_path("py/sim_gcs.py"))
         .arg(port.to_string())

@@ -8,7 +8,7 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use super::runner::{RunnerError, VirtualRunner};
+use super::runner::{Driver, RunnerError, VirtualRunner};
 use super::script::{format_secs, Script, Step};
 use crate::app::{App, AppConfig};
 use crate::clock::Micros;
@@ -67,8 +67,8 @@ pub enum ReplayError {
 }
 
 /// The screen as plain text right now.
-pub fn screen_text(runner: &VirtualRunner, size: (u16, u16), theme: &Theme) -> String {
-    buffer_to_text(&render_to_buffer(&runner.app, size.0, size.1, theme))
+pub fn screen_text(app: &App, size: (u16, u16), theme: &Theme) -> String {
+    buffer_to_text(&render_to_buffer(app, size.0, size.1, theme))
 }
 
 /// A character typed as a key (what `text "..."` sends).
@@ -84,7 +84,7 @@ fn char_key(c: char) -> Key {
 /// quits. Snapshots go to `opts.screens_dir` or to `out`.
 pub fn run_script(
     script: &Script,
-    runner: &mut VirtualRunner,
+    runner: &mut impl Driver,
     opts: &ReplayOptions,
     out: &mut dyn Write,
 ) -> Result<ReplayOutcome, ReplayError> {
@@ -114,7 +114,7 @@ pub fn run_script(
                 }
             }
             Step::Snapshot(name) => {
-                let text = screen_text(runner, opts.size, &opts.theme);
+                let text = screen_text(runner.app(), opts.size, &opts.theme);
                 match &opts.screens_dir {
                     Some(dir) => {
                         let path = dir.join(format!("{name}.txt"));

@@ -22,6 +22,35 @@ pub fn virtual_epoch() -> DateTime<Utc> {
         .expect("valid date")
 }
 
+/// What a replay script drives: the core with its links, on a virtual or a real clock.
+pub trait Driver {
+    /// Run links and core up to time `t` (µs since start).
+    fn advance_to(&mut self, t: Micros);
+    /// A key pressed now.
+    fn key(&mut self, key: Key);
+    fn now(&self) -> Micros;
+    fn quit_requested(&self) -> bool;
+    fn app(&self) -> &App;
+}
+
+impl Driver for VirtualRunner {
+    fn advance_to(&mut self, t: Micros) {
+        VirtualRunner::advance_to(self, t)
+    }
+    fn key(&mut self, key: Key) {
+        VirtualRunner::key(self, key)
+    }
+    fn now(&self) -> Micros {
+        self.now
+    }
+    fn quit_requested(&self) -> bool {
+        self.app.quit
+    }
+    fn app(&self) -> &App {
+        &self.app
+    }
+}
+
 /// Something that produces and consumes link bytes on a virtual clock.
 pub trait VirtualSource {
     /// Bytes sent to the source at `now`.

@@ -106,3 +106,41 @@ pub fn free_tcp_port() -> u16 {
 pub fn mavterm() -> PathBuf {
     PathBuf::from(env!("CARGO_BIN_EXE_mavterm"))
 }
+
+/// A child process killed when the test ends, pass or fail.
+pub struct ChildGuard(pub std::process::Child);
+
+impl Drop for ChildGuard {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// Start `mavterm sim --listen tcp:127.0.0.1:PORT` and wait until it listens.
+pub fn sim_server(port: u16, options: &str) -> ChildGuard {
+    let mut child = ChildGuard(
+        std::process::Command::new(mavterm())
+            .args([
+                "sim",
+                "--listen",
+                &format!("tcp:127.0.0.1:{port}"),
+                "--options",
+                options,
+            ])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let start = std::time::Instant::now();
+    while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
+        assert!(
+            start.elapsed() < std::time::Duration::from_secs(10),
+            "sim server did not start listening on port {port}"
+        );
+        assert!(child.0.try_wait().unwrap().is_none(), "sim server exited");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child
+}
