@@ -37,7 +37,15 @@ fn pymavlink_sequence_pattern_and_our_heartbeat() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    std::thread::sleep(Duration::from_millis(700));
+    // Wait until mavterm holds the port (our own bind then fails).
+    let start = std::time::Instant::now();
+    while std::net::UdpSocket::bind(("127.0.0.1", port)).is_ok() {
+        assert!(
+            start.elapsed() < Duration::from_secs(3),
+            "mavterm did not bind {port}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
     let py = Command::new(python)
         .arg(common::test_path("py/udp_pattern.py"))
         .arg(port.to_string())

@@ -151,7 +151,7 @@ impl FrameParser {
                     self.start += 1;
                 }
                 Candidate::BadCrc(len) => {
-                    if valid_frame_starts_inside(data, len) {
+                    if cut_off_by_a_frame(data, len) {
                         self.stats.truncated += 1;
                     } else {
                         self.stats.crc_errors += 1;
@@ -276,13 +276,27 @@ fn check(d: &[u8]) -> Candidate {
     Candidate::Good(len)
 }
 
-/// True when a complete known-id frame with a good CRC starts at a magic byte inside the first
-/// `span` bytes of `d` (after the first byte): the candidate at 0 was cut off by it.
-fn valid_frame_starts_inside(d: &[u8], span: usize) -> bool {
+/// True when a complete known-id frame with a good CRC starts at one of the first `tries` magic
+/// bytes inside the first `span` bytes of `d` (after the first byte).
+fn frame_starts_inside(d: &[u8], span: usize, tries: usize) -> bool {
     let end = span.min(d.len());
-    (1..end).any(|i| {
-        (d[i] == MAGIC_V1 || d[i] == MAGIC_V2) && matches!(check(&d[i..]), Candidate::Good(_))
-    })
+    (1..end)
+        .filter(|&i| d[i] == MAGIC_V1 || d[i] == MAGIC_V2)
+        .take(tries)
+        .any(|i| matches!(check(&d[i..]), Candidate::Good(_)))
+}
+
+/// Deciding whether to accept bytes as a frame: every magic byte inside is tried, so a real
+/// frame is never lost to garbage in front of it.
+fn valid_frame_starts_inside(d: &[u8], span: usize) -> bool {
+    frame_starts_inside(d, span, usize::MAX)
+}
+
+/// Only naming a rejection (cut off, or bad CRC): a cut-off frame is followed by the next one at
+/// its first magic byte or so, and garbage full of magic bytes must not cost hundreds of CRCs
+/// per rejected byte just for a counter's name.
+fn cut_off_by_a_frame(d: &[u8], span: usize) -> bool {
+    frame_starts_inside(d, span, 4)
 }
 
 #[cfg(test)]
