@@ -222,3 +222,47 @@ async fn tcpin_serves_several_clients() {
         );
     }
 }
+
+#[tokio::test]
+async fn udpin_replies_to_every_peer_heard() {
+    let port = common::free_udp_port();
+    let spec: LinkSpec = format!("udpin:127.0.0.1:{port}").parse().unwrap();
+    let (mut app, mut mgr, clock) = start(&spec);
+    assert!(
+        pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
+            a.links[0].state == LinkState::Up
+        })
+        .await
+    );
+    let a = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
+    let b = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
+    let mut fb = vehicle_heartbeat(0);
+    fb[5] = 2; // sysid 2
+    let n = fb.len();
+    let crc = mavterm::link::frame::frame_crc(&fb[1..n - 2], 50);
+    fb[n - 2..].copy_from_slice(&crc.to_le_bytes());
+    a.send_to(&vehicle_heartbeat(0), ("127.0.0.1", port))
+        .await
+        .unwrap();
+    b.send_to(&fb, ("127.0.0.1", port)).await.unwrap();
+    assert!(
+        pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
+            a.vehicles.len() == 2
+        })
+        .await
+    );
+    let fx = app.update(clock.now() + 2_000_000, mavterm::app::Event::Tick);
+    mgr.apply(fx);
+    for s in [&a, &b] {
+        let mut buf = [0u8; 512];
+        let (n, _) = tokio::time::timeout(Duration::from_secs(3), s.recv_from(&mut buf))
+            .await
+            .expect("our heartbeat arrives at every peer")
+            .unwrap();
+        let frames = mavterm::link::FrameParser::new().parse_all(&buf[..n]);
+        assert!(
+            frames.iter().any(|f| f.sysid == 255 && f.compid == 190),
+            "{frames:?}"
+        );
+    }
+}

@@ -155,3 +155,32 @@ fn binary_replays_on_a_real_tcp_link_in_real_time() {
         "{screen}"
     );
 }
+
+#[test]
+fn a_vehicle_that_falls_silent_is_shown_lost() {
+    // The MAVFTP capture is 2.2 s of a real ArduCopter; after it ends the vehicle goes quiet.
+    // A path relative to the package (cargo runs tests there), so the screen is the same in
+    // any checkout.
+    let specs: Vec<LinkSpec> = vec!["tlog:tests/data/copter-mavftp-params.vehicle.tlog"
+        .parse()
+        .unwrap()];
+    let script = Script::parse("2 snapshot alive\n12 snapshot lost\n").unwrap();
+    let mut out = Vec::new();
+    let (outcome, app) = run_script_on_specs(
+        &script,
+        &specs,
+        AppConfig::default(),
+        &ReplayOptions {
+            size: (80, 24),
+            ..ReplayOptions::default()
+        },
+        &mut out,
+    )
+    .unwrap();
+    assert!(outcome.completed);
+    assert!(app.vehicles.get((1, 1)).unwrap().lost);
+    let text = String::from_utf8(out).unwrap();
+    let lost = text.split("=== snapshot lost").nth(1).unwrap();
+    assert!(lost.contains("vehicle 1:1 lost"), "{lost}");
+    insta::assert_snapshot!("tlog_vehicle_lost_80x24", lost);
+}
