@@ -38,6 +38,7 @@ use vehicle::TICK;
 
 /// Message id of COMMAND_LONG and COMMAND_ACK.
 const COMMAND_LONG_ID: u32 = 76;
+const COMMAND_INT_ID: u32 = 75;
 const COMMAND_ACK_ID: u32 = 77;
 
 /// One or more simulated vehicles on one simulated link.
@@ -141,16 +142,19 @@ impl Sim {
                         self.flush(i, now);
                     }
                 }
-                None if f.msgid == COMMAND_LONG_ID => self.unknown_command(now, from, f.payload()),
+                None if f.msgid == COMMAND_LONG_ID || f.msgid == COMMAND_INT_ID => {
+                    self.unknown_command(now, from, f.payload())
+                }
                 None => {}
             }
         }
     }
 
-    /// A COMMAND_LONG whose command id the dialect does not know did not decode; ArduPilot
-    /// answers such commands with MAV_RESULT_UNSUPPORTED, so build that ACK by hand.
+    /// A COMMAND_LONG or COMMAND_INT whose command id the dialect does not know did not decode;
+    /// ArduPilot answers such commands with MAV_RESULT_UNSUPPORTED, so build that ACK by hand.
     fn unknown_command(&mut self, now: Micros, from: (u8, u8), payload: &[u8]) {
-        // Wire layout: 7 floats (28 bytes), command u16, target_system u8, target_component u8.
+        // Wire layout, the same in both: 28 bytes of params (COMMAND_INT: 4 floats, x, y, z),
+        // command u16, target_system u8, target_component u8.
         let mut p = [0u8; 33];
         let n = payload.len().min(33);
         p[..n].copy_from_slice(&payload[..n]);

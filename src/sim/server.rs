@@ -67,8 +67,8 @@ fn now(clock: &RealClock) -> Micros {
     clock.now()
 }
 
-/// TCP server on an already bound listener: every client gets every byte; all clients'
-/// bytes go to the one simulation.
+/// TCP server on an already bound listener: every client gets every byte; all clients' frames
+/// go to the one simulation.
 pub async fn serve_tcp(listener: TcpListener, cfg: SimConfig) -> Result<(), SimError> {
     let clock = RealClock::new();
     let mut sim = Sim::new(cfg);
@@ -98,12 +98,17 @@ pub async fn serve_tcp(listener: TcpListener, cfg: SimConfig) -> Result<(), SimE
                 next_id += 1;
                 let in_tx = in_tx.clone();
                 tokio::spawn(async move {
+                    // Frame each client's stream on its own, and hand the sim whole frames only:
+                    // two GCSs' partial frames must not interleave in the sim's parser.
+                    let mut parser = crate::link::FrameParser::new();
                     let mut buf = vec![0u8; 4096];
                     loop {
                         match rd.read(&mut buf).await {
                             Ok(0) | Err(_) => break,
                             Ok(n) => {
-                                if in_tx.send(buf[..n].to_vec()).await.is_err() {
+                                let mut whole = Vec::new();
+                                parser.push(&buf[..n], |f| whole.extend_from_slice(&f.raw));
+                                if !whole.is_empty() && in_tx.send(whole).await.is_err() {
                                     break;
                                 }
                             }

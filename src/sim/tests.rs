@@ -339,6 +339,18 @@ fn unknown_and_unsupported_commands() {
     assert_eq!(u16::from_le_bytes([p[0], p[1]]), 60000);
     assert_eq!(p[2], MAV_RESULT_UNSUPPORTED as u8);
     assert_eq!(&p[8..10], &[255, 190]);
+    // The same as COMMAND_INT (same offsets for command and targets).
+    let mut payload = vec![0u8; 28];
+    payload.extend_from_slice(&60001u16.to_le_bytes());
+    payload.extend_from_slice(&[1, 1, 0, 0, 0]);
+    let frame = encode_raw(GCS, COMMAND_INT_ID, &payload);
+    g.sim.receive(g.now, &frame);
+    g.run_for(20_000);
+    let f = g.frames.last().unwrap();
+    assert_eq!(f.msgid, COMMAND_ACK_ID);
+    let p = f.payload();
+    assert_eq!(u16::from_le_bytes([p[0], p[1]]), 60001);
+    assert_eq!(p[2], MAV_RESULT_UNSUPPORTED as u8);
     // Garbage bytes do not panic and do not produce replies.
     let n = g.frames.len();
     let mut rng = Rng::new(3);
