@@ -1,12 +1,13 @@
 //! The core against senders that do not behave like ArduPilot: constant sequence numbers,
 //! enum values newer than our dialect; and operator-facing rules (Ctrl-C, link-down notices).
 
+mod common;
+
 use mavterm::app::links::LinkState;
 use mavterm::app::{App, AppConfig, Effect, Event};
 use mavterm::clock::SECOND;
-use mavterm::dialect::{self, MavMessage};
 use mavterm::keymap::{Key, Keymap};
-use mavterm::link::frame::{encode, frame_crc, Header, Version};
+use mavterm::link::frame::frame_crc;
 use mavterm::link::{FrameParser, ParserStats};
 
 fn app() -> App {
@@ -17,23 +18,7 @@ fn app() -> App {
 }
 
 fn heartbeat(seq: u8, mode: u32) -> Vec<u8> {
-    let msg = MavMessage::HEARTBEAT(dialect::HEARTBEAT_DATA {
-        custom_mode: mode,
-        mavtype: dialect::MavType::MAV_TYPE_QUADROTOR,
-        autopilot: dialect::MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
-        base_mode: dialect::MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
-        system_status: dialect::MavState::MAV_STATE_STANDBY,
-        mavlink_version: 3,
-    });
-    encode(
-        Version::V2,
-        Header {
-            sysid: 1,
-            compid: 1,
-            seq,
-        },
-        &msg,
-    )
+    common::copter_heartbeat(1, seq, mode)
 }
 
 fn feed(app: &mut App, now: u64, bytes: &[u8]) {

@@ -8,33 +8,11 @@ use std::time::Duration;
 use mavterm::app::links::LinkState;
 use mavterm::app::{App, AppConfig};
 use mavterm::clock::{Clock, RealClock};
-use mavterm::dialect::{self, MavMessage};
-use mavterm::link::frame::{encode, Header, Version};
 use mavterm::link::manager::{run_for, LinkManager};
 use mavterm::link::transport::LinkIdentity;
 use mavterm::link::LinkSpec;
 use tokio::io::AsyncWriteExt;
 use tokio::net::TcpListener;
-
-fn vehicle_heartbeat(seq: u8) -> Vec<u8> {
-    let msg = MavMessage::HEARTBEAT(dialect::HEARTBEAT_DATA {
-        custom_mode: 0,
-        mavtype: dialect::MavType::MAV_TYPE_QUADROTOR,
-        autopilot: dialect::MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
-        base_mode: dialect::MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
-        system_status: dialect::MavState::MAV_STATE_STANDBY,
-        mavlink_version: 3,
-    });
-    encode(
-        Version::V2,
-        Header {
-            sysid: 1,
-            compid: 1,
-            seq,
-        },
-        &msg,
-    )
-}
 
 /// An app and a link manager on one link.
 fn start(spec: &LinkSpec) -> (App, LinkManager, RealClock) {
@@ -95,7 +73,9 @@ async fn tcp_peer_goes_away_and_comes_back() {
         .expect("mavterm reconnects")
         .unwrap();
     for seq in 0..5 {
-        sock.write_all(&vehicle_heartbeat(seq)).await.unwrap();
+        sock.write_all(&common::copter_heartbeat(1, seq, 0))
+            .await
+            .unwrap();
     }
     assert!(
         pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
@@ -121,7 +101,9 @@ async fn tcp_peer_goes_away_and_comes_back() {
         .expect("mavterm reconnects again")
         .unwrap();
     for seq in 5..10 {
-        sock.write_all(&vehicle_heartbeat(seq)).await.unwrap();
+        sock.write_all(&common::copter_heartbeat(1, seq, 0))
+            .await
+            .unwrap();
     }
     assert!(
         pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
@@ -188,12 +170,8 @@ async fn tcpin_serves_several_clients() {
         .await
         .unwrap();
     // Each client's stream is framed on its own: interleaved halves must not corrupt.
-    let fa = vehicle_heartbeat(0);
-    let mut fb = vehicle_heartbeat(0);
-    fb[5] = 2; // sysid 2
-    let n = fb.len();
-    let crc = mavterm::link::frame::frame_crc(&fb[1..n - 2], 50);
-    fb[n - 2..].copy_from_slice(&crc.to_le_bytes());
+    let fa = common::copter_heartbeat(1, 0, 0);
+    let fb = common::copter_heartbeat(2, 0, 0);
     a.write_all(&fa[..5]).await.unwrap();
     b.write_all(&fb[..7]).await.unwrap();
     tokio::time::sleep(Duration::from_millis(50)).await;
@@ -236,12 +214,8 @@ async fn udpin_replies_to_every_peer_heard() {
     );
     let a = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
     let b = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
-    let mut fb = vehicle_heartbeat(0);
-    fb[5] = 2; // sysid 2
-    let n = fb.len();
-    let crc = mavterm::link::frame::frame_crc(&fb[1..n - 2], 50);
-    fb[n - 2..].copy_from_slice(&crc.to_le_bytes());
-    a.send_to(&vehicle_heartbeat(0), ("127.0.0.1", port))
+    let fb = common::copter_heartbeat(2, 0, 0);
+    a.send_to(&common::copter_heartbeat(1, 0, 0), ("127.0.0.1", port))
         .await
         .unwrap();
     b.send_to(&fb, ("127.0.0.1", port)).await.unwrap();

@@ -2,8 +2,6 @@
 //! TCP links. The script's times are seconds since start on the wall clock; the screens are
 //! rendered from the same core as in the terminal.
 
-use std::time::Duration;
-
 use super::runner::Driver;
 use crate::app::{App, AppConfig, Event};
 use crate::clock::{Clock, Micros, RealClock};
@@ -11,9 +9,6 @@ use crate::keymap::Key;
 use crate::link::manager::LinkManager;
 use crate::link::transport::LinkIdentity;
 use crate::link::LinkSpec;
-
-/// How often the core gets a `Tick` while waiting.
-const TICK: Duration = Duration::from_millis(100);
 
 /// The core on real links, driven by a replay script.
 pub struct RealTimeRunner {
@@ -57,26 +52,7 @@ impl Driver for RealTimeRunner {
             app,
             clock,
         } = self;
-        rt.block_on(async {
-            let wait = Duration::from_micros(t.saturating_sub(clock.now()));
-            let end = tokio::time::sleep(wait);
-            tokio::pin!(end);
-            let mut tick = tokio::time::interval(TICK);
-            loop {
-                let ev = tokio::select! {
-                    _ = &mut end => break,
-                    _ = tick.tick() => Event::Tick,
-                    ev = mgr.next_event() => match ev {
-                        Some(ev) => ev,
-                        None => break,
-                    },
-                };
-                let fx = app.update(clock.now(), ev);
-                mgr.apply(fx);
-            }
-        });
-        let fx = self.app.update(self.clock.now(), Event::Tick);
-        self.mgr.apply(fx);
+        rt.block_on(mgr.run_until(app, clock, t));
     }
 
     fn key(&mut self, key: Key) {

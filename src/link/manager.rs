@@ -8,7 +8,7 @@ use tokio::sync::mpsc;
 use super::transport::{spawn_link, LinkEvent, LinkHandle, LinkIdentity};
 use super::{LinkId, LinkSpec};
 use crate::app::{App, AppConfig, Effect, Event};
-use crate::clock::{Clock, RealClock};
+use crate::clock::{Clock, Micros, RealClock};
 
 /// All running links.
 pub struct LinkManager {
@@ -39,6 +39,28 @@ impl LinkManager {
             },
             LinkEvent::State(state) => Event::LinkState { link, state },
         })
+    }
+
+    /// Feed link reports and a 100 ms tick into `app` until `clock` reaches `deadline`, carrying
+    /// out the sends; ends with one more tick so time-based state is current.
+    pub async fn run_until(&mut self, app: &mut App, clock: &impl Clock, deadline: Micros) {
+        let end = tokio::time::sleep(Duration::from_micros(deadline.saturating_sub(clock.now())));
+        tokio::pin!(end);
+        let mut tick = tokio::time::interval(Duration::from_millis(100));
+        loop {
+            let ev = tokio::select! {
+                _ = &mut end => break,
+                _ = tick.tick() => Event::Tick,
+                ev = self.next_event() => match ev {
+                    Some(ev) => ev,
+                    None => break,
+                },
+            };
+            let fx = app.update(clock.now(), ev);
+            self.apply(fx);
+        }
+        let fx = app.update(clock.now(), Event::Tick);
+        self.apply(fx);
     }
 
     /// Carry out the `Send` effects; returns the others for the caller.
@@ -74,23 +96,11 @@ pub async fn run_for(specs: &[LinkSpec], mut cfg: AppConfig, duration: Duration)
     let clock = RealClock::new();
     let mut app = App::new(cfg);
     let mut mgr = LinkManager::start(specs, me);
-    let mut tick = tokio::time::interval(Duration::from_millis(100));
-    let end = tokio::time::sleep(duration);
-    tokio::pin!(end);
-    loop {
-        let ev = tokio::select! {
-            _ = &mut end => break,
-            _ = tick.tick() => Event::Tick,
-            ev = mgr.next_event() => match ev {
-                Some(ev) => ev,
-                None => break,
-            },
-        };
-        let fx = app.update(clock.now(), ev);
-        mgr.apply(fx);
-    }
-    // One last tick so time-based state (lost vehicles, windows) is current.
-    let fx = app.update(clock.now(), Event::Tick);
-    mgr.apply(fx);
+    mgr.run_until(
+        &mut app,
+        &clock,
+        clock.now() + duration.as_micros() as Micros,
+    )
+    .await;
     app
 }

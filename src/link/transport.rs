@@ -251,34 +251,7 @@ async fn udp_in(
         .map_err(|e| format!("bind {addr}:{port}: {e}"))?;
     *backoff = BACKOFF_START;
     ingest.state(LinkState::Up);
-    // Peers heard, most recent first: replies go to each.
-    let mut peers: Vec<SocketAddr> = Vec::new();
-    let mut buf = vec![0u8; 65536];
-    loop {
-        tokio::select! {
-            r = sock.recv_from(&mut buf) => match r {
-                Ok((n, from)) => {
-                    peers.retain(|p| *p != from);
-                    peers.insert(0, from);
-                    peers.truncate(MAX_UDP_PEERS);
-                    ingest.feed(&buf[..n], true, tx);
-                }
-                // ICMP port-unreachable from a peer that went away shows up here on some
-                // systems: not a reason to close the socket.
-                Err(e) => tracing::debug!("udp recv: {e}"),
-            },
-            m = out.recv() => match m {
-                Some(msg) => {
-                    if peers.is_empty() { continue; }
-                    let bytes = tx.encode(&msg);
-                    for p in &peers {
-                        let _ = sock.send_to(&bytes, p).await;
-                    }
-                }
-                None => return Ok(()),
-            },
-        }
-    }
+    udp_loop(sock, None, ingest, tx, out).await
 }
 
 async fn udp_out(
@@ -302,22 +275,44 @@ async fn udp_out(
     let sock = UdpSocket::bind(local)
         .await
         .map_err(|e| format!("bind: {e}"))?;
-    sock.connect(target)
-        .await
-        .map_err(|e| format!("connect {target}: {e}"))?;
     *backoff = BACKOFF_START;
     ingest.state(LinkState::Up);
+    udp_loop(sock, Some(target), ingest, tx, out).await
+}
+
+/// Datagrams in, frames out. With a `fixed` peer (udpout) everything goes there; without one
+/// (udpin) replies go to every peer heard, most recent first.
+async fn udp_loop(
+    sock: UdpSocket,
+    fixed: Option<SocketAddr>,
+    ingest: &mut Ingest,
+    tx: &mut LinkTx,
+    out: &mut mpsc::UnboundedReceiver<MavMessage>,
+) -> Result<(), String> {
+    let mut peers: Vec<SocketAddr> = fixed.into_iter().collect();
     let mut buf = vec![0u8; 65536];
     loop {
         tokio::select! {
-            r = sock.recv(&mut buf) => match r {
-                Ok(n) => ingest.feed(&buf[..n], true, tx),
+            r = sock.recv_from(&mut buf) => match r {
+                Ok((n, from)) => {
+                    if fixed.is_none() {
+                        peers.retain(|p| *p != from);
+                        peers.insert(0, from);
+                        peers.truncate(MAX_UDP_PEERS);
+                    }
+                    ingest.feed(&buf[..n], true, tx);
+                }
+                // ICMP port-unreachable from a peer that went away shows up here on some
+                // systems: not a reason to close the socket.
                 Err(e) => tracing::debug!("udp recv: {e}"),
             },
             m = out.recv() => match m {
                 Some(msg) => {
+                    if peers.is_empty() { continue; }
                     let bytes = tx.encode(&msg);
-                    let _ = sock.send(&bytes).await;
+                    for p in &peers {
+                        let _ = sock.send_to(&bytes, p).await;
+                    }
                 }
                 None => return Ok(()),
             },

@@ -144,3 +144,26 @@ pub fn sim_server(port: u16, options: &str) -> ChildGuard {
     }
     child
 }
+
+/// A HEARTBEAT frame of an ArduCopter (STANDBY) from `sysid`:1 with `custom_mode`.
+pub fn copter_heartbeat(sysid: u8, seq: u8, custom_mode: u32) -> Vec<u8> {
+    use mavterm::dialect::{self, MavMessage};
+    use mavterm::link::frame::{encode, Header, Version};
+    let msg = MavMessage::HEARTBEAT(dialect::HEARTBEAT_DATA {
+        custom_mode,
+        mavtype: dialect::MavType::MAV_TYPE_QUADROTOR,
+        autopilot: dialect::MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        base_mode: dialect::MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+        system_status: dialect::MavState::MAV_STATE_STANDBY,
+        mavlink_version: 3,
+    });
+    encode(
+        Version::V2,
+        Header {
+            sysid,
+            compid: 1,
+            seq,
+        },
+        &msg,
+    )
+}
