@@ -5,17 +5,12 @@
 #[path = "../tests/ui_fixture/mod.rs"]
 mod ui_fixture;
 
-use std::io::Write;
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::Arc;
-
 use criterion::{criterion_group, Criterion};
 use mavterm::clock::SECOND;
 use mavterm::tui::draw_if_dirty;
 use mavterm::ui::{self, Theme};
-use ratatui::backend::{CrosstermBackend, TestBackend};
-use ratatui::layout::Rect;
-use ratatui::{Terminal, TerminalOptions, Viewport};
+use ratatui::backend::TestBackend;
+use ratatui::Terminal;
 
 fn render_frame(c: &mut Criterion) {
     let d = ui_fixture::many(10, 20);
@@ -28,31 +23,11 @@ fn render_frame(c: &mut Criterion) {
     });
 }
 
-#[derive(Clone, Default)]
-struct Counting(Arc<AtomicU64>);
-
-impl Write for Counting {
-    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
-        self.0.fetch_add(b.len() as u64, Ordering::Relaxed);
-        Ok(b.len())
-    }
-    fn flush(&mut self) -> std::io::Result<()> {
-        Ok(())
-    }
-}
-
 /// One copter at 10 Hz (1 Hz heartbeat) for 60 s of virtual time, drawn at most 10 times a
 /// second and only when dirty, into a crossterm backend that counts bytes.
 fn bytes_per_second() {
     const SECS: u64 = 60;
-    let out = Counting::default();
-    let mut term = Terminal::with_options(
-        CrosstermBackend::new(out.clone()),
-        TerminalOptions {
-            viewport: Viewport::Fixed(Rect::new(0, 0, 80, 24)),
-        },
-    )
-    .unwrap();
+    let (mut term, out) = ui_fixture::counting_terminal(80, 24);
     let mut d = ui_fixture::Drive::new(&ui_fixture::LINKS[..1]);
     d.link_state(0, 0, mavterm::app::links::LinkState::Up);
     let theme = Theme::default();
@@ -70,10 +45,10 @@ fn bytes_per_second() {
             draws += 1;
         }
         if k == 0 {
-            first = out.0.load(Ordering::Relaxed);
+            first = out.bytes();
         }
     }
-    let total = out.0.load(Ordering::Relaxed);
+    let total = out.bytes();
     println!(
         "terminal output at 80x24, 1 vehicle at 10 Hz, fps 10, {SECS} s: {total} bytes \
          ({:.0} bytes/s; first frame {first} bytes; {draws} redraws = {:.1}/s)",

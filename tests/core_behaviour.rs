@@ -81,49 +81,26 @@ fn ctrl_c_quits_whatever_the_keymap() {
     assert!(fx.contains(&Effect::Quit));
 }
 
+fn set_state(a: &mut App, now: u64, state: LinkState) {
+    a.update(now, Event::LinkState { link: 0, state });
+}
+
+fn down_notices(a: &App) -> usize {
+    a.notices
+        .iter()
+        .filter(|n| n.text.contains("down: refused"))
+        .count()
+}
+
 #[test]
 fn a_link_failing_the_same_way_is_reported_once() {
     let mut a = app();
     for i in 0..5 {
-        a.update(
-            i,
-            Event::LinkState {
-                link: 0,
-                state: LinkState::Connecting,
-            },
-        );
-        a.update(
-            i,
-            Event::LinkState {
-                link: 0,
-                state: LinkState::Down("refused".into()),
-            },
-        );
+        set_state(&mut a, i, LinkState::Connecting);
+        set_state(&mut a, i, LinkState::Down("refused".into()));
     }
-    let downs = a
-        .notices
-        .iter()
-        .filter(|n| n.text.contains("down: refused"))
-        .count();
-    assert_eq!(downs, 1);
-    a.update(
-        9,
-        Event::LinkState {
-            link: 0,
-            state: LinkState::Up,
-        },
-    );
-    a.update(
-        10,
-        Event::LinkState {
-            link: 0,
-            state: LinkState::Down("refused".into()),
-        },
-    );
-    let downs = a
-        .notices
-        .iter()
-        .filter(|n| n.text.contains("down: refused"))
-        .count();
-    assert_eq!(downs, 2);
+    assert_eq!(down_notices(&a), 1);
+    set_state(&mut a, 9, LinkState::Up);
+    set_state(&mut a, 10, LinkState::Down("refused".into()));
+    assert_eq!(down_notices(&a), 2);
 }

@@ -133,45 +133,30 @@ async fn run_link(
     let mut backoff = BACKOFF_START;
     loop {
         ingest.state(LinkState::Connecting);
-        let result = match &spec {
-            LinkSpec::UdpIn { addr, port } => {
-                udp_in(addr, *port, &mut ingest, &mut tx, &mut out, &mut backoff).await
-            }
-            LinkSpec::UdpOut { host, port } => {
-                udp_out(host, *port, &mut ingest, &mut tx, &mut out, &mut backoff).await
-            }
-            LinkSpec::TcpClient { host, port } => {
-                match TcpStream::connect((host.as_str(), *port)).await {
-                    Ok(s) => {
-                        let _ = s.set_nodelay(true);
-                        backoff = BACKOFF_START;
-                        ingest.state(LinkState::Up);
-                        stream_loop(s, &mut ingest, &mut tx, &mut out).await
-                    }
-                    Err(e) => Err(format!("connect {host}:{port}: {e}")),
+        let result = match open(&spec).await {
+            Err(e) => Err(e),
+            Ok(opened) => {
+                backoff = BACKOFF_START;
+                if !matches!(opened, Opened::Local) {
+                    ingest.state(LinkState::Up);
                 }
-            }
-            LinkSpec::TcpServer { addr, port } => {
-                tcp_server(addr, *port, &mut ingest, &mut tx, &mut out, &mut backoff).await
-            }
-            LinkSpec::Serial { path, baud } => {
-                match tokio_serial::SerialStream::open(&tokio_serial::new(path, *baud)) {
-                    Ok(s) => {
-                        backoff = BACKOFF_START;
-                        ingest.state(LinkState::Up);
-                        stream_loop(s, &mut ingest, &mut tx, &mut out).await
+                match opened {
+                    Opened::Tcp(s) => stream_loop(s, &mut ingest, &mut tx, &mut out).await,
+                    Opened::Serial(s) => stream_loop(s, &mut ingest, &mut tx, &mut out).await,
+                    Opened::Udp(sock, fixed) => {
+                        udp_loop(sock, fixed, &mut ingest, &mut tx, &mut out).await
                     }
-                    Err(e) => Err(format!("{path}: {e}")),
+                    Opened::Listener(l) => tcp_server(l, &mut ingest, &mut tx, &mut out).await,
+                    Opened::Local => {
+                        crate::link::local::run_local(
+                            &spec,
+                            &mut ingest_adapter(&mut ingest),
+                            &mut tx,
+                            &mut out,
+                        )
+                        .await
+                    }
                 }
-            }
-            LinkSpec::Sim { .. } | LinkSpec::Tlog { .. } => {
-                crate::link::local::run_local(
-                    &spec,
-                    &mut ingest_adapter(&mut ingest),
-                    &mut tx,
-                    &mut out,
-                )
-                .await
             }
         };
         let reason = match result {
@@ -238,46 +223,58 @@ async fn stream_loop<S: AsyncRead + AsyncWrite + Unpin>(
     }
 }
 
-async fn udp_in(
-    addr: &str,
-    port: u16,
-    ingest: &mut Ingest,
-    tx: &mut LinkTx,
-    out: &mut mpsc::UnboundedReceiver<MavMessage>,
-    backoff: &mut Duration,
-) -> Result<(), String> {
-    let sock = UdpSocket::bind((addr, port))
-        .await
-        .map_err(|e| format!("bind {addr}:{port}: {e}"))?;
-    *backoff = BACKOFF_START;
-    ingest.state(LinkState::Up);
-    udp_loop(sock, None, ingest, tx, out).await
+/// A link's transport, opened and ready to run.
+enum Opened {
+    Tcp(TcpStream),
+    Serial(tokio_serial::SerialStream),
+    /// A UDP socket, with the fixed peer of `udpout` (none for `udpin`).
+    Udp(UdpSocket, Option<SocketAddr>),
+    Listener(TcpListener),
+    /// In-process links open (and report up) themselves.
+    Local,
 }
 
-async fn udp_out(
-    host: &str,
-    port: u16,
-    ingest: &mut Ingest,
-    tx: &mut LinkTx,
-    out: &mut mpsc::UnboundedReceiver<MavMessage>,
-    backoff: &mut Duration,
-) -> Result<(), String> {
-    let target = tokio::net::lookup_host((host, port))
-        .await
-        .map_err(|e| format!("resolve {host}: {e}"))?
-        .next()
-        .ok_or_else(|| format!("resolve {host}: no address"))?;
-    let local: SocketAddr = if target.is_ipv6() {
-        "[::]:0".parse().expect("addr")
-    } else {
-        "0.0.0.0:0".parse().expect("addr")
-    };
-    let sock = UdpSocket::bind(local)
-        .await
-        .map_err(|e| format!("bind: {e}"))?;
-    *backoff = BACKOFF_START;
-    ingest.state(LinkState::Up);
-    udp_loop(sock, Some(target), ingest, tx, out).await
+/// Open the transport a spec names; the error is the "down" reason.
+async fn open(spec: &LinkSpec) -> Result<Opened, String> {
+    match spec {
+        LinkSpec::UdpIn { addr, port } => UdpSocket::bind((addr.as_str(), *port))
+            .await
+            .map(|s| Opened::Udp(s, None))
+            .map_err(|e| format!("bind {addr}:{port}: {e}")),
+        LinkSpec::UdpOut { host, port } => {
+            let target = tokio::net::lookup_host((host.as_str(), *port))
+                .await
+                .map_err(|e| format!("resolve {host}: {e}"))?
+                .next()
+                .ok_or_else(|| format!("resolve {host}: no address"))?;
+            let local: SocketAddr = if target.is_ipv6() {
+                "[::]:0".parse().expect("addr")
+            } else {
+                "0.0.0.0:0".parse().expect("addr")
+            };
+            UdpSocket::bind(local)
+                .await
+                .map(|s| Opened::Udp(s, Some(target)))
+                .map_err(|e| format!("bind: {e}"))
+        }
+        LinkSpec::TcpClient { host, port } => {
+            let s = TcpStream::connect((host.as_str(), *port))
+                .await
+                .map_err(|e| format!("connect {host}:{port}: {e}"))?;
+            let _ = s.set_nodelay(true);
+            Ok(Opened::Tcp(s))
+        }
+        LinkSpec::TcpServer { addr, port } => TcpListener::bind((addr.as_str(), *port))
+            .await
+            .map(Opened::Listener)
+            .map_err(|e| format!("listen {addr}:{port}: {e}")),
+        LinkSpec::Serial { path, baud } => {
+            tokio_serial::SerialStream::open(&tokio_serial::new(path, *baud))
+                .map(Opened::Serial)
+                .map_err(|e| format!("{path}: {e}"))
+        }
+        LinkSpec::Sim { .. } | LinkSpec::Tlog { .. } => Ok(Opened::Local),
+    }
 }
 
 /// Datagrams in, frames out. With a `fixed` peer (udpout) everything goes there; without one
@@ -321,18 +318,11 @@ async fn udp_loop(
 }
 
 async fn tcp_server(
-    addr: &str,
-    port: u16,
+    listener: TcpListener,
     ingest: &mut Ingest,
     tx: &mut LinkTx,
     out: &mut mpsc::UnboundedReceiver<MavMessage>,
-    backoff: &mut Duration,
 ) -> Result<(), String> {
-    let listener = TcpListener::bind((addr, port))
-        .await
-        .map_err(|e| format!("listen {addr}:{port}: {e}"))?;
-    *backoff = BACKOFF_START;
-    ingest.state(LinkState::Up);
     // Each client has its own parser (their byte streams must not interleave) and its own task,
     // which reads, and writes what it is handed through a bounded queue: a stalled client loses
     // its own frames instead of holding up the others. The JoinSet ends them with the link.

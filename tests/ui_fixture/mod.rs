@@ -252,3 +252,43 @@ pub fn many(n: u8, secs: u64) -> Drive {
     d.tick(secs * SECOND);
     d
 }
+
+/// A writer that only counts the bytes a terminal backend emits.
+#[derive(Clone, Default)]
+pub struct Counting(std::sync::Arc<std::sync::atomic::AtomicU64>);
+
+impl Counting {
+    pub fn bytes(&self) -> u64 {
+        self.0.load(std::sync::atomic::Ordering::SeqCst)
+    }
+}
+
+impl std::io::Write for Counting {
+    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+        self.0
+            .fetch_add(b.len() as u64, std::sync::atomic::Ordering::SeqCst);
+        Ok(b.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// A `w`x`h` crossterm terminal writing into a byte counter.
+pub fn counting_terminal(
+    w: u16,
+    h: u16,
+) -> (
+    ratatui::Terminal<ratatui::backend::CrosstermBackend<Counting>>,
+    Counting,
+) {
+    let out = Counting::default();
+    let term = ratatui::Terminal::with_options(
+        ratatui::backend::CrosstermBackend::new(out.clone()),
+        ratatui::TerminalOptions {
+            viewport: ratatui::Viewport::Fixed(ratatui::layout::Rect::new(0, 0, w, h)),
+        },
+    )
+    .unwrap();
+    (term, out)
+}
