@@ -60,7 +60,7 @@ fn bench(c: &mut Criterion) {
                 let mut frames = Vec::new();
                 p.push(chunk, |f| frames.push(f));
                 let total = *p.stats();
-                let stats = mavterm::app::stats_delta(&total, &reported);
+                let stats = total.since(&reported);
                 reported = total;
                 t += 1_000;
                 black_box(app.update(

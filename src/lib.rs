@@ -8,6 +8,7 @@
 pub mod app;
 pub mod cli;
 pub mod clock;
+pub mod driver;
 pub mod headless;
 pub mod keymap;
 pub mod link;
@@ -15,6 +16,7 @@ pub mod proto;
 pub mod sim;
 pub mod tui;
 pub mod ui;
+pub mod wire;
 
 /// The MAVLink dialect mavterm speaks: ardupilotmega, which includes common.
 pub use mavlink::dialects::ardupilotmega as dialect;

@@ -100,7 +100,7 @@ fn main() -> Result<()> {
             r.advance_to((secs * SECOND as f64) as u64);
             r.app
         } else {
-            rt.block_on(mavterm::link::manager::run_for(
+            rt.block_on(mavterm::driver::run_for(
                 &links,
                 app_config(&cli),
                 Duration::from_secs_f64(secs),
@@ -182,7 +182,8 @@ async fn terminal(cli: &Cli, links: &[LinkSpec], keymap: Keymap) -> Result<()> {
         loop {
             tokio::select! {
                 ev = mgr.next_event() => match ev {
-                    Some(ev) => {
+                    Some((link, ev)) => {
+                        let ev = mavterm::driver::link_event(link, ev);
                         if ev_tx.send((link_clock.now(), ev)).await.is_err() {
                             break;
                         }
@@ -191,7 +192,7 @@ async fn terminal(cli: &Cli, links: &[LinkSpec], keymap: Keymap) -> Result<()> {
                 },
                 fx = fx_rx.recv() => match fx {
                     Some(fx) => {
-                        for other in mgr.apply(vec![fx]) {
+                        for other in mavterm::driver::apply_sends(&mgr, vec![fx]) {
                             if let Effect::WriteFile { path, contents } = other {
                                 if let Err(e) = write_atomic(&path, &contents) {
                                     tracing::error!("writing {}: {e}", path.display());

@@ -7,8 +7,8 @@ use mavterm::app::links::LinkState;
 use mavterm::app::{App, AppConfig, Effect, Event};
 use mavterm::clock::SECOND;
 use mavterm::keymap::{Key, Keymap};
-use mavterm::link::frame::frame_crc;
 use mavterm::link::{FrameParser, ParserStats};
+use mavterm::wire::frame::frame_crc;
 
 fn app() -> App {
     App::new(AppConfig {

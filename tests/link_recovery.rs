@@ -8,7 +8,8 @@ use std::time::Duration;
 use mavterm::app::links::LinkState;
 use mavterm::app::{App, AppConfig};
 use mavterm::clock::{Clock, RealClock};
-use mavterm::link::manager::{run_for, LinkManager};
+use mavterm::driver::{apply_sends, link_event, run_for};
+use mavterm::link::manager::LinkManager;
 use mavterm::link::transport::LinkIdentity;
 use mavterm::link::LinkSpec;
 use tokio::io::AsyncWriteExt;
@@ -42,10 +43,10 @@ async fn pump_until(
     while !cond(app) {
         let ev = tokio::select! {
             _ = tokio::time::sleep_until(end) => return false,
-            ev = mgr.next_event() => ev.unwrap(),
+            ev = mgr.next_event() => { let (l, e) = ev.unwrap(); link_event(l, e) }
         };
         let fx = app.update(clock.now(), ev);
-        mgr.apply(fx);
+        apply_sends(mgr, fx);
     }
     true
 }
@@ -186,7 +187,7 @@ async fn tcpin_serves_several_clients() {
     assert_eq!(app.links[0].parser.crc_errors, 0);
     // Both clients get our heartbeat.
     let fx = app.update(clock.now() + 2_000_000, mavterm::app::Event::Tick);
-    mgr.apply(fx);
+    apply_sends(&mgr, fx);
     for s in [&mut a, &mut b] {
         let mut buf = [0u8; 512];
         let n = tokio::time::timeout(Duration::from_secs(3), s.read(&mut buf))
@@ -226,7 +227,7 @@ async fn udpin_replies_to_every_peer_heard() {
         .await
     );
     let fx = app.update(clock.now() + 2_000_000, mavterm::app::Event::Tick);
-    mgr.apply(fx);
+    apply_sends(&mgr, fx);
     for s in [&a, &b] {
         let mut buf = [0u8; 512];
         let (n, _) = tokio::time::timeout(Duration::from_secs(3), s.recv_from(&mut buf))

@@ -6,9 +6,9 @@
 #![allow(deprecated)]
 
 use mavterm::dialect::{MavDataStream, MavMessage, REQUEST_DATA_STREAM_DATA};
-use mavterm::link::frame::{encode, Header, Version};
 use mavterm::link::FrameParser;
 use mavterm::sim::{Sim, SimConfig};
+use mavterm::wire::frame::{encode, Header, Version};
 use std::collections::BTreeMap;
 
 #[allow(deprecated)]

@@ -4,27 +4,9 @@
 use std::collections::BTreeMap;
 
 use crate::clock::{Micros, SECOND};
+pub use crate::link::LinkState;
 use crate::link::ParserStats;
 use crate::proto::loss::SeqTracker;
-
-/// Up, down (with the reason), or not yet connected.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum LinkState {
-    Connecting,
-    Up,
-    Down(String),
-}
-
-impl LinkState {
-    /// `up`, `connecting` or `down: <reason>`.
-    pub fn label(&self) -> String {
-        match self {
-            LinkState::Connecting => "connecting".into(),
-            LinkState::Up => "up".into(),
-            LinkState::Down(r) => format!("down: {r}"),
-        }
-    }
-}
 
 /// How soon a repeated frame must follow the original to be a duplicate (radios and routers
 /// repeat within milliseconds).

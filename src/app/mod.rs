@@ -293,7 +293,7 @@ impl App {
         let Some(l) = self.links.get_mut(link) else {
             return;
         };
-        add_stats(&mut l.parser, &stats);
+        l.parser.add(&stats);
         l.rate.add(now, frames.len() as u64, stats.bytes);
         if l.state != LinkState::Up && !frames.is_empty() {
             self.on_link_state(link, LinkState::Up);
@@ -541,34 +541,4 @@ fn heartbeat_fallback(frame: &Frame) -> Option<MavMessage> {
         system_status: MavState::from_u8(p[7]).unwrap_or(MavState::MAV_STATE_UNINIT),
         mavlink_version: p[8],
     }))
-}
-
-/// Add parser counter increases to a running total.
-pub fn add_stats(total: &mut ParserStats, d: &ParserStats) {
-    total.bytes += d.bytes;
-    total.frames += d.frames;
-    total.crc_errors += d.crc_errors;
-    total.truncated += d.truncated;
-    total.unknown_ids += d.unknown_ids;
-    total.decode_errors += d.decode_errors;
-    total.garbage_bytes += d.garbage_bytes;
-    total.v1_frames += d.v1_frames;
-    total.v2_frames += d.v2_frames;
-    total.signed_frames += d.signed_frames;
-}
-
-/// The increase of parser counters from `before` to `after`.
-pub fn stats_delta(after: &ParserStats, before: &ParserStats) -> ParserStats {
-    ParserStats {
-        bytes: after.bytes - before.bytes,
-        frames: after.frames - before.frames,
-        crc_errors: after.crc_errors - before.crc_errors,
-        truncated: after.truncated - before.truncated,
-        unknown_ids: after.unknown_ids - before.unknown_ids,
-        decode_errors: after.decode_errors - before.decode_errors,
-        garbage_bytes: after.garbage_bytes - before.garbage_bytes,
-        v1_frames: after.v1_frames - before.v1_frames,
-        v2_frames: after.v2_frames - before.v2_frames,
-        signed_frames: after.signed_frames - before.signed_frames,
-    }
 }

@@ -52,12 +52,12 @@ impl Driver for RealTimeRunner {
             app,
             clock,
         } = self;
-        rt.block_on(mgr.run_until(app, clock, t));
+        rt.block_on(crate::driver::run_until(mgr, app, clock, t));
     }
 
     fn key(&mut self, key: Key) {
         let fx = self.app.update(self.clock.now(), Event::Key(key));
-        self.mgr.apply(fx);
+        crate::driver::apply_sends(&self.mgr, fx);
     }
 
     fn now(&self) -> Micros {

@@ -8,9 +8,9 @@ use crate::app::{App, AppConfig, Effect, Event};
 use crate::clock::Micros;
 use crate::keymap::Key;
 use crate::link::tlog::{read_tlog, TlogRecord};
-use crate::link::tx::LinkTx;
 use crate::link::{FrameParser, LinkSpec, ParserStats};
 use crate::sim::{Sim, SimConfig};
+use crate::wire::tx::LinkTx;
 
 /// How often the core gets a `Tick` in virtual time.
 pub const TICK: Micros = 100_000;
@@ -268,7 +268,7 @@ impl VirtualRunner {
         let mut frames = Vec::new();
         l.parser.push(&bytes, |f| frames.push(f));
         let total = *l.parser.stats();
-        let stats = crate::app::stats_delta(&total, &l.reported);
+        let stats = total.since(&l.reported);
         l.reported = total;
         l.tx.observe(&total);
         let fx = self.app.update(

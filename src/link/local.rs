@@ -9,10 +9,10 @@ use tokio::sync::mpsc;
 use super::spec::LinkSpec;
 use super::tlog::read_tlog;
 use super::transport::LocalIngest;
-use super::tx::LinkTx;
 use crate::clock::Micros;
 use crate::dialect::MavMessage;
 use crate::sim::{Sim, SimConfig};
+use crate::wire::tx::LinkTx;
 
 pub(crate) async fn run_local(
     spec: &LinkSpec,

@@ -1,7 +1,7 @@
 //! Telemetry logs (`.tlog`) as MAVProxy, QGroundControl and pymavlink write them: for each frame,
 //! 8 bytes big-endian microseconds since the Unix epoch, then the raw frame.
 
-use super::frame::{IFLAG_SIGNED, MAGIC_V1, MAGIC_V2, SIGNATURE_LEN};
+use crate::wire::frame::{IFLAG_SIGNED, MAGIC_V1, MAGIC_V2, SIGNATURE_LEN};
 
 /// One record: when it was logged and the frame's bytes.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -11,13 +11,12 @@ use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream, UdpSocket};
 use tokio::sync::mpsc;
 
-use super::parser::{FrameParser, ParserStats};
 use super::spec::LinkSpec;
-use super::tx::LinkTx;
+use super::state::LinkState;
 use super::{Frame, LinkId};
-use crate::app::links::LinkState;
-use crate::app::{add_stats, stats_delta};
 use crate::dialect::MavMessage;
+use crate::wire::parser::{FrameParser, ParserStats};
+use crate::wire::tx::LinkTx;
 
 /// First retry delay after a link fails.
 pub const BACKOFF_START: Duration = Duration::from_millis(500);
@@ -94,7 +93,7 @@ impl Ingest {
             self.parser.end_of_datagram(|f| frames.push(f));
         }
         let now = *self.parser.stats();
-        let delta = stats_delta(&now, &self.reported);
+        let delta = now.since(&self.reported);
         self.reported = now;
         tx.observe(&now);
         let _ = self.events.send((
@@ -344,7 +343,7 @@ async fn tcp_server(
                 Err(e) => tracing::warn!("accept: {e}"),
             },
             Some(d) = totals_rx.recv() => {
-                add_stats(&mut totals, &d);
+                totals.add(&d);
                 tx.observe(&totals);
             }
             Some(_) = clients.join_next(), if !clients.is_empty() => {}
@@ -385,7 +384,7 @@ async fn serve_client(
                 Ok(n) => {
                     let before = *client.parser.stats();
                     client.feed(&buf[..n], false, &mut unused_tx);
-                    let _ = totals.send(stats_delta(client.parser.stats(), &before));
+                    let _ = totals.send(client.parser.stats().since(&before));
                 }
             },
             m = out.recv() => match m {

@@ -1,12 +1,12 @@
 //! What a vehicle does with each message from the GCS: parameters, streams, MAVFTP, modes and
 //! commands (COMMAND_LONG / COMMAND_INT → COMMAND_ACK), following ArduCopter's behaviour.
 
-use super::mavftp::FtpPacket;
 use super::streams::{self, id, DEFAULT_INTERVAL};
 use super::telemetry::{command_ack, param_value};
 use super::vehicle::{mode, LastCommand, SimVehicle};
 use crate::clock::Micros;
 use crate::dialect::*;
+use crate::wire::mavftp::FtpPacket;
 
 /// ArduPilot's magic param2 that skips arming checks / allows disarm in flight.
 pub const FORCE_MAGIC: f32 = 21196.0;

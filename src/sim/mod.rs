@@ -13,7 +13,6 @@ pub mod config;
 pub mod handlers;
 pub mod impair;
 pub mod mavftp;
-pub mod param_pck;
 pub mod params;
 pub mod rng;
 pub mod server;
@@ -28,8 +27,8 @@ pub use vehicle::SimVehicle;
 
 use crate::clock::Micros;
 use crate::dialect::{MavMessage, MavResult};
-use crate::link::frame::{crc_extra, encode, frame_crc, Header, Version, MAGIC_V2};
-use crate::link::parser::FrameParser;
+use crate::wire::frame::{crc_extra, encode, frame_crc, Header, Version, MAGIC_V2};
+use crate::wire::parser::FrameParser;
 use impair::{ImpairConfig, Impairer};
 use params::ParamTable;
 use rng::Rng;

@@ -5,8 +5,8 @@
 //! (`assets/sim/copter-param-types.txt`), so PARAM_VALUE indices and types are what a GCS sees
 //! from ArduPilot, not guesses.
 
-use super::param_pck::{PckParam, PckType};
 use crate::dialect::MavParamType;
+use crate::wire::param_pck::{PckParam, PckType};
 use std::collections::BTreeMap;
 use std::path::Path;
 

@@ -100,7 +100,7 @@ pub async fn serve_tcp(listener: TcpListener, cfg: SimConfig) -> Result<(), SimE
                 tokio::spawn(async move {
                     // Frame each client's stream on its own, and hand the sim whole frames only:
                     // two GCSs' partial frames must not interleave in the sim's parser.
-                    let mut parser = crate::link::FrameParser::new();
+                    let mut parser = crate::wire::FrameParser::new();
                     let mut buf = vec![0u8; 4096];
                     loop {
                         match rd.read(&mut buf).await {
@@ -217,9 +217,9 @@ mod tests {
         let addr = sock.local_addr().unwrap();
         let server = tokio::spawn(serve_udp(sock, None, SimConfig::default()));
         let client = UdpSocket::bind("127.0.0.1:0").await.unwrap();
-        let hb = crate::link::frame::encode(
-            crate::link::Version::V2,
-            crate::link::Header {
+        let hb = crate::wire::frame::encode(
+            crate::wire::Version::V2,
+            crate::wire::Header {
                 sysid: 255,
                 compid: 190,
                 seq: 0,
@@ -232,14 +232,14 @@ mod tests {
             .await
             .unwrap()
             .unwrap();
-        let f = crate::link::frame::decode_one(&buf[..n]).unwrap();
+        let f = crate::wire::frame::decode_one(&buf[..n]).unwrap();
         assert_eq!((f.sysid, f.compid), (1, 1));
         server.abort();
     }
 
     /// Read until a heartbeat from each of two vehicles arrived; returns their sysids.
     async fn read_heartbeats(s: &mut tokio::net::TcpStream) -> std::collections::BTreeSet<u8> {
-        let mut parser = crate::link::FrameParser::new();
+        let mut parser = crate::wire::FrameParser::new();
         let mut buf = vec![0u8; 4096];
         let mut seen = std::collections::BTreeSet::new();
         while seen.len() < 2 {

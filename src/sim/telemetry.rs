@@ -1,11 +1,11 @@
 //! Building the messages a vehicle sends, from its state. Values are plausible for a small quad
 //! at the SITL home; jitter comes from the vehicle's seeded RNG so output stays deterministic.
 
-use super::mavftp::FtpPacket;
 use super::params::{mav_type, ParamTable};
 use super::streams::id;
 use super::vehicle::{mode, SimVehicle};
 use crate::dialect::*;
+use crate::wire::mavftp::FtpPacket;
 
 /// What the banner calls the firmware.
 pub const FIRMWARE_STRING: &str = "ArduCopter V4.5.7 (sim)";

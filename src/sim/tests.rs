@@ -3,7 +3,8 @@
 use super::vehicle::mode;
 use super::*;
 use crate::dialect::*;
-use crate::link::frame::Frame;
+use crate::wire::frame::Frame;
+use crate::wire::{mavftp, param_pck};
 
 const GCS: Header = Header {
     sysid: 255,

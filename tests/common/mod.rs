@@ -148,7 +148,7 @@ pub fn sim_server(port: u16, options: &str) -> ChildGuard {
 /// A HEARTBEAT frame of an ArduCopter (STANDBY) from `sysid`:1 with `custom_mode`.
 pub fn copter_heartbeat(sysid: u8, seq: u8, custom_mode: u32) -> Vec<u8> {
     use mavterm::dialect::{self, MavMessage};
-    use mavterm::link::frame::{encode, Header, Version};
+    use mavterm::wire::frame::{encode, Header, Version};
     let msg = MavMessage::HEARTBEAT(dialect::HEARTBEAT_DATA {
         custom_mode,
         mavtype: dialect::MavType::MAV_TYPE_QUADROTOR,

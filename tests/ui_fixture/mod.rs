@@ -4,10 +4,11 @@
 use std::collections::BTreeMap;
 
 use mavterm::app::links::LinkState;
-use mavterm::app::{stats_delta, App, AppConfig, Event};
+use mavterm::app::{App, AppConfig, Event};
 use mavterm::clock::{Micros, SECOND};
 use mavterm::dialect::{self, MavMessage};
-use mavterm::link::{frame, FrameParser, Header, LinkId, Version};
+use mavterm::link::LinkId;
+use mavterm::wire::{frame, FrameParser, Header, Version};
 
 /// 2024-05-01 12:00:00 UTC: a fixed wall clock so screens are reproducible.
 pub fn epoch() -> chrono::DateTime<chrono::Utc> {
@@ -39,7 +40,7 @@ impl Drive {
     pub fn bytes(&mut self, t: Micros, link: LinkId, bytes: &[u8]) {
         let before = *self.parsers[link].stats();
         let frames = self.parsers[link].parse_all(bytes);
-        let stats = stats_delta(self.parsers[link].stats(), &before);
+        let stats = self.parsers[link].stats().since(&before);
         self.app.update(
             t,
             Event::Frames {

@@ -44,6 +44,38 @@ pub struct ParserStats {
     pub signed_frames: u64,
 }
 
+impl ParserStats {
+    /// Add counter increases to a running total.
+    pub fn add(&mut self, d: &ParserStats) {
+        self.bytes += d.bytes;
+        self.frames += d.frames;
+        self.crc_errors += d.crc_errors;
+        self.truncated += d.truncated;
+        self.unknown_ids += d.unknown_ids;
+        self.decode_errors += d.decode_errors;
+        self.garbage_bytes += d.garbage_bytes;
+        self.v1_frames += d.v1_frames;
+        self.v2_frames += d.v2_frames;
+        self.signed_frames += d.signed_frames;
+    }
+
+    /// The increase of the counters from `before` to `self`.
+    pub fn since(&self, before: &ParserStats) -> ParserStats {
+        ParserStats {
+            bytes: self.bytes - before.bytes,
+            frames: self.frames - before.frames,
+            crc_errors: self.crc_errors - before.crc_errors,
+            truncated: self.truncated - before.truncated,
+            unknown_ids: self.unknown_ids - before.unknown_ids,
+            decode_errors: self.decode_errors - before.decode_errors,
+            garbage_bytes: self.garbage_bytes - before.garbage_bytes,
+            v1_frames: self.v1_frames - before.v1_frames,
+            v2_frames: self.v2_frames - before.v2_frames,
+            signed_frames: self.signed_frames - before.signed_frames,
+        }
+    }
+}
+
 /// Streaming frame parser. Feed it bytes with [`FrameParser::push`]; it calls back once per frame.
 #[derive(Debug, Default)]
 pub struct FrameParser {
@@ -303,7 +335,7 @@ fn cut_off_by_a_frame(d: &[u8], span: usize) -> bool {
 mod tests {
     use super::*;
     use crate::dialect as apm;
-    use crate::link::frame::{encode, Header};
+    use crate::wire::frame::{encode, Header};
 
     fn hb(seq: u8, version: Version) -> Vec<u8> {
         let msg = MavMessage::HEARTBEAT(apm::HEARTBEAT_DATA {

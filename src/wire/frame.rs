@@ -188,7 +188,7 @@ pub fn encode(version: Version, header: Header, msg: &MavMessage) -> Vec<u8> {
 
 /// Decode a frame's bytes on their own (exactly one whole frame). Convenience for tests and tools.
 pub fn decode_one(bytes: &[u8]) -> Option<Frame> {
-    let mut p = crate::link::parser::FrameParser::new();
+    let mut p = crate::wire::parser::FrameParser::new();
     let mut out = None;
     p.push(bytes, |f| {
         if out.is_none() {

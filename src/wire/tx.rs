@@ -63,14 +63,17 @@ impl LinkTx {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::app::App;
-    use crate::link::frame::decode_one;
+    use crate::wire::frame::decode_one;
 
     #[test]
     fn sequence_increases_and_wraps() {
         let mut tx = LinkTx::new(255, 190);
         let seqs: Vec<u8> = (0..300)
-            .map(|_| decode_one(&tx.encode(&App::gcs_heartbeat())).unwrap().seq)
+            .map(|_| {
+                decode_one(&tx.encode(&MavMessage::HEARTBEAT(Default::default())))
+                    .unwrap()
+                    .seq
+            })
             .collect();
         assert_eq!(seqs[0], 0);
         assert_eq!(seqs[255], 255);
@@ -81,12 +84,15 @@ mod tests {
     #[test]
     fn speaks_v1_only_to_a_v1_only_peer() {
         let mut tx = LinkTx::new(255, 190);
-        assert_eq!(tx.encode(&App::gcs_heartbeat())[0], 0xFD);
+        assert_eq!(
+            tx.encode(&MavMessage::HEARTBEAT(Default::default()))[0],
+            0xFD
+        );
         tx.observe(&ParserStats {
             v1_frames: 3,
             ..Default::default()
         });
-        let f = decode_one(&tx.encode(&App::gcs_heartbeat())).unwrap();
+        let f = decode_one(&tx.encode(&MavMessage::HEARTBEAT(Default::default()))).unwrap();
         assert_eq!((f.version, f.sysid, f.compid), (Version::V1, 255, 190));
         tx.observe(&ParserStats {
             v1_frames: 3,

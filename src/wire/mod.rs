@@ -1,0 +1,12 @@
+//! The wire codec, at the bottom of every layer: MAVLink framing (parser, CRC, encoder with our own
+//! sequence numbers), and the MAVFTP and `param.pck` codecs. Pure: bytes in, values out. Used by
+//! the ground station and the simulated vehicle alike.
+
+pub mod frame;
+pub mod mavftp;
+pub mod param_pck;
+pub mod parser;
+pub mod tx;
+
+pub use frame::{Frame, Header, Version};
+pub use parser::{FrameParser, ParserStats};
