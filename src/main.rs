@@ -5,17 +5,14 @@ use std::time::Duration;
 use anyhow::{bail, Context, Result};
 use clap::Parser;
 
-use mavterm::app::{App, AppConfig, Effect};
+use mavterm::app::AppConfig;
 use mavterm::cli::{Cli, Command, ReportFormat};
 use mavterm::clock::SECOND;
-use mavterm::clock::{Clock, RealClock};
-use mavterm::headless::realtime::RealTimeRunner;
+use mavterm::driver::real_time::{RealTime, RealTimeRunner};
+use mavterm::driver::virtual_time::{all_virtual, Driver, VirtualRunner};
 use mavterm::headless::replay::{run_script, ReplayOptions};
-use mavterm::headless::runner::{all_virtual, Driver, VirtualRunner};
 use mavterm::headless::script::Script;
 use mavterm::keymap::Keymap;
-use mavterm::link::manager::LinkManager;
-use mavterm::link::transport::LinkIdentity;
 use mavterm::link::LinkSpec;
 use mavterm::tui::{run_terminal, TuiOptions};
 use mavterm::ui::Theme;
@@ -100,7 +97,7 @@ fn main() -> Result<()> {
             r.advance_to((secs * SECOND as f64) as u64);
             r.app
         } else {
-            rt.block_on(mavterm::driver::run_for(
+            rt.block_on(mavterm::driver::real_time::run_for(
                 &links,
                 app_config(&cli),
                 Duration::from_secs_f64(secs),
@@ -161,67 +158,13 @@ fn replay(
 
 /// The terminal front end over real links (and `sim://` in real time).
 async fn terminal(cli: &Cli, links: &[LinkSpec], keymap: Keymap) -> Result<()> {
-    let mut cfg = app_config(cli);
-    cfg.links = links.iter().map(|s| s.to_string()).collect();
-    cfg.epoch = chrono::Utc::now();
-    let mut app = App::new(cfg);
-    app.keymap = keymap;
-    let clock = RealClock::new();
-    let mut mgr = LinkManager::start(
-        links,
-        LinkIdentity {
-            sysid: cli.sysid,
-            compid: cli.compid,
-        },
-    );
-    let (ev_tx, ev_rx) = tokio::sync::mpsc::channel(1024);
-    let (fx_tx, mut fx_rx) = tokio::sync::mpsc::unbounded_channel();
-    // The link side: link reports in, the core's sends out.
-    let link_clock = clock;
-    let pump = tokio::spawn(async move {
-        loop {
-            tokio::select! {
-                ev = mgr.next_event() => match ev {
-                    Some((link, ev)) => {
-                        let ev = mavterm::driver::link_event(link, ev);
-                        if ev_tx.send((link_clock.now(), ev)).await.is_err() {
-                            break;
-                        }
-                    }
-                    None => break,
-                },
-                fx = fx_rx.recv() => match fx {
-                    Some(fx) => {
-                        for other in mavterm::driver::apply_sends(&mgr, vec![fx]) {
-                            if let Effect::WriteFile { path, contents } = other {
-                                if let Err(e) = write_atomic(&path, &contents) {
-                                    tracing::error!("writing {}: {e}", path.display());
-                                }
-                            }
-                        }
-                    }
-                    None => break,
-                },
-            }
-        }
-    });
+    let mut rt = RealTime::start(links, app_config(cli));
+    rt.app.keymap = keymap;
     let opts = TuiOptions {
         fps: cli.fps,
         record: cli.record.clone(),
         theme: Theme::from_env(),
     };
-    let result = run_terminal(app, ev_rx, fx_tx, clock, opts).await;
-    pump.abort();
-    result?;
+    run_terminal(rt, opts).await?;
     Ok(())
-}
-
-/// Write a file so that a crash never leaves it half written: temp file, fsync, rename.
-fn write_atomic(path: &std::path::Path, contents: &[u8]) -> std::io::Result<()> {
-    use std::io::Write;
-    let tmp = path.with_extension("tmp~");
-    let mut f = std::fs::File::create(&tmp)?;
-    f.write_all(contents)?;
-    f.sync_all()?;
-    std::fs::rename(&tmp, path)
 }

@@ -1,18 +1,17 @@
 //! The terminal front end: crossterm input, ratatui output, the core in between.
 //!
 //! The terminal is put back (alternate screen left, cursor shown, raw mode off) on every way
-//! out: normal return, error, Ctrl-C/SIGTERM, and panic (a panic hook restores first, then runs
-//! the previous hook so the message lands on a sane screen). Redraws happen only when the core
-//! says something changed (`App::take_dirty`), at most `fps` times a second, so an idle screen
-//! writes nothing between clock ticks.
+//! out: normal return, error, Ctrl-C, SIGTERM, SIGHUP, SIGQUIT, SIGINT, and panic (a panic hook
+//! restores first, then runs the previous hook so the message lands on a sane screen). Redraws
+//! happen only when the core says something changed (`App::take_dirty`), at most `fps` times a
+//! second, so an idle screen writes nothing between clock ticks; the loop itself is the driver's
+//! (`driver::real_time`), woken by keys, frames and the core's deadlines, never by polling.
 
 use std::fs::File;
 use std::io::{self, Write};
 use std::panic::PanicHookInfo;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
 
 use crossterm::event::{self as ct, KeyEventKind, KeyModifiers};
 use crossterm::terminal::{
@@ -20,10 +19,10 @@ use crossterm::terminal::{
 };
 use ratatui::backend::{Backend, CrosstermBackend};
 use ratatui::Terminal;
-use tokio::sync::mpsc;
 
-use crate::app::{App, Effect, Event};
-use crate::clock::{Clock, Micros};
+use crate::app::{App, Event};
+use crate::clock::{Clock, Micros, SECOND};
+use crate::driver::real_time::{Frontend, RealTime};
 use crate::headless::script::key_line;
 use crate::keymap::{Key, KeyCode};
 use crate::ui::{self, Theme};
@@ -236,125 +235,135 @@ impl Recorder {
     }
 }
 
-/// Reads terminal events on a thread (crossterm's reads block) until dropped.
-struct InputThread {
-    stop: Arc<AtomicBool>,
-    handle: Option<std::thread::JoinHandle<()>>,
+/// The terminal as the driver's front end: keys and resizes from crossterm's event stream (no
+/// polling), signals that end the session, and drawing at most `fps` times a second, only when
+/// the core changed something.
+struct TerminalFrontend<B: Backend, C: Clock> {
+    terminal: Terminal<B>,
+    events: crossterm::event::EventStream,
+    signals: Signals,
+    recorder: Option<Recorder>,
+    theme: Theme,
+    clock: C,
+    period: Micros,
+    last_draw: Option<Micros>,
 }
 
-impl InputThread {
-    fn spawn(tx: mpsc::UnboundedSender<io::Result<ct::Event>>) -> InputThread {
-        let stop = Arc::new(AtomicBool::new(false));
-        let flag = Arc::clone(&stop);
-        let handle = std::thread::spawn(move || {
-            // Poll with a timeout so the thread notices `stop` and never eats input after exit.
-            while !flag.load(Ordering::Relaxed) {
-                let ev = match ct::poll(Duration::from_millis(50)) {
-                    Ok(false) => continue,
-                    Ok(true) => ct::read(),
-                    Err(e) => Err(e),
-                };
-                let failed = ev.is_err();
-                if tx.send(ev).is_err() || failed {
-                    break;
+/// The signals that end a session with the terminal restored: SIGTERM, SIGHUP (the SSH
+/// connection dropped), SIGQUIT and SIGINT (raw mode turns Ctrl-C into a key; a `kill -INT`
+/// still arrives as a signal).
+struct Signals {
+    #[cfg(unix)]
+    all: Vec<tokio::signal::unix::Signal>,
+}
+
+impl Signals {
+    fn new() -> io::Result<Signals> {
+        #[cfg(unix)]
+        {
+            use tokio::signal::unix::{signal, SignalKind};
+            let kinds = [
+                SignalKind::terminate(),
+                SignalKind::hangup(),
+                SignalKind::quit(),
+                SignalKind::interrupt(),
+            ];
+            let all = kinds.into_iter().map(signal).collect::<io::Result<_>>()?;
+            Ok(Signals { all })
+        }
+        #[cfg(not(unix))]
+        Ok(Signals {})
+    }
+
+    /// Resolves when any of the signals arrives.
+    async fn recv(&mut self) {
+        #[cfg(unix)]
+        {
+            let futs = self.all.iter_mut().map(|s| Box::pin(s.recv()));
+            let _ = futures_util::future::select_all(futs).await;
+        }
+        #[cfg(not(unix))]
+        {
+            let _ = tokio::signal::ctrl_c().await;
+        }
+    }
+}
+
+impl<B: Backend + Send, C: Clock + Send> Frontend for TerminalFrontend<B, C>
+where
+    B::Error: Into<io::Error>,
+{
+    async fn next_input(&mut self) -> io::Result<Option<Event>> {
+        use futures_util::StreamExt;
+        loop {
+            let ev = tokio::select! {
+                ev = self.events.next() => ev,
+                _ = self.signals.recv() => return Ok(None),
+            };
+            match ev {
+                Some(Ok(ct::Event::Key(k))) => {
+                    if let Some(key) = key_from_crossterm(k) {
+                        if let Some(r) = self.recorder.as_mut() {
+                            r.key(self.clock.now(), key).map_err(io::Error::other)?;
+                        }
+                        return Ok(Some(Event::Key(key)));
+                    }
                 }
+                Some(Ok(ct::Event::Resize(..))) => return Ok(Some(Event::Resize)),
+                Some(Ok(_)) => {}
+                Some(Err(e)) => return Err(e),
+                None => return Ok(None),
             }
-        });
-        InputThread {
-            stop,
-            handle: Some(handle),
         }
     }
-}
 
-impl Drop for InputThread {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(h) = self.handle.take() {
-            let _ = h.join();
+    fn wake_at(&self, app: &App) -> Option<Micros> {
+        // A change held back by the frame-rate cap, and the clock on screen (whole seconds).
+        let next_second = (app.now / SECOND + 1) * SECOND;
+        match (app.is_dirty(), self.last_draw) {
+            (true, Some(t)) => Some((t + self.period).min(next_second)),
+            _ => Some(next_second),
         }
     }
-}
 
-/// Hand effects to the edge; a closed channel means the edge is gone, which only matters for
-/// `Quit`, and the loop checks `app.quit` itself.
-fn forward(effects: &mpsc::UnboundedSender<Effect>, fx: Vec<Effect>) {
-    for e in fx {
-        let _ = effects.send(e);
+    fn after(&mut self, app: &mut App, now: Micros) -> io::Result<()> {
+        if self.last_draw.is_some_and(|t| now < t + self.period) && app.is_dirty() {
+            return Ok(()); // drawn moments ago: draw at wake_at
+        }
+        if draw_if_dirty(&mut self.terminal, app, &self.theme).map_err(Into::into)? {
+            self.last_draw = Some(now);
+        }
+        Ok(())
     }
 }
 
-/// Run the terminal UI until the operator quits (or Ctrl-C / SIGTERM), returning the final
-/// state. `events` carries the link side's core events (frames, link states) stamped with
-/// `clock`'s time; every effect the core produces (sends, file writes, quit) goes to
-/// `effects`. The loop also ticks the core at `fps`.
-pub async fn run_terminal(
-    mut app: App,
-    mut events: mpsc::Receiver<(Micros, Event)>,
-    effects: mpsc::UnboundedSender<Effect>,
-    clock: impl Clock,
+/// Run the terminal UI on `rt` (the core and its links) until the operator quits, the input ends
+/// or a signal (SIGTERM, SIGHUP, SIGQUIT, SIGINT) arrives, returning the final state. The
+/// terminal is restored on every way out.
+pub async fn run_terminal<C: Clock + Clone + Send>(
+    mut rt: RealTime<C>,
     opts: TuiOptions,
 ) -> Result<App, TuiError> {
-    let mut recorder = opts.record.as_deref().map(Recorder::create).transpose()?;
+    let recorder = opts.record.as_deref().map(Recorder::create).transpose()?;
     let guard = TerminalGuard::enter()?;
     // No `terminal.clear()`: it asks the terminal for the cursor position, which fails (times
     // out) on terminals that do not answer; the guard already cleared the alternate screen.
-    let mut terminal = Terminal::new(CrosstermBackend::new(io::stdout()))?;
-    let (input_tx, mut input_rx) = mpsc::unbounded_channel();
-    let input = InputThread::spawn(input_tx);
-    let period = Duration::from_secs_f64(1.0 / f64::from(opts.fps.clamp(1, 120)));
-    let mut frames = tokio::time::interval(period);
-    frames.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-    let mut sigint = std::pin::pin!(tokio::signal::ctrl_c());
-    #[cfg(unix)]
-    let mut sigterm = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())?;
-    let mut events_open = true;
-    let result: Result<(), TuiError> = loop {
-        #[cfg(unix)]
-        let term = sigterm.recv();
-        #[cfg(not(unix))]
-        let term = std::future::pending::<Option<()>>();
-        tokio::select! {
-            _ = frames.tick() => {
-                forward(&effects, app.update(clock.now(), Event::Tick));
-                if let Err(e) = draw_if_dirty(&mut terminal, &mut app, &opts.theme) {
-                    break Err(e.into());
-                }
-            }
-            ev = events.recv(), if events_open => match ev {
-                Some((t, ev)) => forward(&effects, app.update(t, ev)),
-                None => events_open = false,
-            },
-            input = input_rx.recv() => match input {
-                Some(Ok(ct::Event::Key(k))) => {
-                    if let Some(key) = key_from_crossterm(k) {
-                        let t = clock.now();
-                        if let Some(r) = recorder.as_mut() {
-                            if let Err(e) = r.key(t, key) {
-                                break Err(e);
-                            }
-                        }
-                        forward(&effects, app.update(t, Event::Key(key)));
-                    }
-                }
-                Some(Ok(ct::Event::Resize(..))) => {
-                    forward(&effects, app.update(clock.now(), Event::Resize));
-                }
-                Some(Ok(_)) => {}
-                Some(Err(e)) => break Err(e.into()),
-                None => break Ok(()),
-            },
-            _ = &mut sigint => break Ok(()),
-            _ = term => break Ok(()),
-        }
-        if app.quit {
-            break Ok(());
-        }
+    let terminal = Terminal::new(CrosstermBackend::new(io::stdout()))?;
+    let mut front = TerminalFrontend {
+        terminal,
+        events: crossterm::event::EventStream::new(),
+        signals: Signals::new()?,
+        recorder,
+        theme: opts.theme,
+        clock: rt.clock(),
+        period: SECOND / u64::from(opts.fps.clamp(1, 120)),
+        last_draw: None,
     };
-    drop(input);
-    drop(terminal);
+    let result = rt.run(None, &mut front).await;
+    drop(front);
     guard.restore()?;
-    result.map(|()| app)
+    result?;
+    Ok(rt.app)
 }
 
 #[cfg(test)]

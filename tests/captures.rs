@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use mavlink::Message;
 use mavterm::app::AppConfig;
 use mavterm::dialect::MavMessage;
-use mavterm::headless::runner::VirtualRunner;
+use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::link::tlog::read_tlog;
 use mavterm::link::{Frame, FrameParser, LinkSpec};
 use mavterm::proto::loss::SeqTracker;

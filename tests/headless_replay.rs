@@ -1,8 +1,8 @@
 //! Headless replay against the simulated vehicle on the virtual clock.
 
 use mavterm::app::{AppConfig, Pane};
+use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::headless::replay::{run_script, run_script_on_specs, ReplayError, ReplayOptions};
-use mavterm::headless::runner::VirtualRunner;
 use mavterm::headless::script::Script;
 use mavterm::link::LinkSpec;
 

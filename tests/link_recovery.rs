@@ -7,46 +7,24 @@ use std::time::Duration;
 
 use mavterm::app::links::LinkState;
 use mavterm::app::{App, AppConfig};
-use mavterm::clock::{Clock, RealClock};
-use mavterm::driver::{apply_sends, link_event, run_for};
-use mavterm::link::manager::LinkManager;
-use mavterm::link::transport::LinkIdentity;
+use mavterm::driver::real_time::{run_for, NoFrontend, RealTime};
 use mavterm::link::LinkSpec;
 use tokio::io::AsyncWriteExt;
 use tokio::net::TcpListener;
 
-/// An app and a link manager on one link.
-fn start(spec: &LinkSpec) -> (App, LinkManager, RealClock) {
-    let app = App::new(AppConfig {
-        links: vec![spec.to_string()],
-        ..AppConfig::default()
-    });
-    let mgr = LinkManager::start(
-        std::slice::from_ref(spec),
-        LinkIdentity {
-            sysid: 255,
-            compid: 190,
-        },
-    );
-    (app, mgr, RealClock::new())
+/// The core on one real link.
+fn start(spec: &LinkSpec) -> RealTime {
+    RealTime::start(std::slice::from_ref(spec), AppConfig::default())
 }
 
-/// Pump link events into the app until `cond` holds or `timeout` passes.
-async fn pump_until(
-    app: &mut App,
-    mgr: &mut LinkManager,
-    clock: &RealClock,
-    timeout: Duration,
-    cond: impl Fn(&App) -> bool,
-) -> bool {
-    let end = tokio::time::Instant::now() + timeout;
-    while !cond(app) {
-        let ev = tokio::select! {
-            _ = tokio::time::sleep_until(end) => return false,
-            ev = mgr.next_event() => { let (l, e) = ev.unwrap(); link_event(l, e) }
-        };
-        let fx = app.update(clock.now(), ev);
-        apply_sends(mgr, fx);
+/// Run the core until `cond` holds or `timeout` passes.
+async fn pump_until(rt: &mut RealTime, timeout: Duration, cond: impl Fn(&App) -> bool) -> bool {
+    let end = rt.now() + timeout.as_micros() as u64;
+    while !cond(&rt.app) {
+        if rt.now() >= end {
+            return false;
+        }
+        let _ = rt.run(Some(rt.now() + 20_000), &mut NoFrontend).await;
     }
     true
 }
@@ -55,16 +33,16 @@ async fn pump_until(
 async fn tcp_peer_goes_away_and_comes_back() {
     let port = common::free_tcp_port();
     let spec: LinkSpec = format!("tcp:127.0.0.1:{port}").parse().unwrap();
-    let (mut app, mut mgr, clock) = start(&spec);
+    let mut rt = start(&spec);
 
     // Nobody listening yet: down with a reason.
     assert!(
-        pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
+        pump_until(&mut rt, Duration::from_secs(3), |a| {
             matches!(&a.links[0].state, LinkState::Down(r) if r.contains("connect"))
         })
         .await,
         "{:?}",
-        app.links[0].state
+        rt.app.links[0].state
     );
 
     // Server up: the link connects and counts frames.
@@ -79,7 +57,7 @@ async fn tcp_peer_goes_away_and_comes_back() {
             .unwrap();
     }
     assert!(
-        pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
+        pump_until(&mut rt, Duration::from_secs(3), |a| {
             a.links[0].parser.frames == 5 && a.links[0].state == LinkState::Up
         })
         .await
@@ -89,7 +67,7 @@ async fn tcp_peer_goes_away_and_comes_back() {
     drop(sock);
     drop(listener);
     assert!(
-        pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
+        pump_until(&mut rt, Duration::from_secs(3), |a| {
             matches!(a.links[0].state, LinkState::Down(_))
         })
         .await
@@ -107,15 +85,15 @@ async fn tcp_peer_goes_away_and_comes_back() {
             .unwrap();
     }
     assert!(
-        pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
+        pump_until(&mut rt, Duration::from_secs(3), |a| {
             a.links[0].parser.frames == 10 && a.links[0].state == LinkState::Up
         })
         .await
     );
-    let src = &app.links[0].sources[&(1, 1)];
+    let src = &rt.app.links[0].sources[&(1, 1)];
     assert_eq!((src.seq.received, src.seq.lost), (10, 0));
     // The operator was told.
-    let texts: Vec<&str> = app.notices.iter().map(|n| n.text.as_str()).collect();
+    let texts: Vec<&str> = rt.app.notices.iter().map(|n| n.text.as_str()).collect();
     assert!(
         texts.iter().filter(|t| t.contains(" down: ")).count() >= 2,
         "{texts:?}"
@@ -157,9 +135,9 @@ async fn tcpin_serves_several_clients() {
     use tokio::io::AsyncReadExt;
     let port = common::free_tcp_port();
     let spec: LinkSpec = format!("tcpin:127.0.0.1:{port}").parse().unwrap();
-    let (mut app, mut mgr, clock) = start(&spec);
+    let mut rt = start(&spec);
     assert!(
-        pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
+        pump_until(&mut rt, Duration::from_secs(3), |a| {
             a.links[0].state == LinkState::Up
         })
         .await
@@ -179,15 +157,15 @@ async fn tcpin_serves_several_clients() {
     a.write_all(&fa[5..]).await.unwrap();
     b.write_all(&fb[7..]).await.unwrap();
     assert!(
-        pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
+        pump_until(&mut rt, Duration::from_secs(3), |a| {
             a.vehicles.len() == 2
         })
         .await
     );
-    assert_eq!(app.links[0].parser.crc_errors, 0);
+    assert_eq!(rt.app.links[0].parser.crc_errors, 0);
     // Both clients get our heartbeat.
-    let fx = app.update(clock.now() + 2_000_000, mavterm::app::Event::Tick);
-    apply_sends(&mgr, fx);
+    // Our heartbeat goes out once a second.
+    let _ = rt.run(Some(rt.now() + 1_500_000), &mut NoFrontend).await;
     for s in [&mut a, &mut b] {
         let mut buf = [0u8; 512];
         let n = tokio::time::timeout(Duration::from_secs(3), s.read(&mut buf))
@@ -206,9 +184,9 @@ async fn tcpin_serves_several_clients() {
 async fn udpin_replies_to_every_peer_heard() {
     let port = common::free_udp_port();
     let spec: LinkSpec = format!("udpin:127.0.0.1:{port}").parse().unwrap();
-    let (mut app, mut mgr, clock) = start(&spec);
+    let mut rt = start(&spec);
     assert!(
-        pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
+        pump_until(&mut rt, Duration::from_secs(3), |a| {
             a.links[0].state == LinkState::Up
         })
         .await
@@ -221,13 +199,13 @@ async fn udpin_replies_to_every_peer_heard() {
         .unwrap();
     b.send_to(&fb, ("127.0.0.1", port)).await.unwrap();
     assert!(
-        pump_until(&mut app, &mut mgr, &clock, Duration::from_secs(3), |a| {
+        pump_until(&mut rt, Duration::from_secs(3), |a| {
             a.vehicles.len() == 2
         })
         .await
     );
-    let fx = app.update(clock.now() + 2_000_000, mavterm::app::Event::Tick);
-    apply_sends(&mgr, fx);
+    // Our heartbeat goes out once a second.
+    let _ = rt.run(Some(rt.now() + 1_500_000), &mut NoFrontend).await;
     for s in [&a, &b] {
         let mut buf = [0u8; 512];
         let (n, _) = tokio::time::timeout(Duration::from_secs(3), s.recv_from(&mut buf))

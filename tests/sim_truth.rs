@@ -3,7 +3,7 @@
 //! sequence tracking in the core) on the virtual clock.
 
 use mavterm::app::AppConfig;
-use mavterm::headless::runner::VirtualRunner;
+use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::link::LinkSpec;
 use mavterm::sim::Sim;
 

@@ -7,17 +7,20 @@
 use std::io::Write;
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use mavterm::app::{App, AppConfig};
+use mavterm::app::AppConfig;
 use mavterm::clock::{Clock, Micros, RealClock};
+use mavterm::driver::real_time::RealTime;
 use mavterm::tui::{run_terminal, TuiOptions};
 
 const ENTER_ALT: &str = "\x1b[?1049h";
 const LEAVE_ALT: &str = "\x1b[?1049l";
 
 /// A real clock that panics on its `n`th reading: a panic in the middle of the UI loop.
-struct PanicClock(RealClock, AtomicU32, u32);
+#[derive(Clone)]
+struct PanicClock(RealClock, Arc<AtomicU32>, u32);
 
 impl Clock for PanicClock {
     fn now(&self) -> Micros {
@@ -28,21 +31,16 @@ impl Clock for PanicClock {
     }
 }
 
-fn run_child(clock: impl Clock + 'static) {
+fn run_child(clock: impl Clock + Clone + Send + 'static) {
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
         .unwrap();
-    let (_tx, rx) = tokio::sync::mpsc::channel(16);
-    let (fx, _fx_rx) = tokio::sync::mpsc::unbounded_channel();
     let app = rt
-        .block_on(run_terminal(
-            App::new(AppConfig::default()),
-            rx,
-            fx,
-            clock,
-            TuiOptions::default(),
-        ))
+        .block_on(async {
+            let core = RealTime::start_with_clock(&[], AppConfig::default(), clock);
+            run_terminal(core, TuiOptions::default()).await
+        })
         .unwrap();
     assert!(app.quit);
     println!("CHILD-DONE");
@@ -57,7 +55,7 @@ fn child_quits_on_q() {
 #[test]
 #[ignore = "run by pty tests inside a pseudo-terminal"]
 fn child_panics() {
-    run_child(PanicClock(RealClock::new(), AtomicU32::new(0), 5));
+    run_child(PanicClock(RealClock::new(), Arc::new(AtomicU32::new(0)), 5));
 }
 
 /// Run `child` under `script`, typing `input` until it exits; returns (success, output).

@@ -3,10 +3,13 @@
 
 use std::collections::BTreeMap;
 
+use std::collections::VecDeque;
+
 use crate::clock::{Micros, SECOND};
 pub use crate::link::LinkState;
 use crate::link::ParserStats;
 use crate::proto::loss::SeqTracker;
+use crate::wire::tx::LinkTx;
 
 /// How soon a repeated frame must follow the original to be a duplicate (radios and routers
 /// repeat within milliseconds).
@@ -77,11 +80,28 @@ impl RateMeter {
     }
 }
 
+/// Frames we sent that are remembered per link, to know our own frames when a router echoes them.
+pub const SENT_MEMORY: usize = 64;
+/// Sources tracked per link at most; past this the longest silent is evicted and counted.
+pub const MAX_SOURCES: usize = 256;
+
 /// One link as the core tracks it.
 #[derive(Debug, Clone)]
 pub struct LinkStatus {
     pub spec: String,
     pub state: LinkState,
+    /// Our sending side: sequence numbers and the version the far end speaks.
+    pub tx: LinkTx,
+    /// (seq, crc) of the frames we sent most recently.
+    sent: VecDeque<(u8, u16)>,
+    /// Has been up at least once (so a later `up` is a reconnect).
+    pub was_up: bool,
+    /// Our own frames heard back (a router echoing them).
+    pub echoes: u64,
+    /// Frames the link or the core's queues dropped because the other side could not keep up.
+    pub dropped: u64,
+    /// Sources evicted to keep the table within [`MAX_SOURCES`].
+    pub evicted_sources: u64,
     pub parser: ParserStats,
     pub sources: BTreeMap<(u8, u8), SourceStats>,
     pub rate: RateMeter,
@@ -92,16 +112,62 @@ pub struct LinkStatus {
 }
 
 impl LinkStatus {
-    pub fn new(spec: String) -> Self {
+    pub fn new(spec: String, sysid: u8, compid: u8) -> Self {
         Self {
             spec,
             state: LinkState::Connecting,
+            tx: LinkTx::new(sysid, compid),
+            sent: VecDeque::with_capacity(SENT_MEMORY),
+            was_up: false,
+            echoes: 0,
+            dropped: 0,
+            evicted_sources: 0,
             parser: ParserStats::default(),
             sources: BTreeMap::new(),
             rate: RateMeter::default(),
             expanded: false,
             notified_down: None,
         }
+    }
+
+    /// Encode `msg` for this link and remember it, to know it if it comes back.
+    pub fn encode(&mut self, msg: &crate::dialect::MavMessage) -> Vec<u8> {
+        let bytes = self.tx.encode(msg);
+        // Unsigned frames: seq at byte 2 (v1) or 4 (v2), the CRC in the last two bytes.
+        let seq = if bytes[0] == crate::wire::frame::MAGIC_V1 {
+            bytes[2]
+        } else {
+            bytes[4]
+        };
+        let n = bytes.len();
+        let crc = u16::from_le_bytes([bytes[n - 2], bytes[n - 1]]);
+        if self.sent.len() == SENT_MEMORY {
+            self.sent.pop_front();
+        }
+        self.sent.push_back((seq, crc));
+        bytes
+    }
+
+    /// True when `frame` is one we sent on this link.
+    pub fn sent_by_us(&self, seq: u8, crc: u16) -> bool {
+        self.sent.contains(&(seq, crc))
+    }
+
+    /// The per-source statistics for `key`, made if new; a full table first evicts the source
+    /// heard least recently.
+    pub fn source(&mut self, key: (u8, u8)) -> &mut SourceStats {
+        if !self.sources.contains_key(&key) && self.sources.len() >= MAX_SOURCES {
+            let oldest = self
+                .sources
+                .iter()
+                .min_by_key(|(_, s)| s.last_heard)
+                .map(|(k, _)| *k);
+            if let Some(k) = oldest {
+                self.sources.remove(&k);
+                self.evicted_sources += 1;
+            }
+        }
+        self.sources.entry(key).or_default()
     }
 
     /// (received, lost) summed over all sources, since start.

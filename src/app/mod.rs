@@ -6,20 +6,23 @@
 pub mod links;
 pub mod notices;
 pub mod report;
+pub mod session;
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, VecDeque};
 
 use chrono::{DateTime, Utc};
 
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavMessage};
 use crate::keymap::{Action, Key, Keymap};
-use crate::link::{Frame, LinkId, ParserStats};
+use crate::link::{Frame, LinkId, LinkSpec, ParserStats};
+use crate::proto::ack::CommandAck;
 use crate::proto::loss::SeqOutcome;
-use crate::proto::streams;
+use crate::proto::statustext::StatusTextJoiner;
 use crate::proto::vehicles::{Registry, VehicleEvent, VehicleKey, DEFAULT_LOST_TIMEOUT};
-use links::{LinkState, LinkStatus};
+use links::{LinkState, LinkStatus, DUPLICATE_WINDOW};
 use notices::{Notice, Notices, SEV_ERROR, SEV_INFO, SEV_NOTICE, SEV_WARNING};
+use session::{Session, SessionOut};
 
 /// Settings the core starts with.
 #[derive(Debug, Clone)]
@@ -68,21 +71,37 @@ pub enum Event {
     Key(Key),
     /// The screen changed size.
     Resize,
+    /// A link (or the queue between it and the core) dropped frames it could not hand on.
+    Dropped {
+        link: LinkId,
+        frames: u64,
+    },
+    /// A file the core asked for ([`Effect::WriteFile`]) was written, or why not.
+    FileWritten {
+        path: std::path::PathBuf,
+        error: Option<String>,
+    },
 }
 
 /// What the core wants done.
 #[derive(Debug, Clone, PartialEq)]
 #[allow(clippy::large_enum_variant)] // short-lived; boxing every message buys nothing
 pub enum Effect {
-    /// Send a message on one link, or on every link when `link` is `None`.
+    /// Send a frame on a link: `frame` is `msg` encoded with that link's own sequence number.
     Send {
-        link: Option<LinkId>,
+        link: LinkId,
+        frame: Vec<u8>,
         msg: MavMessage,
     },
     /// Write a file (atomically: the edge writes a temp file and renames it).
     WriteFile {
         path: std::path::PathBuf,
         contents: Vec<u8>,
+    },
+    /// Open another link, whose id is `link` (the next free one).
+    OpenLink {
+        link: LinkId,
+        spec: LinkSpec,
     },
     Quit,
 }
@@ -143,16 +162,38 @@ pub struct App {
     pub target: Option<VehicleKey>,
     pub ui: UiState,
     pub keymap: Keymap,
+    /// One session per autopilot heard, holding its protocol machines.
+    pub sessions: BTreeMap<VehicleKey, Session>,
+    statustext: StatusTextJoiner,
+    /// The last frames of each source, over all links: the same frame arriving on a second link
+    /// is handled once.
+    recent: BTreeMap<(u8, u8), VecDeque<RecentFrame>>,
     next_heartbeat: Micros,
-    streams_requested: BTreeSet<VehicleKey>,
     dirty: bool,
     last_drawn_sec: u64,
     pub quit: bool,
 }
 
+/// A frame remembered to recognise its copy on another link.
+#[derive(Debug, Clone, Copy)]
+struct RecentFrame {
+    seq: u8,
+    msgid: u32,
+    crc: u16,
+    link: LinkId,
+    t: Micros,
+}
+
+/// Frames remembered per source for cross-link duplicates.
+const RECENT_PER_SOURCE: usize = 16;
+
 impl App {
     pub fn new(cfg: AppConfig) -> Self {
-        let links = cfg.links.iter().cloned().map(LinkStatus::new).collect();
+        let links = cfg
+            .links
+            .iter()
+            .map(|s| LinkStatus::new(s.clone(), cfg.sysid, cfg.compid))
+            .collect();
         let vehicles = Registry::new((cfg.sysid, cfg.compid), cfg.lost_timeout);
         Self {
             cfg,
@@ -163,8 +204,10 @@ impl App {
             target: None,
             ui: UiState::default(),
             keymap: Keymap::default(),
+            sessions: BTreeMap::new(),
+            statustext: StatusTextJoiner::default(),
+            recent: BTreeMap::new(),
             next_heartbeat: 0,
-            streams_requested: BTreeSet::new(),
             dirty: true,
             last_drawn_sec: 0,
             quit: false,
@@ -176,6 +219,11 @@ impl App {
         self.cfg.epoch + chrono::Duration::microseconds(t as i64)
     }
 
+    /// True when something on screen changed and has not been drawn (without clearing it).
+    pub fn is_dirty(&self) -> bool {
+        self.dirty || self.now / SECOND != self.last_drawn_sec
+    }
+
     /// True (once) when something on screen changed since the last call.
     pub fn take_dirty(&mut self) -> bool {
         let sec = self.now / SECOND;
@@ -185,6 +233,88 @@ impl App {
             self.dirty = true;
         }
         std::mem::take(&mut self.dirty)
+    }
+
+    /// When the core next needs to be woken with [`Event::Tick`] if nothing else happens: the
+    /// GCS heartbeat, a vehicle's lost timeout, a protocol machine's retry. Front ends sleep until
+    /// then (or a key, or a frame).
+    pub fn next_deadline(&self) -> Micros {
+        let mut t = self.next_heartbeat;
+        let mut at = |d: Option<Micros>| {
+            if let Some(d) = d {
+                t = t.min(d);
+            }
+        };
+        at(self.vehicles.next_deadline());
+        at(self.statustext.next_deadline());
+        for s in self.sessions.values() {
+            at(s.next_deadline());
+        }
+        t
+    }
+
+    /// Queue `msg` on `link`, encoded with that link's sequence number.
+    fn send(&mut self, link: LinkId, msg: MavMessage, fx: &mut Vec<Effect>) {
+        if let Some(l) = self.links.get_mut(link) {
+            let frame = l.encode(&msg);
+            fx.push(Effect::Send { link, frame, msg });
+        }
+    }
+
+    /// Queue `msg` on every link.
+    fn send_all(&mut self, msg: &MavMessage, fx: &mut Vec<Effect>) {
+        for link in 0..self.links.len() {
+            self.send(link, msg.clone(), fx);
+        }
+    }
+
+    fn link_up(&self, link: LinkId) -> bool {
+        self.links
+            .get(link)
+            .is_some_and(|l| l.state == LinkState::Up)
+    }
+
+    /// The link a message for `key` goes out on (see [`Session::route`]).
+    pub fn route(&self, key: VehicleKey) -> Option<LinkId> {
+        self.sessions
+            .get(&key)
+            .and_then(|s| s.route(|l| self.link_up(l)))
+    }
+
+    /// Carry out what a session asked for.
+    fn session_out(&mut self, key: VehicleKey, out: Vec<SessionOut>, fx: &mut Vec<Effect>) {
+        for o in out {
+            match o {
+                SessionOut::Send(msg) => match self.route(key) {
+                    Some(link) => self.send(link, msg, fx),
+                    None => self.notice(
+                        SEV_WARNING,
+                        Some(key),
+                        format!("no link to {}:{}: not sent", key.0, key.1),
+                    ),
+                },
+                SessionOut::SendOn(link, msg) => self.send(link, msg, fx),
+                SessionOut::Notice(sev, text) => self.notice(sev, Some(key), text),
+            }
+        }
+    }
+
+    /// Poll the sessions that have work due at `now`.
+    fn poll_sessions(&mut self, fx: &mut Vec<Effect>) {
+        let now = self.now;
+        let due: Vec<VehicleKey> = self
+            .sessions
+            .iter()
+            .filter(|(_, s)| s.due() || s.next_deadline().is_some_and(|d| d <= now))
+            .map(|(k, _)| *k)
+            .collect();
+        for key in due {
+            let out = match self.sessions.get_mut(&key) {
+                Some(s) => s.poll(now),
+                None => continue,
+            };
+            self.session_out(key, out, fx);
+        }
     }
 
     /// Our own GCS heartbeat (MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID).
@@ -236,17 +366,29 @@ impl App {
                 None => {}
             },
             Event::Resize => self.dirty = true,
+            Event::FileWritten { path, error } => match error {
+                None => self.notice(SEV_INFO, None, format!("saved {}", path.display())),
+                Some(e) => self.notice(
+                    SEV_ERROR,
+                    None,
+                    format!("could not save {}: {e}", path.display()),
+                ),
+            },
+            Event::Dropped { link, frames } => {
+                if let Some(l) = self.links.get_mut(link) {
+                    l.dropped += frames;
+                    self.dirty = true;
+                }
+            }
         }
+        self.poll_sessions(&mut fx);
         fx
     }
 
     /// Timers: the 1 Hz GCS heartbeat and vehicle timeouts.
     fn on_time(&mut self, fx: &mut Vec<Effect>) {
         if self.now >= self.next_heartbeat {
-            fx.push(Effect::Send {
-                link: None,
-                msg: Self::gcs_heartbeat(),
-            });
+            self.send_all(&Self::gcs_heartbeat(), fx);
             self.next_heartbeat += SECOND;
             if self.next_heartbeat <= self.now {
                 self.next_heartbeat = self.now + SECOND;
@@ -254,6 +396,9 @@ impl App {
         }
         let events = self.vehicles.tick(self.now);
         self.on_vehicle_events(events, fx);
+        for t in self.statustext.poll(self.now) {
+            self.notice(t.severity, Some(t.source), t.text);
+        }
     }
 
     fn on_link_state(&mut self, link: LinkId, state: LinkState) {
@@ -268,6 +413,17 @@ impl App {
         match state {
             LinkState::Up => {
                 l.notified_down = None;
+                if std::mem::replace(&mut l.was_up, true) {
+                    // A reconnect (a new TCP connection, a serial port back): every sender's
+                    // count starts afresh, so the outage is not loss, and streams are asked for
+                    // again on this link.
+                    for s in l.sources.values_mut() {
+                        s.seq.restart_sequence();
+                    }
+                    for s in self.sessions.values_mut() {
+                        s.on_link_reconnected(link);
+                    }
+                }
                 self.notice(SEV_INFO, None, format!("link {spec} up"))
             }
             LinkState::Down(reason) => {
@@ -294,72 +450,165 @@ impl App {
             return;
         };
         l.parser.add(&stats);
+        l.tx.observe(&l.parser);
         l.rate.add(now, frames.len() as u64, stats.bytes);
         if l.state != LinkState::Up && !frames.is_empty() {
             self.on_link_state(link, LinkState::Up);
         }
         self.dirty = true;
         for frame in frames {
-            let key = (frame.sysid, frame.compid);
-            let (outcome, repeat) = {
-                let src = self.links[link].sources.entry(key).or_default();
-                src.frames += 1;
-                src.last_heard = now;
-                let repeat = src.same_as_before(frame.seq, frame.crc(), now);
-                (src.seq.record(frame.seq, now), repeat)
-            };
-            if outcome == SeqOutcome::Restart {
-                let ev = self.vehicles.on_sequence_restart(key);
-                self.on_vehicle_events(ev, fx);
-            }
-            if outcome == SeqOutcome::Duplicate && repeat {
-                continue; // the same frame again carries nothing new
-            }
-            let fallback;
-            let msg = match &frame.message {
-                Some(m) => m,
-                None => match heartbeat_fallback(&frame) {
-                    Some(m) => {
-                        fallback = m;
-                        &fallback
-                    }
-                    None => continue,
-                },
-            };
-            match msg {
-                MavMessage::HEARTBEAT(hb) => {
-                    let ev = self
-                        .vehicles
-                        .on_heartbeat(link, key, hb, frame.version, now);
-                    self.on_vehicle_events(ev, fx);
-                }
-                MavMessage::SYSTEM_TIME(st) => {
-                    let ev = self.vehicles.on_system_time(key, st.time_boot_ms);
-                    self.on_vehicle_events(ev, fx);
-                }
-                MavMessage::STATUSTEXT(st) => {
-                    let end = st
-                        .text
-                        .iter()
-                        .position(|&b| b == 0)
-                        .unwrap_or(st.text.len());
-                    let text = String::from_utf8_lossy(&st.text[..end]).into_owned();
-                    self.notice(st.severity as u8, Some(key), text);
-                }
-                _ => {}
-            }
+            self.on_frame(link, frame, fx);
         }
     }
 
-    fn on_vehicle_events(&mut self, events: Vec<VehicleEvent>, fx: &mut Vec<Effect>) {
+    /// One frame from `link`: counted on the link, then handled once however many links carry it.
+    fn on_frame(&mut self, link: LinkId, frame: Frame, fx: &mut Vec<Effect>) {
+        let now = self.now;
+        let key = (frame.sysid, frame.compid);
+        // An id our dialect does not know has no CRC we could check: counted on the link only
+        // (the parser did), never a source, never loss.
+        if frame.message.is_none() && crate::wire::frame::crc_extra(frame.msgid).is_none() {
+            return;
+        }
+        let crc = frame.crc();
+        let l = &mut self.links[link];
+        // Our own frame coming back through a router: not another GCS, not a source.
+        if key == (self.cfg.sysid, self.cfg.compid) && l.sent_by_us(frame.seq, crc) {
+            l.echoes += 1;
+            return;
+        }
+        let (outcome, repeat) = {
+            let src = l.source(key);
+            src.frames += 1;
+            src.last_heard = now;
+            let repeat = src.same_as_before(frame.seq, crc, now);
+            (src.seq.record(frame.seq, now), repeat)
+        };
+        if outcome == SeqOutcome::Restart && self.vehicles.get(key).is_some() {
+            let ev = self.vehicles.on_sequence_restart(key, now);
+            self.on_vehicle_events(ev, fx);
+        }
+        if outcome == SeqOutcome::Duplicate && repeat {
+            return; // the same frame again carries nothing new
+        }
+        if self.copy_from_another_link(link, key, &frame, crc) {
+            return; // counted on this link above; handled when it first came
+        }
+        let fallback;
+        let msg = match &frame.message {
+            Some(m) => Some(m),
+            None => {
+                fallback = heartbeat_fallback(&frame);
+                fallback.as_ref()
+            }
+        };
+        let ack = CommandAck::from_frame(&frame);
+        match msg {
+            Some(MavMessage::HEARTBEAT(hb)) => {
+                let ev = self
+                    .vehicles
+                    .on_heartbeat(link, key, hb, frame.version, now);
+                self.on_vehicle_events(ev, fx);
+                if !self.sessions.contains_key(&key)
+                    && self.vehicles.get(key).is_some_and(|v| v.is_autopilot())
+                {
+                    let s = Session::new(key, hb.autopilot, self.cfg.request_streams);
+                    self.sessions.insert(key, s);
+                }
+            }
+            Some(MavMessage::SYSTEM_TIME(st)) => {
+                let ev = self.vehicles.on_system_time(key, st.time_boot_ms, now);
+                self.on_vehicle_events(ev, fx);
+            }
+            Some(MavMessage::STATUSTEXT(st)) => {
+                let texts = self.statustext.push(
+                    now,
+                    key,
+                    st.severity as u8,
+                    &st.text[..],
+                    st.id,
+                    st.chunk_seq,
+                );
+                for t in texts {
+                    self.notice(t.severity, Some(t.source), t.text);
+                }
+            }
+            _ => {}
+        }
+        if !self.for_us(msg, ack.as_ref()) {
+            return;
+        }
+        let sessions: Vec<VehicleKey> = self
+            .sessions
+            .range((key.0, 0)..=(key.0, u8::MAX))
+            .map(|(k, _)| *k)
+            .collect();
+        for skey in sessions {
+            let out = match self.sessions.get_mut(&skey) {
+                Some(s) => s.on_message(now, link, key.1, msg, ack.as_ref()),
+                None => continue,
+            };
+            self.session_out(skey, out, fx);
+        }
+    }
+
+    /// True for a message that names no target, or names us or everyone (0).
+    fn for_us(&self, msg: Option<&MavMessage>, ack: Option<&CommandAck>) -> bool {
+        use mavlink::Message;
+        let (sys, comp) = match (msg, ack) {
+            (_, Some(a)) => (Some(a.target_system), Some(a.target_component)),
+            (Some(m), None) => (m.target_system_id(), m.target_component_id()),
+            (None, None) => (None, None),
+        };
+        let ok = |t: Option<u8>, us: u8| t.is_none_or(|t| t == 0 || t == us);
+        ok(sys, self.cfg.sysid) && ok(comp, self.cfg.compid)
+    }
+
+    /// True when the same frame (source, seq, id, CRC) came on another link moments ago.
+    fn copy_from_another_link(
+        &mut self,
+        link: LinkId,
+        key: (u8, u8),
+        frame: &Frame,
+        crc: u16,
+    ) -> bool {
+        let now = self.now;
+        let recent = self.recent.entry(key).or_default();
+        let copy = recent.iter().any(|r| {
+            r.link != link
+                && r.seq == frame.seq
+                && r.msgid == frame.msgid
+                && r.crc == crc
+                && now < r.t + DUPLICATE_WINDOW
+        });
+        if !copy {
+            if recent.len() == RECENT_PER_SOURCE {
+                recent.pop_front();
+            }
+            recent.push_back(RecentFrame {
+                seq: frame.seq,
+                msgid: frame.msgid,
+                crc,
+                link,
+                t: now,
+            });
+        }
+        if self.recent.len() > 4 * links::MAX_SOURCES {
+            // Bounded: forget sources not heard within the window.
+            self.recent
+                .retain(|_, r| r.back().is_some_and(|f| now < f.t + DUPLICATE_WINDOW));
+        }
+        copy
+    }
+
+    fn on_vehicle_events(&mut self, events: Vec<VehicleEvent>, _fx: &mut Vec<Effect>) {
         for ev in events {
             match ev {
                 VehicleEvent::Found(key) => {
-                    let (desc, autopilot, link) = match self.vehicles.get(key) {
+                    let (desc, autopilot) = match self.vehicles.get(key) {
                         Some(v) => (
                             format!("{} {}", v.autopilot_name(), v.type_name()),
                             v.is_autopilot(),
-                            v.links.iter().next().copied(),
                         ),
                         None => continue,
                     };
@@ -370,13 +619,6 @@ impl App {
                     );
                     if autopilot && self.target.is_none() {
                         self.target = Some(key);
-                    }
-                    if self.cfg.request_streams && autopilot && self.streams_requested.insert(key) {
-                        if let Some(v) = self.vehicles.get(key) {
-                            for msg in streams::initial_requests(v) {
-                                fx.push(Effect::Send { link, msg });
-                            }
-                        }
                     }
                 }
                 VehicleEvent::Lost(key) => self.notice(
@@ -395,29 +637,34 @@ impl App {
                         Some(key),
                         format!("vehicle {}:{} rebooted ({why})", key.0, key.1),
                     );
-                    // A rebooted autopilot forgets stream rates: ask again.
-                    self.streams_requested.remove(&key);
-                    if let Some(v) = self.vehicles.get(key) {
-                        if self.cfg.request_streams && v.is_autopilot() {
-                            let link = v.links.iter().next().copied();
-                            self.streams_requested.insert(key);
-                            for msg in streams::initial_requests(v) {
-                                fx.push(Effect::Send { link, msg });
-                            }
-                        }
+                    // A rebooted autopilot forgets what it was asked: its machines start over.
+                    if let Some(s) = self.sessions.get_mut(&key) {
+                        s.on_reboot();
                     }
                 }
                 VehicleEvent::Conflict(key, detail) => {
                     self.notice(SEV_ERROR, Some(key), format!("sysid clash: {detail}"))
                 }
-                VehicleEvent::UsesGcsSysid(key) => self.notice(
-                    SEV_ERROR,
-                    Some(key),
-                    format!(
-                        "component {}:{} uses our GCS sysid {}",
-                        key.0, key.1, self.cfg.sysid
-                    ),
-                ),
+                VehicleEvent::UsesGcsSysid(key) => {
+                    let text = if key == (self.cfg.sysid, self.cfg.compid) {
+                        format!(
+                            "another GCS uses our id {}:{}: replies may go to either",
+                            key.0, key.1
+                        )
+                    } else {
+                        format!(
+                            "component {}:{} uses our GCS sysid {}",
+                            key.0, key.1, self.cfg.sysid
+                        )
+                    };
+                    self.notice(SEV_ERROR, Some(key), text)
+                }
+                VehicleEvent::Evicted(key) => {
+                    self.sessions.remove(&key);
+                    if self.target == Some(key) {
+                        self.target = None;
+                    }
+                }
             }
         }
     }
@@ -481,10 +728,11 @@ impl App {
                         l.expanded = !l.expanded;
                     }
                 } else if self.ui.focus == Pane::Vehicles {
-                    let keys: Vec<VehicleKey> =
-                        self.vehicles.iter().map(|v| (v.sysid, v.compid)).collect();
-                    if let Some(k) = keys.get(self.ui.vehicle_sel) {
-                        self.target = Some(*k);
+                    // Only an autopilot can be the target; gimbals, cameras and ground stations
+                    // are addressed from their own screens.
+                    let v = self.vehicles.iter().nth(self.ui.vehicle_sel);
+                    if let Some(v) = v.filter(|v| v.is_autopilot()) {
+                        self.target = Some((v.sysid, v.compid));
                     }
                 }
             }

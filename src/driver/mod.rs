@@ -1,13 +1,36 @@
-//! The driver: feeds link reports and keys into the core and carries out its effects, for every
-//! front end.
+//! The driver: one way to run the core, for every front end.
+//!
+//! [`Core`] feeds events into [`App::update`] and carries out every [`Effect`] the same way,
+//! whatever the clock: frames go to a [`Links`] implementation, files are written atomically
+//! (and the outcome is told back to the core), new links are opened. Two runtimes use it:
+//! [`virtual_time::VirtualRunner`] steps in-process links and the core on a virtual clock
+//! (headless replay, tests, reports on `sim://`/`tlog:`), and [`real_time`] runs it on the wall
+//! clock over real transports (the terminal, headless reports and replay on real links). Both
+//! wake the core exactly at [`App::next_deadline`], a frame, or a key: never on a fixed tick.
 
-use std::time::Duration;
+pub mod real_time;
+pub mod virtual_time;
 
-use crate::app::{App, AppConfig, Effect, Event};
-use crate::clock::{Clock, Micros, RealClock};
-use crate::link::manager::LinkManager;
-use crate::link::transport::{LinkEvent, LinkIdentity};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use crate::app::{App, Effect, Event};
+use crate::clock::Micros;
+use crate::link::source::{SourceFactory, TlogSource, VirtualSource};
+use crate::link::tlog::read_tlog;
+use crate::link::transport::LinkEvent;
 use crate::link::{LinkId, LinkSpec};
+use crate::sim::{Sim, SimConfig};
+
+/// Where the core's frames and new links go: virtual sources or real link tasks.
+pub trait Links {
+    /// Queue `frame` on `link`; false when it was dropped (full queue, no such link).
+    fn send(&mut self, now: Micros, link: LinkId, frame: Vec<u8>) -> bool;
+    /// Start link `link` (the next id) on `spec`; failures are reported as the link's state.
+    fn open(&mut self, now: Micros, link: LinkId, spec: LinkSpec);
+    /// Write a file atomically; the outcome comes back as [`Event::FileWritten`], now or later.
+    fn write_file(&mut self, path: PathBuf, contents: Vec<u8>);
+}
 
 /// A link's report as a core event.
 pub fn link_event(link: LinkId, ev: LinkEvent) -> Event {
@@ -18,60 +41,89 @@ pub fn link_event(link: LinkId, ev: LinkEvent) -> Event {
             stats,
         },
         LinkEvent::State(state) => Event::LinkState { link, state },
+        LinkEvent::Dropped(frames) => Event::Dropped { link, frames },
     }
 }
 
-/// Carry out the `Send` effects on `mgr`; returns the others for the caller.
-pub fn apply_sends(mgr: &LinkManager, fx: Vec<Effect>) -> Vec<Effect> {
-    let mut rest = Vec::new();
-    for e in fx {
-        match e {
-            Effect::Send { link, msg } => mgr.send(link, msg),
-            other => rest.push(other),
+/// Feed `ev` into `app` at `now` and carry out its effects on `links`. Frames a link could not
+/// take are told back to the core as [`Event::Dropped`].
+pub fn step(app: &mut App, links: &mut impl Links, now: Micros, ev: Event) {
+    let mut queue = vec![ev];
+    while let Some(ev) = queue.pop() {
+        for e in app.update(now, ev) {
+            match e {
+                Effect::Send { link, frame, .. } => {
+                    if !links.send(now, link, frame) {
+                        queue.push(Event::Dropped { link, frames: 1 });
+                    }
+                }
+                Effect::WriteFile { path, contents } => links.write_file(path, contents),
+                Effect::OpenLink { link, spec } => links.open(now, link, spec),
+                Effect::Quit => {}
+            }
         }
     }
-    rest
 }
 
-/// Feed link reports and a 100 ms tick into `app` until `clock` reaches `deadline`, carrying
-/// out the sends; ends with one more tick so time-based state is current.
-pub async fn run_until(mgr: &mut LinkManager, app: &mut App, clock: &impl Clock, deadline: Micros) {
-    let end = tokio::time::sleep(Duration::from_micros(deadline.saturating_sub(clock.now())));
-    tokio::pin!(end);
-    let mut tick = tokio::time::interval(Duration::from_millis(100));
-    loop {
-        let ev = tokio::select! {
-            _ = &mut end => break,
-            _ = tick.tick() => Event::Tick,
-            ev = mgr.next_event() => match ev {
-                Some((link, ev)) => link_event(link, ev),
-                None => break,
-            },
-        };
-        let fx = app.update(clock.now(), ev);
-        apply_sends(mgr, fx);
+/// Write a file so that a crash never leaves it half written: temp file, fsync, rename.
+pub fn write_atomic(path: &Path, contents: &[u8]) -> std::io::Result<()> {
+    use std::io::Write;
+    let tmp = path.with_extension("tmp~");
+    let mut f = std::fs::File::create(&tmp)?;
+    f.write_all(contents)?;
+    f.sync_all()?;
+    std::fs::rename(&tmp, path)
+}
+
+/// Build the in-process source a spec names: the simulated vehicle or a tlog replay.
+pub fn local_source(spec: &LinkSpec) -> Result<Box<dyn VirtualSource>, String> {
+    match spec {
+        LinkSpec::Tlog { path } => {
+            let bytes = std::fs::read(path).map_err(|e| format!("{path}: {e}"))?;
+            let records = read_tlog(&bytes).map_err(|e| format!("{path}: {e}"))?;
+            Ok(Box::new(TlogSource::new(records)))
+        }
+        LinkSpec::Sim { query } => {
+            let cfg = SimConfig::from_query(query).map_err(|e| format!("sim: {e}"))?;
+            Ok(Box::new(SimSource::new(cfg)))
+        }
+        other => Err(format!("`{other}` is not an in-process link")),
     }
-    let fx = app.update(clock.now(), Event::Tick);
-    apply_sends(mgr, fx);
 }
 
-/// Run the core on real links for `duration`, headless, and return its final state.
-pub async fn run_for(specs: &[LinkSpec], mut cfg: AppConfig, duration: Duration) -> App {
-    cfg.links = specs.iter().map(|s| s.to_string()).collect();
-    cfg.epoch = chrono::Utc::now();
-    let me = LinkIdentity {
-        sysid: cfg.sysid,
-        compid: cfg.compid,
-    };
-    let clock = RealClock::new();
-    let mut app = App::new(cfg);
-    let mut mgr = LinkManager::start(specs, me);
-    run_until(
-        &mut mgr,
-        &mut app,
-        &clock,
-        clock.now() + duration.as_micros() as Micros,
-    )
-    .await;
-    app
+/// The factory link tasks use for `sim://` and `tlog:`.
+pub fn local_sources() -> SourceFactory {
+    Arc::new(local_source)
+}
+
+/// The simulated vehicle as a link source; its state file is written here, at the edge.
+pub struct SimSource {
+    pub sim: Sim,
+}
+
+impl SimSource {
+    pub fn new(cfg: SimConfig) -> Self {
+        Self {
+            sim: crate::sim::open(cfg),
+        }
+    }
+    fn flush_writes(&mut self) {
+        crate::sim::save_pending(&mut self.sim);
+    }
+}
+
+impl VirtualSource for SimSource {
+    fn receive(&mut self, now: Micros, bytes: &[u8]) {
+        self.sim.receive(now, bytes);
+        self.flush_writes();
+    }
+    fn poll(&mut self, now: Micros) -> Vec<u8> {
+        self.sim.poll(now)
+    }
+    fn next_deadline(&self) -> Micros {
+        self.sim.next_deadline()
+    }
+    fn as_any(&self) -> &dyn std::any::Any {
+        &self.sim
+    }
 }

@@ -1,6 +1,5 @@
-//! Running mavterm without a terminal: virtual-clock runs, recorded-input replay, reports.
+//! Running mavterm without a terminal: recorded-input replay and reports, on the driver's
+//! virtual or real-time runners.
 
-pub mod realtime;
 pub mod replay;
-pub mod runner;
 pub mod script;

@@ -8,10 +8,10 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use super::runner::{Driver, RunnerError, VirtualRunner};
 use super::script::{format_secs, Script, Step};
 use crate::app::{App, AppConfig};
 use crate::clock::Micros;
+use crate::driver::virtual_time::{Driver, RunnerError, VirtualRunner};
 use crate::keymap::{Key, KeyCode};
 use crate::link::LinkSpec;
 use crate::ui::{buffer_to_text, render_to_buffer, Theme};

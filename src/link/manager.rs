@@ -1,48 +1,65 @@
-//! The link manager: starts one task per link, hands on their reports, and carries messages to
-//! the right links.
+//! The link manager: starts one task per link (more at run time), hands on their reports, and
+//! carries frames to the right links.
 
 use tokio::sync::mpsc;
 
-use super::transport::{spawn_link, LinkEvent, LinkHandle, LinkIdentity};
+use super::source::SourceFactory;
+use super::transport::{spawn_link, EventTx, LinkEvent, LinkHandle, EVENT_QUEUE};
 use super::{LinkId, LinkSpec};
-use crate::dialect::MavMessage;
 
 /// All running links.
 pub struct LinkManager {
-    handles: Vec<LinkHandle>,
-    events: mpsc::UnboundedReceiver<(LinkId, LinkEvent)>,
+    handles: Vec<Option<LinkHandle>>,
+    local: SourceFactory,
+    tx: EventTx,
+    frames: mpsc::Receiver<(LinkId, LinkEvent)>,
+    states: mpsc::UnboundedReceiver<(LinkId, LinkEvent)>,
 }
 
 impl LinkManager {
-    /// Start a task for every spec; link ids are the specs' positions.
-    pub fn start(specs: &[LinkSpec], me: LinkIdentity) -> Self {
-        let (tx, events) = mpsc::unbounded_channel();
-        let handles = specs
-            .iter()
-            .enumerate()
-            .map(|(i, s)| spawn_link(i, s.clone(), me, tx.clone()))
-            .collect();
-        Self { handles, events }
+    /// Start a task for every spec; link ids are the specs' positions. `local` builds the
+    /// in-process sources (`sim://`, `tlog:`).
+    pub fn start(specs: &[LinkSpec], local: SourceFactory) -> Self {
+        let (ftx, frames) = mpsc::channel(EVENT_QUEUE);
+        let (stx, states) = mpsc::unbounded_channel();
+        let mut m = Self {
+            handles: Vec::new(),
+            local,
+            tx: EventTx {
+                frames: ftx,
+                states: stx,
+            },
+            frames,
+            states,
+        };
+        for (i, s) in specs.iter().enumerate() {
+            m.open(i, s.clone());
+        }
+        m
     }
 
-    /// The next report from any link.
+    /// Start link `id` (ids past the end leave gaps that are never used).
+    pub fn open(&mut self, id: LinkId, spec: LinkSpec) {
+        if self.handles.len() <= id {
+            self.handles.resize_with(id + 1, || None);
+        }
+        self.handles[id] = Some(spawn_link(id, spec, self.local.clone(), self.tx.clone()));
+    }
+
+    /// The next report from any link (state changes first).
     pub async fn next_event(&mut self) -> Option<(LinkId, LinkEvent)> {
-        self.events.recv().await
+        tokio::select! {
+            biased;
+            Some(ev) = self.states.recv() => Some(ev),
+            ev = self.frames.recv() => ev,
+        }
     }
 
-    /// Queue `msg` on one link, or on every link when `link` is `None`.
-    pub fn send(&self, link: Option<LinkId>, msg: MavMessage) {
-        match link {
-            None => {
-                for h in &self.handles {
-                    h.send(msg.clone());
-                }
-            }
-            Some(i) => {
-                if let Some(h) = self.handles.get(i) {
-                    h.send(msg);
-                }
-            }
+    /// Queue a frame on a link; false when it was dropped (queue full, link ended).
+    pub fn send(&self, link: LinkId, frame: Vec<u8>) -> bool {
+        match self.handles.get(link) {
+            Some(Some(h)) => h.send(frame),
+            _ => false,
         }
     }
 }

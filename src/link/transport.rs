@@ -1,8 +1,13 @@
 //! One tokio task per link: it owns the socket or port, frames what it reads (framing first,
-//! decoding second), and encodes what the core asks it to send with its own sequence numbers.
+//! decoding second), and writes the frames the core encoded for it.
 //!
 //! A link that cannot open, or that drops, reports `down: <reason>` and is retried with a capped
 //! exponential backoff; the program never stops because one link failed.
+//!
+//! Every queue is bounded: frames to the core ([`EVENT_QUEUE`] reports), frames from the core
+//! ([`OUT_QUEUE`]), and each `tcpin` client's writes. When one is full the frames are dropped and
+//! counted (shown on the link), so a peer or a core that cannot keep up never stops our reads nor
+//! grows memory.
 
 use std::net::SocketAddr;
 use std::time::Duration;
@@ -11,12 +16,11 @@ use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream, UdpSocket};
 use tokio::sync::mpsc;
 
+use super::source::SourceFactory;
 use super::spec::LinkSpec;
 use super::state::LinkState;
 use super::{Frame, LinkId};
-use crate::dialect::MavMessage;
 use crate::wire::parser::{FrameParser, ParserStats};
-use crate::wire::tx::LinkTx;
 
 /// First retry delay after a link fails.
 pub const BACKOFF_START: Duration = Duration::from_millis(500);
@@ -34,28 +38,29 @@ pub enum LinkEvent {
         stats: ParserStats,
     },
     State(LinkState),
+    /// Frames dropped because the queue to the core was full.
+    Dropped(u64),
 }
 
-/// Our identity on the links.
-#[derive(Debug, Clone, Copy)]
-pub struct LinkIdentity {
-    pub sysid: u8,
-    pub compid: u8,
-}
+/// Reports a link may have waiting for the core (each carries the frames of one read).
+pub const EVENT_QUEUE: usize = 1024;
+/// Frames the core may have waiting for a link.
+pub const OUT_QUEUE: usize = 256;
 
 /// The core's handle on a running link task.
 #[derive(Debug)]
 pub struct LinkHandle {
     pub id: LinkId,
     pub spec: LinkSpec,
-    tx: mpsc::UnboundedSender<MavMessage>,
+    tx: mpsc::Sender<Vec<u8>>,
     task: tokio::task::JoinHandle<()>,
 }
 
 impl LinkHandle {
-    /// Queue a message for sending. Dropped silently if the link task has ended.
-    pub fn send(&self, msg: MavMessage) {
-        let _ = self.tx.send(msg);
+    /// Queue a frame for sending. False when it was dropped: the queue is full (the link cannot
+    /// keep up) or the task has ended.
+    pub fn send(&self, frame: Vec<u8>) -> bool {
+        self.tx.try_send(frame).is_ok()
     }
 }
 
@@ -65,7 +70,12 @@ impl Drop for LinkHandle {
     }
 }
 
-type EventTx = mpsc::UnboundedSender<(LinkId, LinkEvent)>;
+/// Where link tasks report: frames on a bounded queue, state changes (rare) on their own.
+#[derive(Debug, Clone)]
+pub struct EventTx {
+    pub frames: mpsc::Sender<(LinkId, LinkEvent)>,
+    pub states: mpsc::UnboundedSender<(LinkId, LinkEvent)>,
+}
 
 /// Parser plus the bookkeeping to report counter increases.
 struct Ingest {
@@ -73,6 +83,8 @@ struct Ingest {
     parser: FrameParser,
     reported: ParserStats,
     events: EventTx,
+    /// Frames dropped on a full queue and not reported yet.
+    dropped: u64,
 }
 
 impl Ingest {
@@ -82,11 +94,12 @@ impl Ingest {
             parser: FrameParser::new(),
             reported: ParserStats::default(),
             events,
+            dropped: 0,
         }
     }
 
     /// Frame `bytes`; `datagram` says they were one whole UDP packet.
-    fn feed(&mut self, bytes: &[u8], datagram: bool, tx: &mut LinkTx) {
+    fn feed(&mut self, bytes: &[u8], datagram: bool) {
         let mut frames = Vec::new();
         self.parser.push(bytes, |f| frames.push(f));
         if datagram {
@@ -95,40 +108,55 @@ impl Ingest {
         let now = *self.parser.stats();
         let delta = now.since(&self.reported);
         self.reported = now;
-        tx.observe(&now);
-        let _ = self.events.send((
-            self.id,
-            LinkEvent::Frames {
-                frames,
-                stats: delta,
-            },
-        ));
+        if self.dropped > 0
+            && self
+                .events
+                .frames
+                .try_send((self.id, LinkEvent::Dropped(self.dropped)))
+                .is_ok()
+        {
+            self.dropped = 0;
+        }
+        let n = frames.len() as u64;
+        let ev = LinkEvent::Frames {
+            frames,
+            stats: delta,
+        };
+        if let Err(e) = self.events.frames.try_send((self.id, ev)) {
+            // The core is behind: keep reading, count what could not be handed on. The parser
+            // counters still reach it with the next report.
+            self.dropped += n;
+            if let mpsc::error::TrySendError::Full(_) = e {
+                self.reported = self.reported.since(&delta);
+            }
+        }
     }
 
     fn state(&self, s: LinkState) {
-        let _ = self.events.send((self.id, LinkEvent::State(s)));
+        let _ = self.events.states.send((self.id, LinkEvent::State(s)));
     }
 }
 
-/// Start the task for one link.
-pub fn spawn_link(id: LinkId, spec: LinkSpec, me: LinkIdentity, events: EventTx) -> LinkHandle {
-    let (tx, rx) = mpsc::unbounded_channel();
+/// Start the task for one link; `local` builds in-process sources (`sim://`, `tlog:`).
+pub fn spawn_link(id: LinkId, spec: LinkSpec, local: SourceFactory, events: EventTx) -> LinkHandle {
+    let (tx, rx) = mpsc::channel(OUT_QUEUE);
     let task_spec = spec.clone();
     let task = tokio::spawn(async move {
-        run_link(id, task_spec, me, events, rx).await;
+        run_link(id, task_spec, local, events, rx).await;
     });
     LinkHandle { id, spec, tx, task }
 }
 
+type OutRx = mpsc::Receiver<Vec<u8>>;
+
 async fn run_link(
     id: LinkId,
     spec: LinkSpec,
-    me: LinkIdentity,
+    local: SourceFactory,
     events: EventTx,
-    mut out: mpsc::UnboundedReceiver<MavMessage>,
+    mut out: OutRx,
 ) {
     let mut ingest = Ingest::new(id, events);
-    let mut tx = LinkTx::new(me.sysid, me.compid);
     let mut backoff = BACKOFF_START;
     loop {
         ingest.state(LinkState::Connecting);
@@ -140,20 +168,26 @@ async fn run_link(
                     ingest.state(LinkState::Up);
                 }
                 match opened {
-                    Opened::Tcp(s) => stream_loop(s, &mut ingest, &mut tx, &mut out).await,
-                    Opened::Serial(s) => stream_loop(s, &mut ingest, &mut tx, &mut out).await,
-                    Opened::Udp(sock, fixed) => {
-                        udp_loop(sock, fixed, &mut ingest, &mut tx, &mut out).await
-                    }
-                    Opened::Listener(l) => tcp_server(l, &mut ingest, &mut tx, &mut out).await,
+                    Opened::Tcp(s) => stream_loop(s, &mut ingest, &mut out).await,
+                    Opened::Serial(s) => stream_loop(s, &mut ingest, &mut out).await,
+                    Opened::Udp(sock, fixed) => udp_loop(sock, fixed, &mut ingest, &mut out).await,
+                    Opened::Listener(l) => tcp_server(l, &mut ingest, &mut out).await,
                     Opened::Local => {
-                        crate::link::local::run_local(
-                            &spec,
-                            &mut ingest_adapter(&mut ingest),
-                            &mut tx,
-                            &mut out,
-                        )
-                        .await
+                        let spec = spec.clone();
+                        let local = local.clone();
+                        // Building a source may read a file: off the async workers.
+                        match tokio::task::spawn_blocking(move || local(&spec)).await {
+                            Ok(Ok(src)) => {
+                                crate::link::local::run_local(
+                                    src,
+                                    &mut ingest_adapter(&mut ingest),
+                                    &mut out,
+                                )
+                                .await
+                            }
+                            Ok(Err(e)) => Err(e),
+                            Err(e) => Err(format!("opening: {e}")),
+                        }
                     }
                 }
             }
@@ -183,8 +217,8 @@ pub struct LocalIngest<'a> {
 }
 
 impl LocalIngest<'_> {
-    pub fn feed(&mut self, bytes: &[u8], tx: &mut LinkTx) {
-        self.ingest.feed(bytes, false, tx);
+    pub fn feed(&mut self, bytes: &[u8]) {
+        self.ingest.feed(bytes, false);
     }
     pub fn up(&mut self) {
         self.ingest.state(LinkState::Up);
@@ -198,20 +232,18 @@ fn ingest_adapter(ingest: &mut Ingest) -> LocalIngest<'_> {
 async fn stream_loop<S: AsyncRead + AsyncWrite + Unpin>(
     mut s: S,
     ingest: &mut Ingest,
-    tx: &mut LinkTx,
-    out: &mut mpsc::UnboundedReceiver<MavMessage>,
+    out: &mut OutRx,
 ) -> Result<(), String> {
     let mut buf = vec![0u8; 4096];
     loop {
         tokio::select! {
             r = s.read(&mut buf) => match r {
                 Ok(0) => return Err("connection closed".into()),
-                Ok(n) => ingest.feed(&buf[..n], false, tx),
+                Ok(n) => ingest.feed(&buf[..n], false),
                 Err(e) => return Err(format!("read: {e}")),
             },
             m = out.recv() => match m {
-                Some(msg) => {
-                    let bytes = tx.encode(&msg);
+                Some(bytes) => {
                     if let Err(e) = s.write_all(&bytes).await {
                         return Err(format!("write: {e}"));
                     }
@@ -268,9 +300,15 @@ async fn open(spec: &LinkSpec) -> Result<Opened, String> {
             .map(Opened::Listener)
             .map_err(|e| format!("listen {addr}:{port}: {e}")),
         LinkSpec::Serial { path, baud } => {
-            tokio_serial::SerialStream::open(&tokio_serial::new(path, *baud))
-                .map(Opened::Serial)
-                .map_err(|e| format!("{path}: {e}"))
+            // Opening a tty can block (a USB adapter being reset): off the async workers.
+            let (p, b) = (path.clone(), *baud);
+            tokio::task::spawn_blocking(move || {
+                tokio_serial::SerialStream::open(&tokio_serial::new(&p, b))
+                    .map_err(|e| format!("{p}: {e}"))
+            })
+            .await
+            .map_err(|e| format!("{path}: {e}"))?
+            .map(Opened::Serial)
         }
         LinkSpec::Sim { .. } | LinkSpec::Tlog { .. } => Ok(Opened::Local),
     }
@@ -282,8 +320,7 @@ async fn udp_loop(
     sock: UdpSocket,
     fixed: Option<SocketAddr>,
     ingest: &mut Ingest,
-    tx: &mut LinkTx,
-    out: &mut mpsc::UnboundedReceiver<MavMessage>,
+    out: &mut OutRx,
 ) -> Result<(), String> {
     let mut peers: Vec<SocketAddr> = fixed.into_iter().collect();
     let mut buf = vec![0u8; 65536];
@@ -296,16 +333,14 @@ async fn udp_loop(
                         peers.insert(0, from);
                         peers.truncate(MAX_UDP_PEERS);
                     }
-                    ingest.feed(&buf[..n], true, tx);
+                    ingest.feed(&buf[..n], true);
                 }
                 // ICMP port-unreachable from a peer that went away shows up here on some
                 // systems: not a reason to close the socket.
                 Err(e) => tracing::debug!("udp recv: {e}"),
             },
             m = out.recv() => match m {
-                Some(msg) => {
-                    if peers.is_empty() { continue; }
-                    let bytes = tx.encode(&msg);
+                Some(bytes) => {
                     for p in &peers {
                         let _ = sock.send_to(&bytes, p).await;
                     }
@@ -319,16 +354,14 @@ async fn udp_loop(
 async fn tcp_server(
     listener: TcpListener,
     ingest: &mut Ingest,
-    tx: &mut LinkTx,
-    out: &mut mpsc::UnboundedReceiver<MavMessage>,
+    out: &mut OutRx,
 ) -> Result<(), String> {
     // Each client has its own parser (their byte streams must not interleave) and its own task,
     // which reads, and writes what it is handed through a bounded queue: a stalled client loses
-    // its own frames instead of holding up the others. The JoinSet ends them with the link.
+    // its own frames (counted on the link) instead of holding up the others or our reads. The
+    // JoinSet ends them with the link.
     let mut clients: tokio::task::JoinSet<()> = tokio::task::JoinSet::new();
     let mut writers: Vec<mpsc::Sender<std::sync::Arc<Vec<u8>>>> = Vec::new();
-    let (totals_tx, mut totals_rx) = mpsc::unbounded_channel::<ParserStats>();
-    let mut totals = ParserStats::default();
     loop {
         tokio::select! {
             a = listener.accept() => match a {
@@ -338,23 +371,24 @@ async fn tcp_server(
                     let (wtx, wrx) = mpsc::channel(CLIENT_QUEUE);
                     writers.push(wtx);
                     let client = Ingest::new(ingest.id, ingest.events.clone());
-                    clients.spawn(serve_client(stream, client, wrx, totals_tx.clone()));
+                    clients.spawn(serve_client(stream, client, wrx));
                 }
                 Err(e) => tracing::warn!("accept: {e}"),
             },
-            Some(d) = totals_rx.recv() => {
-                totals.add(&d);
-                tx.observe(&totals);
-            }
             Some(_) = clients.join_next(), if !clients.is_empty() => {}
             m = out.recv() => match m {
-                Some(msg) => {
+                Some(bytes) => {
                     writers.retain(|w| !w.is_closed());
-                    if writers.is_empty() { continue; }
-                    let bytes = std::sync::Arc::new(tx.encode(&msg));
+                    let bytes = std::sync::Arc::new(bytes);
+                    let mut dropped = 0;
                     for w in &writers {
                         // Full queue: this client is not reading; drop the frame for it alone.
-                        let _ = w.try_send(bytes.clone());
+                        if w.try_send(bytes.clone()).is_err() {
+                            dropped += 1;
+                        }
+                    }
+                    if dropped > 0 {
+                        let _ = ingest.events.frames.try_send((ingest.id, LinkEvent::Dropped(dropped)));
                     }
                 }
                 None => return Ok(()),
@@ -364,28 +398,21 @@ async fn tcp_server(
 }
 
 /// Frames a `tcpin` client may have waiting before its frames are dropped.
-const CLIENT_QUEUE: usize = 256;
+pub const CLIENT_QUEUE: usize = 256;
 
 /// One `tcpin` client: read and frame its bytes; write what the link sends.
 async fn serve_client(
     stream: TcpStream,
     mut client: Ingest,
     mut out: mpsc::Receiver<std::sync::Arc<Vec<u8>>>,
-    totals: mpsc::UnboundedSender<ParserStats>,
 ) {
     let (mut rd, mut wr) = stream.into_split();
     let mut buf = vec![0u8; 4096];
-    // Clients' own versions are not tracked: the link's sender decides for all of them.
-    let mut unused_tx = LinkTx::new(0, 0);
     loop {
         tokio::select! {
             r = rd.read(&mut buf) => match r {
                 Ok(0) | Err(_) => return,
-                Ok(n) => {
-                    let before = *client.parser.stats();
-                    client.feed(&buf[..n], false, &mut unused_tx);
-                    let _ = totals.send(client.parser.stats().since(&before));
-                }
+                Ok(n) => client.feed(&buf[..n], false),
             },
             m = out.recv() => match m {
                 Some(bytes) => {

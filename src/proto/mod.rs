@@ -1,6 +1,17 @@
-//! Sans-I/O protocol state machines.
+//! Sans-I/O protocol state machines: messages and time in, what to send out, and when each next
+//! needs to be woken. Nothing here reads a clock or touches a socket.
 
+pub mod ack;
 pub mod loss;
 pub mod modes;
+pub mod statustext;
 pub mod streams;
 pub mod vehicles;
+
+/// MAVLink severities (RFC-5424, as in STATUSTEXT): 0 = EMERGENCY … 7 = DEBUG.
+pub mod severity {
+    pub const ERROR: u8 = 3;
+    pub const WARNING: u8 = 4;
+    pub const NOTICE: u8 = 5;
+    pub const INFO: u8 = 6;
+}

@@ -1,8 +1,13 @@
 //! The registry of systems and components heard, built from HEARTBEAT.
 //!
 //! Keyed by (sysid, compid). A component is *lost* after a timeout without a heartbeat and *back*
-//! when heard again. Our own heartbeats echoed by a router are not a vehicle; anything else using
-//! our sysid, or two different vehicles on one sysid:compid, is flagged rather than merged.
+//! when heard again. Our own heartbeats echoed by a router never get here (the core recognises
+//! them by the bytes we sent); another GCS on our own sysid:compid, a vehicle on our sysid, or two
+//! different vehicles on one sysid:compid are flagged rather than merged. Another GCS on our
+//! sysid with another compid (MAVProxy is 255:230) is normal.
+//!
+//! The table is bounded: past [`MAX_COMPONENTS`] the longest silent component is evicted and
+//! counted, so a flood of spoofed ids costs a fixed amount of memory.
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
@@ -19,6 +24,13 @@ pub const HEARTBEAT_COPY_WINDOW: Micros = 100_000;
 
 /// (sysid, compid)
 pub type VehicleKey = (u8, u8);
+
+/// Components kept at most; a new one past this evicts the longest silent.
+pub const MAX_COMPONENTS: usize = 128;
+
+/// Reboots of one vehicle closer together than this are one reboot seen twice (on two links, or
+/// by two signs).
+pub const REBOOT_DEBOUNCE: Micros = 10 * SECOND;
 
 /// Name of an enum value without its MAVLink prefix: `MAV_TYPE_QUADROTOR` → `QUADROTOR`.
 pub fn short_name<T: std::fmt::Debug>(v: &T, prefix: &str) -> String {
@@ -48,9 +60,10 @@ pub struct Vehicle {
     pub heartbeats: u64,
     pub reboots: u32,
     last_boot_ms: Option<u32>,
+    last_reboot: Option<Micros>,
     /// Set when a heartbeat from the same sysid:compid described a different vehicle.
     pub conflict: Option<String>,
-    /// Set when the component uses the ground station's own sysid.
+    /// Set when a vehicle uses the ground station's own sysid, or another GCS our sysid:compid.
     pub uses_gcs_sysid: bool,
 }
 
@@ -81,10 +94,23 @@ impl Vehicle {
     pub fn status_name(&self) -> String {
         short_name(&self.system_status, "MAV_STATE_")
     }
-    /// True for components that fly (or drive): what commands are sent to.
+    /// True for components that fly (or drive): what commands are sent to. Gimbals, cameras,
+    /// companions and ground stations announce MAV_AUTOPILOT_INVALID.
     pub fn is_autopilot(&self) -> bool {
         self.autopilot != MavAutopilot::MAV_AUTOPILOT_INVALID
-            && self.mavtype != MavType::MAV_TYPE_GCS
+            && !matches!(
+                self.mavtype,
+                MavType::MAV_TYPE_GCS
+                    | MavType::MAV_TYPE_GIMBAL
+                    | MavType::MAV_TYPE_CAMERA
+                    | MavType::MAV_TYPE_ONBOARD_CONTROLLER
+                    | MavType::MAV_TYPE_ADSB
+                    | MavType::MAV_TYPE_ANTENNA_TRACKER
+            )
+    }
+    /// True for ground stations (other GCSs, MAVProxy, …).
+    pub fn is_gcs(&self) -> bool {
+        self.mavtype == MavType::MAV_TYPE_GCS
     }
     /// Heartbeat rate in Hz over the last few heartbeats (0 until two are heard).
     pub fn heartbeat_hz(&self) -> f64 {
@@ -110,6 +136,8 @@ pub enum VehicleEvent {
     Rebooted(VehicleKey, &'static str),
     Conflict(VehicleKey, String),
     UsesGcsSysid(VehicleKey),
+    /// Dropped from a full table (the longest silent).
+    Evicted(VehicleKey),
 }
 
 /// All components heard by heartbeat.
@@ -118,15 +146,18 @@ pub struct Registry {
     vehicles: BTreeMap<VehicleKey, Vehicle>,
     pub lost_timeout: Micros,
     own: VehicleKey,
+    /// Components evicted to keep the table within [`MAX_COMPONENTS`].
+    pub evicted: u64,
 }
 
 impl Registry {
-    /// `own` is our (sysid, compid): its echoes are ignored.
+    /// `own` is our (sysid, compid): anything else using it is flagged.
     pub fn new(own: VehicleKey, lost_timeout: Micros) -> Self {
         Self {
             vehicles: BTreeMap::new(),
             lost_timeout,
             own,
+            evicted: 0,
         }
     }
 
@@ -153,12 +184,24 @@ impl Registry {
         now: Micros,
     ) -> Vec<VehicleEvent> {
         let mut events = Vec::new();
-        if key == self.own && hb.mavtype == MavType::MAV_TYPE_GCS {
-            return events; // our own heartbeat echoed back by a router
-        }
-        let uses_gcs_sysid = key.0 == self.own.0;
+        // A vehicle on our sysid, or another GCS on our very sysid:compid, confuses whoever
+        // routes replies; another GCS on our sysid with its own compid (MAVProxy) is normal.
+        let uses_gcs_sysid =
+            key == self.own || (key.0 == self.own.0 && hb.mavtype != MavType::MAV_TYPE_GCS);
         match self.vehicles.get_mut(&key) {
             None => {
+                if self.vehicles.len() >= MAX_COMPONENTS {
+                    let oldest = self
+                        .vehicles
+                        .values()
+                        .min_by_key(|v| v.last_heard)
+                        .map(|v| (v.sysid, v.compid));
+                    if let Some(k) = oldest {
+                        self.vehicles.remove(&k);
+                        self.evicted += 1;
+                        events.push(VehicleEvent::Evicted(k));
+                    }
+                }
                 let mut hb_times = VecDeque::with_capacity(8);
                 hb_times.push_back(now);
                 self.vehicles.insert(
@@ -181,6 +224,7 @@ impl Registry {
                         heartbeats: 1,
                         reboots: 0,
                         last_boot_ms: None,
+                        last_reboot: None,
                         conflict: None,
                         uses_gcs_sysid,
                     },
@@ -243,7 +287,12 @@ impl Registry {
     }
 
     /// SYSTEM_TIME from a component: `time_boot_ms` going backwards means it rebooted.
-    pub fn on_system_time(&mut self, key: VehicleKey, time_boot_ms: u32) -> Vec<VehicleEvent> {
+    pub fn on_system_time(
+        &mut self,
+        key: VehicleKey,
+        time_boot_ms: u32,
+        now: Micros,
+    ) -> Vec<VehicleEvent> {
         let Some(v) = self.vehicles.get_mut(&key) else {
             return Vec::new();
         };
@@ -251,25 +300,47 @@ impl Registry {
             matches!(v.last_boot_ms, Some(prev) if time_boot_ms < prev.saturating_sub(1000));
         v.last_boot_ms = Some(time_boot_ms);
         if rebooted {
-            v.reboots += 1;
-            vec![VehicleEvent::Rebooted(key, "boot time went backwards")]
+            Self::reboot(v, key, now, "boot time went backwards")
         } else {
             Vec::new()
         }
     }
 
-    /// The component's sequence numbers restarted after silence (see `loss`).
-    pub fn on_sequence_restart(&mut self, key: VehicleKey) -> Vec<VehicleEvent> {
+    /// The component's sequence count restarted (see `loss`) on some link. Where SYSTEM_TIME
+    /// arrives, it alone decides; otherwise this is the sign, taken once per reboot however many
+    /// links show it.
+    pub fn on_sequence_restart(&mut self, key: VehicleKey, now: Micros) -> Vec<VehicleEvent> {
         match self.vehicles.get_mut(&key) {
-            Some(v) => {
-                v.reboots += 1;
-                vec![VehicleEvent::Rebooted(
-                    key,
-                    "sequence restarted after silence",
-                )]
+            Some(v) if v.last_boot_ms.is_none() => {
+                Self::reboot(v, key, now, "sequence restarted after silence")
             }
-            None => Vec::new(),
+            _ => Vec::new(),
         }
+    }
+
+    fn reboot(
+        v: &mut Vehicle,
+        key: VehicleKey,
+        now: Micros,
+        why: &'static str,
+    ) -> Vec<VehicleEvent> {
+        if v.last_reboot
+            .is_some_and(|t| now.saturating_sub(t) < REBOOT_DEBOUNCE)
+        {
+            return Vec::new();
+        }
+        v.last_reboot = Some(now);
+        v.reboots += 1;
+        vec![VehicleEvent::Rebooted(key, why)]
+    }
+
+    /// When [`Registry::tick`] next has a component to mark lost.
+    pub fn next_deadline(&self) -> Option<Micros> {
+        self.vehicles
+            .values()
+            .filter(|v| !v.lost)
+            .map(|v| v.last_heard + self.lost_timeout)
+            .min()
     }
 
     /// Mark components lost whose last heartbeat is older than the timeout.
@@ -336,7 +407,7 @@ mod tests {
     }
 
     #[test]
-    fn own_echo_ignored_but_sysid_clash_flagged() {
+    fn other_gcss_are_listed_and_sysid_clashes_flagged() {
         let mut r = Registry::new((255, 190), DEFAULT_LOST_TIMEOUT);
         let gcs = hb(
             MavType::MAV_TYPE_GCS,
@@ -344,10 +415,14 @@ mod tests {
             false,
             0,
         );
-        assert!(r
-            .on_heartbeat(0, (255, 190), &gcs, Version::V2, 0)
-            .is_empty());
-        assert!(r.is_empty());
+        // MAVProxy at 255:230: a GCS beside us, nothing wrong.
+        let ev = r.on_heartbeat(0, (255, 230), &gcs, Version::V2, 0);
+        assert_eq!(ev, vec![VehicleEvent::Found((255, 230))]);
+        assert!(r.get((255, 230)).unwrap().is_gcs());
+        assert!(!r.get((255, 230)).unwrap().is_autopilot());
+        // Another GCS on our very id (QGroundControl's default is ours too): listed, flagged.
+        let ev = r.on_heartbeat(0, (255, 190), &gcs, Version::V2, 0);
+        assert!(ev.contains(&VehicleEvent::UsesGcsSysid((255, 190))));
         let ev = r.on_heartbeat(0, (255, 1), &copter(false, 0), Version::V2, 0);
         assert!(ev.contains(&VehicleEvent::UsesGcsSysid((255, 1))));
         assert!(r.get((255, 1)).unwrap().uses_gcs_sysid);
@@ -394,17 +469,44 @@ mod tests {
     fn boot_time_near_the_top_of_u32_does_not_overflow() {
         let mut r = Registry::new((255, 190), DEFAULT_LOST_TIMEOUT);
         r.on_heartbeat(0, (1, 1), &copter(false, 0), Version::V2, 0);
-        assert!(r.on_system_time((1, 1), u32::MAX - 10).is_empty());
-        assert!(r.on_system_time((1, 1), u32::MAX).is_empty());
+        assert!(r.on_system_time((1, 1), u32::MAX - 10, 0).is_empty());
+        assert!(r.on_system_time((1, 1), u32::MAX, 0).is_empty());
     }
 
     #[test]
     fn reboot_from_boot_time() {
         let mut r = Registry::new((255, 190), DEFAULT_LOST_TIMEOUT);
         r.on_heartbeat(0, (1, 1), &copter(false, 0), Version::V2, 0);
-        assert!(r.on_system_time((1, 1), 50_000).is_empty());
-        assert!(r.on_system_time((1, 1), 50_900).is_empty());
-        assert_eq!(r.on_system_time((1, 1), 300).len(), 1);
+        assert!(r.on_system_time((1, 1), 50_000, 0).is_empty());
+        assert!(r.on_system_time((1, 1), 50_900, SECOND).is_empty());
+        assert_eq!(r.on_system_time((1, 1), 300, 2 * SECOND).len(), 1);
         assert_eq!(r.get((1, 1)).unwrap().reboots, 1);
+        // The same reboot seen again on a second link, or by its sequence count: not again.
+        assert!(r.on_system_time((1, 1), 200, 2 * SECOND).is_empty());
+        assert!(r.on_sequence_restart((1, 1), 3 * SECOND).is_empty());
+        assert_eq!(r.get((1, 1)).unwrap().reboots, 1);
+    }
+
+    #[test]
+    fn sequence_restart_is_one_reboot_however_many_links_show_it() {
+        let mut r = Registry::new((255, 190), DEFAULT_LOST_TIMEOUT);
+        r.on_heartbeat(0, (1, 1), &copter(false, 0), Version::V2, 0);
+        assert_eq!(r.on_sequence_restart((1, 1), 10 * SECOND).len(), 1);
+        assert!(r.on_sequence_restart((1, 1), 10 * SECOND + 1).is_empty());
+        assert_eq!(r.on_sequence_restart((1, 1), 60 * SECOND).len(), 1);
+        assert_eq!(r.get((1, 1)).unwrap().reboots, 2);
+    }
+
+    #[test]
+    fn a_flood_of_ids_is_bounded_and_counted() {
+        let mut r = Registry::new((255, 190), DEFAULT_LOST_TIMEOUT);
+        for i in 0..10_000u32 {
+            let key = ((i % 250) as u8 + 1, (i / 250) as u8);
+            r.on_heartbeat(0, key, &copter(false, 0), Version::V2, i as u64);
+        }
+        assert_eq!(r.len(), MAX_COMPONENTS);
+        assert_eq!(r.evicted, 10_000 - MAX_COMPONENTS as u64);
+        // The most recently heard are the ones kept.
+        assert!(r.get((250, 39)).is_some());
     }
 }

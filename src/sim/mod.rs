@@ -67,18 +67,52 @@ fn state_path(base: &Option<PathBuf>, index: usize, sysid: u8) -> Option<PathBuf
     Some(PathBuf::from(s))
 }
 
+/// The simulator with its parameter state read from its state files (`state=FILE`): the edge
+/// that reads; [`Sim::new_with_state`] itself touches no file.
+pub fn open(cfg: SimConfig) -> Sim {
+    Sim::new_with_state(cfg, |p| match std::fs::read_to_string(p) {
+        Ok(text) => Some(text),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => {
+            tracing::warn!("sim: cannot read parameter state {}: {e}", p.display());
+            None
+        }
+    })
+}
+
+/// Write the state files the simulator has waiting, atomically (temp file, then rename).
+pub fn save_pending(sim: &mut Sim) {
+    for (path, contents) in sim.take_writes() {
+        let mut tmp = path.as_os_str().to_owned();
+        tmp.push(".tmp");
+        let tmp = PathBuf::from(tmp);
+        if let Err(e) = std::fs::write(&tmp, &contents).and_then(|()| std::fs::rename(&tmp, &path))
+        {
+            tracing::warn!("sim: cannot save parameters to {}: {e}", path.display());
+        }
+    }
+}
+
 impl Sim {
+    /// A simulator with default parameters (no state file is read).
     pub fn new(cfg: SimConfig) -> Sim {
+        Sim::new_with_state(cfg, |_| None)
+    }
+
+    /// A simulator whose vehicles start from the parameter text `state` gives for their state
+    /// file path (`None`: defaults).
+    pub fn new_with_state(
+        cfg: SimConfig,
+        state: impl Fn(&std::path::Path) -> Option<String>,
+    ) -> Sim {
         let table = ParamTable::copter(cfg.params);
         let mut vehicles = Vec::with_capacity(cfg.vehicles as usize);
         for i in 0..cfg.vehicles.max(1) as usize {
             let sysid = cfg.sysid.saturating_add(i as u8).min(254);
             let path = state_path(&cfg.state, i, sysid);
             let mut params = table.clone();
-            if let Some(p) = &path {
-                if let Err(e) = params.load_if_exists(p) {
-                    tracing::warn!("sim: cannot read parameter state {}: {e}", p.display());
-                }
+            if let Some(text) = path.as_deref().and_then(&state) {
+                params.load_parm_text(&text);
             }
             vehicles.push(SimVehicle::new(sysid, i, cfg.seed, params, path));
         }
@@ -107,6 +141,14 @@ impl Sim {
 
     pub fn config(&self) -> &SimConfig {
         &self.cfg
+    }
+
+    /// State files waiting to be written (path, contents): the edge writes them.
+    pub fn take_writes(&mut self) -> Vec<(PathBuf, Vec<u8>)> {
+        self.vehicles
+            .iter_mut()
+            .filter_map(|v| v.pending_write.take())
+            .collect()
     }
 
     /// Bytes from the GCS (any chunking). Messages addressed to a vehicle's sysid (or 0 =

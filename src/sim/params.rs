@@ -8,7 +8,6 @@
 use crate::dialect::MavParamType;
 use crate::wire::param_pck::{PckParam, PckType};
 use std::collections::BTreeMap;
-use std::path::Path;
 
 const PARM: &str = include_str!("../../assets/sim/copter-params.parm");
 const TYPES: &str = include_str!("../../assets/sim/copter-param-types.txt");
@@ -186,25 +185,6 @@ impl ParamTable {
         }
         s
     }
-
-    /// Write atomically: a temp file next to `path`, then rename, so a crash never leaves a
-    /// half-written store.
-    pub fn save(&self, path: &Path) -> std::io::Result<()> {
-        let mut tmp = path.as_os_str().to_owned();
-        tmp.push(".tmp");
-        let tmp = std::path::PathBuf::from(tmp);
-        std::fs::write(&tmp, self.to_parm_text())?;
-        std::fs::rename(&tmp, path)
-    }
-
-    /// Load values from `path` if it exists. Errors other than "not found" are returned.
-    pub fn load_if_exists(&mut self, path: &Path) -> std::io::Result<usize> {
-        match std::fs::read_to_string(path) {
-            Ok(text) => Ok(self.load_parm_text(&text)),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(0),
-            Err(e) => Err(e),
-        }
-    }
 }
 
 #[cfg(test)]
@@ -268,17 +248,13 @@ mod tests {
     }
 
     #[test]
-    fn state_file_round_trips_atomically() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("sim.parm");
+    fn state_text_round_trips() {
         let mut t = ParamTable::copter(0);
-        assert_eq!(t.load_if_exists(&path).unwrap(), 0);
         t.set("RTL_ALT", 2500.0);
         t.set("ATC_ACCEL_P_MAX", 123.456);
-        t.save(&path).unwrap();
-        assert!(!dir.path().join("sim.parm.tmp").exists());
+        let text = t.to_parm_text();
         let mut u = ParamTable::copter(0);
-        assert_eq!(u.load_if_exists(&path).unwrap(), 1354);
+        assert_eq!(u.load_parm_text(&text), 1354);
         assert_eq!(u.value("RTL_ALT"), Some(2500.0));
         assert_eq!(u.value("ATC_ACCEL_P_MAX"), t.value("ATC_ACCEL_P_MAX"));
         assert_eq!(

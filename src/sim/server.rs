@@ -6,7 +6,7 @@
 //! the server a GCS connects to), as does `tcpin:`; `udpin:` answers every peer heard;
 //! `udpout:` sends to a fixed peer.
 
-use super::{Sim, SimConfig, SimError};
+use super::{SimConfig, SimError};
 use crate::clock::{Clock, Micros, RealClock};
 use crate::link::LinkSpec;
 use std::collections::BTreeMap;
@@ -71,7 +71,7 @@ fn now(clock: &RealClock) -> Micros {
 /// go to the one simulation.
 pub async fn serve_tcp(listener: TcpListener, cfg: SimConfig) -> Result<(), SimError> {
     let clock = RealClock::new();
-    let mut sim = Sim::new(cfg);
+    let mut sim = super::open(cfg);
     let (in_tx, mut in_rx) = mpsc::channel::<Vec<u8>>(1024);
     let mut clients: BTreeMap<u64, mpsc::Sender<Vec<u8>>> = BTreeMap::new();
     let mut next_id = 0u64;
@@ -123,7 +123,10 @@ pub async fn serve_tcp(listener: TcpListener, cfg: SimConfig) -> Result<(), SimE
                     }
                 });
             }
-            Some(bytes) = in_rx.recv() => sim.receive(now(&clock), &bytes),
+            Some(bytes) = in_rx.recv() => {
+                sim.receive(now(&clock), &bytes);
+                super::save_pending(&mut sim);
+            }
             _ = tick.tick() => {
                 let out = sim.poll(now(&clock));
                 if !out.is_empty() {
@@ -162,7 +165,7 @@ pub async fn serve_udp(
     cfg: SimConfig,
 ) -> Result<(), SimError> {
     let clock = RealClock::new();
-    let mut sim = Sim::new(cfg);
+    let mut sim = super::open(cfg);
     let mut peers: Vec<SocketAddr> = fixed.into_iter().collect();
     let mut buf = vec![0u8; 65_536];
     let mut tick = interval(PERIOD);
@@ -179,6 +182,7 @@ pub async fn serve_udp(
                         peers.push(peer);
                     }
                     sim.receive(now(&clock), &buf[..n]);
+                    super::save_pending(&mut sim);
                 }
                 // ICMP port unreachable from a departed peer shows up here on some systems.
                 Err(e) => tracing::debug!("sim: UDP receive: {e}"),

@@ -493,8 +493,13 @@ fn state_file_persists_param_set() {
         param_id: "RTL_ALT".into(),
         param_type: MavParamType::MAV_PARAM_TYPE_INT32,
     }));
+    assert!(!path.exists(), "the state machine writes no file itself");
+    save_pending(&mut g.sim);
     assert!(path.exists());
-    let g2 = Gcs::new(&q);
+    let g2 = Gcs {
+        sim: open(SimConfig::from_query(&q).unwrap()),
+        ..Gcs::new("")
+    };
     assert_eq!(g2.v().param("RTL_ALT"), Some(2500.0));
 }
 

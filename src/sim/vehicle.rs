@@ -140,6 +140,8 @@ pub struct SimVehicle {
     pub(super) rng: Rng,
     pub(super) params: ParamTable,
     pub(super) state_path: Option<PathBuf>,
+    /// The state file to write, and its contents, waiting for the edge.
+    pub(super) pending_write: Option<(PathBuf, Vec<u8>)>,
     pub(super) armed: bool,
     pub(super) custom_mode: u32,
     pub(super) home: (f64, f64, f64),
@@ -195,6 +197,7 @@ impl SimVehicle {
             rng: Rng::derive(seed, 0x5EED_0000 + sysid as u64),
             params,
             state_path,
+            pending_write: None,
             armed: false,
             custom_mode: mode::STABILIZE,
             home,
@@ -506,14 +509,11 @@ impl SimVehicle {
         (lat, lon)
     }
 
-    /// Save parameters if a state file is configured. A failing disk is reported to the GCS,
-    /// never a panic.
+    /// Queue the parameters for saving if a state file is configured; the edge writes them
+    /// ([`super::Sim::take_writes`]), the state machine never touches the disk.
     pub(super) fn save_params(&mut self) {
         if let Some(path) = self.state_path.clone() {
-            if let Err(e) = self.params.save(&path) {
-                tracing::warn!("sim: cannot save parameters to {}: {e}", path.display());
-                self.text(MavSeverity::MAV_SEVERITY_WARNING, "Param save failed");
-            }
+            self.pending_write = Some((path, self.params.to_parm_text().into_bytes()));
         }
     }
 }

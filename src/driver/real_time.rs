@@ -1,0 +1,219 @@
+//! The core on the wall clock over real transports (and in-process links in real time): the
+//! terminal, and headless reports and replays on real links.
+//!
+//! One loop: it sleeps until the core's next deadline, a link report, a finished file write, or
+//! the front end's next input (keys, resizes, signals), whichever comes first, and redraws
+//! through the front end only when the core says something changed. An idle mavterm wakes only
+//! for the core's own timers (the 1 Hz heartbeat) and the front end's (the clock on screen).
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use tokio::sync::mpsc;
+
+use super::virtual_time::Driver;
+use super::{link_event, local_sources, step, write_atomic, Links};
+use crate::app::{App, AppConfig, Event};
+use crate::clock::{Clock, Micros, RealClock};
+use crate::keymap::Key;
+use crate::link::manager::LinkManager;
+use crate::link::{LinkId, LinkSpec};
+
+/// What a front end adds to the loop.
+pub trait Frontend {
+    /// The next input (key, resize) as a core event; `Ok(None)` when input ended (quit), an
+    /// error ends the run. Front ends without input never resolve.
+    fn next_input(
+        &mut self,
+    ) -> impl std::future::Future<Output = std::io::Result<Option<Event>>> + Send;
+    /// When the front end itself needs waking (e.g. to draw a change it held back to keep under
+    /// its frame rate), in core time.
+    fn wake_at(&self, app: &App) -> Option<Micros>;
+    /// After the core handled something: draw if it changed.
+    fn after(&mut self, app: &mut App, now: Micros) -> std::io::Result<()>;
+}
+
+/// A front end with no input and no screen: headless reports and replays.
+pub struct NoFrontend;
+
+impl Frontend for NoFrontend {
+    async fn next_input(&mut self) -> std::io::Result<Option<Event>> {
+        std::future::pending().await
+    }
+    fn wake_at(&self, _app: &App) -> Option<Micros> {
+        None
+    }
+    fn after(&mut self, _app: &mut App, _now: Micros) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// Real link tasks, and file writes off the async workers.
+struct RealLinks {
+    mgr: LinkManager,
+    done: mpsc::UnboundedSender<Event>,
+}
+
+impl Links for RealLinks {
+    fn send(&mut self, _now: Micros, link: LinkId, frame: Vec<u8>) -> bool {
+        self.mgr.send(link, frame)
+    }
+    fn open(&mut self, _now: Micros, link: LinkId, spec: LinkSpec) {
+        self.mgr.open(link, spec);
+    }
+    fn write_file(&mut self, path: PathBuf, contents: Vec<u8>) {
+        let done = self.done.clone();
+        tokio::task::spawn_blocking(move || {
+            let error = write_atomic(&path, &contents).err().map(|e| e.to_string());
+            let _ = done.send(Event::FileWritten { path, error });
+        });
+    }
+}
+
+/// The core on real links and the wall clock (`C` is the clock; tests may wrap it).
+pub struct RealTime<C: Clock = RealClock> {
+    pub app: App,
+    links: RealLinks,
+    done: mpsc::UnboundedReceiver<Event>,
+    clock: C,
+}
+
+/// Why a real-time run ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ended {
+    /// The time asked for was reached.
+    Deadline,
+    /// The core quit (a quit key or command).
+    Quit,
+    /// The front end's input ended.
+    InputClosed,
+}
+
+impl RealTime {
+    /// Start the links; call within a tokio runtime.
+    pub fn start(specs: &[LinkSpec], cfg: AppConfig) -> Self {
+        Self::start_with_clock(specs, cfg, RealClock::new())
+    }
+}
+
+impl<C: Clock + Clone> RealTime<C> {
+    /// Start the links with core time read from `clock`; call within a tokio runtime.
+    pub fn start_with_clock(specs: &[LinkSpec], mut cfg: AppConfig, clock: C) -> Self {
+        cfg.links = specs.iter().map(|s| s.to_string()).collect();
+        cfg.epoch = chrono::Utc::now();
+        let (tx, done) = mpsc::unbounded_channel();
+        Self {
+            app: App::new(cfg),
+            links: RealLinks {
+                mgr: LinkManager::start(specs, local_sources()),
+                done: tx,
+            },
+            done,
+            clock,
+        }
+    }
+
+    pub fn now(&self) -> Micros {
+        self.clock.now()
+    }
+
+    /// The clock core time is read from.
+    pub fn clock(&self) -> C {
+        self.clock.clone()
+    }
+
+    /// Feed one event now.
+    pub fn step(&mut self, ev: Event) {
+        step(&mut self.app, &mut self.links, self.clock.now(), ev);
+    }
+
+    /// Run until core time `until` (if given), the core quits, or the front end's input ends.
+    pub async fn run(
+        &mut self,
+        until: Option<Micros>,
+        front: &mut impl Frontend,
+    ) -> std::io::Result<Ended> {
+        front.after(&mut self.app, self.clock.now())?;
+        loop {
+            if self.app.quit {
+                return Ok(Ended::Quit);
+            }
+            let now = self.clock.now();
+            if until.is_some_and(|u| now >= u) {
+                self.step(Event::Tick);
+                return Ok(Ended::Deadline);
+            }
+            let mut wake = self.app.next_deadline();
+            if let Some(w) = front.wake_at(&self.app) {
+                wake = wake.min(w);
+            }
+            if let Some(u) = until {
+                wake = wake.min(u);
+            }
+            let sleep = tokio::time::sleep(Duration::from_micros(wake.saturating_sub(now)));
+            let ev = tokio::select! {
+                ev = self.links.mgr.next_event() => ev.map(|(link, ev)| link_event(link, ev)),
+                Some(ev) = self.done.recv() => Some(ev),
+                input = front.next_input() => match input? {
+                    Some(ev) => Some(ev),
+                    None => return Ok(Ended::InputClosed),
+                },
+                _ = sleep => Some(Event::Tick),
+            };
+            if let Some(ev) = ev {
+                self.step(ev);
+            }
+            front.after(&mut self.app, self.clock.now())?;
+        }
+    }
+}
+
+/// A replay script's [`Driver`] over real links in real time: `--headless --input` with serial,
+/// UDP or TCP links. The script's times are seconds since start on the wall clock.
+pub struct RealTimeRunner {
+    rt: tokio::runtime::Handle,
+    pub inner: RealTime,
+}
+
+impl RealTimeRunner {
+    /// Start the links on `rt` (a runtime the caller keeps alive; not called from inside it).
+    pub fn start(rt: tokio::runtime::Handle, specs: &[LinkSpec], cfg: AppConfig) -> Self {
+        let inner = {
+            let _in_rt = rt.enter();
+            RealTime::start(specs, cfg)
+        };
+        Self { rt, inner }
+    }
+
+    pub fn app_mut(&mut self) -> &mut App {
+        &mut self.inner.app
+    }
+}
+
+impl Driver for RealTimeRunner {
+    fn advance_to(&mut self, t: Micros) {
+        let Self { rt, inner } = self;
+        let _ = rt.block_on(inner.run(Some(t), &mut NoFrontend));
+    }
+    fn key(&mut self, key: Key) {
+        let _in_rt = self.rt.enter();
+        self.inner.step(Event::Key(key));
+    }
+    fn now(&self) -> Micros {
+        self.inner.now()
+    }
+    fn quit_requested(&self) -> bool {
+        self.inner.app.quit
+    }
+    fn app(&self) -> &App {
+        &self.inner.app
+    }
+}
+
+/// Run the core on real links for `duration`, headless, and return its final state.
+pub async fn run_for(specs: &[LinkSpec], cfg: AppConfig, duration: Duration) -> App {
+    let mut rt = RealTime::start(specs, cfg);
+    let until = rt.now() + duration.as_micros() as Micros;
+    let _ = rt.run(Some(until), &mut NoFrontend).await;
+    rt.app
+}

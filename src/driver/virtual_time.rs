@@ -1,0 +1,281 @@
+//! Running the core on a virtual clock with in-process links (`sim://`, `tlog:`): no TTY, no
+//! sockets, no wall clock, so the same input gives the same frames and the same screens, and a
+//! minute of flight replays in milliseconds.
+//!
+//! Time jumps from deadline to deadline: the earliest of every source's next emission and the
+//! core's own [`App::next_deadline`]. There is no fixed tick.
+
+use std::path::PathBuf;
+
+use chrono::{DateTime, TimeZone, Utc};
+
+use super::{local_source, step, write_atomic, Links};
+use crate::app::{App, AppConfig, Event};
+use crate::clock::Micros;
+use crate::keymap::Key;
+use crate::link::source::{TlogSource, VirtualSource};
+use crate::link::tlog::read_tlog;
+use crate::link::{FrameParser, LinkId, LinkSpec, LinkState, ParserStats};
+
+/// The wall-clock time shown for virtual time zero when nothing better is known.
+pub fn virtual_epoch() -> DateTime<Utc> {
+    Utc.with_ymd_and_hms(2026, 1, 1, 12, 0, 0)
+        .single()
+        .expect("valid date")
+}
+
+/// What a replay script drives: the core with its links, on a virtual or a real clock.
+pub trait Driver {
+    /// Run links and core up to time `t` (µs since start).
+    fn advance_to(&mut self, t: Micros);
+    /// A key pressed now.
+    fn key(&mut self, key: Key);
+    fn now(&self) -> Micros;
+    fn quit_requested(&self) -> bool;
+    fn app(&self) -> &App;
+}
+
+impl Driver for VirtualRunner {
+    fn advance_to(&mut self, t: Micros) {
+        VirtualRunner::advance_to(self, t)
+    }
+    fn key(&mut self, key: Key) {
+        VirtualRunner::key(self, key)
+    }
+    fn now(&self) -> Micros {
+        self.now
+    }
+    fn quit_requested(&self) -> bool {
+        self.app.quit
+    }
+    fn app(&self) -> &App {
+        &self.app
+    }
+}
+
+/// Why a virtual run could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum RunnerError {
+    #[error("link `{0}` cannot run on a virtual clock (only sim:// and tlog: can)")]
+    NotVirtual(String),
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}: {source}")]
+    Tlog {
+        path: String,
+        source: crate::link::tlog::TlogError,
+    },
+    #[error("{0}")]
+    Sim(String),
+}
+
+/// One in-process link on the virtual clock.
+struct VLink {
+    /// `None` for a link that could not open (its state says why).
+    src: Option<Box<dyn VirtualSource>>,
+    parser: FrameParser,
+    reported: ParserStats,
+}
+
+/// The virtual links: frames the core sends go straight into the sources.
+struct VLinks {
+    links: Vec<VLink>,
+    /// Events the links produced while carrying out effects (a link opened or failed, a file
+    /// written), fed to the core next.
+    pending: Vec<Event>,
+}
+
+impl Links for VLinks {
+    fn send(&mut self, now: Micros, link: LinkId, frame: Vec<u8>) -> bool {
+        match self.links.get_mut(link).and_then(|l| l.src.as_mut()) {
+            Some(src) => {
+                src.receive(now, &frame);
+                true
+            }
+            None => false,
+        }
+    }
+
+    fn open(&mut self, _now: Micros, link: LinkId, spec: LinkSpec) {
+        let (src, state) = match local_source(&spec) {
+            Ok(src) => (Some(src), LinkState::Up),
+            Err(e) => (None, LinkState::Down(e)),
+        };
+        while self.links.len() < link {
+            self.links.push(VLink::new(None));
+        }
+        self.links.push(VLink::new(src));
+        self.pending.push(Event::LinkState { link, state });
+    }
+
+    fn write_file(&mut self, path: PathBuf, contents: Vec<u8>) {
+        let error = write_atomic(&path, &contents).err().map(|e| e.to_string());
+        self.pending.push(Event::FileWritten { path, error });
+    }
+}
+
+impl VLink {
+    fn new(src: Option<Box<dyn VirtualSource>>) -> Self {
+        Self {
+            src,
+            parser: FrameParser::new(),
+            reported: ParserStats::default(),
+        }
+    }
+    fn deadline(&self) -> Micros {
+        self.src.as_ref().map_or(Micros::MAX, |s| s.next_deadline())
+    }
+}
+
+/// The core plus its virtual links, stepped by [`VirtualRunner::advance_to`].
+pub struct VirtualRunner {
+    pub app: App,
+    links: VLinks,
+    now: Micros,
+}
+
+/// True when every spec can run on a virtual clock.
+pub fn all_virtual(specs: &[LinkSpec]) -> bool {
+    specs
+        .iter()
+        .all(|s| matches!(s, LinkSpec::Sim { .. } | LinkSpec::Tlog { .. }))
+}
+
+impl VirtualRunner {
+    /// A runner over ready-made sources; `cfg.links` names them in order.
+    pub fn new(cfg: AppConfig, sources: Vec<Box<dyn VirtualSource>>) -> Self {
+        let links = sources.into_iter().map(|s| VLink::new(Some(s))).collect();
+        let mut r = Self {
+            app: App::new(cfg),
+            links: VLinks {
+                links,
+                pending: Vec::new(),
+            },
+            now: 0,
+        };
+        for link in 0..r.links.links.len() {
+            r.step(Event::LinkState {
+                link,
+                state: LinkState::Up,
+            });
+        }
+        r
+    }
+
+    /// Build sources from link specs. The epoch shown is the first tlog's start, else fixed.
+    pub fn from_specs(specs: &[LinkSpec], mut cfg: AppConfig) -> Result<Self, RunnerError> {
+        let mut sources: Vec<Box<dyn VirtualSource>> = Vec::new();
+        let mut epoch = None;
+        for spec in specs {
+            match spec {
+                LinkSpec::Tlog { path } => {
+                    let bytes = std::fs::read(path).map_err(|source| RunnerError::Io {
+                        path: path.clone(),
+                        source,
+                    })?;
+                    let recs = read_tlog(&bytes).map_err(|source| RunnerError::Tlog {
+                        path: path.clone(),
+                        source,
+                    })?;
+                    let src = TlogSource::new(recs);
+                    epoch = epoch.or(src.start_time());
+                    sources.push(Box::new(src));
+                }
+                LinkSpec::Sim { .. } => {
+                    sources.push(local_source(spec).map_err(RunnerError::Sim)?);
+                }
+                other => return Err(RunnerError::NotVirtual(other.to_string())),
+            }
+        }
+        cfg.links = specs.iter().map(|s| s.to_string()).collect();
+        cfg.epoch = epoch.unwrap_or_else(virtual_epoch);
+        Ok(Self::new(cfg, sources))
+    }
+
+    pub fn now(&self) -> Micros {
+        self.now
+    }
+
+    /// The source behind link `i`.
+    pub fn source(&self, i: usize) -> Option<&dyn VirtualSource> {
+        self.links.links.get(i).and_then(|l| l.src.as_deref())
+    }
+
+    pub fn quit_requested(&self) -> bool {
+        self.app.quit
+    }
+
+    /// Feed one event at the current time, then whatever the links produced meanwhile.
+    fn step(&mut self, ev: Event) {
+        step(&mut self.app, &mut self.links, self.now, ev);
+        while !self.links.pending.is_empty() {
+            for ev in std::mem::take(&mut self.links.pending) {
+                step(&mut self.app, &mut self.links, self.now, ev);
+            }
+        }
+    }
+
+    fn deliver(&mut self, i: usize) {
+        let now = self.now;
+        let l = &mut self.links.links[i];
+        let Some(src) = l.src.as_mut() else { return };
+        let bytes = src.poll(now);
+        if bytes.is_empty() {
+            return;
+        }
+        let mut frames = Vec::new();
+        l.parser.push(&bytes, |f| frames.push(f));
+        let total = *l.parser.stats();
+        let stats = total.since(&l.reported);
+        l.reported = total;
+        self.step(Event::Frames {
+            link: i,
+            frames,
+            stats,
+        });
+    }
+
+    /// Run links and core up to virtual time `t`, in time order, links in index order.
+    pub fn advance_to(&mut self, t: Micros) {
+        let mut spins = 0u32;
+        loop {
+            let next_src = self
+                .links
+                .links
+                .iter()
+                .map(VLink::deadline)
+                .min()
+                .unwrap_or(Micros::MAX);
+            let next_core = self.app.next_deadline();
+            let mut next = next_src.min(next_core).max(self.now);
+            // Something that stays due without progress must not stall virtual time.
+            spins = if next == self.now { spins + 1 } else { 0 };
+            if spins > 64 {
+                next = self.now + 1;
+                spins = 0;
+            }
+            if next > t {
+                break;
+            }
+            self.now = next;
+            for i in 0..self.links.links.len() {
+                if self.links.links[i].deadline() <= self.now {
+                    self.deliver(i);
+                }
+            }
+            if self.app.next_deadline() <= self.now {
+                self.step(Event::Tick);
+            }
+        }
+        self.now = self.now.max(t);
+        self.step(Event::Tick);
+    }
+
+    /// A key pressed at the current virtual time.
+    pub fn key(&mut self, key: Key) {
+        self.step(Event::Key(key));
+    }
+}
