@@ -219,3 +219,118 @@ async fn udpin_replies_to_every_peer_heard() {
         );
     }
 }
+
+/// Start a link manager on `specs` (no in-process links needed).
+fn manager(specs: &[LinkSpec]) -> mavterm::link::manager::LinkManager {
+    mavterm::link::manager::LinkManager::start(specs, mavterm::driver::local_sources())
+}
+
+#[tokio::test]
+async fn a_peer_that_stops_reading_does_not_stop_our_reads() {
+    use mavterm::link::transport::LinkEvent;
+    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let port = listener.local_addr().unwrap().port();
+    let spec: LinkSpec = format!("tcp:127.0.0.1:{port}").parse().unwrap();
+    let mut mgr = manager(&[spec]);
+    let (mut peer, _) = listener.accept().await.unwrap();
+    // The peer sends 3000 heartbeats and never reads a byte.
+    let sender = tokio::spawn(async move {
+        for i in 0..3000u32 {
+            peer.write_all(&common::copter_heartbeat(1, i as u8, 0))
+                .await
+                .unwrap();
+            if i % 100 == 0 {
+                tokio::time::sleep(Duration::from_millis(5)).await;
+            }
+        }
+        peer // kept open, still not reading
+    });
+    // Meanwhile we send 20 MB to it: its window fills, our queue fills, the rest is dropped.
+    let frame = vec![0u8; 280];
+    let (mut accepted, mut dropped, mut frames) = (0u64, 0u64, 0u64);
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
+    while frames < 3000 {
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "reads stopped at {frames} frames"
+        );
+        for _ in 0..1000 {
+            if mgr.send(0, frame.clone()) {
+                accepted += 1;
+            } else {
+                dropped += 1;
+            }
+        }
+        while let Ok(Some((_, ev))) =
+            tokio::time::timeout(Duration::from_millis(2), mgr.next_event()).await
+        {
+            if let LinkEvent::Frames { frames: f, .. } = ev {
+                frames += f.len() as u64;
+            }
+        }
+    }
+    let _peer = sender.await.unwrap();
+    assert_eq!(frames, 3000, "every frame the peer sent was read");
+    assert!(dropped > 0, "a full queue drops");
+    // What was taken is bounded by the queue and the socket buffers, not by what was offered.
+    assert!(
+        accepted * 280 < 16 << 20,
+        "accepted {accepted} frames of {}",
+        accepted + dropped
+    );
+}
+
+#[tokio::test]
+async fn a_core_that_falls_behind_gets_a_count_of_what_was_dropped() {
+    use mavterm::link::transport::{LinkEvent, EVENT_QUEUE};
+    let port = common::free_udp_port();
+    let spec: LinkSpec = format!("udpin:127.0.0.1:{port}").parse().unwrap();
+    let mut mgr = manager(&[spec]);
+    // Wait until the link is up.
+    loop {
+        if let Some((_, LinkEvent::State(mavterm::link::LinkState::Up))) = mgr.next_event().await {
+            break;
+        }
+    }
+    let sock = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
+    let n = 3 * EVENT_QUEUE as u64;
+    for i in 0..n {
+        sock.send_to(
+            &common::copter_heartbeat(1, i as u8, 0),
+            ("127.0.0.1", port),
+        )
+        .await
+        .unwrap();
+        if i % 64 == 0 {
+            tokio::task::yield_now().await;
+        }
+    }
+    // Let the link read everything while the core reads nothing.
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    // One more datagram once there is room, to carry the count.
+    let (mut frames, mut dropped, mut events) = (0u64, 0u64, 0usize);
+    let mut sent_last = false;
+    while let Ok(Some((_, ev))) =
+        tokio::time::timeout(Duration::from_millis(300), mgr.next_event()).await
+    {
+        events += 1;
+        match ev {
+            LinkEvent::Frames { frames: f, .. } => frames += f.len() as u64,
+            LinkEvent::Dropped(d) => dropped += d,
+            LinkEvent::State(_) => {}
+        }
+        if !sent_last && events > EVENT_QUEUE / 2 {
+            sent_last = true;
+            sock.send_to(&common::copter_heartbeat(1, 0, 0), ("127.0.0.1", port))
+                .await
+                .unwrap();
+        }
+    }
+    assert!(dropped > 0, "frames {frames}, dropped {dropped}");
+    assert!(
+        events <= EVENT_QUEUE + 2,
+        "the queue is bounded: {events} events"
+    );
+    // Nothing vanished without a count (loopback UDP loses nothing at this size).
+    assert_eq!(frames + dropped, n + 1);
+}

@@ -491,9 +491,9 @@ impl App {
         if outcome == SeqOutcome::Duplicate && repeat {
             return; // the same frame again carries nothing new
         }
-        if self.copy_from_another_link(link, key, &frame, crc) {
-            return; // counted on this link above; handled when it first came
-        }
+        // The same frame on a second link (redundant radios): counted on this link above, and
+        // it tells us the vehicle is heard here, but its content was handled when it first came.
+        let copy = self.copy_from_another_link(link, key, &frame, crc);
         let fallback;
         let msg = match &frame.message {
             Some(m) => Some(m),
@@ -502,7 +502,7 @@ impl App {
                 fallback.as_ref()
             }
         };
-        let ack = CommandAck::from_frame(&frame);
+        let ack = CommandAck::from_frame(&frame).filter(|_| !copy);
         match msg {
             Some(MavMessage::HEARTBEAT(hb)) => {
                 let ev = self
@@ -516,6 +516,7 @@ impl App {
                     self.sessions.insert(key, s);
                 }
             }
+            _ if copy => {}
             Some(MavMessage::SYSTEM_TIME(st)) => {
                 let ev = self.vehicles.on_system_time(key, st.time_boot_ms, now);
                 self.on_vehicle_events(ev, fx);

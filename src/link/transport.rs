@@ -230,27 +230,35 @@ fn ingest_adapter(ingest: &mut Ingest) -> LocalIngest<'_> {
 }
 
 async fn stream_loop<S: AsyncRead + AsyncWrite + Unpin>(
-    mut s: S,
+    s: S,
     ingest: &mut Ingest,
     out: &mut OutRx,
 ) -> Result<(), String> {
-    let mut buf = vec![0u8; 4096];
-    loop {
-        tokio::select! {
-            r = s.read(&mut buf) => match r {
-                Ok(0) => return Err("connection closed".into()),
+    // Reading and writing run side by side: a peer that stops reading (its window full, our
+    // writes blocked) must not stop us reading what it sends. Frames for it wait in the bounded
+    // queue and are dropped, counted, when that is full.
+    let (mut rd, mut wr) = tokio::io::split(s);
+    let reader = async {
+        let mut buf = vec![0u8; 4096];
+        loop {
+            match rd.read(&mut buf).await {
+                Ok(0) => return Err("connection closed".to_string()),
                 Ok(n) => ingest.feed(&buf[..n], false),
                 Err(e) => return Err(format!("read: {e}")),
-            },
-            m = out.recv() => match m {
-                Some(bytes) => {
-                    if let Err(e) = s.write_all(&bytes).await {
-                        return Err(format!("write: {e}"));
-                    }
-                }
-                None => return Ok(()),
-            },
+            }
         }
+    };
+    let writer = async {
+        while let Some(bytes) = out.recv().await {
+            if let Err(e) = wr.write_all(&bytes).await {
+                return Err(format!("write: {e}"));
+            }
+        }
+        Ok(())
+    };
+    tokio::select! {
+        r = reader => r,
+        w = writer => w,
     }
 }
 
@@ -400,28 +408,29 @@ async fn tcp_server(
 /// Frames a `tcpin` client may have waiting before its frames are dropped.
 pub const CLIENT_QUEUE: usize = 256;
 
-/// One `tcpin` client: read and frame its bytes; write what the link sends.
+/// One `tcpin` client: read and frame its bytes; write what the link sends, side by side, so a
+/// client that stops reading is still heard.
 async fn serve_client(
     stream: TcpStream,
     mut client: Ingest,
     mut out: mpsc::Receiver<std::sync::Arc<Vec<u8>>>,
 ) {
     let (mut rd, mut wr) = stream.into_split();
-    let mut buf = vec![0u8; 4096];
-    loop {
-        tokio::select! {
-            r = rd.read(&mut buf) => match r {
-                Ok(0) | Err(_) => return,
-                Ok(n) => client.feed(&buf[..n], false),
-            },
-            m = out.recv() => match m {
-                Some(bytes) => {
-                    if wr.write_all(&bytes).await.is_err() {
-                        return;
-                    }
-                }
-                None => return,
-            },
+    let reader = async {
+        let mut buf = vec![0u8; 4096];
+        while let Ok(n @ 1..) = rd.read(&mut buf).await {
+            client.feed(&buf[..n], false);
         }
+    };
+    let writer = async {
+        while let Some(bytes) = out.recv().await {
+            if wr.write_all(&bytes).await.is_err() {
+                return;
+            }
+        }
+    };
+    tokio::select! {
+        () = reader => {}
+        () = writer => {}
     }
 }

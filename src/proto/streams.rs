@@ -137,6 +137,8 @@ struct LinkStreams {
     state: LinkStreamState,
     last_heartbeat: Micros,
     last_telemetry: Option<Micros>,
+    /// Since when heartbeats have arrived without a gap and without telemetry.
+    quiet_since: Option<Micros>,
     /// Requests sent on this link, all told.
     requests: u32,
 }
@@ -179,20 +181,28 @@ impl StreamMachine {
             state: LinkStreamState::Due,
             last_heartbeat: now,
             last_telemetry: None,
+            quiet_since: None,
             requests: 0,
         });
         if let MavMessage::HEARTBEAT(hb) = msg {
             self.autopilot = hb.autopilot;
+            // Heartbeats with no telemetry, without the link going silent in between (a fade
+            // stops both, and what resumes together asks nothing).
+            let gap = now.saturating_sub(entry.last_heartbeat) >= SILENT_AFTER;
+            if gap || entry.quiet_since.is_none() {
+                entry.quiet_since = Some(now);
+            }
             entry.last_heartbeat = now;
             // Streams that stopped while heartbeats go on: the vehicle forgot them.
             let stale = entry
-                .last_telemetry
+                .quiet_since
                 .is_some_and(|t| now.saturating_sub(t) >= STALE_AFTER);
             if entry.state == LinkStreamState::Flowing && stale {
                 entry.state = LinkStreamState::Due;
             }
         } else if TELEMETRY_IDS.contains(&id) {
             entry.last_telemetry = Some(now);
+            entry.quiet_since = None;
             entry.state = LinkStreamState::Flowing;
         }
     }

@@ -167,3 +167,60 @@ pub fn copter_heartbeat(sysid: u8, seq: u8, custom_mode: u32) -> Vec<u8> {
         &msg,
     )
 }
+
+/// Run `tests/py/frames.py MODE` on `lines` (one per line in, one per line out).
+fn pymavlink_frames(mode: &str, lines: &[String]) -> Vec<String> {
+    use std::io::Write;
+    let mut child = std::process::Command::new(python())
+        .arg(test_path("py/frames.py"))
+        .arg(mode)
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    {
+        let mut stdin = child.stdin.take().unwrap();
+        for l in lines {
+            writeln!(stdin, "{l}").unwrap();
+        }
+    }
+    let out = child.wait_with_output().unwrap();
+    assert!(
+        out.status.success(),
+        "frames.py {mode}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .map(str::to_string)
+        .collect()
+}
+
+/// pymavlink's reading of each frame (header and fields as JSON; `error` when it refused one).
+pub fn pymavlink_decode(frames: &[Vec<u8>]) -> Vec<serde_json::Value> {
+    let hex: Vec<String> = frames
+        .iter()
+        .map(|f| f.iter().map(|b| format!("{b:02x}")).collect())
+        .collect();
+    pymavlink_frames("decode", &hex)
+        .iter()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+/// Frames packed by pymavlink: each request is
+/// `{"sysid", "compid", "seq", "msg": "HEARTBEAT", "fields": {...}}` (`"v1": true` for MAVLink 1).
+pub fn pymavlink_encode(requests: &[serde_json::Value]) -> Vec<Vec<u8>> {
+    let lines: Vec<String> = requests.iter().map(|r| r.to_string()).collect();
+    pymavlink_frames("encode", &lines)
+        .iter()
+        .map(|h| {
+            (0..h.len())
+                .step_by(2)
+                .map(|i| u8::from_str_radix(&h[i..i + 2], 16).unwrap())
+                .collect()
+        })
+        .collect()
+}

@@ -1,0 +1,490 @@
+//! What the core sends, and to whom: the GCS heartbeat on every link, stream requests per
+//! autopilot and per link (checked, retried, asked again after a reboot but not after a fade),
+//! routing over two links, frames that are not ours or not for us. Vehicle frames are packed by
+//! pymavlink and everything the core sends is read back by pymavlink: the expected values are
+//! pymavlink's and the spec's, not our encoder's.
+
+mod common;
+
+use std::sync::OnceLock;
+
+use mavterm::app::links::LinkState;
+use mavterm::app::{App, AppConfig, Effect, Event};
+use mavterm::clock::{Micros, SECOND};
+use mavterm::link::{FrameParser, LinkId, ParserStats};
+use serde_json::{json, Value};
+
+/// MAV_AUTOPILOT values (common.xml).
+const ARDUPILOT: u64 = 3;
+const PX4: u64 = 12;
+
+fn app(links: usize) -> App {
+    App::new(AppConfig {
+        links: (0..links).map(|i| format!("test{i}")).collect(),
+        ..AppConfig::default()
+    })
+}
+
+/// Frames packed by pymavlink, cached per request (the python start-up is the slow part).
+fn packed(req: Value) -> Vec<u8> {
+    static CACHE: OnceLock<std::sync::Mutex<Vec<(String, Vec<u8>)>>> = OnceLock::new();
+    let cache = CACHE.get_or_init(Default::default);
+    let key = req.to_string();
+    if let Some((_, f)) = cache.lock().unwrap().iter().find(|(k, _)| *k == key) {
+        return f.clone();
+    }
+    let f = common::pymavlink_encode(&[req]).remove(0);
+    cache.lock().unwrap().push((key, f.clone()));
+    f
+}
+
+fn heartbeat_req(sysid: u8, seq: u8, autopilot: u64) -> Value {
+    json!({"sysid": sysid, "compid": 1, "seq": seq, "msg": "HEARTBEAT", "fields": {
+        "type": 2, "autopilot": autopilot, "base_mode": 1, "custom_mode": 0,
+        "system_status": 3, "mavlink_version": 3}})
+}
+
+fn attitude_req(sysid: u8, seq: u8) -> Value {
+    json!({"sysid": sysid, "compid": 1, "seq": seq, "msg": "ATTITUDE", "fields": {
+        "time_boot_ms": 1000, "roll": 0.0, "pitch": 0.0, "yaw": 0.0,
+        "rollspeed": 0.0, "pitchspeed": 0.0, "yawspeed": 0.0}})
+}
+
+/// Every seq of the frames the flying tests use, packed by pymavlink in one run:
+/// ArduPilot heartbeats and ATTITUDE from 1:1, PX4 heartbeats from 7:1.
+fn table() -> &'static Vec<Vec<u8>> {
+    static TABLE: OnceLock<Vec<Vec<u8>>> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        let mut reqs = Vec::new();
+        for seq in 0..=255u8 {
+            reqs.push(heartbeat_req(1, seq, ARDUPILOT));
+            reqs.push(attitude_req(1, seq));
+            reqs.push(heartbeat_req(7, seq, PX4));
+        }
+        common::pymavlink_encode(&reqs)
+    })
+}
+
+fn heartbeat(sysid: u8, seq: u8, autopilot: u64) -> Vec<u8> {
+    match (sysid, autopilot) {
+        (1, ARDUPILOT) => table()[seq as usize * 3].clone(),
+        (7, PX4) => table()[seq as usize * 3 + 2].clone(),
+        _ => packed(heartbeat_req(sysid, seq, autopilot)),
+    }
+}
+
+fn attitude(sysid: u8, seq: u8) -> Vec<u8> {
+    assert_eq!(sysid, 1);
+    table()[seq as usize * 3 + 1].clone()
+}
+
+/// Feed `bytes` as read on `link` at `now`; returns the effects.
+fn feed(app: &mut App, now: Micros, link: LinkId, bytes: &[u8]) -> Vec<Effect> {
+    let frames = FrameParser::new().parse_all(bytes);
+    app.update(
+        now,
+        Event::Frames {
+            link,
+            frames,
+            stats: ParserStats::default(),
+        },
+    )
+}
+
+/// Step the core's own timers up to `until`, exactly at its deadlines.
+fn run_timers(app: &mut App, until: Micros) -> Vec<Effect> {
+    let mut fx = Vec::new();
+    while app.next_deadline() <= until {
+        let t = app.next_deadline().max(app.now);
+        fx.extend(app.update(t, Event::Tick));
+        if app.next_deadline() <= t {
+            break;
+        }
+    }
+    fx.extend(app.update(until, Event::Tick));
+    fx
+}
+
+/// (link, frame) of every Send.
+fn sends(fx: &[Effect]) -> Vec<(LinkId, Vec<u8>)> {
+    fx.iter()
+        .filter_map(|e| match e {
+            Effect::Send { link, frame, .. } => Some((*link, frame.clone())),
+            _ => None,
+        })
+        .collect()
+}
+
+/// pymavlink's reading of what was sent, with the link each went on, heartbeats left out.
+fn decoded(fx: &[Effect]) -> Vec<(LinkId, Value)> {
+    let s = sends(fx);
+    let frames: Vec<Vec<u8>> = s.iter().map(|(_, f)| f.clone()).collect();
+    let d = common::pymavlink_decode(&frames);
+    s.iter()
+        .map(|(l, _)| *l)
+        .zip(d)
+        .inspect(|(_, v)| assert!(v.get("error").is_none(), "pymavlink refused: {v}"))
+        .filter(|(_, v)| v["name"] != "HEARTBEAT")
+        .collect()
+}
+
+fn count_stream_requests(fx: &[Effect]) -> usize {
+    decoded(fx)
+        .iter()
+        .filter(|(_, v)| v["name"] == "REQUEST_DATA_STREAM" || v["name"] == "COMMAND_LONG")
+        .count()
+}
+
+#[test]
+fn gcs_heartbeat_once_a_second_on_every_link() {
+    let mut a = app(3);
+    let fx = run_timers(&mut a, 3 * SECOND + SECOND / 2);
+    let s = sends(&fx);
+    let frames: Vec<Vec<u8>> = s.iter().map(|(_, f)| f.clone()).collect();
+    let d = common::pymavlink_decode(&frames);
+    for link in 0..3 {
+        let mine: Vec<&Value> = s
+            .iter()
+            .zip(&d)
+            .filter(|((l, _), _)| *l == link)
+            .map(|(_, v)| v)
+            .collect();
+        // t = 0, 1, 2, 3 s: four heartbeats, each link counting its own sequence from 0.
+        assert_eq!(mine.len(), 4, "link {link}: {mine:?}");
+        for (i, v) in mine.iter().enumerate() {
+            assert_eq!(v["name"], "HEARTBEAT", "{v}");
+            assert_eq!(
+                (v["sysid"].as_u64(), v["compid"].as_u64()),
+                (Some(255), Some(190))
+            );
+            assert_eq!(v["seq"].as_u64(), Some(i as u64));
+            assert_eq!(v["type"].as_u64(), Some(6)); // MAV_TYPE_GCS
+            assert_eq!(v["autopilot"].as_u64(), Some(8)); // MAV_AUTOPILOT_INVALID
+        }
+    }
+}
+
+#[test]
+fn ardupilot_is_asked_for_streams_on_every_link_it_is_heard_on() {
+    let mut a = app(3);
+    let mut fx = Vec::new();
+    // Heard on links 0 and 1 (the same frames, as through two radios), never on link 2.
+    for i in 0..3u8 {
+        let t = i as Micros * SECOND;
+        fx.extend(feed(&mut a, t, 0, &heartbeat(1, i, ARDUPILOT)));
+        fx.extend(feed(&mut a, t + 20_000, 1, &heartbeat(1, i, ARDUPILOT)));
+    }
+    let reqs = decoded(&fx);
+    let mut links: Vec<LinkId> = reqs.iter().map(|(l, _)| *l).collect();
+    links.sort();
+    assert_eq!(links, vec![0, 1], "{reqs:?}");
+    for (_, v) in &reqs {
+        assert_eq!(v["name"], "REQUEST_DATA_STREAM");
+        assert_eq!(v["target_system"], 1);
+        assert_eq!(v["target_component"], 1);
+        assert_eq!(v["req_stream_id"], 0); // MAV_DATA_STREAM_ALL
+        assert_eq!(v["req_message_rate"], 4);
+        assert_eq!(v["start_stop"], 1);
+    }
+    // One vehicle, heard on both links; its heartbeats are not counted twice.
+    let v = a.vehicles.get((1, 1)).unwrap();
+    assert_eq!(v.links.iter().copied().collect::<Vec<_>>(), vec![0, 1]);
+    assert_eq!(a.sessions.len(), 1);
+}
+
+#[test]
+fn px4_is_asked_with_set_message_interval_only() {
+    let mut a = app(1);
+    let fx = feed(&mut a, 0, 0, &heartbeat(7, 0, PX4));
+    let reqs = decoded(&fx);
+    assert!(!reqs.is_empty());
+    let mut ids = Vec::new();
+    for (_, v) in &reqs {
+        assert_eq!(v["name"], "COMMAND_LONG", "{v}");
+        assert_eq!(v["command"], 511); // MAV_CMD_SET_MESSAGE_INTERVAL
+        assert_eq!(v["target_system"], 7);
+        assert_eq!(v["target_component"], 1);
+        assert_eq!(v["confirmation"], 0);
+        let id = v["param1"].as_f64().unwrap();
+        let interval = v["param2"].as_f64().unwrap();
+        assert!(interval > 0.0 && interval <= 2_000_000.0, "{v}");
+        ids.push(id as u32);
+    }
+    // The flight telemetry: SYS_STATUS, GPS_RAW_INT, ATTITUDE, GLOBAL_POSITION_INT, VFR_HUD.
+    for id in [1, 24, 30, 33, 74] {
+        assert!(ids.contains(&id), "{ids:?}");
+    }
+}
+
+#[test]
+fn components_that_are_not_autopilots_are_not_asked() {
+    let mut a = app(1);
+    // A gimbal (MAV_TYPE_GIMBAL, MAV_AUTOPILOT_INVALID) and another GCS.
+    let gimbal = packed(
+        json!({"sysid": 1, "compid": 154, "seq": 0, "msg": "HEARTBEAT",
+        "fields": {"type": 26, "autopilot": 8, "base_mode": 0, "custom_mode": 0,
+        "system_status": 4, "mavlink_version": 3}}),
+    );
+    let gcs = packed(
+        json!({"sysid": 255, "compid": 230, "seq": 0, "msg": "HEARTBEAT",
+        "fields": {"type": 6, "autopilot": 8, "base_mode": 0, "custom_mode": 0,
+        "system_status": 4, "mavlink_version": 3}}),
+    );
+    let mut fx = feed(&mut a, 0, 0, &gimbal);
+    fx.extend(feed(&mut a, 1000, 0, &gcs));
+    fx.extend(run_timers(&mut a, 10 * SECOND));
+    assert_eq!(count_stream_requests(&fx), 0);
+    assert!(a.sessions.is_empty());
+    assert_eq!(a.target, None);
+    // MAVProxy beside us at 255:230 is listed as a GCS and is no error.
+    assert!(a.vehicles.get((255, 230)).unwrap().is_gcs());
+    assert!(
+        !a.notices.iter().any(|n| n.severity <= 3),
+        "{:?}",
+        a.notices.iter().collect::<Vec<_>>()
+    );
+}
+
+/// A vehicle at 1 Hz heartbeat; with `telemetry`, ATTITUDE at 10 Hz. Returns the effects.
+fn fly(a: &mut App, from: Micros, to: Micros, seq: &mut u8, telemetry: bool) -> Vec<Effect> {
+    let mut fx = Vec::new();
+    let mut t = from;
+    while t < to {
+        fx.extend(run_timers(a, t));
+        if t % SECOND == 0 {
+            fx.extend(feed(a, t, 0, &heartbeat(1, *seq, ARDUPILOT)));
+            *seq = seq.wrapping_add(1);
+        }
+        if telemetry {
+            fx.extend(feed(a, t, 0, &attitude(1, *seq)));
+            *seq = seq.wrapping_add(1);
+        }
+        t += 100_000;
+    }
+    fx
+}
+
+#[test]
+fn streams_are_retried_until_telemetry_comes_then_left_alone() {
+    let mut a = app(1);
+    let mut seq = 0;
+    // Heartbeats only for 10 s: asked at 0, checked 3 s later and asked again, then 6 s later.
+    let fx = fly(&mut a, 0, 10 * SECOND, &mut seq, false);
+    let n = count_stream_requests(&fx);
+    assert_eq!(n, 3, "asked at 0 s, 3 s and 9 s");
+    // Telemetry arrives: no more requests.
+    let fx = fly(&mut a, 10 * SECOND, 60 * SECOND, &mut seq, true);
+    assert_eq!(count_stream_requests(&fx), 0);
+}
+
+#[test]
+fn streams_are_asked_again_after_a_reboot_but_not_after_a_fade() {
+    let mut a = app(1);
+    let mut seq = 0;
+    let fx = fly(&mut a, 0, 10 * SECOND, &mut seq, true);
+    assert_eq!(count_stream_requests(&fx), 1);
+    // A fade: the radio hears nothing for 4 s, then everything comes back.
+    let fx = fly(&mut a, 14 * SECOND, 30 * SECOND, &mut seq, true);
+    assert_eq!(count_stream_requests(&fx), 0, "a fade asks nothing");
+    // A reboot nobody announced: heartbeats come back (sequence from 0) but no telemetry.
+    let mut seq = 0;
+    let fx = fly(&mut a, 36 * SECOND, 44 * SECOND, &mut seq, false);
+    assert!(
+        count_stream_requests(&fx) >= 1,
+        "asked again after the reboot"
+    );
+    let reboots: Vec<_> = a
+        .notices
+        .iter()
+        .filter(|n| n.text.contains("rebooted"))
+        .collect();
+    assert_eq!(reboots.len(), 1, "{reboots:?}");
+}
+
+#[test]
+fn routing_follows_the_most_recent_link_and_switches_when_one_goes_down() {
+    let mut a = app(2);
+    for l in 0..2 {
+        a.update(
+            0,
+            Event::LinkState {
+                link: l,
+                state: LinkState::Up,
+            },
+        );
+    }
+    feed(&mut a, SECOND, 0, &heartbeat(1, 0, ARDUPILOT));
+    assert_eq!(a.route((1, 1)), Some(0));
+    // Heard later on link 1 (another radio): commands go there.
+    feed(&mut a, 2 * SECOND, 1, &heartbeat(1, 1, ARDUPILOT));
+    assert_eq!(a.route((1, 1)), Some(1));
+    // Link 1 goes down: back to link 0, though 1 was heard last.
+    a.update(
+        3 * SECOND,
+        Event::LinkState {
+            link: 1,
+            state: LinkState::Down("gone".into()),
+        },
+    );
+    assert_eq!(a.route((1, 1)), Some(0));
+    // The operator pins link 1: used as soon as it is up again.
+    a.sessions.get_mut(&(1, 1)).unwrap().pinned = Some(1);
+    assert_eq!(a.route((1, 1)), Some(0));
+    a.update(
+        4 * SECOND,
+        Event::LinkState {
+            link: 1,
+            state: LinkState::Up,
+        },
+    );
+    assert_eq!(a.route((1, 1)), Some(1));
+}
+
+#[test]
+fn a_statustext_over_two_links_is_shown_once_and_chunks_are_joined() {
+    let mut a = app(2);
+    let text = packed(
+        json!({"sysid": 1, "compid": 1, "seq": 9, "msg": "STATUSTEXT",
+        "fields": {"severity": 4, "text": "PreArm: Need Position Estimate", "id": 0, "chunk_seq": 0}}),
+    );
+    feed(&mut a, 0, 0, &text);
+    feed(&mut a, 30_000, 1, &text);
+    let shown = a
+        .notices
+        .iter()
+        .filter(|n| n.text == "PreArm: Need Position Estimate")
+        .count();
+    assert_eq!(shown, 1);
+    assert_eq!(
+        a.links[1].sources[&(1, 1)].frames,
+        1,
+        "counted on link 1 too"
+    );
+    // 70 characters in two chunks with id 5.
+    let long = "A".repeat(50);
+    let c0 = packed(
+        json!({"sysid": 1, "compid": 1, "seq": 10, "msg": "STATUSTEXT",
+        "fields": {"severity": 6, "text": long, "id": 5, "chunk_seq": 0}}),
+    );
+    let c1 = packed(
+        json!({"sysid": 1, "compid": 1, "seq": 11, "msg": "STATUSTEXT",
+        "fields": {"severity": 6, "text": "B".repeat(20), "id": 5, "chunk_seq": 1}}),
+    );
+    feed(&mut a, SECOND, 0, &c0);
+    feed(&mut a, SECOND + 1000, 0, &c1);
+    let want = format!("{}{}", "A".repeat(50), "B".repeat(20));
+    assert_eq!(a.notices.iter().filter(|n| n.text == want).count(), 1);
+}
+
+#[test]
+fn acknowledgements_with_newer_enum_values_are_kept_and_only_ours_are_read() {
+    let mut a = app(1);
+    feed(&mut a, 0, 0, &heartbeat(7, 0, PX4));
+    // COMMAND_ACK for SET_MESSAGE_INTERVAL with a MAV_RESULT newer than the dialect (200),
+    // first addressed to another GCS (255:191), then to us.
+    let ack = |seq: u8, comp: u8| {
+        packed(
+            json!({"sysid": 7, "compid": 1, "seq": seq, "msg": "COMMAND_ACK", "fields": {
+            "command": 511, "result": 200, "progress": 0, "result_param2": 0,
+            "target_system": 255, "target_component": comp}}),
+        )
+    };
+    feed(&mut a, 1000, 0, &ack(1, 191));
+    assert!(!a
+        .notices
+        .iter()
+        .any(|n| n.text.contains("SET_MESSAGE_INTERVAL")));
+    feed(&mut a, 2000, 0, &ack(2, 190));
+    let n = a
+        .notices
+        .iter()
+        .find(|n| n.text.contains("SET_MESSAGE_INTERVAL"))
+        .expect("the refusal is shown");
+    assert!(n.text.contains("result 200"), "{}", n.text);
+    // A COMMAND_ACK of a command the dialect has never heard of is no crash and no loss.
+    let odd = packed(
+        json!({"sysid": 7, "compid": 1, "seq": 3, "msg": "COMMAND_ACK", "fields": {
+        "command": 65000, "result": 0, "progress": 0, "result_param2": 0,
+        "target_system": 255, "target_component": 190}}),
+    );
+    feed(&mut a, 3000, 0, &odd);
+    assert_eq!(a.links[0].sources[&(7, 1)].seq.received, 4);
+}
+
+#[test]
+fn our_echo_is_ignored_but_another_gcs_at_our_id_is_shown() {
+    let mut a = app(1);
+    let fx = run_timers(&mut a, 0);
+    let (_, ours) = sends(&fx).remove(0);
+    // A router sends our own heartbeat back: not a vehicle, not a source.
+    feed(&mut a, 1000, 0, &ours);
+    assert!(a.vehicles.is_empty());
+    assert_eq!(a.links[0].echoes, 1);
+    // QGroundControl at 255:190 too: listed as a GCS, with a warning.
+    let qgc = packed(
+        json!({"sysid": 255, "compid": 190, "seq": 77, "msg": "HEARTBEAT",
+        "fields": {"type": 6, "autopilot": 8, "base_mode": 192, "custom_mode": 0,
+        "system_status": 4, "mavlink_version": 3}}),
+    );
+    feed(&mut a, 2000, 0, &qgc);
+    assert!(a.vehicles.get((255, 190)).unwrap().is_gcs());
+    assert!(a
+        .notices
+        .iter()
+        .any(|n| n.text.contains("another GCS uses our id")));
+}
+
+#[test]
+fn frames_of_unknown_ids_make_no_source_and_no_loss() {
+    let mut a = app(1);
+    feed(&mut a, 0, 0, &heartbeat(1, 0, ARDUPILOT));
+    // An id no dialect has (0xABCDE), claiming to be from 1:1 with seq 100, and a phantom 9:9.
+    let unknown = |sysid: u8, seq: u8| {
+        let mut f = vec![0xFD, 2, 0, 0, seq, sysid, sysid, 0xDE, 0xBC, 0x0A, 1, 2];
+        f.extend_from_slice(&[0x12, 0x34]);
+        f
+    };
+    let mut bytes = unknown(1, 100);
+    bytes.extend(unknown(9, 0));
+    bytes.extend(heartbeat(1, 1, ARDUPILOT));
+    feed(&mut a, SECOND, 0, &bytes);
+    let src = &a.links[0].sources[&(1, 1)];
+    assert_eq!((src.seq.received, src.seq.lost), (2, 0));
+    assert!(!a.links[0].sources.contains_key(&(9, 9)));
+}
+
+#[test]
+fn a_link_that_reconnects_counts_afresh_and_asks_for_streams_again() {
+    let mut a = app(1);
+    let up = |a: &mut App, t| {
+        a.update(
+            t,
+            Event::LinkState {
+                link: 0,
+                state: LinkState::Up,
+            },
+        )
+    };
+    up(&mut a, 0);
+    let mut seq = 0;
+    let fx = fly(&mut a, 0, 5 * SECOND, &mut seq, true);
+    assert_eq!(count_stream_requests(&fx), 1);
+    // A 0.2 s outage: the TCP connection drops and comes back; the vehicle's sequence goes on
+    // from wherever it is (frames sent during the outage were never ours to receive).
+    a.update(
+        5 * SECOND,
+        Event::LinkState {
+            link: 0,
+            state: LinkState::Down("connection closed".into()),
+        },
+    );
+    let mut fx = up(&mut a, 5 * SECOND + 200_000);
+    seq = seq.wrapping_add(40);
+    fx.extend(fly(&mut a, 6 * SECOND, 8 * SECOND, &mut seq, true));
+    assert_eq!(a.links[0].sources[&(1, 1)].seq.lost, 0);
+    assert_eq!(
+        count_stream_requests(&fx),
+        1,
+        "asked again on the new connection"
+    );
+}
