@@ -25,17 +25,9 @@ fn app(links: usize) -> App {
     })
 }
 
-/// Frames packed by pymavlink, cached per request (the python start-up is the slow part).
+/// A frame packed by pymavlink.
 fn packed(req: Value) -> Vec<u8> {
-    static CACHE: OnceLock<std::sync::Mutex<Vec<(String, Vec<u8>)>>> = OnceLock::new();
-    let cache = CACHE.get_or_init(Default::default);
-    let key = req.to_string();
-    if let Some((_, f)) = cache.lock().unwrap().iter().find(|(k, _)| *k == key) {
-        return f.clone();
-    }
-    let f = common::pymavlink_encode(&[req]).remove(0);
-    cache.lock().unwrap().push((key, f.clone()));
-    f
+    common::pymavlink_encode(&[req]).remove(0)
 }
 
 fn heartbeat_req(sysid: u8, seq: u8, autopilot: u64) -> Value {
@@ -251,7 +243,7 @@ fn fly(a: &mut App, from: Micros, to: Micros, seq: &mut u8, telemetry: bool) -> 
     let mut t = from;
     while t < to {
         fx.extend(run_timers(a, t));
-        if t % SECOND == 0 {
+        if t.is_multiple_of(SECOND) {
             fx.extend(feed(a, t, 0, &heartbeat(1, *seq, ARDUPILOT)));
             *seq = seq.wrapping_add(1);
         }
