@@ -13,7 +13,7 @@ use chrono::{DateTime, Utc};
 
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavMessage};
-use crate::keymap::{Action, Key, Keymap};
+use crate::keymap::{Action, Key, Keymap, Mode};
 use crate::link::{Frame, LinkId, ParserStats};
 use crate::proto::loss::SeqOutcome;
 use crate::proto::streams;
@@ -226,7 +226,7 @@ impl App {
                 // Ctrl-C always quits, whatever the keymap says: raw mode has turned off SIGINT.
                 self.on_action(Action::Quit, &mut fx);
             }
-            Event::Key(key) => match self.keymap.lookup(&key) {
+            Event::Key(key) => match self.keymap.lookup(Mode::Normal, "overview", &key) {
                 Some(action) => self.on_action(action, &mut fx),
                 // Any key closes help, bound or not.
                 None if self.ui.help => {
@@ -495,6 +495,7 @@ impl App {
             // Far enough to clamp at either end of any list.
             Action::Top => self.move_selection(-(1 << 30)),
             Action::Bottom => self.move_selection(1 << 30),
+            _ => {} // prompt, screens and text-line actions: not wired up yet
         }
     }
 
