@@ -1,7 +1,9 @@
 //! Keys and the actions they are bound to.
 //!
 //! The core never sees terminal events: front ends turn them into [`Key`], the keymap turns a
-//! key into an [`Action`], and the core matches on the action.
+//! key into an [`Action`] for the core's input [`Mode`] and screen (one of [`SCREENS`]), and the
+//! core matches on the action. Keymap files have a section per mode and per screen; see
+//! [`Keymap::from_toml`] and [`Keymap::lookup`].
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;
@@ -86,6 +88,71 @@ impl fmt::Display for Key {
     }
 }
 
+/// The input modes of the core. Each has its own keymap section; see [`Keymap::lookup`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Mode {
+    /// Browsing a screen: `[normal]` plus `[normal.SCREEN]`.
+    Normal,
+    /// The `?` key help is open: `[help]`.
+    Help,
+    /// The `:` command line: `[prompt]`. Unbound printable characters are typed as text.
+    Prompt,
+    /// Editing a value in place: `[edit]`. Unbound printable characters are typed as text.
+    Edit,
+}
+
+impl Mode {
+    pub const ALL: [Mode; 4] = [Mode::Normal, Mode::Help, Mode::Prompt, Mode::Edit];
+
+    /// The section name in keymap files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Normal => "normal",
+            Mode::Help => "help",
+            Mode::Prompt => "prompt",
+            Mode::Edit => "edit",
+        }
+    }
+}
+
+/// The full screens, in number-key order (`screen_1` shows the first). Each has a
+/// `[normal.NAME]` keymap section.
+pub const SCREENS: &[&str] = &[
+    "overview",
+    "parameters",
+    "commands",
+    "inspector",
+    "mission",
+    "camera",
+];
+
+/// A section of a keymap file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Section {
+    /// `[normal]` (or the legacy `[bindings]`): normal mode on every screen.
+    Normal,
+    /// `[normal.NAME]`: normal mode on screen `SCREENS[i]` only.
+    Screen(usize),
+    /// `[help]`.
+    Help,
+    /// `[prompt]`.
+    Prompt,
+    /// `[edit]`.
+    Edit,
+}
+
+impl fmt::Display for Section {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Section::Normal => write!(f, "[normal]"),
+            Section::Screen(i) => write!(f, "[normal.{}]", SCREENS.get(*i).unwrap_or(&"?")),
+            Section::Help => write!(f, "[help]"),
+            Section::Prompt => write!(f, "[prompt]"),
+            Section::Edit => write!(f, "[edit]"),
+        }
+    }
+}
+
 /// Everything a key can be bound to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Action {
@@ -106,18 +173,51 @@ pub enum Action {
     Top,
     /// Jump to the last row (newest message).
     Bottom,
+    /// Open the `:` command line.
+    Prompt,
+    /// Show screen N of [`SCREENS`] (`Screen(0)` is `screen_1`, the overview).
+    Screen(u8),
+    // Text-line editing, for `[prompt]` and `[edit]`.
+    Submit,
+    CursorLeft,
+    CursorRight,
+    LineStart,
+    LineEnd,
+    DeleteBack,
+    DeleteForward,
+    DeleteWord,
+    ClearLine,
+    HistoryPrev,
+    HistoryNext,
+    Complete,
 }
 
 impl Action {
-    /// Every bindable action with its name in keymap files and a short description.
+    /// Every bindable action with its name in keymap files and a one-line description, in the
+    /// order the help popup lists them.
     pub const ALL: &'static [(Action, &'static str, &'static str)] = &[
         (Action::Quit, "quit", "quit mavterm"),
-        (Action::FocusNext, "focus_next", "focus the next pane"),
-        (Action::FocusPrev, "focus_prev", "focus the previous pane"),
+        (Action::Help, "help", "show/hide key help"),
+        (
+            Action::Cancel,
+            "cancel",
+            "close the dialog or leave the line",
+        ),
+        (Action::Prompt, "prompt", "open the : command line"),
+        (Action::Screen(0), "screen_1", "show the overview screen"),
+        (Action::Screen(1), "screen_2", "show the parameters screen"),
+        (Action::Screen(2), "screen_3", "show the commands screen"),
+        (Action::Screen(3), "screen_4", "show the message inspector"),
+        (Action::Screen(4), "screen_5", "show the mission screen"),
+        (Action::Screen(5), "screen_6", "show the camera screen"),
         (Action::Up, "up", "move the selection up"),
         (Action::Down, "down", "move the selection down"),
         (Action::PageUp, "page_up", "scroll up a page"),
         (Action::PageDown, "page_down", "scroll down a page"),
+        (Action::Top, "top", "jump to the first row"),
+        (Action::Bottom, "bottom", "jump to the last row"),
+        (Action::FocusNext, "focus_next", "focus the next pane"),
+        (Action::FocusPrev, "focus_prev", "focus the previous pane"),
         (
             Action::ToggleExpand,
             "toggle_expand",
@@ -133,10 +233,50 @@ impl Action {
             "prev_vehicle",
             "target the previous vehicle",
         ),
-        (Action::Help, "help", "show/hide key help"),
-        (Action::Cancel, "cancel", "close the open dialog"),
-        (Action::Top, "top", "jump to the first row"),
-        (Action::Bottom, "bottom", "jump to the last row"),
+        (
+            Action::Submit,
+            "submit",
+            "run the command / accept the value",
+        ),
+        (Action::CursorLeft, "cursor_left", "move the cursor left"),
+        (Action::CursorRight, "cursor_right", "move the cursor right"),
+        (
+            Action::LineStart,
+            "line_start",
+            "move the cursor to the start",
+        ),
+        (Action::LineEnd, "line_end", "move the cursor to the end"),
+        (
+            Action::DeleteBack,
+            "delete_back",
+            "delete the character before the cursor",
+        ),
+        (
+            Action::DeleteForward,
+            "delete_forward",
+            "delete the character under the cursor",
+        ),
+        (
+            Action::DeleteWord,
+            "delete_word",
+            "delete the word before the cursor",
+        ),
+        (Action::ClearLine, "clear_line", "clear the line"),
+        (
+            Action::HistoryPrev,
+            "history_prev",
+            "previous line from history",
+        ),
+        (
+            Action::HistoryNext,
+            "history_next",
+            "next line from history",
+        ),
+        (
+            Action::Complete,
+            "complete",
+            "complete the word at the cursor",
+        ),
     ];
 
     pub fn name(self) -> &'static str {
@@ -251,6 +391,17 @@ impl FromStr for Key {
 /// The built-in keymap, in the same format users write.
 pub const DEFAULT_KEYMAP: &str = include_str!("../keymaps/default.toml");
 
+/// At most this many problems are listed in a [`KeymapError::Invalid`]; the rest are counted.
+pub const MAX_PROBLEMS: usize = 50;
+
+/// One problem in a keymap file, where it is (1-based line and column, in characters).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Problem {
+    pub line: usize,
+    pub col: usize,
+    pub message: String,
+}
+
 /// Why a keymap file was refused. Every message names the file.
 #[derive(Debug, thiserror::Error)]
 pub enum KeymapError {
@@ -259,7 +410,7 @@ pub enum KeymapError {
         path: PathBuf,
         source: std::io::Error,
     },
-    /// The file is not valid TOML or not in the keymap format.
+    /// The file is not valid TOML.
     #[error("keymap {origin}:{line}:{col}: {message}")]
     Syntax {
         origin: String,
@@ -267,46 +418,101 @@ pub enum KeymapError {
         col: usize,
         message: String,
     },
-    /// Well-formed, but naming things that do not exist or binding one key twice. Lists every
-    /// problem, not just the first, so one edit fixes the file.
-    #[error("keymap {origin}: {}", problems.join("; "))]
-    Invalid {
-        origin: String,
-        unknown_actions: Vec<String>,
-        unknown_keys: Vec<String>,
-        /// Keys bound to more than one action, as `key (action, action)`.
-        duplicate_keys: Vec<String>,
-        /// Each problem with its line and column.
-        problems: Vec<String>,
-    },
+    /// Valid TOML, but naming sections, actions or keys that do not exist, in the wrong shape, or
+    /// binding one key twice.
+    #[error("{0}")]
+    Invalid(Box<InvalidKeymap>),
 }
 
-/// The file format: `[bindings]` table of action name → key names.
-#[derive(serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-struct KeymapFile {
-    #[serde(default)]
-    bindings: BTreeMap<toml::Spanned<String>, Vec<toml::Spanned<String>>>,
+/// Every problem of a keymap file that is valid TOML (up to [`MAX_PROBLEMS`] located, the rest
+/// counted), not just the first, so one edit fixes the file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct InvalidKeymap {
+    pub origin: String,
+    /// Every unknown action name, in file order.
+    pub unknown_actions: Vec<String>,
+    /// Every unknown key name, in file order.
+    pub unknown_keys: Vec<String>,
+    /// Keys bound to more than one action, as `key (action, action)`, with ` in [SECTION]`
+    /// appended unless the clash is in `[normal]`.
+    pub duplicate_keys: Vec<String>,
+    /// The first [`MAX_PROBLEMS`] problems, top to bottom.
+    pub problems: Vec<Problem>,
+    /// How many more problems there were.
+    pub more: usize,
 }
 
-/// 1-based line and column of a byte offset.
-fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let offset = offset.min(text.len());
-    let before = &text[..offset];
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-    (line, col)
+/// One problem: `keymap FILE:LINE:COL: message`. Several: a count, then one `FILE:LINE:COL:
+/// message` per line, then `… and N more` past [`MAX_PROBLEMS`].
+impl fmt::Display for InvalidKeymap {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let origin = &self.origin;
+        if let ([p], 0) = (self.problems.as_slice(), self.more) {
+            return write!(f, "keymap {origin}:{}:{}: {}", p.line, p.col, p.message);
+        }
+        let total = self.problems.len() + self.more;
+        write!(f, "keymap {origin}: {total} problems:")?;
+        for p in &self.problems {
+            write!(f, "\n  {origin}:{}:{}: {}", p.line, p.col, p.message)?;
+        }
+        if self.more > 0 {
+            write!(f, "\n  … and {} more", self.more)?;
+        }
+        Ok(())
+    }
 }
 
-/// Key → action bindings.
-#[derive(Debug, Clone)]
-pub struct Keymap {
-    pub bindings: BTreeMap<Key, Action>,
+/// Byte offsets to line and column, in O(log lines) each after one pass over the text.
+struct LineIndex<'a> {
+    text: &'a str,
+    /// Byte offset where each line starts.
+    starts: Vec<usize>,
+}
+
+impl<'a> LineIndex<'a> {
+    fn new(text: &'a str) -> Self {
+        let mut starts = vec![0];
+        starts.extend(text.match_indices('\n').map(|(i, _)| i + 1));
+        LineIndex { text, starts }
+    }
+
+    /// 1-based line and column (in characters) of byte `offset`.
+    fn line_col(&self, offset: usize) -> (usize, usize) {
+        let offset = offset.min(self.text.len());
+        let line = self.starts.partition_point(|&s| s <= offset); // >= 1: starts[0] == 0
+        let start = self.starts[line - 1];
+        let col = self
+            .text
+            .get(start..offset)
+            .map_or(offset - start, |s| s.chars().count());
+        (line, col + 1)
+    }
+}
+
+/// The bindings of one section.
+#[derive(Debug, Clone, Default)]
+struct Bindings {
+    keys: BTreeMap<Key, Action>,
     /// Actions the source file listed (even with no keys): when layered on top of another keymap
     /// these replace that keymap's keys for the action, so `help = []` unbinds.
     listed: BTreeSet<Action>,
-    /// Keys in the order the files listed them: the first key of an action is its hint.
+    /// Every bound key once, in the order the file listed them: the first key of an action is
+    /// its hint.
     order: Vec<Key>,
+}
+
+impl Bindings {
+    fn remove_where(&mut self, mut drop: impl FnMut(&Key, &Action) -> bool) {
+        self.keys.retain(|k, a| !drop(k, a));
+        let keys = &self.keys;
+        self.order.retain(|k| keys.contains_key(k));
+    }
+}
+
+/// Key → action bindings, per [`Section`]. `keymaps/default.toml` documents the file format.
+#[derive(Debug, Clone)]
+pub struct Keymap {
+    sections: BTreeMap<Section, Bindings>,
 }
 
 impl Default for Keymap {
@@ -316,11 +522,55 @@ impl Default for Keymap {
     }
 }
 
+/// Problems found while reading one file, with their byte offsets.
+struct Collector {
+    problems: Vec<(usize, String)>,
+    unknown_actions: Vec<String>,
+    unknown_keys: Vec<String>,
+    /// (section the clash is in, key) → actions.
+    clashes: BTreeMap<(Section, Key), BTreeSet<Action>>,
+}
+
+impl Collector {
+    fn add(&mut self, offset: usize, message: String) {
+        self.problems.push((offset, message));
+    }
+}
+
+type DeEntry<'d, 'i> = (
+    &'d toml::Spanned<toml::de::DeString<'i>>,
+    &'d toml::Spanned<toml::de::DeValue<'i>>,
+);
+
+/// A table's entries in file order (the parser sorts them by name).
+fn by_pos<'d, 'i>(t: &'d toml::de::DeTable<'i>) -> Vec<DeEntry<'d, 'i>> {
+    let mut v: Vec<_> = t.iter().collect();
+    v.sort_by_key(|(k, _)| k.span().start);
+    v
+}
+
+fn screen_list() -> String {
+    SCREENS.join(", ")
+}
+
 impl Keymap {
+    /// A keymap with no bindings at all.
+    pub fn empty() -> Keymap {
+        Keymap {
+            sections: BTreeMap::new(),
+        }
+    }
+
     /// Parse a keymap file. `origin` names it in errors (usually the path).
+    ///
+    /// Sections: `[normal]` (legacy name `[bindings]`), `[normal.SCREEN]` for each of
+    /// [`SCREENS`], `[help]`, `[prompt]`, `[edit]`; each maps action names to lists of key
+    /// names. Within `[normal]` ∪ `[normal.SCREEN]`, and within each other section, a key may be
+    /// bound to one action only.
     pub fn from_toml(text: &str, origin: &str) -> Result<Keymap, KeymapError> {
-        let file: KeymapFile = toml::from_str(text).map_err(|e| {
-            let (line, col) = line_col(text, e.span().map_or(0, |s| s.start));
+        let index = LineIndex::new(text);
+        let doc = toml::de::DeTable::parse(text).map_err(|e| {
+            let (line, col) = index.line_col(e.span().map_or(0, |s| s.start));
             KeymapError::Syntax {
                 origin: origin.to_string(),
                 line,
@@ -328,82 +578,227 @@ impl Keymap {
                 message: e.message().trim().to_string(),
             }
         })?;
-        let at = |span: std::ops::Range<usize>| {
-            let (l, c) = line_col(text, span.start);
-            format!("line {l}, column {c}")
+        let mut c = Collector {
+            problems: Vec::new(),
+            unknown_actions: Vec::new(),
+            unknown_keys: Vec::new(),
+            clashes: BTreeMap::new(),
         };
-        let mut unknown_actions = Vec::new();
-        let mut unknown_keys = Vec::new();
-        let mut problems = Vec::new();
-        let mut bindings: BTreeMap<Key, Action> = BTreeMap::new();
-        let mut clashes: BTreeMap<Key, BTreeSet<Action>> = BTreeMap::new();
-        let mut listed = BTreeSet::new();
-        let mut order = Vec::new();
-        // In file order, so problems are listed top to bottom.
-        let mut entries: Vec<_> = file.bindings.iter().collect();
-        entries.sort_by_key(|(name, _)| name.span().start);
-        for (name, keys) in entries {
+
+        type Entry<'d, 'i> = (
+            Section,
+            &'d toml::Spanned<toml::de::DeString<'i>>,
+            &'d toml::Spanned<toml::de::DeValue<'i>>,
+        );
+        let mut entries: Vec<Entry> = Vec::new();
+        for (name, value) in by_pos(doc.get_ref()) {
+            let section = match name.get_ref().as_ref() {
+                "normal" | "bindings" => Section::Normal,
+                "help" => Section::Help,
+                "prompt" => Section::Prompt,
+                "edit" => Section::Edit,
+                other => {
+                    let message = if Action::from_name(other).is_some() {
+                        format!("`{other}` is outside any section: put it under [normal]")
+                    } else {
+                        format!(
+                            "unknown section `{other}` (normal, normal.SCREEN, help, prompt, edit)"
+                        )
+                    };
+                    c.add(name.span().start, message);
+                    continue;
+                }
+            };
+            let Some(table) = value.get_ref().as_table() else {
+                c.add(
+                    value.span().start,
+                    format!(
+                        "`{}` must be a section, e.g. [{}]",
+                        name.get_ref(),
+                        name.get_ref()
+                    ),
+                );
+                continue;
+            };
+            for (k, v) in by_pos(table) {
+                if let Some(sub) = v.get_ref().as_table() {
+                    let screen = SCREENS.iter().position(|s| *s == k.get_ref().as_ref());
+                    match (section, screen) {
+                        (Section::Normal, Some(i)) => {
+                            for (k2, v2) in by_pos(sub) {
+                                if v2.get_ref().is_table() {
+                                    c.add(
+                                        k2.span().start,
+                                        format!(
+                                            "[normal.{}] has no sub-sections, found `{}`",
+                                            SCREENS[i],
+                                            k2.get_ref()
+                                        ),
+                                    );
+                                } else {
+                                    entries.push((Section::Screen(i), k2, v2));
+                                }
+                            }
+                        }
+                        (Section::Normal, None) => c.add(
+                            k.span().start,
+                            format!(
+                                "unknown screen `{}` in [normal.SCREEN] (screens: {})",
+                                k.get_ref(),
+                                screen_list()
+                            ),
+                        ),
+                        _ => c.add(
+                            k.span().start,
+                            format!("{section} has no sub-sections, found `{}`", k.get_ref()),
+                        ),
+                    }
+                } else {
+                    entries.push((section, k, v));
+                }
+            }
+        }
+        entries.sort_by_key(|(_, k, _)| k.span().start);
+
+        let mut km = Keymap::empty();
+        // Where each (section, key) was first bound, for clash messages.
+        let mut first_at: BTreeMap<(Section, Key), usize> = BTreeMap::new();
+        for (section, name, value) in entries {
             let action = Action::from_name(name.get_ref());
+            let bindings = km.sections.entry(section).or_default();
             match action {
                 Some(a) => {
-                    listed.insert(a);
+                    bindings.listed.insert(a);
                 }
                 None => {
-                    unknown_actions.push(name.get_ref().clone());
-                    problems.push(format!(
-                        "{}: unknown action `{}`",
-                        at(name.span()),
-                        name.get_ref()
-                    ));
+                    c.unknown_actions.push(name.get_ref().to_string());
+                    c.add(
+                        name.span().start,
+                        format!("unknown action `{}` in {section}", name.get_ref()),
+                    );
                 }
             }
-            for k in keys {
-                match k.get_ref().parse::<Key>() {
-                    Err(_) => {
-                        unknown_keys.push(k.get_ref().clone());
-                        problems.push(format!("{}: unknown key `{}`", at(k.span()), k.get_ref()));
+            let Some(list) = value.get_ref().as_array() else {
+                c.add(
+                    value.span().start,
+                    format!(
+                        "expected a list of key names, e.g. {} = [\"x\"], found a {}",
+                        name.get_ref(),
+                        value.get_ref().type_str()
+                    ),
+                );
+                continue;
+            };
+            for item in list.iter() {
+                let Some(kname) = item.get_ref().as_str() else {
+                    c.add(
+                        item.span().start,
+                        format!(
+                            "expected a key name in quotes, found a {}",
+                            item.get_ref().type_str()
+                        ),
+                    );
+                    continue;
+                };
+                let key = match kname.parse::<Key>() {
+                    Ok(key) => key,
+                    Err(e) => {
+                        c.unknown_keys.push(kname.to_string());
+                        c.add(item.span().start, e.to_string());
+                        continue;
                     }
-                    Ok(key) => {
-                        let Some(action) = action else { continue };
-                        order.push(key);
-                        match bindings.insert(key, action) {
-                            Some(prev) if prev != action => {
-                                let set = clashes.entry(key).or_default();
-                                set.insert(prev);
-                                set.insert(action);
-                                problems.push(format!(
-                                    "{}: key `{key}` is already bound to `{}`",
-                                    at(k.span()),
-                                    prev.name()
-                                ));
-                            }
-                            _ => {}
-                        }
+                };
+                let Some(action) = action else { continue };
+                let at = item.span().start;
+                match bindings.keys.get(&key) {
+                    None => {
+                        bindings.keys.insert(key, action);
+                        bindings.order.push(key);
+                        first_at.insert((section, key), at);
+                    }
+                    Some(prev) if *prev == action => {} // the same key twice is harmless
+                    Some(prev) => {
+                        let set = c.clashes.entry((section, key)).or_default();
+                        set.insert(*prev);
+                        set.insert(action);
+                        c.add(
+                            at,
+                            format!("key `{key}` is already bound to `{}`", prev.name()),
+                        );
                     }
                 }
             }
         }
-        let duplicate_keys: Vec<String> = clashes
-            .iter()
-            .map(|(k, acts)| {
-                let names: Vec<&str> = acts.iter().map(|a| a.name()).collect();
-                format!("{k} ({})", names.join(", "))
+        // Normal mode on a screen sees `[normal]` and `[normal.SCREEN]` together.
+        if let Some(normal) = km.sections.get(&Section::Normal) {
+            for (section, b) in &km.sections {
+                let Section::Screen(i) = *section else {
+                    continue;
+                };
+                for key in &b.order {
+                    let (Some(here), Some(there)) = (b.keys.get(key), normal.keys.get(key)) else {
+                        continue;
+                    };
+                    if here == there {
+                        continue;
+                    }
+                    let at_here = first_at[&(*section, *key)];
+                    let at_there = first_at[&(Section::Normal, *key)];
+                    let (later, earlier_action, earlier_section, earlier_at) = if at_here > at_there
+                    {
+                        (at_here, there, Section::Normal, at_there)
+                    } else {
+                        (at_there, here, *section, at_here)
+                    };
+                    let (l, col) = index.line_col(earlier_at);
+                    let set = c.clashes.entry((*section, *key)).or_default();
+                    set.insert(*here);
+                    set.insert(*there);
+                    c.add(
+                        later,
+                        format!(
+                            "key `{key}` is already bound to `{}` in {earlier_section} \
+                             (line {l}, column {col}); on the {} screen both apply",
+                            earlier_action.name(),
+                            SCREENS[i]
+                        ),
+                    );
+                }
+            }
+        }
+        if c.problems.is_empty() {
+            return Ok(km);
+        }
+        c.problems.sort_by_key(|(at, _)| *at); // stable: same place keeps the found order
+        let more = c.problems.len().saturating_sub(MAX_PROBLEMS);
+        let problems = c
+            .problems
+            .into_iter()
+            .take(MAX_PROBLEMS)
+            .map(|(at, message)| {
+                let (line, col) = index.line_col(at);
+                Problem { line, col, message }
             })
             .collect();
-        if !problems.is_empty() {
-            return Err(KeymapError::Invalid {
-                origin: origin.to_string(),
-                unknown_actions,
-                unknown_keys,
-                duplicate_keys,
-                problems,
-            });
-        }
-        Ok(Keymap {
-            bindings,
-            listed,
-            order,
-        })
+        let duplicate_keys = c
+            .clashes
+            .iter()
+            .map(|((section, k), acts)| {
+                let names: Vec<&str> = acts.iter().map(|a| a.name()).collect();
+                match section {
+                    Section::Normal => format!("{k} ({})", names.join(", ")),
+                    s => format!("{k} ({}) in {s}", names.join(", ")),
+                }
+            })
+            .collect();
+        Err(KeymapError::Invalid(Box::new(InvalidKeymap {
+            origin: origin.to_string(),
+            unknown_actions: c.unknown_actions,
+            unknown_keys: c.unknown_keys,
+            duplicate_keys,
+            problems,
+            more,
+        })))
     }
 
     /// Read a keymap file (no layering).
@@ -442,35 +837,103 @@ impl Keymap {
         Some(base.join("mavterm").join("keymap.toml"))
     }
 
-    /// `self` with `over` on top: each action `over` lists loses its keys here and gets
-    /// `over`'s; a key `over` binds is taken from whatever action had it.
+    /// `self` with `over` on top, section by section: each action `over` lists in a section
+    /// loses its keys in that section here and gets `over`'s; a key `over` binds in a section is
+    /// taken from whatever action had it there. `[normal]` covers every screen, so what `over`
+    /// lists or binds in `[normal]` is also removed from this keymap's `[normal.SCREEN]`
+    /// sections (a legacy `[bindings]` file naming `toggle_expand` replaces its keys on the
+    /// overview too). A key `over` binds in `[normal.SCREEN]` shadows this keymap's `[normal]`
+    /// binding of that key on that screen only.
     pub fn with_overrides(mut self, over: &Keymap) -> Keymap {
-        self.bindings
-            .retain(|k, a| !over.listed.contains(a) && !over.bindings.contains_key(k));
-        self.bindings
-            .extend(over.bindings.iter().map(|(k, a)| (*k, *a)));
-        self.listed.extend(over.listed.iter().copied());
-        let mut order = over.order.clone();
-        order.extend(self.order.iter().filter(|k| !over.order.contains(k)));
-        self.order = order;
+        let empty = Bindings::default();
+        let over_normal = over.sections.get(&Section::Normal).unwrap_or(&empty);
+        for (section, mine) in self.sections.iter_mut() {
+            let theirs = over.sections.get(section).unwrap_or(&empty);
+            let inherited = matches!(section, Section::Screen(_));
+            mine.remove_where(|k, a| {
+                theirs.listed.contains(a)
+                    || theirs.keys.contains_key(k)
+                    || (inherited
+                        && (over_normal.listed.contains(a) || over_normal.keys.contains_key(k)))
+            });
+        }
+        for (section, theirs) in &over.sections {
+            let mine = self.sections.entry(*section).or_default();
+            mine.keys.extend(theirs.keys.iter().map(|(k, a)| (*k, *a)));
+            mine.listed.extend(theirs.listed.iter().copied());
+            // Theirs first (their first key is the hint), then ours; every key once.
+            let mut order = theirs.order.clone();
+            order.extend(mine.order.iter().filter(|k| !theirs.keys.contains_key(k)));
+            mine.order = order;
+        }
         self
     }
 
-    pub fn lookup(&self, key: &Key) -> Option<Action> {
-        self.bindings.get(key).copied()
+    /// The sections that apply in `mode` on `screen`, most specific first.
+    fn chain(mode: Mode, screen: &str) -> Vec<Section> {
+        match mode {
+            Mode::Normal => SCREENS
+                .iter()
+                .position(|s| *s == screen)
+                .map(Section::Screen)
+                .into_iter()
+                .chain([Section::Normal])
+                .collect(),
+            Mode::Help => vec![Section::Help],
+            Mode::Prompt => vec![Section::Prompt],
+            Mode::Edit => vec![Section::Edit],
+        }
     }
 
-    /// Keys bound to `action`, in the order the keymap file lists them (the first makes the
-    /// hint); keys added to `bindings` by hand come last.
-    pub fn keys_for(&self, action: Action) -> Vec<Key> {
-        let bound = |k: &Key| self.bindings.get(k) == Some(&action);
+    /// The action `key` does in `mode` on `screen` (one of [`SCREENS`]): in normal mode
+    /// `[normal.SCREEN]`, then `[normal]`; in the other modes their own section only. `None`
+    /// for an unbound key (in prompt and edit mode the core types it, if printable).
+    pub fn lookup(&self, mode: Mode, screen: &str, key: &Key) -> Option<Action> {
+        Keymap::chain(mode, screen)
+            .into_iter()
+            .find_map(|s| self.sections.get(&s)?.keys.get(key).copied())
+    }
+
+    /// Keys that do `action` in `mode` on `screen`, in the order the keymap file lists them
+    /// (screen section first; the first key makes the hint).
+    pub fn keys_for(&self, mode: Mode, screen: &str, action: Action) -> Vec<Key> {
         let mut keys: Vec<Key> = Vec::new();
-        for k in self.order.iter().chain(self.bindings.keys()) {
-            if bound(k) && !keys.contains(k) {
-                keys.push(*k);
+        for section in Keymap::chain(mode, screen) {
+            let Some(b) = self.sections.get(&section) else {
+                continue;
+            };
+            for k in &b.order {
+                if b.keys.get(k) == Some(&action)
+                    && self.lookup(mode, screen, k) == Some(action)
+                    && !keys.contains(k)
+                {
+                    keys.push(*k);
+                }
             }
         }
         keys
+    }
+
+    /// Every action bound in `mode` on `screen` with its keys, in [`Action::ALL`] order: what
+    /// the help popup lists.
+    pub fn bindings(&self, mode: Mode, screen: &str) -> Vec<(Action, Vec<Key>)> {
+        Action::ALL
+            .iter()
+            .filter_map(|(a, _, _)| {
+                let keys = self.keys_for(mode, screen, *a);
+                (!keys.is_empty()).then_some((*a, keys))
+            })
+            .collect()
+    }
+
+    /// The keys bound in one section of this keymap (no inheritance), in file order.
+    pub fn section(&self, section: Section) -> Vec<(Key, Action)> {
+        self.sections.get(&section).map_or_else(Vec::new, |b| {
+            b.order
+                .iter()
+                .filter_map(|k| Some((*k, *b.keys.get(k)?)))
+                .collect()
+        })
     }
 }
 
@@ -486,10 +949,12 @@ mod tests {
         ] {
             let km = Keymap::from_toml(text, name).unwrap_or_else(|e| panic!("{e}"));
             for (action, aname, _) in Action::ALL {
-                assert!(
-                    !km.keys_for(*action).is_empty(),
-                    "{name}: `{aname}` unbound"
-                );
+                let bound = Mode::ALL.iter().any(|m| {
+                    SCREENS
+                        .iter()
+                        .any(|s| !km.keys_for(*m, s, *action).is_empty())
+                });
+                assert!(bound, "{name}: `{aname}` unbound");
             }
         }
     }
@@ -497,28 +962,41 @@ mod tests {
     #[test]
     fn default_keeps_the_original_bindings() {
         let km = Keymap::default();
+        let ov = |k: Key| km.lookup(Mode::Normal, "overview", &k);
         for (k, a) in [
             (Key::ch('q'), Action::Quit),
             (Key::ctrl('c'), Action::Quit),
             (Key::plain(KeyCode::Tab), Action::FocusNext),
             (Key::plain(KeyCode::BackTab), Action::FocusPrev),
             (Key::plain(KeyCode::Enter), Action::ToggleExpand),
+            (Key::ch(' '), Action::ToggleExpand),
             (Key::ch('n'), Action::NextVehicle),
             (Key::ch('p'), Action::PrevVehicle),
             (Key::ch('?'), Action::Help),
+            (Key::plain(KeyCode::F(1)), Action::Help),
             (Key::plain(KeyCode::Esc), Action::Cancel),
+            (Key::plain(KeyCode::Home), Action::Top),
+            (Key::plain(KeyCode::End), Action::Bottom),
+            (Key::ch(':'), Action::Prompt),
+            (Key::ch('1'), Action::Screen(0)),
+            (Key::ch('6'), Action::Screen(5)),
         ] {
-            assert_eq!(km.lookup(&k), Some(a), "{k}");
+            assert_eq!(ov(k), Some(a), "{k}");
         }
         assert_eq!(
-            km.keys_for(Action::Quit),
+            km.keys_for(Mode::Normal, "overview", Action::Quit),
             vec![Key::ch('q'), Key::ctrl('c')]
         );
     }
 
     #[test]
-    fn line_col_counts_from_one() {
-        assert_eq!(line_col("ab\ncd", 0), (1, 1));
-        assert_eq!(line_col("ab\ncd", 4), (2, 2));
+    fn line_index_counts_from_one_in_characters() {
+        let ix = LineIndex::new("ab\ncd\n\u{e9}x");
+        assert_eq!(ix.line_col(0), (1, 1));
+        assert_eq!(ix.line_col(2), (1, 3)); // the newline itself
+        assert_eq!(ix.line_col(4), (2, 2));
+        assert_eq!(ix.line_col(6), (3, 1));
+        assert_eq!(ix.line_col(8), (3, 2)); // after the two-byte é
+        assert_eq!(ix.line_col(999), (3, 3)); // clamped to the end
     }
 }

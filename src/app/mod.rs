@@ -14,7 +14,7 @@ use chrono::{DateTime, Utc};
 
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavMessage};
-use crate::keymap::{Action, Key, Keymap};
+use crate::keymap::{Action, Key, Keymap, Mode};
 use crate::link::{Frame, LinkId, LinkSpec, ParserStats};
 use crate::proto::ack::CommandAck;
 use crate::proto::loss::SeqOutcome;
@@ -356,7 +356,7 @@ impl App {
                 // Ctrl-C always quits, whatever the keymap says: raw mode has turned off SIGINT.
                 self.on_action(Action::Quit, &mut fx);
             }
-            Event::Key(key) => match self.keymap.lookup(&key) {
+            Event::Key(key) => match self.keymap.lookup(Mode::Normal, "overview", &key) {
                 Some(action) => self.on_action(action, &mut fx),
                 // Any key closes help, bound or not.
                 None if self.ui.help => {
@@ -744,6 +744,7 @@ impl App {
             // Far enough to clamp at either end of any list.
             Action::Top => self.move_selection(-(1 << 30)),
             Action::Bottom => self.move_selection(1 << 30),
+            _ => {} // prompt, screens and text-line actions: not wired up yet
         }
     }
 

@@ -5,8 +5,23 @@
 //! `tcpin:ADDR:PORT`, `serial:PATH[:BAUD]`, `PATH,BAUD`, a bare `/dev/...` or `COMn` path,
 //! `udp://[HOST]:PORT` (listen), `udpout://HOST:PORT`, `tcp://HOST:PORT`, `serial://PATH[:BAUD]`,
 //! `sim://[?options]` and `tlog:PATH` (replay a recorded file).
+//!
+//! How a spec is read:
+//! - A known scheme (`udpin:`, `tcp://`, `tlog:`, ...) decides first; the rest is that scheme's
+//!   and nothing else's: `tlog:logs/a,b.tlog` is a file with a comma in its name.
+//! - MAVProxy's `PATH,BAUD` applies to scheme-less specs (`/dev/ttyUSB0,57600`), and, as a
+//!   convenience, inside `serial:` too: `serial:/dev/ttyS0,57600` is `/dev/ttyS0` at 57600 baud,
+//!   the same as `serial:/dev/ttyS0:57600`.
+//! - A serial path keeps its commas and colons unless what follows the last one is a baud rate
+//!   (digits): `/dev/serial/by-id/usb-X,Y-if00:115200` is the device `.../usb-X,Y-if00`, and
+//!   `/dev/serial/by-path/pci-0000:00:14.0-usb-0:2:1.0-port0` is a path. A plain word there
+//!   (`/dev/ttyUSB0,fast`) is refused as a bad baud rate.
+//! - IPv6 addresses go in brackets (`udpin:[::]:14550`); unbracketed ones are refused with the
+//!   bracketed form as a hint, since `udpin:::14550` cannot be told apart from a host `:`.
+//! - `tlog:` needs a path.
 
 use std::fmt;
+use std::net::Ipv6Addr;
 use std::str::FromStr;
 
 /// Baud rate used when a serial spec names none (the usual telemetry-radio rate).
@@ -56,6 +71,17 @@ pub enum SpecError {
     BadBaud { input: String, baud: String },
     #[error("link spec `{input}`: missing serial device path; {ACCEPTED_FORMS}")]
     MissingPath { input: String },
+    #[error(
+        "link spec `{input}`: an IPv6 address must be in brackets, e.g. `{hint}`; {ACCEPTED_FORMS}"
+    )]
+    Ipv6NeedsBrackets { input: String, hint: String },
+    #[error(
+        "link spec `{input}`: host `{host}` has a `:` (an IPv6 address goes in brackets: \
+         [ADDR]:PORT); {ACCEPTED_FORMS}"
+    )]
+    BadHost { input: String, host: String },
+    #[error("link spec `{input}`: missing file path after `tlog:`, e.g. tlog:flight.tlog")]
+    MissingTlogPath { input: String },
 }
 
 impl LinkSpec {
@@ -89,7 +115,7 @@ impl fmt::Display for LinkSpec {
 
 fn parse_port(input: &str, port: &str) -> Result<u16, SpecError> {
     match port.parse::<u16>() {
-        Ok(p) if p > 0 => Ok(p),
+        Ok(p) if p > 0 && port.bytes().all(|b| b.is_ascii_digit()) => Ok(p),
         _ => Err(SpecError::BadPort {
             input: input.into(),
             port: port.into(),
@@ -97,8 +123,14 @@ fn parse_port(input: &str, port: &str) -> Result<u16, SpecError> {
     }
 }
 
-/// Split `HOST:PORT` (HOST may be `[v6]` or empty when `allow_empty_host`).
-fn host_port(input: &str, rest: &str, allow_empty_host: bool) -> Result<(String, u16), SpecError> {
+/// Split `HOST:PORT` (HOST may be `[v6]`, or empty when `allow_empty_host`). `prefix` is what
+/// came before `rest` in the spec (`udpin:`), for the bracketed hint.
+fn host_port(
+    input: &str,
+    prefix: &str,
+    rest: &str,
+    allow_empty_host: bool,
+) -> Result<(String, u16), SpecError> {
     let (host, port) = if let Some(stripped) = rest.strip_prefix('[') {
         match stripped.split_once(']') {
             Some((h, p)) => match p.strip_prefix(':') {
@@ -119,6 +151,33 @@ fn host_port(input: &str, rest: &str, allow_empty_host: bool) -> Result<(String,
         }
     } else {
         match rest.rsplit_once(':') {
+            Some((h, p)) if h.contains(':') => {
+                // `udpin:::14550`, `tcp:fe80::1:5760`: IPv6 without brackets. The last colon is
+                // taken for the port; `::` written as `:` before it is the usual slip.
+                let v6 = |a: &str| {
+                    a.split('%')
+                        .next()
+                        .unwrap_or("")
+                        .parse::<Ipv6Addr>()
+                        .is_ok()
+                };
+                let guess = if !v6(h) && v6(&format!("{h}:")) {
+                    format!("{h}:")
+                } else {
+                    h.to_string()
+                };
+                if !v6(&guess) {
+                    return Err(SpecError::BadHost {
+                        input: input.into(),
+                        host: h.into(),
+                    });
+                }
+                let port = if p.is_empty() { "PORT" } else { p };
+                return Err(SpecError::Ipv6NeedsBrackets {
+                    input: input.into(),
+                    hint: format!("{prefix}[{guess}]:{port}"),
+                });
+            }
             Some((h, p)) => (h.to_string(), p),
             None => {
                 return Err(SpecError::MissingPort {
@@ -141,23 +200,37 @@ fn host_port(input: &str, rest: &str, allow_empty_host: bool) -> Result<(String,
     Ok((host, port))
 }
 
+/// `PATH[:BAUD]` or `PATH,BAUD`. What follows the last `:` or `,` is a baud rate when it is
+/// digits, a mistyped one when it is a plain word (letters and digits), and part of the path
+/// otherwise (by-id and by-path device names hold commas, colons, dashes and dots).
 fn serial(input: &str, rest: &str) -> Result<LinkSpec, SpecError> {
-    // PATH[:BAUD] — a Windows `COM3` or a `/dev/...` path has no colon of its own.
-    let (path, baud) = match rest.rsplit_once(':') {
-        Some((p, b)) if !p.is_empty() => {
-            let baud = match b.parse::<u32>() {
-                Ok(v) if v > 0 => v,
-                _ => {
-                    return Err(SpecError::BadBaud {
-                        input: input.into(),
-                        baud: b.into(),
-                    })
-                }
-            };
-            (p, baud)
-        }
-        _ => (rest, DEFAULT_BAUD),
+    let bad_baud = |b: &str| SpecError::BadBaud {
+        input: input.into(),
+        baud: b.into(),
     };
+    let mut path = rest;
+    let mut baud = DEFAULT_BAUD;
+    for sep in [':', ','] {
+        let Some((p, b)) = rest.rsplit_once(sep) else {
+            continue;
+        };
+        if b.is_empty() {
+            return Err(bad_baud(b));
+        }
+        if b.bytes().all(|c| c.is_ascii_digit()) {
+            match b.parse::<u32>() {
+                Ok(v) if v > 0 => {
+                    path = p;
+                    baud = v;
+                    break;
+                }
+                _ => return Err(bad_baud(b)),
+            }
+        }
+        if b.bytes().all(|c| c.is_ascii_alphanumeric()) {
+            return Err(bad_baud(b));
+        }
+    }
     if path.is_empty() {
         return Err(SpecError::MissingPath {
             input: input.into(),
@@ -169,6 +242,37 @@ fn serial(input: &str, rest: &str) -> Result<LinkSpec, SpecError> {
     })
 }
 
+/// `SCHEME` and what follows `SCHEME:`, if `s` starts with a URI scheme (a letter, then
+/// letters, digits, `+`, `-`, `.`).
+fn scheme_of(s: &str) -> Option<(&str, &str)> {
+    let (scheme, rest) = s.split_once(':')?;
+    let mut cs = scheme.chars();
+    let first = cs.next()?;
+    let ok = first.is_ascii_alphabetic()
+        && cs.all(|c| c.is_ascii_alphanumeric() || matches!(c, '+' | '-' | '.'));
+    ok.then_some((scheme, rest))
+}
+
+/// `COM3`, `com12`, optionally followed by `:BAUD` or `,BAUD`.
+fn is_com_port(s: &str) -> bool {
+    let name = s.split([':', ',']).next().unwrap_or("");
+    match (name.get(..3), name.get(3..)) {
+        (Some(com), Some(n)) => {
+            com.eq_ignore_ascii_case("COM")
+                && !n.is_empty()
+                && n.bytes().all(|b| b.is_ascii_digit())
+        }
+        _ => false,
+    }
+}
+
+/// A scheme-less spec ending in `,DIGITS`: MAVProxy's `PATH,BAUD`.
+fn has_comma_baud(s: &str) -> bool {
+    s.rsplit_once(',').is_some_and(|(p, b)| {
+        !p.is_empty() && !b.is_empty() && b.bytes().all(|c| c.is_ascii_digit())
+    })
+}
+
 impl FromStr for LinkSpec {
     type Err = SpecError;
 
@@ -177,70 +281,53 @@ impl FromStr for LinkSpec {
         if s.is_empty() {
             return Err(SpecError::Empty);
         }
-        // MAVSDK URL forms first.
-        if let Some((scheme, rest)) = s.split_once("://") {
-            return match scheme {
-                "udp" | "udpin" => {
-                    let (addr, port) = host_port(input, rest, true)?;
-                    Ok(LinkSpec::UdpIn { addr, port })
-                }
-                "udpout" => {
-                    let (host, port) = host_port(input, rest, false)?;
-                    Ok(LinkSpec::UdpOut { host, port })
-                }
-                "tcp" => {
-                    let (host, port) = host_port(input, rest, false)?;
-                    Ok(LinkSpec::TcpClient { host, port })
-                }
-                "tcpin" => {
-                    let (addr, port) = host_port(input, rest, true)?;
-                    Ok(LinkSpec::TcpServer { addr, port })
-                }
-                "serial" => serial(input, rest),
-                "sim" => Ok(LinkSpec::Sim {
-                    query: rest.trim_start_matches('?').to_string(),
-                }),
-                "tlog" | "file" => Ok(LinkSpec::Tlog { path: rest.into() }),
-                other => Err(SpecError::UnknownScheme {
-                    input: input.into(),
-                    scheme: other.into(),
-                }),
-            };
-        }
-        // MAVProxy `PATH,BAUD`.
-        if let Some((path, baud)) = s.split_once(',') {
-            return serial(input, &format!("{path}:{baud}"));
-        }
-        if let Some((scheme, rest)) = s.split_once(':') {
-            match scheme {
-                "udpin" | "udp" => {
-                    let (addr, port) = host_port(input, rest, true)?;
+        if let Some((scheme, after)) = scheme_of(s) {
+            // `scheme://rest` (MAVSDK) or `scheme:rest` (MAVProxy).
+            let rest = after.strip_prefix("//").unwrap_or(after);
+            let prefix = &s[..s.len() - rest.len()];
+            let url = rest.len() != after.len();
+            match (scheme.to_ascii_lowercase().as_str(), url) {
+                ("udpin" | "udp", _) => {
+                    let (addr, port) = host_port(input, prefix, rest, true)?;
                     return Ok(LinkSpec::UdpIn { addr, port });
                 }
-                "udpout" => {
-                    let (host, port) = host_port(input, rest, false)?;
+                ("udpout", _) => {
+                    let (host, port) = host_port(input, prefix, rest, false)?;
                     return Ok(LinkSpec::UdpOut { host, port });
                 }
-                "tcp" => {
-                    let (host, port) = host_port(input, rest, false)?;
+                ("tcp", _) => {
+                    let (host, port) = host_port(input, prefix, rest, false)?;
                     return Ok(LinkSpec::TcpClient { host, port });
                 }
-                "tcpin" => {
-                    let (addr, port) = host_port(input, rest, true)?;
+                ("tcpin", _) => {
+                    let (addr, port) = host_port(input, prefix, rest, true)?;
                     return Ok(LinkSpec::TcpServer { addr, port });
                 }
-                "serial" => return serial(input, rest),
-                "tlog" => return Ok(LinkSpec::Tlog { path: rest.into() }),
-                _ => {}
-            }
-            if !s.starts_with('/') {
-                return Err(SpecError::UnknownScheme {
-                    input: input.into(),
-                    scheme: scheme.into(),
-                });
+                ("serial", _) => return serial(input, rest),
+                ("sim", true) => {
+                    return Ok(LinkSpec::Sim {
+                        query: rest.trim_start_matches('?').to_string(),
+                    })
+                }
+                ("tlog", _) | ("file", true) => {
+                    if rest.is_empty() {
+                        return Err(SpecError::MissingTlogPath {
+                            input: input.into(),
+                        });
+                    }
+                    return Ok(LinkSpec::Tlog { path: rest.into() });
+                }
+                _ if is_com_port(s) => return serial(input, s),
+                _ => {
+                    return Err(SpecError::UnknownScheme {
+                        input: input.into(),
+                        scheme: scheme.into(),
+                    })
+                }
             }
         }
-        if s.starts_with('/') || s.to_ascii_uppercase().starts_with("COM") {
+        // Scheme-less: a device path, MAVProxy's `PATH` or `PATH,BAUD`.
+        if s.starts_with('/') || is_com_port(s) || has_comma_baud(s) {
             return serial(input, s);
         }
         Err(SpecError::UnknownScheme {
@@ -404,5 +491,135 @@ mod tests {
         assert_eq!("".parse::<LinkSpec>().unwrap_err(), SpecError::Empty);
         let e = "udpin:127.0.0.1".parse::<LinkSpec>().unwrap_err();
         assert!(e.to_string().contains("missing `:PORT`"), "{e}");
+    }
+
+    fn serial_at(path: &str, baud: u32) -> LinkSpec {
+        LinkSpec::Serial {
+            path: path.into(),
+            baud,
+        }
+    }
+
+    fn tlog(path: &str) -> LinkSpec {
+        LinkSpec::Tlog { path: path.into() }
+    }
+
+    #[test]
+    fn the_scheme_reads_commas_first() {
+        // A tlog path keeps its commas, even before digits.
+        assert_eq!(p("tlog:logs/a,b.tlog"), tlog("logs/a,b.tlog"));
+        assert_eq!(p("tlog:logs/f,57600"), tlog("logs/f,57600"));
+        assert_eq!(p("tlog://logs/a,b.tlog"), tlog("logs/a,b.tlog"));
+        // MAVProxy's comma baud is accepted inside serial: too.
+        assert_eq!(
+            p("serial:/dev/ttyS0,115200"),
+            serial_at("/dev/ttyS0", 115200)
+        );
+        assert_eq!(p("serial:/dev/ttyS0,57600"), serial_at("/dev/ttyS0", 57600));
+        assert_eq!(p("serial:///dev/ttyS0,9600"), serial_at("/dev/ttyS0", 9600));
+        // Scheme-less PATH,BAUD.
+        assert_eq!(p("/dev/ttyUSB0,921600"), serial_at("/dev/ttyUSB0", 921600));
+        assert_eq!(p("ttyUSB0,19200"), serial_at("ttyUSB0", 19200));
+        assert_eq!(p("COM3,115200"), serial_at("COM3", 115200));
+        assert_eq!(p("COM3:115200"), serial_at("COM3", 115200));
+        assert_eq!(p("com12"), serial_at("com12", DEFAULT_BAUD));
+        // Other schemes do not take a comma baud.
+        let e = "udpin:0.0.0.0:14550,57600".parse::<LinkSpec>().unwrap_err();
+        assert!(
+            matches!(e, SpecError::BadPort { ref port, .. } if port == "14550,57600"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn device_names_with_commas_and_colons_stay_whole() {
+        let by_id = "/dev/serial/by-id/usb-X,Y-if00";
+        assert_eq!(p(&format!("{by_id}:115200")), serial_at(by_id, 115200));
+        assert_eq!(p(by_id), serial_at(by_id, DEFAULT_BAUD));
+        assert_eq!(
+            p(&format!("serial:{by_id}")),
+            serial_at(by_id, DEFAULT_BAUD)
+        );
+        assert_eq!(p(&format!("{by_id},230400")), serial_at(by_id, 230400));
+        let by_path = "/dev/serial/by-path/pci-0000:00:14.0-usb-0:2:1.0-port0";
+        assert_eq!(p(by_path), serial_at(by_path, DEFAULT_BAUD));
+        assert_eq!(p(&format!("{by_path}:460800")), serial_at(by_path, 460800));
+        // A plain word where the baud goes is a mistyped baud, not a path.
+        for (spec, baud) in [
+            ("/dev/ttyUSB0,fast", "fast"),
+            ("/dev/ttyUSB0:fast", "fast"),
+            ("serial:/dev/ttyS0,0", "0"),
+            ("serial:/dev/ttyS0:99999999999", "99999999999"),
+            ("/dev/ttyUSB0,", ""),
+        ] {
+            match spec.parse::<LinkSpec>() {
+                Err(SpecError::BadBaud { baud: b, .. }) => assert_eq!(b, baud, "{spec}"),
+                other => panic!("{spec}: {other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn ipv6_needs_brackets() {
+        for (spec, hint) in [
+            ("udpin:::14550", "udpin:[::]:14550"),
+            ("udp:::1:14550", "udp:[::1]:14550"),
+            ("tcp:fe80::1:5760", "tcp:[fe80::1]:5760"),
+            ("udp://::1:14540", "udp://[::1]:14540"),
+            ("tcpin:::", "tcpin:[::]:PORT"),
+        ] {
+            let e = spec.parse::<LinkSpec>().unwrap_err();
+            assert_eq!(
+                e,
+                SpecError::Ipv6NeedsBrackets {
+                    input: spec.into(),
+                    hint: hint.into()
+                }
+            );
+            assert!(e.to_string().contains(&format!("e.g. `{hint}`")), "{e}");
+        }
+        assert_eq!(
+            p("udpin:[::]:14550"),
+            LinkSpec::UdpIn {
+                addr: "::".into(),
+                port: 14550
+            }
+        );
+        assert_eq!(p("udpin:[::]:14550").to_string(), "udpin:[::]:14550");
+        assert_eq!(
+            p("tcp:[fe80::1%eth0]:5760"),
+            LinkSpec::TcpClient {
+                host: "fe80::1%eth0".into(),
+                port: 5760
+            }
+        );
+        // A colon in something that is no IPv6 address is a bad host.
+        let e = "tcp:localhost:5760:1".parse::<LinkSpec>().unwrap_err();
+        assert!(
+            matches!(e, SpecError::BadHost { ref host, .. } if host == "localhost:5760"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn tlog_needs_a_path() {
+        for spec in ["tlog:", "tlog://", "  tlog:  "] {
+            let e = spec.parse::<LinkSpec>().unwrap_err();
+            assert!(
+                matches!(e, SpecError::MissingTlogPath { .. }),
+                "{spec}: {e}"
+            );
+            assert!(e.to_string().contains("missing file path"), "{e}");
+        }
+        assert_eq!(p("tlog:a.tlog"), tlog("a.tlog"));
+        assert_eq!(p("file:///tmp/a.tlog"), tlog("/tmp/a.tlog"));
+    }
+
+    #[test]
+    fn ports_are_plain_digits() {
+        for spec in ["udpin:1.2.3.4:+80", "tcp:h:0", "tcp:h:65536", "tcp:h:"] {
+            let e = spec.parse::<LinkSpec>().unwrap_err();
+            assert!(matches!(e, SpecError::BadPort { .. }), "{spec}: {e}");
+        }
     }
 }

@@ -8,14 +8,14 @@ use ratatui::Frame;
 
 use super::Theme;
 use crate::app::App;
-use crate::keymap::Action;
+use crate::keymap::{Action, Mode};
 
 /// (keys, description) for every bound action, in [`Action::ALL`] order.
 pub fn help_rows(app: &App) -> Vec<(String, &'static str)> {
     Action::ALL
         .iter()
         .filter_map(|(a, _, desc)| {
-            let keys = app.keymap.keys_for(*a);
+            let keys = app.keymap.keys_for(Mode::Normal, "overview", *a);
             if keys.is_empty() {
                 return None;
             }

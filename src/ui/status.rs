@@ -8,7 +8,7 @@ use ratatui::Frame;
 
 use super::Theme;
 use crate::app::App;
-use crate::keymap::Action;
+use crate::keymap::{Action, Mode};
 
 /// Actions worth a hint, with the short word shown, most important first: when the bar is
 /// short the last ones are dropped. Shown in this order too.
@@ -42,7 +42,12 @@ pub fn target_text(app: &App) -> String {
 pub fn hints_text(app: &App, width: usize) -> String {
     let mut out = String::new();
     for (a, word) in HINTS {
-        let Some(k) = app.keymap.keys_for(*a).into_iter().next() else {
+        let Some(k) = app
+            .keymap
+            .keys_for(Mode::Normal, "overview", *a)
+            .into_iter()
+            .next()
+        else {
             continue;
         };
         let hint = format!("{k} {word}");
