@@ -83,7 +83,7 @@ fn full_screen() {
 fn help_popup_lists_every_binding_of_the_active_keymap() {
     let mut d = common::scene();
     d.key(21 * mavterm::clock::SECOND, "?");
-    assert!(d.app.ui.help);
+    assert_eq!(d.app.ui.mode, Mode::Help);
     for (w, h) in SIZES {
         insta::assert_snapshot!(format!("help_{w}x{h}"), draw(&d.app, w, h, ui::render));
     }
@@ -113,7 +113,7 @@ fn no_panic_at_any_small_size() {
     for focus in Pane::ALL {
         d.app.ui.focus = focus;
         for help in [false, true] {
-            d.app.ui.help = help;
+            d.app.ui.mode = if help { Mode::Help } else { Mode::Normal };
             for w in 0..=40 {
                 for h in 0..=20 {
                     let mut t = Terminal::new(TestBackend::new(w, h)).unwrap();
@@ -192,18 +192,22 @@ fn scrolling_messages_moves_the_window() {
 }
 
 #[test]
-fn any_key_closes_help_but_quit_still_quits() {
+fn any_key_closes_help_q_included() {
     let mut d = common::scene();
     let t = d.app.now;
     d.key(t, "?");
-    assert!(d.app.ui.help);
+    assert_eq!(d.app.ui.mode, Mode::Help);
     d.key(t, "x"); // unbound
-    assert!(!d.app.ui.help);
+    assert_eq!(d.app.ui.mode, Mode::Normal);
     d.key(t, "?");
     d.key(t, "tab"); // bound: closes help, does not move focus
-    assert!(!d.app.ui.help);
+    assert_eq!(d.app.ui.mode, Mode::Normal);
     assert_eq!(d.app.ui.focus, Pane::Vehicles);
+    // `q` closes the help and does not quit from it; the next `q` quits.
     d.key(t, "?");
+    d.key(t, "q");
+    assert_eq!(d.app.ui.mode, Mode::Normal);
+    assert!(!d.app.quit);
     d.key(t, "q");
     assert!(d.app.quit);
 }

@@ -3,9 +3,12 @@
 //! No I/O and no clock in here: every event comes with the time, so the same events give the
 //! same state and the same effects, in the terminal, in headless replay and in tests.
 
+pub mod input;
+mod keys;
 pub mod links;
 pub mod notices;
 pub mod report;
+pub mod screen;
 pub mod session;
 
 use std::collections::{BTreeMap, VecDeque};
@@ -14,7 +17,7 @@ use chrono::{DateTime, Utc};
 
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavMessage};
-use crate::keymap::{Action, Key, Keymap, Mode};
+use crate::keymap::{Key, Keymap, Mode};
 use crate::link::{Frame, LinkId, LinkSpec, ParserStats};
 use crate::proto::ack::CommandAck;
 use crate::proto::loss::SeqOutcome;
@@ -135,7 +138,19 @@ pub struct UiState {
     pub vehicle_sel: usize,
     /// Lines scrolled back from the newest message.
     pub msg_scroll: usize,
-    pub help: bool,
+    /// What keys do now: browse (normal), read the key help, type a command or a value.
+    pub mode: Mode,
+    /// The screen shown: a name from [`screen::SCREENS`].
+    pub screen: &'static str,
+    /// The `:` command line.
+    pub prompt: input::Prompt,
+    /// The value being edited in place ([`Mode::Edit`]).
+    pub edit: input::TextLine,
+    /// The outcome of the last command, or completions, shown in the status bar until the
+    /// next key: (severity, text).
+    pub message: Option<(u8, String)>,
+    /// Lines scrolled in the key help.
+    pub help_scroll: usize,
 }
 
 impl Default for UiState {
@@ -145,7 +160,12 @@ impl Default for UiState {
             link_sel: 0,
             vehicle_sel: 0,
             msg_scroll: 0,
-            help: false,
+            mode: Mode::Normal,
+            screen: screen::SCREENS[0].name,
+            prompt: input::Prompt::default(),
+            edit: input::TextLine::default(),
+            message: None,
+            help_scroll: 0,
         }
     }
 }
@@ -352,19 +372,7 @@ impl App {
                 stats,
             } => self.on_frames(link, frames, stats, &mut fx),
             Event::LinkState { link, state } => self.on_link_state(link, state),
-            Event::Key(key) if key == Key::ctrl('c') => {
-                // Ctrl-C always quits, whatever the keymap says: raw mode has turned off SIGINT.
-                self.on_action(Action::Quit, &mut fx);
-            }
-            Event::Key(key) => match self.keymap.lookup(Mode::Normal, "overview", &key) {
-                Some(action) => self.on_action(action, &mut fx),
-                // Any key closes help, bound or not.
-                None if self.ui.help => {
-                    self.ui.help = false;
-                    self.dirty = true;
-                }
-                None => {}
-            },
+            Event::Key(key) => self.on_key(key, &mut fx),
             Event::Resize => self.dirty = true,
             Event::FileWritten { path, error } => match error {
                 None => self.notice(SEV_INFO, None, format!("saved {}", path.display())),
@@ -666,105 +674,6 @@ impl App {
                         self.target = None;
                     }
                 }
-            }
-        }
-    }
-
-    /// Vehicles that can be targeted, in registry order.
-    pub fn targetable(&self) -> Vec<VehicleKey> {
-        self.vehicles
-            .iter()
-            .filter(|v| v.is_autopilot())
-            .map(|v| (v.sysid, v.compid))
-            .collect()
-    }
-
-    fn cycle_target(&mut self, forward: bool) {
-        let keys = self.targetable();
-        if keys.is_empty() {
-            return;
-        }
-        let pos = self.target.and_then(|t| keys.iter().position(|k| *k == t));
-        let next = match (pos, forward) {
-            (None, _) => 0,
-            (Some(i), true) => (i + 1) % keys.len(),
-            (Some(i), false) => (i + keys.len() - 1) % keys.len(),
-        };
-        self.target = Some(keys[next]);
-    }
-
-    /// Carry out a bound action.
-    pub fn on_action(&mut self, action: Action, fx: &mut Vec<Effect>) {
-        self.dirty = true;
-        if self.ui.help && !matches!(action, Action::Quit) {
-            // Any key closes help.
-            self.ui.help = false;
-            return;
-        }
-        let focus_idx = Pane::ALL
-            .iter()
-            .position(|p| *p == self.ui.focus)
-            .unwrap_or(0);
-        match action {
-            Action::Quit => {
-                self.quit = true;
-                fx.push(Effect::Quit);
-            }
-            Action::FocusNext => self.ui.focus = Pane::ALL[(focus_idx + 1) % Pane::ALL.len()],
-            Action::FocusPrev => {
-                self.ui.focus = Pane::ALL[(focus_idx + Pane::ALL.len() - 1) % Pane::ALL.len()]
-            }
-            Action::Up | Action::Down | Action::PageUp | Action::PageDown => {
-                let step: isize = match action {
-                    Action::Up => -1,
-                    Action::Down => 1,
-                    Action::PageUp => -10,
-                    _ => 10,
-                };
-                self.move_selection(step);
-            }
-            Action::ToggleExpand => {
-                if self.ui.focus == Pane::Links {
-                    if let Some(l) = self.links.get_mut(self.ui.link_sel) {
-                        l.expanded = !l.expanded;
-                    }
-                } else if self.ui.focus == Pane::Vehicles {
-                    // Only an autopilot can be the target; gimbals, cameras and ground stations
-                    // are addressed from their own screens.
-                    let v = self.vehicles.iter().nth(self.ui.vehicle_sel);
-                    if let Some(v) = v.filter(|v| v.is_autopilot()) {
-                        self.target = Some((v.sysid, v.compid));
-                    }
-                }
-            }
-            Action::NextVehicle => self.cycle_target(true),
-            Action::PrevVehicle => self.cycle_target(false),
-            Action::Help => self.ui.help = true,
-            Action::Cancel => {}
-            // Far enough to clamp at either end of any list.
-            Action::Top => self.move_selection(-(1 << 30)),
-            Action::Bottom => self.move_selection(1 << 30),
-            _ => {} // prompt, screens and text-line actions: not wired up yet
-        }
-    }
-
-    fn move_selection(&mut self, step: isize) {
-        fn clamp(v: usize, step: isize, len: usize) -> usize {
-            if len == 0 {
-                return 0;
-            }
-            (v as isize + step).clamp(0, len as isize - 1) as usize
-        }
-        match self.ui.focus {
-            Pane::Vehicles => {
-                self.ui.vehicle_sel = clamp(self.ui.vehicle_sel, step, self.vehicles.len())
-            }
-            Pane::Links => self.ui.link_sel = clamp(self.ui.link_sel, step, self.links.len()),
-            Pane::Messages => {
-                // Up scrolls back in history.
-                let max = self.notices.len().saturating_sub(1);
-                self.ui.msg_scroll =
-                    (self.ui.msg_scroll as isize - step).clamp(0, max as isize) as usize;
             }
         }
     }

@@ -1,59 +1,85 @@
-//! The help popup (`?`): every binding of the active keymap with its action's description,
-//! generated from the keymap so it is never out of date.
+//! The key help (`?`): every binding of the current mode and screen with its action's
+//! description, generated from the keymap so it is never out of date, then the prompt's
+//! commands. Scrolls when it does not fit; any other key closes it.
 
 use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Borders, Clear, Paragraph};
 use ratatui::Frame;
 
-use super::Theme;
+use super::{ellipsize, Theme};
+use crate::app::input::COMMANDS;
 use crate::app::App;
-use crate::keymap::{Action, Mode};
+use crate::keymap::Mode;
 
-/// (keys, description) for every bound action, in [`Action::ALL`] order.
+/// (keys, description) for every bound action of normal mode on the current screen, in the
+/// keymap's order.
 pub fn help_rows(app: &App) -> Vec<(String, &'static str)> {
-    Action::ALL
-        .iter()
-        .filter_map(|(a, _, desc)| {
-            let keys = app.keymap.keys_for(Mode::Normal, "overview", *a);
-            if keys.is_empty() {
-                return None;
-            }
+    app.keymap
+        .bindings(Mode::Normal, app.ui.screen)
+        .into_iter()
+        .filter(|(_, keys)| !keys.is_empty())
+        .map(|(a, keys)| {
             let names: Vec<String> = keys.iter().map(|k| k.to_string()).collect();
-            Some((names.join(", "), *desc))
+            (names.join(", "), a.description())
         })
         .collect()
 }
 
 pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let rows = help_rows(app);
-    let key_w = rows.iter().map(|r| r.0.chars().count()).max().unwrap_or(0);
-    let desc_w = rows.iter().map(|r| r.1.len()).max().unwrap_or(0);
+    let commands: Vec<(String, &str)> = COMMANDS
+        .iter()
+        .map(|(name, args, what)| (format!(":{name} {args}").trim_end().to_string(), *what))
+        .collect();
+    let key_w = rows
+        .iter()
+        .chain(&commands)
+        .map(|r| r.0.chars().count())
+        .max()
+        .unwrap_or(0);
+    let desc_w = rows
+        .iter()
+        .chain(&commands)
+        .map(|r| r.1.chars().count())
+        .max()
+        .unwrap_or(0);
     let want_w = (key_w + desc_w + 2 + 2) as u16; // gap + borders
-    let want_h = rows.len() as u16 + 3; // borders + footer
     let w = want_w.min(area.width);
-    let h = want_h.min(area.height);
+    let inner_w = (w as usize).saturating_sub(2);
+    let line = |keys: &str, desc: &str| {
+        let desc_room = inner_w.saturating_sub(key_w + 2);
+        Line::from(vec![
+            Span::styled(format!("{keys:<key_w$}"), theme.header()),
+            Span::raw("  "),
+            Span::raw(ellipsize(desc, desc_room)),
+        ])
+    };
+    let mut lines: Vec<Line> = rows.iter().map(|(k, d)| line(k, d)).collect();
+    lines.push(Line::styled("commands (: opens the prompt)", theme.dim()));
+    lines.extend(commands.iter().map(|(k, d)| line(k, d)));
+    let footer = Line::styled("any other key closes this help", theme.dim());
+    let h = (lines.len() as u16 + 3).min(area.height);
+    let body_rows = (h as usize).saturating_sub(3);
+    let max_scroll = lines.len().saturating_sub(body_rows);
+    let scroll = app.ui.help_scroll.min(max_scroll);
+    let mut shown: Vec<Line> = lines.into_iter().skip(scroll).take(body_rows).collect();
+    shown.push(footer);
     let popup = Rect::new(
         area.x + (area.width - w) / 2,
         area.y + (area.height - h) / 2,
         w,
         h,
     );
-    let mut lines: Vec<Line> = rows
-        .into_iter()
-        .map(|(keys, desc)| {
-            Line::from(vec![
-                Span::styled(format!("{keys:<key_w$}"), theme.header()),
-                Span::raw("  "),
-                Span::raw(desc),
-            ])
-        })
-        .collect();
-    lines.push(Line::styled("any key closes this help", theme.dim()));
     frame.render_widget(Clear, popup);
+    let title = if max_scroll > 0 {
+        format!(" Keys ({}/{}) ", scroll + 1, max_scroll + 1)
+    } else {
+        " Keys ".to_string()
+    };
     let block = Block::default()
         .borders(Borders::ALL)
         .border_style(theme.focus_border())
-        .title(" Keys ");
-    frame.render_widget(Paragraph::new(lines).block(block), popup);
+        .title(title);
+    frame.render_widget(Paragraph::new(shown).block(block), popup);
 }

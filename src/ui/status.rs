@@ -6,7 +6,8 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::Paragraph;
 use ratatui::Frame;
 
-use super::Theme;
+use super::{ellipsize, Theme};
+use crate::app::input::TextLine;
 use crate::app::App;
 use crate::keymap::{Action, Mode};
 
@@ -61,7 +62,13 @@ pub fn hints_text(app: &App, width: usize) -> String {
     out
 }
 
+/// The status bar; while a command or a value is typed, the line being typed with its cursor.
 pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
+    match app.ui.mode {
+        Mode::Prompt => return text_line(frame, area, ":", &app.ui.prompt.line, theme),
+        Mode::Edit => return text_line(frame, area, "= ", &app.ui.edit, theme),
+        _ => {}
+    }
     let clock = app.wall(app.now).format("%H:%M:%S").to_string();
     let target_style = match app.target.and_then(|k| app.vehicles.get(k)) {
         Some(v) if v.lost => theme.alert(),
@@ -71,13 +78,34 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     };
     let target = target_text(app);
     let used = clock.len() + 2 + target.chars().count() + 4;
-    let hints = hints_text(app, (area.width as usize).saturating_sub(used));
+    let room = (area.width as usize).saturating_sub(used);
+    // The last command's outcome stands where the hints are, until the next key.
+    let tail = match &app.ui.message {
+        Some((sev, text)) => Span::styled(ellipsize(text, room), theme.severity(*sev)),
+        None => Span::styled(hints_text(app, room), theme.dim()),
+    };
     let line = Line::from(vec![
         Span::styled(clock, theme.header()),
         Span::raw("  "),
         Span::styled(target, target_style),
         Span::raw("  │ "),
-        Span::styled(hints, theme.dim()),
+        tail,
     ]);
     frame.render_widget(Paragraph::new(line), area);
+}
+
+/// `PREFIX text` with the cursor placed in it; the start scrolls out of view on a long line.
+fn text_line(frame: &mut Frame, area: Rect, prefix: &str, line: &TextLine, theme: &Theme) {
+    let width = area.width as usize;
+    let prefix_w = prefix.chars().count();
+    let room = width.saturating_sub(prefix_w + 1).max(1);
+    let skip = line.cursor.saturating_sub(room);
+    let shown: String = line.text.chars().skip(skip).take(room).collect();
+    let text = Line::from(vec![
+        Span::styled(prefix.to_string(), theme.header()),
+        Span::raw(shown),
+    ]);
+    frame.render_widget(Paragraph::new(text), area);
+    let x = area.x + (prefix_w + line.cursor - skip).min(width.saturating_sub(1)) as u16;
+    frame.set_cursor_position((x, area.y));
 }

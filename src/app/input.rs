@@ -1,0 +1,335 @@
+//! Typed input: a text line with a cursor, the `:` prompt around it (history, completion), and
+//! the commands the prompt runs.
+//!
+//! Commands are words: the first names the command, the rest are its arguments. A later feature
+//! adds its commands to [`COMMANDS`] and a branch in `App::run_command`.
+
+/// A line of text with a cursor (a char index, 0..=len).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct TextLine {
+    pub text: String,
+    pub cursor: usize,
+}
+
+impl TextLine {
+    fn byte(&self, char_idx: usize) -> usize {
+        self.text
+            .char_indices()
+            .nth(char_idx)
+            .map_or(self.text.len(), |(b, _)| b)
+    }
+    fn len(&self) -> usize {
+        self.text.chars().count()
+    }
+    pub fn set(&mut self, text: &str) {
+        self.text = text.to_string();
+        self.cursor = self.len();
+    }
+    pub fn insert(&mut self, c: char) {
+        let b = self.byte(self.cursor);
+        self.text.insert(b, c);
+        self.cursor += 1;
+    }
+    pub fn left(&mut self) {
+        self.cursor = self.cursor.saturating_sub(1);
+    }
+    pub fn right(&mut self) {
+        self.cursor = (self.cursor + 1).min(self.len());
+    }
+    pub fn home(&mut self) {
+        self.cursor = 0;
+    }
+    pub fn end(&mut self) {
+        self.cursor = self.len();
+    }
+    pub fn backspace(&mut self) {
+        if self.cursor > 0 {
+            self.cursor -= 1;
+            let b = self.byte(self.cursor);
+            self.text.remove(b);
+        }
+    }
+    pub fn delete(&mut self) {
+        if self.cursor < self.len() {
+            let b = self.byte(self.cursor);
+            self.text.remove(b);
+        }
+    }
+    /// Delete the word before the cursor (and the spaces after it), like a shell's ctrl-w.
+    pub fn delete_word(&mut self) {
+        let chars: Vec<char> = self.text.chars().collect();
+        let mut start = self.cursor;
+        while start > 0 && chars[start - 1] == ' ' {
+            start -= 1;
+        }
+        while start > 0 && chars[start - 1] != ' ' {
+            start -= 1;
+        }
+        let (a, b) = (self.byte(start), self.byte(self.cursor));
+        self.text.replace_range(a..b, "");
+        self.cursor = start;
+    }
+    pub fn clear(&mut self) {
+        self.text.clear();
+        self.cursor = 0;
+    }
+}
+
+/// Lines kept in the prompt's history.
+pub const HISTORY: usize = 100;
+
+/// The `:` command line.
+#[derive(Debug, Clone, Default)]
+pub struct Prompt {
+    pub line: TextLine,
+    history: Vec<String>,
+    /// Position while browsing history (`None`: editing a new line).
+    browsing: Option<usize>,
+    /// The line being typed before history browsing began.
+    draft: String,
+}
+
+impl Prompt {
+    /// Start a new line.
+    pub fn open(&mut self) {
+        self.line.clear();
+        self.browsing = None;
+    }
+
+    /// Take the line for running, remembering it in the history.
+    pub fn submit(&mut self) -> String {
+        let text = std::mem::take(&mut self.line.text).trim().to_string();
+        self.line.cursor = 0;
+        self.browsing = None;
+        if !text.is_empty() && self.history.last() != Some(&text) {
+            if self.history.len() == HISTORY {
+                self.history.remove(0);
+            }
+            self.history.push(text.clone());
+        }
+        text
+    }
+
+    pub fn history_prev(&mut self) {
+        let i = match self.browsing {
+            None if self.history.is_empty() => return,
+            None => {
+                self.draft = self.line.text.clone();
+                self.history.len() - 1
+            }
+            Some(0) => 0,
+            Some(i) => i - 1,
+        };
+        self.browsing = Some(i);
+        self.line.set(&self.history[i]);
+    }
+
+    pub fn history_next(&mut self) {
+        match self.browsing {
+            None => {}
+            Some(i) if i + 1 < self.history.len() => {
+                self.browsing = Some(i + 1);
+                self.line.set(&self.history[i + 1]);
+            }
+            Some(_) => {
+                self.browsing = None;
+                let draft = std::mem::take(&mut self.draft);
+                self.line.set(&draft);
+            }
+        }
+    }
+
+    pub fn history(&self) -> &[String] {
+        &self.history
+    }
+
+    /// Complete the word under the cursor from `candidates` (whole replacements for the line's
+    /// text before the cursor). One match is taken with a space after it; several complete to
+    /// their common prefix and are returned so the caller can show them.
+    pub fn complete(&mut self, candidates: &[String]) -> Vec<String> {
+        let before: String = self.line.text.chars().take(self.line.cursor).collect();
+        let matches: Vec<String> = candidates
+            .iter()
+            .filter(|c| c.starts_with(&before))
+            .cloned()
+            .collect();
+        let after: String = self.line.text.chars().skip(self.line.cursor).collect();
+        match matches.len() {
+            0 => Vec::new(),
+            1 => {
+                let done = format!("{} ", matches[0]);
+                self.line.set(&format!("{done}{after}"));
+                self.line.cursor = done.chars().count();
+                Vec::new()
+            }
+            _ => {
+                let mut prefix = matches[0].clone();
+                for m in &matches[1..] {
+                    let common = prefix
+                        .chars()
+                        .zip(m.chars())
+                        .take_while(|(a, b)| a == b)
+                        .count();
+                    prefix = prefix.chars().take(common).collect();
+                }
+                self.line.set(&format!("{prefix}{after}"));
+                self.line.cursor = prefix.chars().count();
+                matches
+            }
+        }
+    }
+}
+
+/// The prompt's commands: (name, arguments, what it does), in the order `help` lists them.
+pub const COMMANDS: &[(&str, &str, &str)] = &[
+    ("help", "", "show the keys of this screen"),
+    ("link", "SPEC", "open another link (udpin:0.0.0.0:14550, tcp:HOST:PORT, …)"),
+    ("quit", "", "quit mavterm"),
+    ("route", "LINK|auto", "send to the target on this link, or the most recent"),
+    ("target", "SYSID[:COMPID]", "make this autopilot the target"),
+];
+
+/// What a parsed prompt line asks for.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Command {
+    Help,
+    Quit,
+    /// Make (sysid, compid) the target; compid `None`: the system's autopilot.
+    Target(u8, Option<u8>),
+    /// Open a link on this spec (parsed when run, so its error names the spec).
+    Link(String),
+    /// Pin the target's route to a link, or `None` for automatic.
+    Route(Option<usize>),
+}
+
+/// Parse a prompt line; the error says what is wrong and what would be right.
+pub fn parse_command(line: &str) -> Result<Command, String> {
+    let line = line.trim();
+    let (word, rest) = line.split_once(char::is_whitespace).unwrap_or((line, ""));
+    let rest = rest.trim();
+    let no_args = |c: Command| {
+        if rest.is_empty() {
+            Ok(c)
+        } else {
+            Err(format!("`{word}` takes no arguments"))
+        }
+    };
+    match word {
+        "" => Err("type a command: help, quit, target, link, route".into()),
+        "help" | "?" => no_args(Command::Help),
+        "quit" | "q" | "exit" => no_args(Command::Quit),
+        "target" => {
+            let usage = || "usage: target SYSID[:COMPID], e.g. target 1 or target 1:1".to_string();
+            let (s, c) = match rest.split_once(':') {
+                Some((s, c)) => (s, Some(c)),
+                None => (rest, None),
+            };
+            let sysid = s.parse::<u8>().map_err(|_| usage())?;
+            let compid = match c {
+                Some(c) => Some(c.parse::<u8>().map_err(|_| usage())?),
+                None => None,
+            };
+            Ok(Command::Target(sysid, compid))
+        }
+        "link" if rest.is_empty() => Err("usage: link SPEC, e.g. link udpin:0.0.0.0:14550".into()),
+        "link" => Ok(Command::Link(rest.to_string())),
+        "route" => match rest {
+            "auto" => Ok(Command::Route(None)),
+            n => n
+                .parse::<usize>()
+                .map(|n| Command::Route(Some(n)))
+                .map_err(|_| "usage: route LINK (its number in the Links pane) or route auto".into()),
+        },
+        other => {
+            let names: Vec<&str> = COMMANDS.iter().map(|c| c.0).collect();
+            Err(format!(
+                "unknown command `{other}` (commands: {})",
+                names.join(", ")
+            ))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn text_line_edits_at_the_cursor() {
+        let mut l = TextLine::default();
+        for c in "targt 1".chars() {
+            l.insert(c);
+        }
+        for _ in 0..3 {
+            l.left();
+        }
+        l.insert('e');
+        assert_eq!(l.text, "target 1");
+        l.end();
+        l.delete_word();
+        assert_eq!((l.text.as_str(), l.cursor), ("target ", 7));
+        l.home();
+        l.delete();
+        assert_eq!(l.text, "arget ");
+        l.backspace(); // nothing before the cursor
+        assert_eq!(l.text, "arget ");
+        let mut u = TextLine::default();
+        for c in "ñé°".chars() {
+            u.insert(c);
+        }
+        u.left();
+        u.backspace();
+        assert_eq!(u.text, "ñ°");
+    }
+
+    #[test]
+    fn history_walks_back_and_returns_to_the_draft() {
+        let mut p = Prompt::default();
+        for cmd in ["target 1", "link tcp:a:1"] {
+            p.open();
+            p.line.set(cmd);
+            p.submit();
+        }
+        p.open();
+        p.line.set("dra");
+        p.history_prev();
+        assert_eq!(p.line.text, "link tcp:a:1");
+        p.history_prev();
+        assert_eq!(p.line.text, "target 1");
+        p.history_prev();
+        assert_eq!(p.line.text, "target 1");
+        p.history_next();
+        p.history_next();
+        assert_eq!(p.line.text, "dra");
+    }
+
+    #[test]
+    fn completion_takes_one_match_and_the_common_prefix_of_several() {
+        let mut p = Prompt::default();
+        p.line.set("ta");
+        let c = vec!["target".to_string(), "link".to_string()];
+        assert!(p.complete(&c).is_empty());
+        assert_eq!(p.line.text, "target ");
+        p.line.set("target ");
+        let c = vec!["target 1:1".to_string(), "target 12:1".to_string()];
+        assert_eq!(p.complete(&c).len(), 2);
+        assert_eq!(p.line.text, "target 1");
+    }
+
+    #[test]
+    fn commands_parse_with_clear_errors() {
+        assert_eq!(parse_command(" quit "), Ok(Command::Quit));
+        assert_eq!(parse_command("target 1"), Ok(Command::Target(1, None)));
+        assert_eq!(parse_command("target 2:1"), Ok(Command::Target(2, Some(1))));
+        assert_eq!(
+            parse_command("link udpin:0.0.0.0:14550"),
+            Ok(Command::Link("udpin:0.0.0.0:14550".into()))
+        );
+        assert_eq!(parse_command("route auto"), Ok(Command::Route(None)));
+        assert_eq!(parse_command("route 2"), Ok(Command::Route(Some(2))));
+        assert!(parse_command("target 300").unwrap_err().contains("usage"));
+        assert!(parse_command("quit now").unwrap_err().contains("no arguments"));
+        let e = parse_command("arm").unwrap_err();
+        assert!(e.contains("unknown command `arm`") && e.contains("target"), "{e}");
+    }
+}

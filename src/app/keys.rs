@@ -1,0 +1,322 @@
+//! Keys: what each one does in each input mode, and the prompt's commands.
+//!
+//! Normal mode looks keys up in the screen's keymap section, then `[normal]`; help mode closes on
+//! any key but its scrolling ones; the text modes (prompt, edit) type printable keys that are not
+//! bound. Ctrl-C quits from every mode: raw mode has turned off SIGINT.
+
+use super::input::{parse_command, Command, COMMANDS};
+use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
+use super::{links::LinkStatus, screen, App, Effect, Pane};
+use crate::keymap::{Action, Key, KeyCode, Mode};
+use crate::link::LinkSpec;
+use crate::proto::vehicles::VehicleKey;
+
+impl App {
+    /// A key pressed.
+    pub(super) fn on_key(&mut self, key: Key, fx: &mut Vec<Effect>) {
+        self.dirty = true;
+        if key == Key::ctrl('c') {
+            self.on_action(Action::Quit, fx);
+            return;
+        }
+        let action = self.keymap.lookup(self.ui.mode, self.ui.screen, &key);
+        match self.ui.mode {
+            Mode::Normal => {
+                self.ui.message = None;
+                if let Some(a) = action {
+                    self.on_action(a, fx);
+                }
+            }
+            Mode::Help => match action {
+                Some(a @ (Action::Up | Action::Down | Action::PageUp | Action::PageDown)) => {
+                    let step: isize = match a {
+                        Action::Up => -1,
+                        Action::Down => 1,
+                        Action::PageUp => -10,
+                        _ => 10,
+                    };
+                    self.ui.help_scroll = (self.ui.help_scroll as isize + step).max(0) as usize;
+                }
+                Some(Action::Top) => self.ui.help_scroll = 0,
+                Some(Action::Bottom) => self.ui.help_scroll = usize::MAX / 2,
+                // Any other key closes the help, `q` included: it does not quit from here.
+                _ => self.ui.mode = Mode::Normal,
+            },
+            Mode::Prompt | Mode::Edit => self.on_text_key(key, action, fx),
+        }
+    }
+
+    fn open_help(&mut self) {
+        self.ui.help_scroll = 0;
+        self.ui.mode = Mode::Help;
+    }
+
+    /// Show screen `i` (0 = `screen_1`) if this build has it.
+    fn show_screen(&mut self, i: usize) {
+        let name = crate::keymap::SCREENS.get(i).copied().unwrap_or("?");
+        match screen::by_name(name) {
+            Some(s) => self.ui.screen = s.name,
+            None => {
+                self.ui.message = Some((SEV_WARNING, format!("no {name} screen in this build yet")))
+            }
+        }
+    }
+
+    /// A key in a text mode: editing actions, or a printable character typed.
+    fn on_text_key(&mut self, key: Key, action: Option<Action>, fx: &mut Vec<Effect>) {
+        let prompt = self.ui.mode == Mode::Prompt;
+        let line = if prompt {
+            &mut self.ui.prompt.line
+        } else {
+            &mut self.ui.edit
+        };
+        match action {
+            Some(Action::Submit) => {
+                self.ui.mode = Mode::Normal;
+                if prompt {
+                    let text = self.ui.prompt.submit();
+                    if !text.is_empty() {
+                        self.run_line(&text, fx);
+                    }
+                }
+            }
+            Some(Action::Cancel) => {
+                self.ui.mode = Mode::Normal;
+                self.ui.message = None;
+            }
+            Some(Action::CursorLeft) => line.left(),
+            Some(Action::CursorRight) => line.right(),
+            Some(Action::LineStart) => line.home(),
+            Some(Action::LineEnd) => line.end(),
+            Some(Action::DeleteBack) => line.backspace(),
+            Some(Action::DeleteForward) => line.delete(),
+            Some(Action::DeleteWord) => line.delete_word(),
+            Some(Action::ClearLine) => line.clear(),
+            Some(Action::HistoryPrev) if prompt => self.ui.prompt.history_prev(),
+            Some(Action::HistoryNext) if prompt => self.ui.prompt.history_next(),
+            Some(Action::Complete) if prompt => {
+                let candidates = self.completions();
+                let several = self.ui.prompt.complete(&candidates);
+                self.ui.message = (!several.is_empty()).then(|| (SEV_INFO, several.join("  ")));
+            }
+            Some(_) => {}
+            None => {
+                if let (KeyCode::Char(c), false, false) = (key.code, key.ctrl, key.alt) {
+                    line.insert(c);
+                }
+            }
+        }
+    }
+
+    /// Whole-line completions for the prompt: command names, then each command's arguments.
+    fn completions(&self) -> Vec<String> {
+        let mut out: Vec<String> = COMMANDS.iter().map(|c| c.0.to_string()).collect();
+        for k in self.targetable() {
+            out.push(format!("target {}:{}", k.0, k.1));
+        }
+        out.push("route auto".into());
+        for i in 0..self.links.len() {
+            out.push(format!("route {i}"));
+        }
+        for scheme in ["udpin:", "udpout:", "tcp:", "tcpin:", "serial:", "sim://", "tlog:"] {
+            out.push(format!("link {scheme}"));
+        }
+        out
+    }
+
+    /// Run a prompt line; its outcome is shown in the status bar.
+    fn run_line(&mut self, line: &str, fx: &mut Vec<Effect>) {
+        let outcome = match parse_command(line) {
+            Err(e) => Err(e),
+            Ok(cmd) => self.run_command(cmd, fx),
+        };
+        self.ui.message = match outcome {
+            Ok(Some(text)) => Some((SEV_INFO, text)),
+            Ok(None) => None,
+            Err(e) => Some((SEV_ERROR, e)),
+        };
+    }
+
+    /// Carry out a command: `Ok(Some(text))` to tell the operator what happened.
+    fn run_command(&mut self, cmd: Command, fx: &mut Vec<Effect>) -> Result<Option<String>, String> {
+        match cmd {
+            Command::Help => {
+                self.open_help();
+                Ok(None)
+            }
+            Command::Quit => {
+                self.on_action(Action::Quit, fx);
+                Ok(None)
+            }
+            Command::Target(sysid, compid) => {
+                let key = self.autopilot(sysid, compid)?;
+                self.target = Some(key);
+                Ok(Some(format!("target {}:{}", key.0, key.1)))
+            }
+            Command::Link(text) => {
+                let spec: LinkSpec = text.parse().map_err(|e| format!("{e}"))?;
+                let link = self.links.len();
+                let name = spec.to_string();
+                self.links
+                    .push(LinkStatus::new(name.clone(), self.cfg.sysid, self.cfg.compid));
+                self.cfg.links.push(name.clone());
+                fx.push(Effect::OpenLink { link, spec });
+                Ok(Some(format!("link {link}: opening {name}")))
+            }
+            Command::Route(link) => {
+                let key = self.target.ok_or("no target vehicle")?;
+                if let Some(l) = link.filter(|&l| l >= self.links.len()) {
+                    return Err(format!("no link {l} (links 0 to {})", self.links.len() - 1));
+                }
+                let s = self
+                    .sessions
+                    .get_mut(&key)
+                    .ok_or_else(|| format!("{}:{} has no session", key.0, key.1))?;
+                s.pinned = link;
+                Ok(Some(match link {
+                    Some(l) => format!("{}:{} goes by link {l}", key.0, key.1),
+                    None => format!("{}:{} goes by the link heard last", key.0, key.1),
+                }))
+            }
+        }
+    }
+
+    /// The autopilot `sysid[:compid]` names, or why none does.
+    fn autopilot(&self, sysid: u8, compid: Option<u8>) -> Result<VehicleKey, String> {
+        let found = self
+            .vehicles
+            .iter()
+            .filter(|v| v.sysid == sysid && compid.is_none_or(|c| c == v.compid))
+            .find(|v| v.is_autopilot());
+        match found {
+            Some(v) => Ok((v.sysid, v.compid)),
+            None => {
+                let heard: Vec<String> = self
+                    .targetable()
+                    .iter()
+                    .map(|k| format!("{}:{}", k.0, k.1))
+                    .collect();
+                let what = match compid {
+                    Some(c) => format!("{sysid}:{c}"),
+                    None => format!("{sysid}"),
+                };
+                Err(if heard.is_empty() {
+                    format!("no autopilot {what} heard (none heard yet)")
+                } else {
+                    format!("no autopilot {what} heard (autopilots: {})", heard.join(", "))
+                })
+            }
+        }
+    }
+
+    /// Vehicles that can be targeted, in registry order.
+    pub fn targetable(&self) -> Vec<VehicleKey> {
+        self.vehicles
+            .iter()
+            .filter(|v| v.is_autopilot())
+            .map(|v| (v.sysid, v.compid))
+            .collect()
+    }
+
+    fn cycle_target(&mut self, forward: bool) {
+        let keys = self.targetable();
+        if keys.is_empty() {
+            return;
+        }
+        let pos = self.target.and_then(|t| keys.iter().position(|k| *k == t));
+        let next = match (pos, forward) {
+            (None, _) => 0,
+            (Some(i), true) => (i + 1) % keys.len(),
+            (Some(i), false) => (i + keys.len() - 1) % keys.len(),
+        };
+        self.target = Some(keys[next]);
+    }
+
+    /// Carry out an action bound in normal mode.
+    pub fn on_action(&mut self, action: Action, fx: &mut Vec<Effect>) {
+        self.dirty = true;
+        let focus_idx = Pane::ALL
+            .iter()
+            .position(|p| *p == self.ui.focus)
+            .unwrap_or(0);
+        match action {
+            Action::Quit => {
+                self.quit = true;
+                fx.push(Effect::Quit);
+            }
+            Action::FocusNext => self.ui.focus = Pane::ALL[(focus_idx + 1) % Pane::ALL.len()],
+            Action::FocusPrev => {
+                self.ui.focus = Pane::ALL[(focus_idx + Pane::ALL.len() - 1) % Pane::ALL.len()]
+            }
+            Action::Up | Action::Down | Action::PageUp | Action::PageDown => {
+                let step: isize = match action {
+                    Action::Up => -1,
+                    Action::Down => 1,
+                    Action::PageUp => -10,
+                    _ => 10,
+                };
+                self.move_selection(step);
+            }
+            Action::ToggleExpand => {
+                if self.ui.focus == Pane::Links {
+                    if let Some(l) = self.links.get_mut(self.ui.link_sel) {
+                        l.expanded = !l.expanded;
+                    }
+                } else if self.ui.focus == Pane::Vehicles {
+                    // Only an autopilot can be the target; gimbals, cameras and ground stations
+                    // are addressed from their own screens.
+                    let v = self.vehicles.iter().nth(self.ui.vehicle_sel);
+                    if let Some(v) = v.filter(|v| v.is_autopilot()) {
+                        self.target = Some((v.sysid, v.compid));
+                    }
+                }
+            }
+            Action::NextVehicle => self.cycle_target(true),
+            Action::PrevVehicle => self.cycle_target(false),
+            Action::Help => self.open_help(),
+            Action::Prompt => {
+                self.ui.prompt.open();
+                self.ui.mode = Mode::Prompt;
+            }
+            Action::Screen(i) => self.show_screen(i as usize),
+            Action::Cancel => {}
+            // Far enough to clamp at either end of any list.
+            Action::Top => self.move_selection(-(1 << 30)),
+            Action::Bottom => self.move_selection(1 << 30),
+            // Text-line actions belong to the prompt and edit modes.
+            Action::Submit
+            | Action::CursorLeft
+            | Action::CursorRight
+            | Action::LineStart
+            | Action::LineEnd
+            | Action::DeleteBack
+            | Action::DeleteForward
+            | Action::DeleteWord
+            | Action::ClearLine
+            | Action::HistoryPrev
+            | Action::HistoryNext
+            | Action::Complete => {}
+        }
+    }
+
+    fn move_selection(&mut self, step: isize) {
+        fn clamp(v: usize, step: isize, len: usize) -> usize {
+            if len == 0 {
+                return 0;
+            }
+            (v as isize + step).clamp(0, len as isize - 1) as usize
+        }
+        match self.ui.focus {
+            Pane::Vehicles => {
+                self.ui.vehicle_sel = clamp(self.ui.vehicle_sel, step, self.vehicles.len())
+            }
+            Pane::Links => self.ui.link_sel = clamp(self.ui.link_sel, step, self.links.len()),
+            Pane::Messages => {
+                // Up scrolls back in history.
+                let max = self.notices.len().saturating_sub(1);
+                self.ui.msg_scroll =
+                    (self.ui.msg_scroll as isize - step).clamp(0, max as isize) as usize;
+            }
+        }
+    }
+}

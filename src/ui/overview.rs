@@ -1,0 +1,120 @@
+//! The Overview screen (`1`): the Vehicles, Links and Messages panes stacked top to bottom.
+//! When the screen is too short, panes other than the focused one collapse to a one-line title,
+//! and at the very smallest sizes are dropped.
+
+use ratatui::layout::Rect;
+use ratatui::text::{Line, Span};
+use ratatui::widgets::Paragraph;
+use ratatui::Frame;
+
+use super::{links, messages, vehicles, Theme};
+use crate::app::{App, Pane};
+
+/// Draw the Overview in `body`.
+pub fn render(app: &App, frame: &mut Frame, body: Rect, theme: &Theme) {
+    for (pane, rect, full) in layout(app, body) {
+        if full {
+            match pane {
+                Pane::Vehicles => vehicles::render(app, frame, rect, theme),
+                Pane::Links => links::render(app, frame, rect, theme),
+                Pane::Messages => messages::render(app, frame, rect, theme),
+            }
+        } else {
+            collapsed(app, pane, frame, rect, theme);
+        }
+    }
+}
+
+/// Rows a fixed-size pane would like, borders included: its rows, but at most ~40% of the body.
+fn wanted_height(app: &App, pane: Pane, avail: u16) -> u16 {
+    let rows = match pane {
+        Pane::Vehicles => app.vehicles.len().max(1) + 1, // + header
+        Pane::Links => {
+            let sources: usize = app
+                .links
+                .iter()
+                .filter(|l| l.expanded)
+                .map(|l| l.sources.len())
+                .sum();
+            app.links.len().max(1) + sources + 1
+        }
+        Pane::Messages => 1,
+    };
+    let rows = rows.min(u16::MAX as usize / 2) as u16;
+    (rows + 2).min((avail * 2 / 5).max(MIN_FULL + 1))
+}
+
+/// Smallest height a pane is drawn in full (borders and one row).
+const MIN_FULL: u16 = 3;
+
+/// Where each pane goes: (pane, rect, full) where `full == false` means a one-line title.
+fn layout(app: &App, body: Rect) -> Vec<(Pane, Rect, bool)> {
+    let avail = body.height;
+    let focus = app.ui.focus;
+    // (pane, height, full)
+    let mut plan: Vec<(Pane, u16, bool)> = Pane::ALL
+        .iter()
+        .map(|&p| (p, wanted_height(app, p, avail).max(MIN_FULL), true))
+        .collect();
+    let total = |plan: &[(Pane, u16, bool)]| plan.iter().map(|x| x.1 as u32).sum::<u32>();
+    // Unfocused panes give way, bottom first: first to a title line, then entirely.
+    let victims: Vec<usize> = (0..plan.len())
+        .rev()
+        .filter(|&i| plan[i].0 != focus)
+        .collect();
+    for &i in &victims {
+        if total(&plan) > avail as u32 {
+            plan[i] = (plan[i].0, 1, false);
+        }
+    }
+    for &i in &victims {
+        if total(&plan) > avail as u32 {
+            plan[i].1 = 0;
+        }
+    }
+    // Whatever is left over goes to messages if shown in full, else to the focused pane.
+    let spare = (avail as u32).saturating_sub(total(&plan)) as u16;
+    let grow = plan
+        .iter()
+        .position(|x| x.0 == Pane::Messages && x.2)
+        .or_else(|| plan.iter().position(|x| x.0 == focus));
+    if let Some(i) = grow {
+        plan[i].1 += spare;
+    }
+    let bottom = body.y + body.height;
+    let mut y = body.y;
+    let mut out = Vec::new();
+    for (pane, h, full) in plan {
+        let h = h.min(bottom.saturating_sub(y));
+        if h == 0 {
+            continue;
+        }
+        out.push((
+            pane,
+            Rect::new(body.x, y, body.width, h),
+            full && h >= MIN_FULL,
+        ));
+        y += h;
+    }
+    out
+}
+
+/// A pane that did not fit: just its title on one line.
+fn collapsed(app: &App, pane: Pane, frame: &mut Frame, rect: Rect, theme: &Theme) {
+    let count = match pane {
+        Pane::Vehicles => app.vehicles.len(),
+        Pane::Links => app.links.len(),
+        Pane::Messages => app.notices.len(),
+    };
+    let style = if app.ui.focus == pane {
+        theme.focus_border()
+    } else {
+        theme.border()
+    };
+    let line = Line::from(vec![
+        Span::styled(format!("─ {} ({count}) ", pane.title()), style),
+        Span::styled("─".repeat(rect.width as usize), style),
+    ]);
+    frame.render_widget(Paragraph::new(line), rect);
+}
+
