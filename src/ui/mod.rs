@@ -6,6 +6,7 @@
 //! and at the very smallest sizes are dropped. Nothing here can panic on any size: every
 //! rectangle is clipped to the frame.
 
+pub mod fmt;
 pub mod help;
 pub mod links;
 pub mod messages;
