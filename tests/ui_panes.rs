@@ -335,3 +335,30 @@ fn vehicles_pane_fits_long_ages_and_marks_cut_text() {
     );
     assert!(text.contains("GCS SYSID! CLASH: 255:1 heard as"), "{text}");
 }
+
+#[test]
+fn scrolling_back_does_not_hide_the_newest_when_all_messages_fit() {
+    let mut d = common::scene();
+    d.app.ui.focus = Pane::Messages;
+    let len = d.app.notices.len();
+    let before = pane(&d.app, 80, 24, ui::messages::render);
+    d.key(d.app.now, "up");
+    d.key(d.app.now, "up");
+    assert_eq!(d.app.ui.msg_scroll, 2);
+    // All 17 fit in 22 rows: nothing to scroll, the pane is unchanged.
+    assert!(len <= 22, "{len}");
+    let after = pane(&d.app, 80, 24, ui::messages::render);
+    assert_eq!(after, before);
+    assert!(after.contains("Crash: Disarming"), "{after}");
+    assert!(!after.contains("newer below"), "{after}");
+    // One row short of fitting: scrolling goes back by at most that one line.
+    let h = len as u16 + 1; // borders + all but one line
+    let text = pane(&d.app, 80, h, ui::messages::render);
+    assert!(text.contains("1 newer below"), "{text}");
+    assert!(!text.contains("Crash: Disarming"), "{text}");
+    assert!(text.contains("link udpin:0.0.0.0:14550 up"), "{text}");
+    d.key(d.app.now, "end");
+    let text = pane(&d.app, 80, h, ui::messages::render);
+    assert!(text.contains("Crash: Disarming"), "{text}");
+    assert!(!text.contains("link udpin:0.0.0.0:14550 up"), "{text}");
+}
