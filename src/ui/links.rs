@@ -12,7 +12,7 @@ use crate::app::links::{loss_pct, LinkState, LinkStatus};
 use crate::app::{App, Pane};
 
 /// A frame or byte rate in `width` columns: one decimal below 100 unless whole, abbreviated
-/// (`1.2k`) rather than cut when too wide.
+/// (`12.3M`) rather than cut when too wide.
 fn rate(x: f64, width: u16) -> String {
     let decimals = if x < 100.0 && x != x.trunc() { 1 } else { 0 };
     fmt::real(x, decimals, width as usize)
@@ -20,7 +20,7 @@ fn rate(x: f64, width: u16) -> String {
 
 /// (header, width) of the numeric columns: full names when wide, terse when not. Every width is
 /// at least 4, in which any number fits abbreviated (see [`fmt`]); LOST gets 5 so that tens of
-/// thousands keep three digits (`24.9k`).
+/// thousands lost stay exact.
 fn columns(wide: bool) -> [(&'static str, u16); 9] {
     if wide {
         [
@@ -164,10 +164,9 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
                 Cell::from(pct(q.window_loss_pct(now))),
                 Cell::from(pct(q.loss_pct())),
             ];
-            let none = Cell::from("");
             cells.extend(counts(
                 &w,
-                none,
+                Cell::from(""),
                 q.received,
                 q.lost,
                 q.duplicates,
