@@ -228,3 +228,147 @@ fn home_and_end_jump_to_either_end() {
     d.key(t, "end");
     assert_eq!(d.app.ui.msg_scroll, 0);
 }
+
+/// The whitespace-separated cells of the first line containing `start`, borders dropped.
+fn cells<'a>(text: &'a str, start: &str) -> Vec<&'a str> {
+    let line = text
+        .lines()
+        .find(|l| l.contains(start))
+        .unwrap_or_else(|| panic!("no line with {start:?} in\n{text}"));
+    line.trim_matches(|c| c == '│' || c == '┃')
+        .split_whitespace()
+        .collect()
+}
+
+/// The scene after a long, lossy session: link 0 (expanded) with counters in the millions, a
+/// CRC storm and 24,874 frames (12.3 MB) a second.
+fn big_numbers() -> common::Drive {
+    let mut d = common::scene();
+    let l = &mut d.app.links[0];
+    l.parser.crc_errors = 123_456;
+    // The three whole seconds before now (20.9 s) that the rates average over.
+    l.rate = Default::default();
+    for s in 17..20 {
+        l.rate.add(s * mavterm::clock::SECOND, 24_874, 12_345_678);
+    }
+    let s = &mut l.sources.get_mut(&(1, 1)).unwrap().seq;
+    (s.received, s.lost, s.duplicates, s.reordered) = (1_234_567, 24_874, 12_345, 99_999);
+    let s = &mut l.sources.get_mut(&(1, 154)).unwrap().seq;
+    (s.received, s.lost, s.duplicates, s.reordered) = (98_765, 100_000, 0, 0);
+    d
+}
+
+#[test]
+fn links_pane_abbreviates_numbers_that_do_not_fit() {
+    let d = big_numbers();
+    for (w, h) in SIZES {
+        insta::assert_snapshot!(
+            format!("links_big_numbers_{w}x{h}"),
+            pane(&d.app, w, h, ui::links::render)
+        );
+    }
+    // 80 columns: numbers that fit are exact (LOST 24874, not `2487`); the others are
+    // abbreviated, never cut. Loss: 124,874 / (1,333,332 + 124,874) = 8.6 %;
+    // 24,874 / 1,259,441 = 2.0 %; 100,000 / 198,765 = 50 %.
+    let text = pane(&d.app, 80, 24, ui::links::render);
+    let row = cells(&text, "-0 udpin");
+    // F/S B/S L10s LOSS CRC RX LOST DUP REO
+    assert_eq!(
+        row[row.len() - 9..],
+        ["25k", "12.3M", "1.6%", "8.6%", "123k", "1.3M", "125k", "12k", "100k"],
+        "{text}"
+    );
+    let row = cells(&text, "└ 1:1 ");
+    assert_eq!(
+        row[row.len() - 6..],
+        ["1.9%", "2.0%", "1.2M", "24874", "12k", "100k"],
+        "{text}"
+    );
+    let row = cells(&text, "└ 1:154");
+    assert_eq!(
+        row[row.len() - 6..],
+        ["0.0%", "50%", "98765", "100k", "0", "0"],
+        "{text}"
+    );
+    assert!(text.contains("12.3M"), "{text}");
+    // Truncated text shows where it was cut.
+    assert!(text.contains("-0 udpin:0.0.0.0…"), "{text}");
+    assert!(text.contains("down: No s…"), "{text}");
+    // 200 columns: wider columns, more numbers exact.
+    let text = pane(&d.app, 200, 60, ui::links::render);
+    let row = cells(&text, "-0 udpin");
+    assert_eq!(
+        row[row.len() - 9..],
+        ["24874", "12.3M", "1.6%", "8.6%", "123k", "1333332", "125k", "12k", "99999"],
+        "{text}"
+    );
+}
+
+/// The scene 640 s later: everything long lost; 1:1 also heard on links 1 and 2; 255:1 both on
+/// our GCS sysid and in a clash.
+fn long_ago() -> common::Drive {
+    let mut d = common::scene();
+    let t = 21 * mavterm::clock::SECOND;
+    d.send(t, 1, (1, 1), &common::copter(true, 4));
+    d.send(t, 2, (1, 1), &common::copter(true, 4));
+    d.send(t + 10_000, 1, (255, 1), &common::plane(false, 0));
+    d.tick(t + 640 * mavterm::clock::SECOND);
+    d
+}
+
+#[test]
+fn vehicles_pane_fits_long_ages_and_marks_cut_text() {
+    let d = long_ago();
+    for (w, h) in SIZES {
+        insta::assert_snapshot!(
+            format!("vehicles_long_ago_{w}x{h}"),
+            pane(&d.app, w, h, ui::vehicles::render)
+        );
+    }
+    let text = pane(&d.app, 80, 24, ui::vehicles::render);
+    // LAST HB HZ LINK FLAGS: 640 s is `10m40s`, never `lost 640s ag`.
+    let row = cells(&text, "1:1 ");
+    assert_eq!(
+        row[row.len() - 4..],
+        ["lost", "10m40s", "1.0", "0,1…"],
+        "{text}"
+    );
+    // 2:1 was last heard at 8.02 s: 652.98 s ago.
+    assert!(text.contains("lost 10m53s"), "{text}");
+    assert!(text.contains("GCSID…"), "{text}");
+    let text = pane(&d.app, 200, 60, ui::vehicles::render);
+    let row = cells(&text, "1:1 ");
+    assert_eq!(
+        row[row.len() - 4..],
+        ["lost", "10m40s", "1.0", "0,1,2"],
+        "{text}"
+    );
+    assert!(text.contains("GCS SYSID! CLASH: 255:1 heard as"), "{text}");
+}
+
+#[test]
+fn scrolling_back_does_not_hide_the_newest_when_all_messages_fit() {
+    let mut d = common::scene();
+    d.app.ui.focus = Pane::Messages;
+    let len = d.app.notices.len();
+    let before = pane(&d.app, 80, 24, ui::messages::render);
+    d.key(d.app.now, "up");
+    d.key(d.app.now, "up");
+    assert_eq!(d.app.ui.msg_scroll, 2);
+    // All 17 fit in 22 rows: nothing to scroll, the pane is unchanged.
+    assert!(len <= 22, "{len}");
+    let after = pane(&d.app, 80, 24, ui::messages::render);
+    assert_eq!(after, before);
+    assert!(after.contains("Crash: Disarming"), "{after}");
+    assert!(!after.contains("newer below"), "{after}");
+    // One row short of fitting: scrolling goes back by at most that one line.
+    let h = len as u16 + 1; // borders + all but one line
+    let text = pane(&d.app, 80, h, ui::messages::render);
+    assert!(text.contains("1 newer below"), "{text}");
+    assert!(!text.contains("Crash: Disarming"), "{text}");
+    assert!(text.contains("link udpin:0.0.0.0:14550 up"), "{text}");
+    d.key(d.app.now, "end");
+    let text = pane(&d.app, 80, h, ui::messages::render);
+    assert!(text.contains("Crash: Disarming"), "{text}");
+    assert!(!text.contains("link udpin:0.0.0.0:14550 up"), "{text}");
+}

@@ -7,24 +7,20 @@ use ratatui::text::Span;
 use ratatui::widgets::{Cell, Row, Table, TableState};
 use ratatui::Frame;
 
-use super::{ellipsize, pane_block, selected_style, Theme};
+use super::{ellipsize, fmt, pane_block, selected_style, Theme};
 use crate::app::links::{loss_pct, LinkState, LinkStatus};
 use crate::app::{App, Pane};
 
-/// `1.2k` style numbers so rates fit narrow columns.
-pub fn human(n: f64) -> String {
-    if n >= 10_000_000.0 {
-        format!("{:.0}M", n / 1e6)
-    } else if n >= 10_000.0 {
-        format!("{:.0}k", n / 1e3)
-    } else if n >= 100.0 || n == n.trunc() {
-        format!("{n:.0}")
-    } else {
-        format!("{n:.1}")
-    }
+/// A frame or byte rate in `width` columns: one decimal below 100 unless whole, abbreviated
+/// (`12.3M`) rather than cut when too wide.
+fn rate(x: f64, width: u16) -> String {
+    let decimals = if x < 100.0 && x != x.trunc() { 1 } else { 0 };
+    fmt::real(x, decimals, width as usize)
 }
 
-/// (header, width) of the numeric columns: full names when wide, terse when not.
+/// (header, width) of the numeric columns: full names when wide, terse when not. Every width is
+/// at least 4, in which any number fits abbreviated (see [`fmt`]); LOST gets 5 so that tens of
+/// thousands lost stay exact.
 fn columns(wide: bool) -> [(&'static str, u16); 9] {
     if wide {
         [
@@ -42,18 +38,18 @@ fn columns(wide: bool) -> [(&'static str, u16); 9] {
         [
             ("F/S", 4),
             ("B/S", 5),
-            ("L10s", 5),
-            ("LOSS", 5),
-            ("CRC", 3),
+            ("L10s", 4),
+            ("LOSS", 4),
+            ("CRC", 4),
             ("RX", 6),
-            ("LOST", 4),
-            ("DUP", 3),
-            ("REO", 3),
+            ("LOST", 5),
+            ("DUP", 4),
+            ("REO", 4),
         ]
     }
 }
 
-/// Loss percent in at most 5 characters.
+/// Loss percent in at most 4 characters (`100%`, `9.9%`).
 fn pct(p: f64) -> String {
     if p >= 9.95 {
         format!("{p:.0}%")
@@ -62,13 +58,29 @@ fn pct(p: f64) -> String {
     }
 }
 
+/// Widths of the numeric columns, in order.
+type Widths = [u16; 9];
+
+/// The counter cells shared by link and source rows: CRC, RX, LOST, DUP, REO.
+fn counts<'a>(
+    w: &Widths,
+    crc: Cell<'a>,
+    rx: u64,
+    lost: u64,
+    dup: u64,
+    reord: u64,
+) -> [Cell<'a>; 5] {
+    let n = |v: u64, i: usize| Cell::from(fmt::count(v, w[i] as usize));
+    [crc, n(rx, 5), n(lost, 6), n(dup, 7), n(reord, 8)]
+}
+
 fn link_row<'a>(
     id: usize,
     l: &LinkStatus,
     now: u64,
     theme: &Theme,
-    spec_w: usize,
-    state_w: usize,
+    (spec_w, state_w): (usize, usize),
+    w: &Widths,
 ) -> Row<'a> {
     let (fps, bps) = l.rate.rates(now);
     let (dup, reord) = l.sources.values().fold((0, 0), |(d, r), s| {
@@ -92,22 +104,23 @@ fn link_row<'a>(
     } else {
         Style::default()
     };
-    Row::new(vec![
+    let crc = Cell::from(Span::styled(
+        fmt::count(l.parser.crc_errors, w[4] as usize),
+        crc_style,
+    ));
+    let mut cells = vec![
         Cell::from(ellipsize(&format!("{mark}{id} {}", l.spec), spec_w)),
         Cell::from(Span::styled(
             ellipsize(&l.state.label(), state_w),
             state_style,
         )),
-        Cell::from(human(fps)),
-        Cell::from(human(bps)),
+        Cell::from(rate(fps, w[0])),
+        Cell::from(rate(bps, w[1])),
         Cell::from(pct(loss_pct(l.window_totals(now)))),
         Cell::from(pct(loss_pct(totals))),
-        Cell::from(Span::styled(l.parser.crc_errors.to_string(), crc_style)),
-        Cell::from(totals.0.to_string()),
-        Cell::from(totals.1.to_string()),
-        Cell::from(dup.to_string()),
-        Cell::from(reord.to_string()),
-    ])
+    ];
+    cells.extend(counts(w, crc, totals.0, totals.1, dup, reord));
+    Row::new(cells)
 }
 
 pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
@@ -115,6 +128,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let inner = block.inner(area);
     frame.render_widget(block, area);
     let cols = columns(inner.width >= 120);
+    let w: Widths = cols.map(|c| c.1);
     let fixed: u16 = cols.iter().map(|c| c.1 + 1).sum::<u16>() + 1;
     let rest = inner.width.saturating_sub(fixed) as usize;
     // Spec and state share what the numbers leave; the spec gets more.
@@ -136,28 +150,29 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         if i == app.ui.link_sel {
             sel_row = rows.len();
         }
-        rows.push(link_row(i, l, now, theme, spec_w, state_w));
+        rows.push(link_row(i, l, now, theme, (spec_w, state_w), &w));
         if !l.expanded {
             continue;
         }
         for ((sys, comp), s) in &l.sources {
             let q = &s.seq;
-            rows.push(
-                Row::new(vec![
-                    Cell::from(format!("   └ {sys}:{comp}")),
-                    Cell::from(""),
-                    Cell::from(""),
-                    Cell::from(""),
-                    Cell::from(pct(q.window_loss_pct(now))),
-                    Cell::from(pct(q.loss_pct())),
-                    Cell::from(""),
-                    Cell::from(q.received.to_string()),
-                    Cell::from(q.lost.to_string()),
-                    Cell::from(q.duplicates.to_string()),
-                    Cell::from(q.reordered.to_string()),
-                ])
-                .style(theme.dim()),
-            );
+            let mut cells = vec![
+                Cell::from(ellipsize(&format!("   └ {sys}:{comp}"), spec_w)),
+                Cell::from(""),
+                Cell::from(""),
+                Cell::from(""),
+                Cell::from(pct(q.window_loss_pct(now))),
+                Cell::from(pct(q.loss_pct())),
+            ];
+            cells.extend(counts(
+                &w,
+                Cell::from(""),
+                q.received,
+                q.lost,
+                q.duplicates,
+                q.reordered,
+            ));
+            rows.push(Row::new(cells).style(theme.dim()));
         }
     }
     if app.links.is_empty() {

@@ -1,6 +1,7 @@
 //! The messages pane: STATUSTEXT and mavterm's own notices, oldest at the top, newest at the
 //! bottom. Each line: `HH:MM:SS SEVERITY source text`, coloured by severity (the label is there
-//! for NO_COLOR). `msg_scroll` lines back from the newest; the title says when scrolled.
+//! for NO_COLOR). `msg_scroll` lines back from the newest, applied only to lines that do not fit
+//! (at most `len - visible`); the title says when scrolled.
 
 use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
@@ -23,7 +24,12 @@ pub fn notice_text(app: &App, n: &Notice) -> (String, String, String, String) {
 
 pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let len = app.notices.len();
-    let scroll = app.ui.msg_scroll.min(len.saturating_sub(1));
+    let visible = pane_block(app, Pane::Messages, String::new(), theme)
+        .inner(area)
+        .height as usize;
+    // Scrolling back only applies to lines that do not fit: when everything fits, the newest
+    // stays in view; and the window never scrolls past the oldest line at the top.
+    let scroll = app.ui.msg_scroll.min(len.saturating_sub(visible.max(1)));
     let extra = if scroll > 0 {
         format!(" ({len}, {scroll} newer below)")
     } else {
@@ -32,7 +38,6 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let block = pane_block(app, Pane::Messages, extra, theme);
     let inner = block.inner(area);
     frame.render_widget(block, area);
-    let visible = inner.height as usize;
     if visible == 0 {
         return;
     }

@@ -10,21 +10,32 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Cell, Paragraph, Row, Table, TableState};
 use ratatui::Frame;
 
-use super::{ellipsize, pane_block, selected_style, Theme};
+use super::{ellipsize, fmt, pane_block, selected_style, Theme};
 use crate::app::{App, Pane};
 use crate::proto::vehicles::Vehicle;
 
 /// Inner width from which every column is shown.
 const WIDE: u16 = 110;
+/// Width of the LAST HB column.
+const AGE_W: u16 = 12;
+/// Width of the HZ column.
+const HZ_W: u16 = 4;
 
-/// "0.4s" while heard; "lost 12s ago" once lost.
-pub fn age_text(v: &Vehicle, now: crate::clock::Micros) -> String {
+/// "0.4s" while heard; "lost 12s ago" once lost, in at most `width` characters: longer ages
+/// in larger units ("lost 10m40s ago"), without "ago" if that does not fit ("lost 10m40s").
+pub fn age_text(v: &Vehicle, now: crate::clock::Micros, width: usize) -> String {
     let age = v.age_secs(now);
-    if v.lost {
-        format!("lost {age:.0}s ago")
+    let dur = fmt::duration(age.round() as u64);
+    let candidates = if v.lost {
+        vec![format!("lost {dur} ago"), format!("lost {dur}"), dur]
     } else {
-        format!("{age:.1}s")
-    }
+        vec![format!("{age:.1}s"), dur]
+    };
+    let last = candidates.last().cloned().unwrap_or_default();
+    candidates
+        .into_iter()
+        .find(|c| c.chars().count() <= width)
+        .unwrap_or_else(|| ellipsize(&last, width))
 }
 
 /// What is wrong with a component, in words.
@@ -58,27 +69,25 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         return;
     }
     let wide = inner.width >= WIDE;
-    let mut header = vec!["", "ID", "TYPE"];
-    let mut widths = vec![
-        Constraint::Length(1),
-        Constraint::Length(7),
-        Constraint::Length(if wide { 12 } else { 10 }),
-    ];
+    let links_w = if wide { 5 } else { 4 };
+    // (header, width) of every column but the last (FLAGS), which takes what is left.
+    let mut cols = vec![("", 1), ("ID", 7), ("TYPE", if wide { 12 } else { 10 })];
     if wide {
-        header.push("AUTOPILOT");
-        widths.push(Constraint::Length(13));
+        cols.push(("AUTOPILOT", 13));
     }
-    header.extend(["MODE", "ARMED", "STATUS", "LAST HB", "HZ"]);
-    widths.extend([
-        Constraint::Length(if wide { 12 } else { 9 }),
-        Constraint::Length(8),
-        Constraint::Length(if wide { 11 } else { 8 }),
-        Constraint::Length(12),
-        Constraint::Length(4),
+    cols.extend([
+        ("MODE", if wide { 12 } else { 9 }),
+        ("ARMED", 8),
+        ("STATUS", if wide { 11 } else { 8 }),
+        ("LAST HB", AGE_W),
+        ("HZ", HZ_W),
+        (if wide { "LINKS" } else { "LINK" }, links_w),
     ]);
-    header.push(if wide { "LINKS" } else { "LINK" });
-    widths.push(Constraint::Length(if wide { 5 } else { 4 }));
+    let used: u16 = cols.iter().map(|c| c.1 + 1).sum();
+    let flags_w = inner.width.saturating_sub(used).max(5) as usize;
+    let mut header: Vec<&str> = cols.iter().map(|c| c.0).collect();
     header.push("FLAGS");
+    let mut widths: Vec<Constraint> = cols.iter().map(|c| Constraint::Length(c.1)).collect();
     widths.push(Constraint::Min(5));
 
     let rows = app.vehicles.iter().map(|v| {
@@ -109,12 +118,15 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             Cell::from(ellipsize(&v.mode_name(), if wide { 12 } else { 9 })),
             armed,
             Cell::from(ellipsize(&v.status_name(), if wide { 11 } else { 8 })),
-            Cell::from(age_text(v, app.now)),
-            Cell::from(format!("{:.1}", v.heartbeat_hz())),
+            Cell::from(age_text(v, app.now, AGE_W as usize)),
+            Cell::from(fmt::real(v.heartbeat_hz(), 1, HZ_W as usize)),
         ]);
         let links: Vec<String> = v.links.iter().map(|l| l.to_string()).collect();
-        cells.push(Cell::from(links.join(",")));
-        cells.push(Cell::from(Span::styled(flags_text(v, wide), theme.alert())));
+        cells.push(Cell::from(ellipsize(&links.join(","), links_w as usize)));
+        cells.push(Cell::from(Span::styled(
+            ellipsize(&flags_text(v, wide), flags_w),
+            theme.alert(),
+        )));
         let style = if is_target && !v.lost {
             base.add_modifier(ratatui::style::Modifier::BOLD)
         } else {

@@ -1,0 +1,139 @@
+//! Numbers and durations that fit a column: exact when they fit, abbreviated (`24.9k`, `1.2M`)
+//! when they do not, never cut. Any value fits a column of 4 or more characters.
+
+use super::ellipsize;
+
+/// Decimal multipliers and their suffixes.
+const UNITS: [(f64, char); 6] = [
+    (1e3, 'k'),
+    (1e6, 'M'),
+    (1e9, 'G'),
+    (1e12, 'T'),
+    (1e15, 'P'),
+    (1e18, 'E'),
+];
+
+/// A count in at most `width` characters: all its digits if they fit, else abbreviated.
+pub fn count(n: u64, width: usize) -> String {
+    let s = n.to_string();
+    if s.len() <= width {
+        s
+    } else {
+        abbreviate(n as f64, width)
+    }
+}
+
+/// A non-negative real (a rate) with `decimals` decimals if that fits in `width`, else with
+/// none, else abbreviated. Negative and non-finite values show as 0.
+pub fn real(x: f64, decimals: usize, width: usize) -> String {
+    let x = if x.is_finite() && x > 0.0 { x } else { 0.0 };
+    let s = format!("{x:.decimals$}");
+    if s.len() <= width {
+        return s;
+    }
+    let s = format!("{x:.0}");
+    if s.len() <= width {
+        return s;
+    }
+    abbreviate(x, width)
+}
+
+/// `x` as a mantissa of 1 to 999 and a unit suffix, with one decimal if that fits in `width`
+/// (`24.9k`), else none (`25k`). Below 4 characters some values cannot fit at all: those are
+/// cut with `…`, so the cut at least shows.
+fn abbreviate(x: f64, width: usize) -> String {
+    let mut shortest = None;
+    for (unit, suffix) in UNITS {
+        for decimals in [1, 0] {
+            let digits = format!("{:.decimals$}", x / unit);
+            // A mantissa that rounds to 1000 belongs to the next unit; below 1, to the previous.
+            let rounded: f64 = digits.parse().unwrap_or(f64::INFINITY);
+            if !(1.0..1000.0).contains(&rounded) {
+                continue;
+            }
+            let s = format!("{digits}{suffix}");
+            if s.chars().count() <= width {
+                return s;
+            }
+            shortest = Some(s);
+        }
+    }
+    ellipsize(&shortest.unwrap_or_else(|| format!("{x:.0}")), width)
+}
+
+/// Whole seconds as a compact duration: `42s`, `10m40s`, `3h07m`, `2d05h`.
+pub fn duration(secs: u64) -> String {
+    let (m, h, d) = (secs / 60, secs / 3600, secs / 86_400);
+    if secs < 60 {
+        format!("{secs}s")
+    } else if secs < 3600 {
+        format!("{m}m{:02}s", secs % 60)
+    } else if secs < 86_400 {
+        format!("{h}h{:02}m", m % 60)
+    } else {
+        format!("{d}d{:02}h", h % 24)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counts_are_exact_when_they_fit() {
+        assert_eq!(count(0, 4), "0");
+        assert_eq!(count(9999, 4), "9999");
+        assert_eq!(count(24_874, 5), "24874");
+        assert_eq!(count(999_999, 6), "999999");
+    }
+
+    #[test]
+    fn counts_that_do_not_fit_are_abbreviated_never_cut() {
+        assert_eq!(count(24_874, 4), "25k");
+        assert_eq!(count(24_874, 3), "25k");
+        assert_eq!(count(123_456, 5), "123k");
+        assert_eq!(count(123_456, 4), "123k");
+        assert_eq!(count(999_499, 5), "999k");
+        // Rounds up to the next unit rather than showing 1000k.
+        assert_eq!(count(999_950, 5), "1.0M");
+        assert_eq!(count(1_234_567, 5), "1.2M");
+        assert_eq!(count(1_234_567, 4), "1.2M");
+        assert_eq!(count(12_345_678, 5), "12.3M");
+        assert_eq!(count(12_345_678, 4), "12M");
+        assert_eq!(count(u64::MAX, 5), "18.4E");
+        assert_eq!(count(u64::MAX, 4), "18E");
+        // Every value fits 4 columns without a cut.
+        for e in 0..19 {
+            for n in [10u64.pow(e), 10u64.pow(e) * 5 - 1, 10u64.pow(e) * 10 - 1] {
+                let s = count(n, 4);
+                assert!(s.chars().count() <= 4 && !s.contains('…'), "{n}: {s}");
+            }
+        }
+        // Too narrow for some values: the cut shows.
+        assert_eq!(count(123_456, 3), "12…");
+    }
+
+    #[test]
+    fn reals_drop_decimals_before_abbreviating() {
+        assert_eq!(real(6.66, 1, 4), "6.7");
+        assert_eq!(real(99.94, 1, 4), "99.9");
+        assert_eq!(real(99.96, 1, 4), "100");
+        assert_eq!(real(4894.0, 0, 5), "4894");
+        assert_eq!(real(12_345.0, 0, 5), "12345");
+        assert_eq!(real(12_345.0, 0, 4), "12k");
+        assert_eq!(real(1_000_006.7, 1, 4), "1.0M");
+        assert_eq!(real(f64::NAN, 1, 4), "0.0");
+        assert_eq!(real(-3.0, 0, 4), "0");
+    }
+
+    #[test]
+    fn durations() {
+        assert_eq!(duration(0), "0s");
+        assert_eq!(duration(59), "59s");
+        assert_eq!(duration(60), "1m00s");
+        assert_eq!(duration(640), "10m40s");
+        assert_eq!(duration(3599), "59m59s");
+        assert_eq!(duration(3600 + 7 * 60 + 5), "1h07m");
+        assert_eq!(duration(2 * 86_400 + 5 * 3600), "2d05h");
+    }
+}
