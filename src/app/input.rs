@@ -183,9 +183,17 @@ impl Prompt {
 /// The prompt's commands: (name, arguments, what it does), in the order `help` lists them.
 pub const COMMANDS: &[(&str, &str, &str)] = &[
     ("help", "", "show the keys of this screen"),
-    ("link", "SPEC", "open another link (udpin:0.0.0.0:14550, tcp:HOST:PORT, …)"),
+    (
+        "link",
+        "SPEC",
+        "open another link (udpin:0.0.0.0:14550, tcp:HOST:PORT, …)",
+    ),
     ("quit", "", "quit mavterm"),
-    ("route", "LINK|auto", "send to the target on this link, or the most recent"),
+    (
+        "route",
+        "LINK|auto",
+        "send to the target on this link, or the most recent",
+    ),
     ("target", "SYSID[:COMPID]", "make this autopilot the target"),
 ];
 
@@ -238,7 +246,9 @@ pub fn parse_command(line: &str) -> Result<Command, String> {
             n => n
                 .parse::<usize>()
                 .map(|n| Command::Route(Some(n)))
-                .map_err(|_| "usage: route LINK (its number in the Links pane) or route auto".into()),
+                .map_err(|_| {
+                    "usage: route LINK (its number in the Links pane) or route auto".into()
+                }),
         },
         other => {
             let names: Vec<&str> = COMMANDS.iter().map(|c| c.0).collect();
@@ -328,8 +338,13 @@ mod tests {
         assert_eq!(parse_command("route auto"), Ok(Command::Route(None)));
         assert_eq!(parse_command("route 2"), Ok(Command::Route(Some(2))));
         assert!(parse_command("target 300").unwrap_err().contains("usage"));
-        assert!(parse_command("quit now").unwrap_err().contains("no arguments"));
+        assert!(parse_command("quit now")
+            .unwrap_err()
+            .contains("no arguments"));
         let e = parse_command("arm").unwrap_err();
-        assert!(e.contains("unknown command `arm`") && e.contains("target"), "{e}");
+        assert!(
+            e.contains("unknown command `arm`") && e.contains("target"),
+            "{e}"
+        );
     }
 }

@@ -64,6 +64,7 @@ impl App {
 
     /// A key in a text mode: editing actions, or a printable character typed.
     fn on_text_key(&mut self, key: Key, action: Option<Action>, fx: &mut Vec<Effect>) {
+        self.ui.message = None; // completions shown for the line as it was
         let prompt = self.ui.mode == Mode::Prompt;
         let line = if prompt {
             &mut self.ui.prompt.line
@@ -108,9 +109,15 @@ impl App {
         }
     }
 
-    /// Whole-line completions for the prompt: command names, then each command's arguments.
+    /// Whole-line completions for the prompt: command names for the first word, then each
+    /// command's arguments.
     fn completions(&self) -> Vec<String> {
-        let mut out: Vec<String> = COMMANDS.iter().map(|c| c.0.to_string()).collect();
+        let line = &self.ui.prompt.line;
+        let before: String = line.text.chars().take(line.cursor).collect();
+        if !before.contains(' ') {
+            return COMMANDS.iter().map(|c| c.0.to_string()).collect();
+        }
+        let mut out = Vec::new();
         for k in self.targetable() {
             out.push(format!("target {}:{}", k.0, k.1));
         }
@@ -118,7 +125,9 @@ impl App {
         for i in 0..self.links.len() {
             out.push(format!("route {i}"));
         }
-        for scheme in ["udpin:", "udpout:", "tcp:", "tcpin:", "serial:", "sim://", "tlog:"] {
+        for scheme in [
+            "udpin:", "udpout:", "tcp:", "tcpin:", "serial:", "sim://", "tlog:",
+        ] {
             out.push(format!("link {scheme}"));
         }
         out
@@ -138,7 +147,11 @@ impl App {
     }
 
     /// Carry out a command: `Ok(Some(text))` to tell the operator what happened.
-    fn run_command(&mut self, cmd: Command, fx: &mut Vec<Effect>) -> Result<Option<String>, String> {
+    fn run_command(
+        &mut self,
+        cmd: Command,
+        fx: &mut Vec<Effect>,
+    ) -> Result<Option<String>, String> {
         match cmd {
             Command::Help => {
                 self.open_help();
@@ -157,8 +170,11 @@ impl App {
                 let spec: LinkSpec = text.parse().map_err(|e| format!("{e}"))?;
                 let link = self.links.len();
                 let name = spec.to_string();
-                self.links
-                    .push(LinkStatus::new(name.clone(), self.cfg.sysid, self.cfg.compid));
+                self.links.push(LinkStatus::new(
+                    name.clone(),
+                    self.cfg.sysid,
+                    self.cfg.compid,
+                ));
                 self.cfg.links.push(name.clone());
                 fx.push(Effect::OpenLink { link, spec });
                 Ok(Some(format!("link {link}: opening {name}")))
@@ -203,7 +219,10 @@ impl App {
                 Err(if heard.is_empty() {
                     format!("no autopilot {what} heard (none heard yet)")
                 } else {
-                    format!("no autopilot {what} heard (autopilots: {})", heard.join(", "))
+                    format!(
+                        "no autopilot {what} heard (autopilots: {})",
+                        heard.join(", ")
+                    )
                 })
             }
         }

@@ -123,13 +123,6 @@ impl SeqTracker {
         Self::default()
     }
 
-    /// Start a fresh count at the next frame, counting neither loss nor a restart (the link
-    /// itself reconnected).
-    pub fn restart_sequence(&mut self) {
-        self.last = None;
-        self.seen = [0; 4];
-    }
-
     fn is_seen(&self, s: u8) -> bool {
         self.seen[(s >> 6) as usize] & (1 << (s & 63)) != 0
     }
@@ -316,6 +309,7 @@ impl SeqTracker {
     /// counted for its jump (a link reconnected, e.g. a new TCP connection). Counters are kept.
     pub fn restart_sequence(&mut self) {
         self.last = None;
+        self.seen = [0; 4];
     }
 
     /// Loss since start, in percent.

@@ -10,7 +10,7 @@ use ratatui::Frame;
 use super::{ellipsize, Theme};
 use crate::app::input::COMMANDS;
 use crate::app::App;
-use crate::keymap::Mode;
+use crate::keymap::{Action, Mode};
 
 /// (keys, description) for every bound action of normal mode on the current screen, in the
 /// keymap's order.
@@ -19,6 +19,13 @@ pub fn help_rows(app: &App) -> Vec<(String, &'static str)> {
         .bindings(Mode::Normal, app.ui.screen)
         .into_iter()
         .filter(|(_, keys)| !keys.is_empty())
+        .filter(|(a, _)| match a {
+            // Number keys of screens this build does not have yet are not worth a line.
+            Action::Screen(i) => crate::keymap::SCREENS
+                .get(*i as usize)
+                .is_some_and(|n| crate::app::screen::by_name(n).is_some()),
+            _ => true,
+        })
         .map(|(a, keys)| {
             let names: Vec<String> = keys.iter().map(|k| k.to_string()).collect();
             (names.join(", "), a.description())

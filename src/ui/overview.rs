@@ -117,4 +117,3 @@ fn collapsed(app: &App, pane: Pane, frame: &mut Frame, rect: Rect, theme: &Theme
     ]);
     frame.render_widget(Paragraph::new(line), rect);
 }
-

@@ -65,8 +65,11 @@ pub fn hints_text(app: &App, width: usize) -> String {
 /// The status bar; while a command or a value is typed, the line being typed with its cursor.
 pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     match app.ui.mode {
-        Mode::Prompt => return text_line(frame, area, ":", &app.ui.prompt.line, theme),
-        Mode::Edit => return text_line(frame, area, "= ", &app.ui.edit, theme),
+        Mode::Prompt => {
+            let hint = app.ui.message.as_ref().map(|m| m.1.as_str());
+            return text_line(frame, area, ":", &app.ui.prompt.line, hint, theme);
+        }
+        Mode::Edit => return text_line(frame, area, "= ", &app.ui.edit, None, theme),
         _ => {}
     }
     let clock = app.wall(app.now).format("%H:%M:%S").to_string();
@@ -95,16 +98,33 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
 }
 
 /// `PREFIX text` with the cursor placed in it; the start scrolls out of view on a long line.
-fn text_line(frame: &mut Frame, area: Rect, prefix: &str, line: &TextLine, theme: &Theme) {
+/// `hint` (completions) follows the text, dim, where there is room.
+fn text_line(
+    frame: &mut Frame,
+    area: Rect,
+    prefix: &str,
+    line: &TextLine,
+    hint: Option<&str>,
+    theme: &Theme,
+) {
     let width = area.width as usize;
     let prefix_w = prefix.chars().count();
     let room = width.saturating_sub(prefix_w + 1).max(1);
     let skip = line.cursor.saturating_sub(room);
     let shown: String = line.text.chars().skip(skip).take(room).collect();
-    let text = Line::from(vec![
+    let used = prefix_w + shown.chars().count();
+    let mut spans = vec![
         Span::styled(prefix.to_string(), theme.header()),
         Span::raw(shown),
-    ]);
+    ];
+    if let Some(h) = hint {
+        let room = width.saturating_sub(used + 4);
+        if room > 8 {
+            spans.push(Span::raw("    "));
+            spans.push(Span::styled(ellipsize(h, room), theme.dim()));
+        }
+    }
+    let text = Line::from(spans);
     frame.render_widget(Paragraph::new(text), area);
     let x = area.x + (prefix_w + line.cursor - skip).min(width.saturating_sub(1)) as u16;
     frame.set_cursor_position((x, area.y));
