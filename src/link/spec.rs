@@ -94,7 +94,7 @@ impl LinkSpec {
 impl fmt::Display for LinkSpec {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         fn hp(h: &str) -> String {
-            if h.contains(':') {
+            if h.contains([':', '%']) {
                 format!("[{h}]")
             } else {
                 h.to_string()
@@ -105,9 +105,14 @@ impl fmt::Display for LinkSpec {
             LinkSpec::UdpOut { host, port } => write!(f, "udpout:{}:{port}", hp(host)),
             LinkSpec::TcpClient { host, port } => write!(f, "tcp:{}:{port}", hp(host)),
             LinkSpec::TcpServer { addr, port } => write!(f, "tcpin:{}:{port}", hp(addr)),
+            // A path that starts with `//` would read as the URL form: spell that out.
+            LinkSpec::Serial { path, baud } if path.starts_with("//") => {
+                write!(f, "serial://{path}:{baud}")
+            }
             LinkSpec::Serial { path, baud } => write!(f, "serial:{path}:{baud}"),
             LinkSpec::Sim { query } if query.is_empty() => write!(f, "sim://"),
             LinkSpec::Sim { query } => write!(f, "sim://?{query}"),
+            LinkSpec::Tlog { path } if path.starts_with("//") => write!(f, "tlog://{path}"),
             LinkSpec::Tlog { path } => write!(f, "tlog:{path}"),
         }
     }
@@ -479,9 +484,14 @@ mod tests {
             "serial:/dev/x:57600",
             "sim://?vehicles=2",
             "udpin:[::1]:14550",
+            "tlog:logs/a,b.tlog",
+            "tcp:[fe81%eth0]:5760",
         ] {
             assert_eq!(p(s).to_string(), s);
         }
+        // `//` at the start of a path is kept, not taken for the URL form.
+        assert_eq!(p("tlog:////srv/x.tlog"), tlog("//srv/x.tlog"));
+        assert_eq!(p("tlog:////srv/x.tlog").to_string(), "tlog:////srv/x.tlog");
     }
 
     #[test]
