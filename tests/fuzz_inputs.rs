@@ -140,9 +140,9 @@ fn save_failure(name: &str, seed: u64, iter: usize, input: &[u8]) -> PathBuf {
 fn fuzz(name: &str, corpus: Vec<Vec<u8>>, dict: &[&[u8]], check: impl Fn(&[u8], &mut Rng)) {
     assert!(!corpus.is_empty());
     let seed = env_seed();
-    let name_hash = name
-        .bytes()
-        .fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3));
+    let name_hash = name.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+        (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
+    });
     let mut rng = Rng(seed ^ name_hash);
     let budget = Duration::from_secs_f64(env_secs());
     let start = Instant::now();
@@ -230,9 +230,31 @@ fn fuzz_link_specs() {
     .map(|s| s.as_bytes().to_vec())
     .collect();
     let dict: &[&[u8]] = &[
-        b"udpin:", b"udp://", b"udpout:", b"tcp:", b"tcpin:", b"serial:", b"tlog:", b"sim://?",
-        b"file://", b"[", b"]", b"::", b":", b",", b"/dev/", b"COM", b"57600", b"0", b"65535",
-        b"65536", b"%", b" ", "\u{e9}".as_bytes(), b"//", b"?",
+        b"udpin:",
+        b"udp://",
+        b"udpout:",
+        b"tcp:",
+        b"tcpin:",
+        b"serial:",
+        b"tlog:",
+        b"sim://?",
+        b"file://",
+        b"[",
+        b"]",
+        b"::",
+        b":",
+        b",",
+        b"/dev/",
+        b"COM",
+        b"57600",
+        b"0",
+        b"65535",
+        b"65536",
+        b"%",
+        b" ",
+        "\u{e9}".as_bytes(),
+        b"//",
+        b"?",
     ];
     fuzz("link_spec", corpus, dict, |input, _| {
         let s = text(input);
@@ -361,9 +383,26 @@ fn fuzz_replay_scripts() {
     .map(|s| s.as_bytes().to_vec())
     .collect();
     let dict: &[&[u8]] = &[
-        b"key ", b"text \"", b"snapshot ", b"quit", b"\n", b"\r\n", b"#", b" # c", b"\\\"",
-        b"\\\\", b"\\", b"\"", b"0.", b".5", b"1.000001", b"99999999999999999999", b"ctrl-",
-        b"tab", b"enter", b"\t",
+        b"key ",
+        b"text \"",
+        b"snapshot ",
+        b"quit",
+        b"\n",
+        b"\r\n",
+        b"#",
+        b" # c",
+        b"\\\"",
+        b"\\\\",
+        b"\\",
+        b"\"",
+        b"0.",
+        b".5",
+        b"1.000001",
+        b"99999999999999999999",
+        b"ctrl-",
+        b"tab",
+        b"enter",
+        b"\t",
     ];
     fuzz("script", corpus, dict, |input, _| {
         let t = text(input);
@@ -437,7 +476,9 @@ impl Read for Chunky<'_> {
         if self.rng.below(50) == 0 {
             return Err(io::ErrorKind::Interrupted.into());
         }
-        let n = (1 + self.rng.below(4096)).min(out.len()).min(self.data.len());
+        let n = (1 + self.rng.below(4096))
+            .min(out.len())
+            .min(self.data.len());
         out[..n].copy_from_slice(&self.data[..n]);
         self.data = &self.data[n..];
         Ok(n)
@@ -463,7 +504,12 @@ fn fuzz_tlog_reader() {
     let files = tlog_corpus();
     let corpus: Vec<Vec<u8>> = files.iter().map(|(_, b)| b.clone()).collect();
     let dict: &[&[u8]] = &[
-        b"\xFD", b"\xFE", b"\xFD\x09\x00\x00", b"\xFE\x09", b"\xFD\xFF\x01", b"\0\0\0\0\0\0\0\0",
+        b"\xFD",
+        b"\xFE",
+        b"\xFD\x09\x00\x00",
+        b"\xFE\x09",
+        b"\xFD\xFF\x01",
+        b"\0\0\0\0\0\0\0\0",
         b"\xFF\xFF\xFF\xFF\xFF\xFF\xFF\xFF",
     ];
     fuzz("tlog", corpus, dict, |input, rng| {

@@ -380,7 +380,13 @@ mod tests {
         buf.extend(&good[cut..]);
         let (got, skipped) = read_tlog_counted(&buf).unwrap();
         assert_eq!(got, recs);
-        assert_eq!(skipped, Skipped { bytes: 100, gaps: 1 });
+        assert_eq!(
+            skipped,
+            Skipped {
+                bytes: 100,
+                gaps: 1
+            }
+        );
     }
 
     #[test]
@@ -399,7 +405,13 @@ mod tests {
         buf.extend(&good[second_end..]);
         let (got, skipped) = read_tlog_counted(&buf).unwrap();
         assert_eq!(got, recs);
-        assert_eq!(skipped, Skipped { bytes: 350, gaps: 2 });
+        assert_eq!(
+            skipped,
+            Skipped {
+                bytes: 350,
+                gaps: 2
+            }
+        );
         assert_eq!(skipped.gaps, 2);
     }
 
