@@ -321,8 +321,11 @@ impl FromStr for Key {
         let (mut ctrl, mut alt, mut shift) = (false, false, false);
         let mut rest = s;
         loop {
-            let lower = rest.to_ascii_lowercase();
-            let strip = |p: &str| lower.starts_with(p) && rest.len() > p.len();
+            // Compare the prefix only: lower-casing all of `rest` each round is quadratic.
+            let strip = |p: &str| {
+                rest.len() > p.len()
+                    && rest.as_bytes()[..p.len()].eq_ignore_ascii_case(p.as_bytes())
+            };
             if strip("ctrl-") {
                 ctrl = true;
                 rest = &rest[5..];

@@ -58,6 +58,12 @@ fn key_names_and_aliases() {
         }
     );
     assert_eq!(k("BackTab").to_string(), "backtab");
+    // Modifiers may repeat; a very long name is still read in one pass.
+    assert_eq!(k("ctrl-CTRL-x"), Key::ctrl('x'));
+    assert_eq!(k(&format!("{}x", "ctrl-".repeat(200_000))), Key::ctrl('x'));
+    assert!(format!("{}xx", "Alt-".repeat(200_000))
+        .parse::<Key>()
+        .is_err());
     for bad in [
         "",
         "ctrl-",

@@ -76,8 +76,8 @@ pub enum SpecError {
     )]
     Ipv6NeedsBrackets { input: String, hint: String },
     #[error(
-        "link spec `{input}`: host `{host}` has a `:` (an IPv6 address goes in brackets: \
-         [ADDR]:PORT); {ACCEPTED_FORMS}"
+        "link spec `{input}`: host `{host}` is not a host name or address (an IPv6 address \
+         goes in brackets: [ADDR]:PORT); {ACCEPTED_FORMS}"
     )]
     BadHost { input: String, host: String },
     #[error("link spec `{input}`: missing file path after `tlog:`, e.g. tlog:flight.tlog")]
@@ -94,7 +94,7 @@ impl LinkSpec {
 impl fmt::Display for LinkSpec {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         fn hp(h: &str) -> String {
-            if h.contains(':') {
+            if h.contains([':', '%']) {
                 format!("[{h}]")
             } else {
                 h.to_string()
@@ -105,9 +105,14 @@ impl fmt::Display for LinkSpec {
             LinkSpec::UdpOut { host, port } => write!(f, "udpout:{}:{port}", hp(host)),
             LinkSpec::TcpClient { host, port } => write!(f, "tcp:{}:{port}", hp(host)),
             LinkSpec::TcpServer { addr, port } => write!(f, "tcpin:{}:{port}", hp(addr)),
+            // A path that starts with `//` would read as the URL form: spell that out.
+            LinkSpec::Serial { path, baud } if path.starts_with("//") => {
+                write!(f, "serial://{path}:{baud}")
+            }
             LinkSpec::Serial { path, baud } => write!(f, "serial:{path}:{baud}"),
             LinkSpec::Sim { query } if query.is_empty() => write!(f, "sim://"),
             LinkSpec::Sim { query } => write!(f, "sim://?{query}"),
+            LinkSpec::Tlog { path } if path.starts_with("//") => write!(f, "tlog://{path}"),
             LinkSpec::Tlog { path } => write!(f, "tlog:{path}"),
         }
     }
@@ -188,6 +193,17 @@ fn host_port(
         }
     };
     let port = parse_port(input, port)?;
+    // Names, IPv4 and (in brackets) IPv6 addresses with an optional `%zone`.
+    let bracketed = rest.starts_with('[');
+    let allowed = |c: char| {
+        c.is_alphanumeric() || matches!(c, '-' | '.' | '_') || (bracketed && matches!(c, ':' | '%'))
+    };
+    if !host.chars().all(allowed) {
+        return Err(SpecError::BadHost {
+            input: input.into(),
+            host,
+        });
+    }
     if host.is_empty() {
         if allow_empty_host {
             return Ok(("0.0.0.0".into(), port));
@@ -468,9 +484,14 @@ mod tests {
             "serial:/dev/x:57600",
             "sim://?vehicles=2",
             "udpin:[::1]:14550",
+            "tlog:logs/a,b.tlog",
+            "tcp:[fe81%eth0]:5760",
         ] {
             assert_eq!(p(s).to_string(), s);
         }
+        // `//` at the start of a path is kept, not taken for the URL form.
+        assert_eq!(p("tlog:////srv/x.tlog"), tlog("//srv/x.tlog"));
+        assert_eq!(p("tlog:////srv/x.tlog").to_string(), "tlog:////srv/x.tlog");
     }
 
     #[test]
@@ -620,6 +641,32 @@ mod tests {
         for spec in ["udpin:1.2.3.4:+80", "tcp:h:0", "tcp:h:65536", "tcp:h:"] {
             let e = spec.parse::<LinkSpec>().unwrap_err();
             assert!(matches!(e, SpecError::BadPort { .. }), "{spec}: {e}");
+        }
+    }
+
+    #[test]
+    fn hosts_are_names_or_addresses() {
+        for (spec, host) in [
+            ("tcp:a,b:5760", "a,b"),
+            ("tcp:[[x]:1", "[x"),
+            ("udpout:a b:1", "a b"),
+            ("tcp:h/x:1", "h/x"),
+            ("tcp:h%1:1", "h%1"),
+        ] {
+            match spec.parse::<LinkSpec>() {
+                Err(SpecError::BadHost { host: h, .. }) => assert_eq!(h, host, "{spec}"),
+                other => panic!("{spec}: {other:?}"),
+            }
+        }
+        for (spec, host) in [
+            ("tcp:my_host-1.local:5760", "my_host-1.local"),
+            ("tcp:10.0.0.2:5760", "10.0.0.2"),
+            ("tcp:[fe80::1%eth0]:5760", "fe80::1%eth0"),
+        ] {
+            match p(spec) {
+                LinkSpec::TcpClient { host: h, .. } => assert_eq!(h, host),
+                other => panic!("{spec}: {other:?}"),
+            }
         }
     }
 }
