@@ -480,3 +480,32 @@ fn a_link_that_reconnects_counts_afresh_and_asks_for_streams_again() {
         "asked again on the new connection"
     );
 }
+
+#[test]
+fn telemetry_our_dialect_cannot_decode_still_shows_streams_flow() {
+    let mut a = app(1);
+    // GPS_RAW_INT with a fix type newer than the dialect (200): the crate refuses the payload.
+    let gps: Vec<Vec<u8>> = common::pymavlink_encode(
+        &(0..=255u8)
+            .map(|seq| {
+                json!({"sysid": 1, "compid": 1, "seq": seq, "msg": "GPS_RAW_INT", "fields": {
+                "time_usec": 0, "fix_type": 200, "lat": 0, "lon": 0, "alt": 0, "eph": 0, "epv": 0,
+                "vel": 0, "cog": 0, "satellites_visible": 10}})
+            })
+            .collect::<Vec<_>>(),
+    );
+    assert!(FrameParser::new().parse_all(&gps[0])[0].message.is_none());
+    let mut fx = Vec::new();
+    let mut seq = 0u8;
+    for i in 0..200u64 {
+        let t = i * 100_000;
+        fx.extend(run_timers(&mut a, t));
+        if t.is_multiple_of(SECOND) {
+            fx.extend(feed(&mut a, t, 0, &heartbeat(1, seq, ARDUPILOT)));
+            seq = seq.wrapping_add(1);
+        }
+        fx.extend(feed(&mut a, t, 0, &gps[seq as usize]));
+        seq = seq.wrapping_add(1);
+    }
+    assert_eq!(count_stream_requests(&fx), 1, "asked once, and it flows");
+}

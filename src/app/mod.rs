@@ -554,7 +554,7 @@ impl App {
             .collect();
         for skey in sessions {
             let out = match self.sessions.get_mut(&skey) {
-                Some(s) => s.on_message(now, link, key.1, msg, ack.as_ref()),
+                Some(s) => s.on_message(now, link, (key.1, frame.msgid), msg, ack.as_ref()),
                 None => continue,
             };
             self.session_out(skey, out, fx);

@@ -5,7 +5,7 @@
 //! us (or broadcast), the time, and the link each came on; it returns what to send and what to
 //! tell the operator, and says when it next needs waking ([`Session::next_deadline`]).
 //!
-//! Adding a machine: give it `on_message(now, link, &MavMessage)`, `poll(now) -> Vec<Out>` and
+//! Adding a machine: give it `on_message(now, link, ...)`, `poll(now) -> Vec<Out>` and
 //! `next_deadline() -> Option<Micros>`, hold it here, call it from the three methods below, and
 //! map its output to [`SessionOut`].
 
@@ -73,12 +73,13 @@ impl Session {
         self.heard.keys().copied()
     }
 
-    /// A frame of this system, for us or broadcast, heard on `link`. `from` is its component.
+    /// A frame of this system, for us or broadcast, heard on `link`: its source component, its
+    /// message id, and the message when the dialect could read it (or read it by hand).
     pub fn on_message(
         &mut self,
         now: Micros,
         link: LinkId,
-        from: u8,
+        (from, id): (u8, u32),
         msg: Option<&MavMessage>,
         ack: Option<&CommandAck>,
     ) -> Vec<SessionOut> {
@@ -87,9 +88,11 @@ impl Session {
         if from != self.key.1 {
             return out;
         }
-        if let Some(m) = msg {
-            self.streams.on_message(now, link, m);
-        }
+        let hb = match msg {
+            Some(MavMessage::HEARTBEAT(hb)) => Some(hb),
+            _ => None,
+        };
+        self.streams.on_message(now, link, id, hb);
         if let Some(a) = ack {
             out.extend(
                 self.streams

@@ -173,10 +173,16 @@ impl StreamMachine {
         self.links.get(&link).map_or(0, |s| s.requests)
     }
 
-    /// A message from the target component heard on `link`.
-    pub fn on_message(&mut self, now: Micros, link: usize, msg: &MavMessage) {
-        use mavlink::Message;
-        let id = msg.message_id();
+    /// A frame from the target component heard on `link`: its message id, and the heartbeat
+    /// when it is one. Telemetry is told by its id alone, so a message our dialect cannot decode
+    /// (an enum value newer than ours) still shows that streams flow.
+    pub fn on_message(
+        &mut self,
+        now: Micros,
+        link: usize,
+        id: u32,
+        heartbeat: Option<&dialect::HEARTBEAT_DATA>,
+    ) {
         let entry = self.links.entry(link).or_insert(LinkStreams {
             state: LinkStreamState::Due,
             last_heartbeat: now,
@@ -184,7 +190,7 @@ impl StreamMachine {
             quiet_since: None,
             requests: 0,
         });
-        if let MavMessage::HEARTBEAT(hb) = msg {
+        if let Some(hb) = heartbeat {
             self.autopilot = hb.autopilot;
             // Heartbeats with no telemetry, without the link going silent in between (a fade
             // stops both, and what resumes together asks nothing).
