@@ -190,6 +190,15 @@ pub enum Action {
     HistoryPrev,
     HistoryNext,
     Complete,
+    // Flying the target vehicle.
+    Arm,
+    Disarm,
+    /// Opens the prompt with `takeoff 10` to edit the altitude.
+    Takeoff,
+    Land,
+    Rtl,
+    /// Opens the prompt with `mode ` and the target's modes listed.
+    ModeMenu,
 }
 
 impl Action {
@@ -276,6 +285,20 @@ impl Action {
             Action::Complete,
             "complete",
             "complete the word at the cursor",
+        ),
+        (Action::Arm, "arm", "arm the target (asks first)"),
+        (Action::Disarm, "disarm", "disarm the target"),
+        (
+            Action::Takeoff,
+            "takeoff",
+            "take off: asks the altitude, then confirmation",
+        ),
+        (Action::Land, "land", "land the target"),
+        (Action::Rtl, "rtl", "return to launch"),
+        (
+            Action::ModeMenu,
+            "mode",
+            "change the target's flight mode (lists its modes)",
         ),
     ];
 

@@ -182,6 +182,26 @@ impl Prompt {
 
 /// The prompt's commands: (name, arguments, what it does), in the order `help` lists them.
 pub const COMMANDS: &[(&str, &str, &str)] = &[
+    ("arm", "", "arm the target (asks first)"),
+    (
+        "disarm",
+        "[force]",
+        "disarm the target; force even in flight (asks first)",
+    ),
+    (
+        "takeoff",
+        "[METRES]",
+        "GUIDED, arm, take off (10 m above home by default)",
+    ),
+    ("land", "", "land"),
+    ("rtl", "", "return to launch"),
+    ("mode", "NAME", "change flight mode (tab lists the modes)"),
+    (
+        "long",
+        "CMD [P1..P7]",
+        "any MAV_CMD by name or number (empty = 0, nan allowed)",
+    ),
+    ("reboot", "", "reboot the autopilot (asks first)"),
     ("help", "", "show the keys of this screen"),
     (
         "link",
@@ -198,7 +218,7 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
 ];
 
 /// What a parsed prompt line asks for.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum Command {
     Help,
     Quit,
@@ -208,7 +228,61 @@ pub enum Command {
     Link(String),
     /// Pin the target's route to a link, or `None` for automatic.
     Route(Option<usize>),
+    /// Fly the target.
+    Flight(super::flight::FlightAction),
 }
+
+/// A MAV_CMD by name (`NAV_TAKEOFF`, `mav_cmd_nav_takeoff`, `takeoff` when only one matches
+/// as a whole word) or number.
+pub fn parse_mav_cmd(word: &str) -> Result<u16, String> {
+    use crate::dialect::MavCmd;
+    use num_traits::FromPrimitive;
+    if let Ok(n) = word.parse::<u16>() {
+        return MavCmd::from_u16(n)
+            .map(|_| n)
+            .ok_or_else(|| format!("no MAV_CMD {n} in our dialect"));
+    }
+    let want = word.to_ascii_uppercase();
+    let want = want.strip_prefix("MAV_CMD_").unwrap_or(&want).to_string();
+    let mut hits = Vec::new();
+    for n in 0..=u16::MAX {
+        if let Some(c) = MavCmd::from_u16(n) {
+            let name = format!("{c:?}");
+            let short = name.strip_prefix("MAV_CMD_").unwrap_or(&name).to_string();
+            if short == want {
+                return Ok(n);
+            }
+            if short.split('_').any(|w| w == want) {
+                hits.push((n, short));
+            }
+        }
+    }
+    match hits.as_slice() {
+        [(n, _)] => Ok(*n),
+        [] => Err(format!("no MAV_CMD called `{word}`")),
+        many => Err(format!(
+            "`{word}` could be {}",
+            many.iter()
+                .map(|h| h.1.as_str())
+                .take(6)
+                .collect::<Vec<_>>()
+                .join(", ")
+        )),
+    }
+}
+
+/// A parameter value: a number, `nan`, or empty/`-` for 0.
+fn param(s: &str) -> Result<f64, String> {
+    match s.to_ascii_lowercase().as_str() {
+        "nan" => Ok(f64::NAN),
+        "-" | "" => Ok(0.0),
+        _ => s
+            .parse::<f64>()
+            .map_err(|_| format!("`{s}` is not a number (use a number, or nan)")),
+    }
+}
+
+use super::flight::FlightAction;
 
 /// Parse a prompt line; the error says what is wrong and what would be right.
 pub fn parse_command(line: &str) -> Result<Command, String> {
@@ -223,7 +297,7 @@ pub fn parse_command(line: &str) -> Result<Command, String> {
         }
     };
     match word {
-        "" => Err("type a command: help, quit, target, link, route".into()),
+        "" => Err("type a command (tab lists them)".into()),
         "help" | "?" => no_args(Command::Help),
         "quit" | "q" | "exit" => no_args(Command::Quit),
         "target" => {
@@ -250,6 +324,47 @@ pub fn parse_command(line: &str) -> Result<Command, String> {
                     "usage: route LINK (its number in the Links pane) or route auto".into()
                 }),
         },
+        "arm" => no_args(Command::Flight(FlightAction::Arm)),
+        "disarm" => match rest {
+            "" => Ok(Command::Flight(FlightAction::Disarm { force: false })),
+            "force" => Ok(Command::Flight(FlightAction::Disarm { force: true })),
+            _ => Err("usage: disarm, or disarm force".into()),
+        },
+        "takeoff" => {
+            let alt = if rest.is_empty() {
+                10.0
+            } else {
+                rest.parse::<f64>()
+                    .ok()
+                    .filter(|a| a.is_finite() && *a > 0.0 && *a <= 10_000.0)
+                    .ok_or_else(|| {
+                        format!("usage: takeoff METRES (above home, e.g. takeoff 10), not `{rest}`")
+                    })?
+            };
+            Ok(Command::Flight(FlightAction::Takeoff(alt)))
+        }
+        "land" => no_args(Command::Flight(FlightAction::Land)),
+        "rtl" => no_args(Command::Flight(FlightAction::Rtl)),
+        "reboot" => no_args(Command::Flight(FlightAction::Reboot)),
+        "mode" if rest.is_empty() || rest.contains(' ') => {
+            Err("usage: mode NAME, e.g. mode guided (tab lists the modes)".into())
+        }
+        "mode" => Ok(Command::Flight(FlightAction::Mode(rest.to_string()))),
+        "long" => {
+            let mut words = rest.split_whitespace();
+            let cmd = words.next().ok_or(
+                "usage: long MAV_CMD_NAME|NUMBER [P1 .. P7], e.g. long NAV_TAKEOFF 0 0 0 0 0 0 10",
+            )?;
+            let command = parse_mav_cmd(cmd)?;
+            let mut params = [0.0f64; 7];
+            for (i, w) in words.enumerate() {
+                if i >= 7 {
+                    return Err("at most 7 parameters".into());
+                }
+                params[i] = param(w)?;
+            }
+            Ok(Command::Flight(FlightAction::Command { command, params }))
+        }
         other => {
             let names: Vec<&str> = COMMANDS.iter().map(|c| c.0).collect();
             Err(format!(

@@ -4,6 +4,7 @@
 //! any key but its scrolling ones; the text modes (prompt, edit) type printable keys that are not
 //! bound. Ctrl-C quits from every mode: raw mode has turned off SIGINT.
 
+use super::flight::FlightAction;
 use super::input::{parse_command, Command, COMMANDS};
 use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
 use super::{links::LinkStatus, screen, App, Effect, Pane};
@@ -17,6 +18,10 @@ impl App {
         self.dirty = true;
         if key == Key::ctrl('c') {
             self.on_action(Action::Quit, fx);
+            return;
+        }
+        if self.ui.confirm.is_some() {
+            self.on_confirm_key(key, fx);
             return;
         }
         let action = self.keymap.lookup(self.ui.mode, self.ui.screen, &key);
@@ -43,6 +48,18 @@ impl App {
                 _ => self.ui.mode = Mode::Normal,
             },
             Mode::Prompt | Mode::Edit => self.on_text_key(key, action, fx),
+        }
+    }
+
+    /// Open the prompt with `text` typed; with `list`, show its completions at once.
+    fn open_prompt_with(&mut self, text: &str, list: bool) {
+        self.ui.prompt.open();
+        self.ui.prompt.line.set(text);
+        self.ui.mode = Mode::Prompt;
+        if list {
+            let candidates = self.completions();
+            let several = self.ui.prompt.complete(&candidates);
+            self.ui.message = (!several.is_empty()).then(|| (SEV_INFO, several.join("  ")));
         }
     }
 
@@ -121,6 +138,12 @@ impl App {
         for k in self.targetable() {
             out.push(format!("target {}:{}", k.0, k.1));
         }
+        if let Some(v) = self.target.and_then(|k| self.vehicles.get(k)) {
+            for m in crate::proto::modes::mode_names(v.autopilot, v.mavtype) {
+                out.push(format!("mode {}", m.to_ascii_lowercase()));
+            }
+        }
+        out.push("disarm force".into());
         out.push("route auto".into());
         for i in 0..self.links.len() {
             out.push(format!("route {i}"));
@@ -179,6 +202,7 @@ impl App {
                 fx.push(Effect::OpenLink { link, spec });
                 Ok(Some(format!("link {link}: opening {name}")))
             }
+            Command::Flight(action) => self.flight(action, None, fx),
             Command::Route(link) => {
                 let key = self.target.ok_or("no target vehicle")?;
                 if let Some(l) = link.filter(|&l| l >= self.links.len()) {
@@ -299,6 +323,25 @@ impl App {
             }
             Action::Screen(i) => self.show_screen(i as usize),
             Action::Cancel => {}
+            Action::Arm | Action::Disarm | Action::Land | Action::Rtl => {
+                let what = match action {
+                    Action::Arm => FlightAction::Arm,
+                    Action::Disarm => FlightAction::Disarm { force: false },
+                    Action::Land => FlightAction::Land,
+                    _ => FlightAction::Rtl,
+                };
+                let key = self
+                    .keymap
+                    .keys_for(Mode::Normal, self.ui.screen, action)
+                    .first()
+                    .copied();
+                self.ui.message = match self.flight(what, key, fx) {
+                    Ok(t) => t.map(|t| (SEV_INFO, t)),
+                    Err(e) => Some((SEV_ERROR, e)),
+                };
+            }
+            Action::Takeoff => self.open_prompt_with("takeoff 10", false),
+            Action::ModeMenu => self.open_prompt_with("mode ", true),
             // Far enough to clamp at either end of any list.
             Action::Top => self.move_selection(-(1 << 30)),
             Action::Bottom => self.move_selection(1 << 30),

@@ -3,6 +3,7 @@
 //! No I/O and no clock in here: every event comes with the time, so the same events give the
 //! same state and the same effects, in the terminal, in headless replay and in tests.
 
+mod flight;
 pub mod input;
 mod keys;
 pub mod links;
@@ -151,6 +152,8 @@ pub struct UiState {
     pub message: Option<(u8, String)>,
     /// Lines scrolled in the key help.
     pub help_scroll: usize,
+    /// A dangerous action waiting for `y`.
+    pub confirm: Option<flight::Confirm>,
 }
 
 impl Default for UiState {
@@ -166,6 +169,7 @@ impl Default for UiState {
             edit: input::TextLine::default(),
             message: None,
             help_scroll: 0,
+            confirm: None,
         }
     }
 }
@@ -539,6 +543,17 @@ impl App {
                     st.chunk_seq,
                 );
                 for t in texts {
+                    // A vehicle's reason for refusing a command comes as text.
+                    let keys: Vec<VehicleKey> = self
+                        .sessions
+                        .range((t.source.0, 0)..=(t.source.0, u8::MAX))
+                        .map(|(k, _)| *k)
+                        .collect();
+                    for k in keys {
+                        if let Some(s) = self.sessions.get_mut(&k) {
+                            s.on_text(now, &t.text);
+                        }
+                    }
                     self.notice(t.severity, Some(t.source), t.text);
                 }
             }

@@ -13,10 +13,16 @@ pub struct Screen {
 }
 
 /// The screens in this build, the first shown at start.
-pub const SCREENS: &[Screen] = &[Screen {
-    name: "overview",
-    title: "Overview",
-}];
+pub const SCREENS: &[Screen] = &[
+    Screen {
+        name: "overview",
+        title: "Overview",
+    },
+    Screen {
+        name: "commands",
+        title: "Commands",
+    },
+];
 
 /// The screen called `name`, if this build has it.
 pub fn by_name(name: &str) -> Option<&'static Screen> {

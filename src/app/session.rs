@@ -15,6 +15,8 @@ use crate::clock::Micros;
 use crate::dialect::{MavAutopilot, MavMessage};
 use crate::link::LinkId;
 use crate::proto::ack::CommandAck;
+use crate::proto::commands::{CmdOut, CommandQueue, CommandSpec, State};
+use crate::proto::sequence::{SeqOut, Sequence};
 use crate::proto::streams::{StreamMachine, StreamOut};
 use crate::proto::vehicles::VehicleKey;
 
@@ -40,6 +42,12 @@ pub struct Session {
     /// When anything of this system was last heard on each link.
     heard: BTreeMap<LinkId, Micros>,
     pub streams: StreamMachine,
+    pub commands: CommandQueue,
+    /// Home's altitude above mean sea level (HOME_POSITION, else GLOBAL_POSITION_INT's alt minus
+    /// relative_alt), for PX4's take-off altitude.
+    pub home_amsl: Option<f64>,
+    /// A mode change waiting for the heartbeat, or a take-off working through its steps.
+    pub sequence: Option<Sequence>,
 }
 
 impl Session {
@@ -49,6 +57,9 @@ impl Session {
             pinned: None,
             heard: BTreeMap::new(),
             streams: StreamMachine::new(key, autopilot, request_streams),
+            commands: CommandQueue::default(),
+            home_amsl: None,
+            sequence: None,
         }
     }
 
@@ -90,6 +101,14 @@ impl Session {
         }
         let hb = match msg {
             Some(MavMessage::HEARTBEAT(hb)) => Some(hb),
+            Some(MavMessage::HOME_POSITION(h)) => {
+                self.home_amsl = Some(h.altitude as f64 / 1000.0);
+                None
+            }
+            Some(MavMessage::GLOBAL_POSITION_INT(g)) if self.home_amsl.is_none() => {
+                self.home_amsl = Some((g.alt as f64 - g.relative_alt as f64) / 1000.0);
+                None
+            }
             _ => None,
         };
         self.streams.on_message(now, link, id, hb);
@@ -100,6 +119,102 @@ impl Session {
                     .into_iter()
                     .map(map),
             );
+            let done = self.commands.on_ack(now, (self.key.0, from), a);
+            out.extend(self.drive(now, done));
+        }
+        if let (Some(hb), Some(seq)) = (hb, self.sequence.as_mut()) {
+            let armed = hb
+                .base_mode
+                .contains(crate::dialect::MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED);
+            let r = seq.on_heartbeat(hb.custom_mode, armed);
+            out.extend(self.seq_out(now, r));
+        }
+        out
+    }
+
+    /// A text the vehicle said (joined STATUSTEXT): it may explain a refusal.
+    pub fn on_text(&mut self, now: Micros, text: &str) {
+        self.commands.on_statustext(now, self.key.0, text);
+    }
+
+    /// Send a command through the queue.
+    pub fn submit(
+        &mut self,
+        now: Micros,
+        spec: CommandSpec,
+    ) -> Result<(u64, Vec<SessionOut>), String> {
+        let (id, out) = self.commands.submit(now, spec)?;
+        Ok((id, self.drive(now, out)))
+    }
+
+    /// Start a sequence (one at a time).
+    pub fn start_sequence(
+        &mut self,
+        now: Micros,
+        seq: Sequence,
+    ) -> Result<Vec<SessionOut>, String> {
+        if let Some(s) = self.sequence.as_ref().filter(|s| !s.finished()) {
+            return Err(format!("{} is still running", s.name));
+        }
+        self.sequence = Some(seq);
+        Ok(self.seq_out(now, Vec::new()))
+    }
+
+    /// Queue output: sends and notices out; finished commands move a sequence on.
+    fn drive(&mut self, now: Micros, outs: Vec<CmdOut>) -> Vec<SessionOut> {
+        let mut out = Vec::new();
+        let mut seq_events = Vec::new();
+        for o in outs {
+            match o {
+                CmdOut::Send(m) => out.push(SessionOut::Send(m)),
+                CmdOut::Notice(s, t) => out.push(SessionOut::Notice(s, t)),
+                CmdOut::Finished(id) => {
+                    if let (Some(seq), Some(e)) = (self.sequence.as_mut(), self.commands.get(id)) {
+                        let accepted = e.state == State::Done(0);
+                        let outcome = match &e.reason {
+                            Some(r) => format!("{} ({r})", e.outcome()),
+                            None => e.outcome(),
+                        };
+                        seq_events.extend(seq.on_finished(now, id, accepted, &outcome));
+                    }
+                }
+            }
+        }
+        out.extend(self.seq_out(now, seq_events));
+        out
+    }
+
+    /// Sequence output, and its next command submitted when it is time.
+    fn seq_out(&mut self, now: Micros, events: Vec<SeqOut>) -> Vec<SessionOut> {
+        let mut out = Vec::new();
+        for e in events {
+            match e {
+                SeqOut::Notice(s, t) => out.push(SessionOut::Notice(s, t)),
+                SeqOut::Send(m) => out.push(SessionOut::Send(m)),
+                SeqOut::Done => {}
+            }
+        }
+        let next = self.sequence.as_ref().and_then(|s| s.next_command());
+        if let Some(spec) = next {
+            match self.commands.submit(now, spec) {
+                Ok((id, sends)) => {
+                    if let Some(seq) = self.sequence.as_mut() {
+                        seq.sent(id);
+                    }
+                    out.extend(self.drive(now, sends));
+                }
+                Err(why) => {
+                    let r = self
+                        .sequence
+                        .as_mut()
+                        .map(|s| s.refused(&why))
+                        .unwrap_or_default();
+                    out.extend(self.seq_out(now, r));
+                }
+            }
+        }
+        if self.sequence.as_ref().is_some_and(|s| s.finished()) {
+            self.sequence = None;
         }
         out
     }
@@ -116,7 +231,16 @@ impl Session {
 
     /// Whatever is due at `now`.
     pub fn poll(&mut self, now: Micros) -> Vec<SessionOut> {
-        self.streams.poll(now).into_iter().map(map).collect()
+        let mut out: Vec<SessionOut> = self.streams.poll(now).into_iter().map(map).collect();
+        let done = self.commands.poll(now);
+        out.extend(self.drive(now, done));
+        let r = self
+            .sequence
+            .as_mut()
+            .map(|s| s.poll(now))
+            .unwrap_or_default();
+        out.extend(self.seq_out(now, r));
+        out
     }
 
     /// True when a poll now would do something (a machine has work that is not on a timer).
@@ -126,7 +250,14 @@ impl Session {
 
     /// When the session next needs a poll.
     pub fn next_deadline(&self) -> Option<Micros> {
-        self.streams.next_deadline()
+        [
+            self.streams.next_deadline(),
+            self.commands.next_deadline(),
+            self.sequence.as_ref().and_then(|s| s.next_deadline()),
+        ]
+        .into_iter()
+        .flatten()
+        .min()
     }
 }
 

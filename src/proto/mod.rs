@@ -5,6 +5,7 @@ pub mod ack;
 pub mod commands;
 pub mod loss;
 pub mod modes;
+pub mod sequence;
 pub mod statustext;
 pub mod streams;
 pub mod vehicles;

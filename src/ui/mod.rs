@@ -5,6 +5,8 @@
 //! a one-line status bar, which becomes the `:` prompt while a command is typed; the key help
 //! pops up over both. Nothing here can panic on any size: every rectangle is clipped to the frame.
 
+pub mod commands;
+pub mod confirm;
 pub mod fmt;
 pub mod help;
 pub mod links;
@@ -52,6 +54,7 @@ pub fn render_with(app: &App, frame: &mut Frame, theme: &Theme) {
     if app.ui.mode == Mode::Help {
         help::render(app, frame, area, theme);
     }
+    confirm::render(app, frame, area, theme);
 }
 
 /// The bordered block every pane sits in; the focused pane's border stands out (colour and a

@@ -4,14 +4,17 @@
 use ratatui::layout::Rect;
 use ratatui::Frame;
 
-use super::{overview, Theme};
+use super::{commands, overview, Theme};
 use crate::app::App;
 
 /// Draws a screen into the area above the status bar.
 pub type RenderFn = fn(&App, &mut Frame, Rect, &Theme);
 
 /// (screen name, renderer).
-pub const REGISTRY: &[(&str, RenderFn)] = &[("overview", overview::render)];
+pub const REGISTRY: &[(&str, RenderFn)] = &[
+    ("overview", overview::render),
+    ("commands", commands::render),
+];
 
 /// Draw the screen the core says is shown.
 pub fn render(app: &App, frame: &mut Frame, body: Rect, theme: &Theme) {

@@ -40,6 +40,8 @@ def decode(line):
             continue
         if isinstance(v, (bytes, bytearray)):
             v = v.hex()
+        if isinstance(v, float) and v != v:
+            v = "nan"  # JSON has no NaN
         out[k] = v
     return out
 
