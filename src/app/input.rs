@@ -257,6 +257,14 @@ pub fn parse_mav_cmd(word: &str) -> Result<u16, String> {
             }
         }
     }
+    // `takeoff` means NAV_TAKEOFF rather than NAV_VTOL_TAKEOFF: the name after its category.
+    let exact: Vec<&(u16, String)> = hits
+        .iter()
+        .filter(|(_, s)| s.split_once('_').is_some_and(|(_, rest)| rest == want))
+        .collect();
+    if let [(n, _)] = exact.as_slice() {
+        return Ok(*n);
+    }
     match hits.as_slice() {
         [(n, _)] => Ok(*n),
         [] => Err(format!("no MAV_CMD called `{word}`")),
@@ -456,10 +464,36 @@ mod tests {
         assert!(parse_command("quit now")
             .unwrap_err()
             .contains("no arguments"));
-        let e = parse_command("arm").unwrap_err();
+        let e = parse_command("jump").unwrap_err();
         assert!(
-            e.contains("unknown command `arm`") && e.contains("target"),
+            e.contains("unknown command `jump`") && e.contains("target"),
             "{e}"
         );
+        assert_eq!(
+            parse_command("takeoff"),
+            Ok(Command::Flight(FlightAction::Takeoff(10.0)))
+        );
+        assert!(parse_command("takeoff high")
+            .unwrap_err()
+            .contains("METRES"));
+        assert_eq!(
+            parse_command("disarm force"),
+            Ok(Command::Flight(FlightAction::Disarm { force: true }))
+        );
+        match parse_command("long NAV_TAKEOFF 0 - 0 nan 0 0 12.5") {
+            Ok(Command::Flight(FlightAction::Command { command, params })) => {
+                assert_eq!(command, 22);
+                assert_eq!(params[6], 12.5);
+                assert!(params[3].is_nan());
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(parse_command("long 400 x")
+            .unwrap_err()
+            .contains("not a number"));
+        assert_eq!(parse_mav_cmd("takeoff"), Ok(22));
+        assert_eq!(parse_mav_cmd("mav_cmd_component_arm_disarm"), Ok(400));
+        assert_eq!(parse_mav_cmd("511"), Ok(511));
+        assert!(parse_mav_cmd("nosuch").is_err());
     }
 }
