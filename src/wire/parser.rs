@@ -777,6 +777,82 @@ mod tests {
         }
     }
 
+    /// Payload lengths and CRC_EXTRA from the message definitions (common.xml, as listed on
+    /// mavlink.io): base fields only for MAVLink 1, with extension fields for MAVLink 2.
+    #[test]
+    fn limits_follow_the_message_definitions() {
+        let l = |id| msg_limits(id).map(|l| (l.crc_extra, l.max_len_v1, l.max_len_v2));
+        assert_eq!(l(0), Some((50, 9, 9))); // HEARTBEAT
+        assert_eq!(l(1), Some((124, 31, 43))); // SYS_STATUS: 3 u32 extensions
+        assert_eq!(l(22), Some((220, 25, 25))); // PARAM_VALUE
+        assert_eq!(l(24), Some((24, 30, 52))); // GPS_RAW_INT: 5 u32 + u16 extensions
+        assert_eq!(l(30), Some((39, 28, 28))); // ATTITUDE
+        assert_eq!(l(110), Some((84, 254, 254))); // FILE_TRANSFER_PROTOCOL
+        assert_eq!(l(193), Some((71, 22, 26))); // EKF_STATUS_REPORT (ardupilotmega)
+        assert_eq!(l(253), Some((83, 51, 54))); // STATUSTEXT: id u16 + chunk_seq u8
+        assert_eq!(l(0xBEEF), None);
+        assert_eq!(l(0x00AB_CDEF), None);
+    }
+
+    /// A SYS_STATUS of `plen` payload bytes, CRC correct.
+    fn sys_status(version: Version, plen: usize) -> Vec<u8> {
+        let mut f = match version {
+            Version::V1 => vec![MAGIC_V1, plen as u8, 3, 1, 1, 1],
+            Version::V2 => vec![MAGIC_V2, plen as u8, 0, 0, 3, 1, 1, 1, 0, 0],
+        };
+        f.extend((0..plen).map(|i| i as u8 + 1));
+        let crc = frame_crc(&f[1..], 124);
+        f.extend(crc.to_le_bytes());
+        f
+    }
+
+    #[test]
+    fn payload_longer_than_the_definition_is_not_a_frame() {
+        // MAVLink 1 carries the 31 base bytes only; MAVLink 2 up to the 43 with extensions.
+        let ok = |f: Vec<u8>| FrameParser::new().parse_all(&f).len() == 1;
+        assert!(ok(sys_status(Version::V1, 31)));
+        assert!(!ok(sys_status(Version::V1, 32)));
+        assert!(!ok(sys_status(Version::V1, 43)));
+        assert!(ok(sys_status(Version::V2, 31)));
+        assert!(ok(sys_status(Version::V2, 43)));
+        assert!(!ok(sys_status(Version::V2, 44)));
+        // Truncated MAVLink 2 payloads are fine.
+        assert!(ok(sys_status(Version::V2, 5)));
+        let mut p = FrameParser::new();
+        p.parse_all(&sys_status(Version::V2, 44));
+        assert_eq!((p.stats().frames, p.stats().crc_errors), (0, 0));
+        assert_eq!(p.stats().garbage_bytes, 10 + 44 + 2);
+    }
+
+    #[test]
+    fn counters_do_not_depend_on_read_boundaries() {
+        // A bad CRC cut off by a real frame, an unknown id, garbage with stray magic bytes.
+        let mut bytes = hb(1, Version::V2);
+        bytes.truncate(15);
+        bytes.extend(hb(2, Version::V2));
+        bytes.extend([0xFD, 3, 0, 0, 42, 1, 1, 0xEF, 0xBE, 0x00, 1, 2, 3, 0xAA, 0xBB]);
+        bytes.extend([0xFE, 0x00, 0xFD, 0x55]);
+        let mut bad = hb(3, Version::V1);
+        let n = bad.len();
+        bad[n - 2] ^= 0x40;
+        bytes.extend(bad);
+        bytes.extend(hb(4, Version::V1));
+        let mut whole = FrameParser::new();
+        let all = whole.parse_all(&bytes);
+        assert_eq!(seqs(&all), vec![2, 42, 4]);
+        let s = *whole.stats();
+        assert_eq!((s.truncated, s.crc_errors, s.unknown_ids), (1, 1, 1));
+        for cut in 0..bytes.len() {
+            let mut p = FrameParser::new();
+            let mut got = Vec::new();
+            p.push(&bytes[..cut], |f| got.push(f));
+            p.push(&bytes[cut..], |f| got.push(f));
+            p.end_of_datagram(|f| got.push(f));
+            assert_eq!(got, all, "split at {cut}");
+            assert_eq!(*p.stats(), s, "split at {cut}");
+        }
+    }
+
     #[test]
     fn unsupported_incompat_flag_is_rejected() {
         let mut f = hb(9, Version::V2);
