@@ -118,7 +118,10 @@ fn adversarial() -> Vec<(&'static str, Vec<u8>)> {
         ("all_fd", vec![0xFD; LEN]),
         // MAVLink 1 FILE_TRANSFER_PROTOCOL headers (254-byte payload, the largest a v1 frame of
         // a known id can carry) every 6 bytes: each claims a 262-byte frame whose CRC fails.
-        ("fake_v1_ftp_headers", repeat(&[0xFE, 254, 0, 1, 1, 110], LEN)),
+        (
+            "fake_v1_ftp_headers",
+            repeat(&[0xFE, 254, 0, 1, 1, 110], LEN),
+        ),
         // MAVLink 2 headers of an unknown id claiming a 255-byte payload, every 10 bytes.
         (
             "fake_v2_unknown_headers",

@@ -54,7 +54,8 @@ fn corpus() -> Corpus {
     for name in TLOGS {
         let bytes = data(name);
         let recs = read_tlog(&bytes).unwrap();
-        c.streams.push(recs.iter().flat_map(|r| r.frame.clone()).collect());
+        c.streams
+            .push(recs.iter().flat_map(|r| r.frame.clone()).collect());
         c.frames.extend(recs.into_iter().map(|r| r.frame));
         c.files.push(bytes);
     }
@@ -569,7 +570,10 @@ fn hex(s: &str) -> Vec<u8> {
 fn noise_overlapping_a_real_frame_gives_the_same_frames_however_split() {
     let recs = records();
     let real = hex("fd150000fd0101c1000000000000b41d1f3c12918538a647fb3c00000000a70a32");
-    let k = recs.iter().position(|r| *r == real).expect("frame in capture");
+    let k = recs
+        .iter()
+        .position(|r| *r == real)
+        .expect("frame in capture");
     let mut d = hex("fe05fe8050d5ce4b06");
     let expect: Vec<Vec<u8>> = recs[k..k + 11].to_vec();
     for f in &expect {

@@ -21,8 +21,9 @@
 //!   after it is a magic byte or the datagram ends there, and no CRC-valid known frame starts inside
 //!   it; it is decided only once the bytes are there to tell whether one does. Otherwise random
 //!   garbage after a stray magic byte would be taken for a frame and swallow real ones.
-//! - At the end of a datagram a candidate cut off by it is skipped a byte at a time like a bad one;
-//!   one is counted as `truncated` unless a later frame already counted it so.
+//! - At the end of a datagram, candidates cut off by it are skipped a byte at a time like bad ones:
+//!   each one that a later frame of the datagram starts inside counts as `truncated`, and any
+//!   others together as one truncated frame.
 //! - A frame whose payload does not decode (e.g. an enum value newer than our dialect) is still a
 //!   frame: counted in `decode_errors`, handed on with `message: None`.
 //!
@@ -333,7 +334,8 @@ impl FrameParser {
                 Candidate::NeedMore => self.cut_off_here(),
                 Candidate::Reject => self.skip_one(),
                 Candidate::BadCrc(len) => {
-                    self.pending.push(Reverse((s + len as u64, Rejected::BadCrc)));
+                    self.pending
+                        .push(Reverse((s + len as u64, Rejected::BadCrc)));
                     self.skip_one();
                 }
                 Candidate::Good(len) => self.accept(here, len, true, emit),
@@ -830,7 +832,9 @@ mod tests {
         let mut bytes = hb(1, Version::V2);
         bytes.truncate(15);
         bytes.extend(hb(2, Version::V2));
-        bytes.extend([0xFD, 3, 0, 0, 42, 1, 1, 0xEF, 0xBE, 0x00, 1, 2, 3, 0xAA, 0xBB]);
+        bytes.extend([
+            0xFD, 3, 0, 0, 42, 1, 1, 0xEF, 0xBE, 0x00, 1, 2, 3, 0xAA, 0xBB,
+        ]);
         bytes.extend([0xFE, 0x00, 0xFD, 0x55]);
         let mut bad = hb(3, Version::V1);
         let n = bad.len();
