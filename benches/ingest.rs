@@ -122,6 +122,9 @@ fn adversarial() -> Vec<(&'static str, Vec<u8>)> {
             "fake_v1_ftp_headers",
             repeat(&[0xFE, 254, 0, 1, 1, 110], LEN),
         ),
+        // The densest known-id candidates with long payloads: at every other byte a MAVLink 1
+        // V2_EXTENSION (id 248, up to 254 bytes) claiming 248 bytes, each CRC failing.
+        ("fake_v1_headers_every_2_bytes", repeat(&[0xFE, 248], LEN)),
         // MAVLink 2 headers of an unknown id claiming a 255-byte payload, every 10 bytes.
         (
             "fake_v2_unknown_headers",

@@ -628,6 +628,7 @@ fn adversarial_input_costs_bounded_work_per_byte() {
         ("all 0xFE", vec![0xFE; LEN]),
         ("all 0xFD", vec![0xFD; LEN]),
         ("v1 FTP headers", cycle(&[0xFE, 254, 0, 1, 1, 110])),
+        ("v1 V2_EXTENSION headers every 2 bytes", cycle(&[0xFE, 248])),
         (
             "v2 unknown-id headers",
             cycle(&[0xFD, 255, 0, 0, 0, 1, 1, 0xEF, 0xBE, 0]),

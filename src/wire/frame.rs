@@ -29,14 +29,14 @@ pub fn crc_accumulate(crc: u16, byte: u8) -> u16 {
     (crc >> 8) ^ (tmp << 8) ^ (tmp << 3) ^ (tmp >> 4)
 }
 
-/// Lookup tables for [`frame_crc`], eight bytes at a time ("slicing by 8"): `CRC_TABLES[0][i]` is
+/// Lookup tables for [`frame_crc`], 16 bytes at a time ("slicing by 16"): `CRC_TABLES[0][i]` is
 /// the CRC register after feeding byte `i` into a zero register; `CRC_TABLES[k][i]` the same
 /// followed by `k` zero bytes. Built at compile time from [`crc_accumulate`]'s polynomial
 /// (0x1021 reflected: 0x8408).
-static CRC_TABLES: [[u16; 256]; 8] = crc_tables();
+static CRC_TABLES: [[u16; 256]; 16] = crc_tables();
 
-const fn crc_tables() -> [[u16; 256]; 8] {
-    let mut t = [[0u16; 256]; 8];
+const fn crc_tables() -> [[u16; 256]; 16] {
+    let mut t = [[0u16; 256]; 16];
     let mut i = 0;
     while i < 256 {
         let mut crc = i as u16;
@@ -53,7 +53,7 @@ const fn crc_tables() -> [[u16; 256]; 8] {
         i += 1;
     }
     let mut k = 1;
-    while k < 8 {
+    while k < 16 {
         let mut i = 0;
         while i < 256 {
             let prev = t[k - 1][i];
@@ -69,20 +69,30 @@ const fn crc_tables() -> [[u16; 256]; 8] {
 #[inline]
 pub fn crc_update(mut crc: u16, data: &[u8]) -> u16 {
     let t = &CRC_TABLES;
-    let mut chunks = data.chunks_exact(8);
+    let mut chunks = data.chunks_exact(16);
     for c in &mut chunks {
+        // The 14 bytes the register does not reach first, so only two lookups wait on it.
+        let mut rest = 0;
+        for k in 2..16 {
+            rest ^= t[15 - k][c[k] as usize];
+        }
         let lo = c[0] ^ crc as u8;
         let hi = c[1] ^ (crc >> 8) as u8;
-        crc = t[7][lo as usize]
-            ^ t[6][hi as usize]
-            ^ t[5][c[2] as usize]
-            ^ t[4][c[3] as usize]
-            ^ t[3][c[4] as usize]
-            ^ t[2][c[5] as usize]
-            ^ t[1][c[6] as usize]
-            ^ t[0][c[7] as usize];
+        crc = rest ^ (t[15][lo as usize] ^ t[14][hi as usize]);
     }
-    for &b in chunks.remainder() {
+    let mut rest = chunks.remainder();
+    if rest.len() >= 8 {
+        let c = &rest[..8];
+        let mut x = 0;
+        for k in 2..8 {
+            x ^= t[7 - k][c[k] as usize];
+        }
+        let lo = c[0] ^ crc as u8;
+        let hi = c[1] ^ (crc >> 8) as u8;
+        crc = x ^ (t[7][lo as usize] ^ t[6][hi as usize]);
+        rest = &rest[8..];
+    }
+    for &b in rest {
         crc = (crc >> 8) ^ t[0][((crc ^ b as u16) & 0xFF) as usize];
     }
     crc
