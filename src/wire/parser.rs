@@ -34,7 +34,9 @@ use std::cmp::Reverse;
 use std::collections::{BinaryHeap, VecDeque};
 use std::sync::OnceLock;
 
-use super::frame::{frame_crc, Frame, Version, IFLAG_SIGNED, MAGIC_V1, MAGIC_V2, SIGNATURE_LEN};
+use super::frame::{
+    frame_crc, Frame, Version, IFLAG_SIGNED, MAGIC_V1, MAGIC_V2, MAX_FRAME_LEN, SIGNATURE_LEN,
+};
 use crate::dialect::MavMessage;
 use mavlink::{MavlinkVersion, Message};
 
@@ -278,6 +280,10 @@ impl FrameParser {
             buf.extend_from_slice(bytes);
             self.scan(&buf, base, false, &mut emit);
             buf.drain(..(self.pos - base) as usize);
+            if buf.capacity() > 64 * 1024 {
+                // A huge read arrived while bytes were held back: do not keep its room.
+                buf.shrink_to(4 * MAX_FRAME_LEN);
+            }
             self.buf = buf;
         }
     }
