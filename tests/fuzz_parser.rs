@@ -232,8 +232,9 @@ fn mutate(rng: &mut Rng, c: &Corpus, d: &mut Vec<u8>) {
             d.splice(at..at, ins);
         }
         3 if !d.is_empty() => {
-            let n = (1 + rng.below(32)).min(d.len() - at.min(d.len() - 1));
+            // Delete up to 32 bytes.
             let at = at.min(d.len() - 1);
+            let n = (1 + rng.below(32)).min(d.len() - at);
             d.drain(at..at + n);
         }
         4 => {
