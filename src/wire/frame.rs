@@ -29,13 +29,79 @@ pub fn crc_accumulate(crc: u16, byte: u8) -> u16 {
     (crc >> 8) ^ (tmp << 8) ^ (tmp << 3) ^ (tmp >> 4)
 }
 
-/// CRC over `data` followed by the message's CRC_EXTRA byte, as MAVLink defines it.
-pub fn frame_crc(data: &[u8], crc_extra: u8) -> u16 {
-    let mut crc = 0xFFFFu16;
-    for &b in data {
-        crc = crc_accumulate(crc, b);
+/// Lookup tables for [`frame_crc`], 16 bytes at a time ("slicing by 16"): `CRC_TABLES[0][i]` is
+/// the CRC register after feeding byte `i` into a zero register; `CRC_TABLES[k][i]` the same
+/// followed by `k` zero bytes. Built at compile time from [`crc_accumulate`]'s polynomial
+/// (0x1021 reflected: 0x8408).
+static CRC_TABLES: [[u16; 256]; 16] = crc_tables();
+
+const fn crc_tables() -> [[u16; 256]; 16] {
+    let mut t = [[0u16; 256]; 16];
+    let mut i = 0;
+    while i < 256 {
+        let mut crc = i as u16;
+        let mut bit = 0;
+        while bit < 8 {
+            crc = if crc & 1 != 0 {
+                (crc >> 1) ^ 0x8408
+            } else {
+                crc >> 1
+            };
+            bit += 1;
+        }
+        t[0][i] = crc;
+        i += 1;
     }
-    crc_accumulate(crc, crc_extra)
+    let mut k = 1;
+    while k < 16 {
+        let mut i = 0;
+        while i < 256 {
+            let prev = t[k - 1][i];
+            t[k][i] = (prev >> 8) ^ t[0][(prev & 0xFF) as usize];
+            i += 1;
+        }
+        k += 1;
+    }
+    t
+}
+
+/// [`crc_accumulate`] over a run of bytes, table-driven; same result, several times faster.
+#[inline]
+pub fn crc_update(mut crc: u16, data: &[u8]) -> u16 {
+    let t = &CRC_TABLES;
+    let mut chunks = data.chunks_exact(16);
+    for c in &mut chunks {
+        // The 14 bytes the register does not reach first, so only two lookups wait on it.
+        let mut rest = 0;
+        for k in 2..16 {
+            rest ^= t[15 - k][c[k] as usize];
+        }
+        let lo = c[0] ^ crc as u8;
+        let hi = c[1] ^ (crc >> 8) as u8;
+        crc = rest ^ (t[15][lo as usize] ^ t[14][hi as usize]);
+    }
+    let mut rest = chunks.remainder();
+    if rest.len() >= 8 {
+        let c = &rest[..8];
+        let mut x = 0;
+        for k in 2..8 {
+            x ^= t[7 - k][c[k] as usize];
+        }
+        let lo = c[0] ^ crc as u8;
+        let hi = c[1] ^ (crc >> 8) as u8;
+        crc = x ^ (t[7][lo as usize] ^ t[6][hi as usize]);
+        rest = &rest[8..];
+    }
+    for &b in rest {
+        crc = (crc >> 8) ^ t[0][((crc ^ b as u16) & 0xFF) as usize];
+    }
+    crc
+}
+
+/// CRC over `data` followed by the message's CRC_EXTRA byte, as MAVLink defines it.
+#[inline]
+pub fn frame_crc(data: &[u8], crc_extra: u8) -> u16 {
+    crc_update(crc_update(0xFFFF, data), &[crc_extra])
 }
 
 /// The CRC_EXTRA byte of a message id in our dialect (ardupilotmega, which includes common),
@@ -227,6 +293,27 @@ mod tests {
             crc = crc_accumulate(crc, *b);
         }
         assert_eq!(crc, 0x6F91);
+    }
+
+    #[test]
+    fn table_crc_matches_the_bytewise_definition() {
+        // The published check value first, then random runs of every length against the
+        // byte-at-a-time accumulate the MAVLink C library defines.
+        assert_eq!(crc_update(0xFFFF, b"123456789"), 0x6F91);
+        let mut x = 0x1234_5678_9ABC_DEF0u64;
+        let mut data = Vec::new();
+        for len in 0..300 {
+            data.clear();
+            for _ in 0..len {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                data.push(x as u8);
+            }
+            let seed = x as u16;
+            let bytewise = data.iter().fold(seed, |c, &b| crc_accumulate(c, b));
+            assert_eq!(crc_update(seed, &data), bytewise, "length {len}");
+        }
     }
 
     #[test]

@@ -1,23 +1,44 @@
 //! Finding MAVLink frames in a byte stream, with per-link counters.
 //!
-//! Rules:
-//! - Bytes before a magic byte (0xFE / 0xFD) are skipped and counted as garbage.
-//! - A candidate frame whose CRC fails is not consumed: the parser moves one byte on and looks for
-//!   the next magic byte, so a real frame that starts inside the rejected bytes is still found.
-//!   The failure is counted as `truncated` when a valid frame starts inside the rejected span
-//!   (the sender was cut off), else as `crc_errors`.
+//! The frames found are a function of the bytes alone, never of where reads split them: a
+//! candidate frame is decided only once enough bytes are there to decide it the same way whatever
+//! comes after (or at the end of a datagram, which [`FrameParser::end_of_datagram`] marks). So
+//! `push(a); push(b)` finds exactly what `push(a ++ b)` finds, counters included.
+//!
+//! Rules, for a candidate starting at a magic byte (0xFE MAVLink 1, 0xFD MAVLink 2):
+//! - Bytes before a magic byte are skipped and counted as garbage.
+//! - Not a frame for us (skipped as one garbage byte): a MAVLink 2 incompatibility flag we do not
+//!   understand (the spec says drop such frames), or a message id the dialect knows with a payload
+//!   longer than its definition allows: the base fields for MAVLink 1, which never carries
+//!   extension fields, and base plus extension fields for MAVLink 2 (whose payloads may also be
+//!   shorter, trailing zeros being truncated).
+//! - A known id is decided once the whole frame (signature included) is there: a good CRC makes it
+//!   a frame; a bad CRC moves the parser one byte on, so a real frame that starts inside the
+//!   rejected bytes is still found. The failure is counted as `truncated` when a frame is then
+//!   accepted that starts inside the rejected span (the sender was cut off), else as `crc_errors`.
 //! - A message id the dialect does not know has no CRC_EXTRA, so its CRC cannot be checked. Such a
-//!   frame is accepted (and counted in `unknown_ids`, and handed on for sequence tracking) only when
-//!   its header is plausible and the byte after it is a magic byte or a datagram ends there;
-//!   otherwise random garbage after a stray 0xFD would be taken for frames and swallow real ones.
+//!   frame is accepted (counted in `unknown_ids`, handed on with `message: None`) only when the byte
+//!   after it is a magic byte or the datagram ends there, and no CRC-valid known frame starts inside
+//!   it; it is decided only once the bytes are there to tell whether one does. Otherwise random
+//!   garbage after a stray magic byte would be taken for a frame and swallow real ones.
+//! - At the end of a datagram, candidates cut off by it are skipped a byte at a time like bad ones:
+//!   each one that a later frame of the datagram starts inside counts as `truncated`, and any
+//!   others together as one truncated frame.
 //! - A frame whose payload does not decode (e.g. an enum value newer than our dialect) is still a
 //!   frame: counted in `decode_errors`, handed on with `message: None`.
+//!
+//! Work per byte is bounded whatever the input: each position is checked at most once (a CRC of at
+//! most one frame), and the bytes held back never exceed two frames' worth.
+
+use std::cmp::Reverse;
+use std::collections::{BinaryHeap, VecDeque};
+use std::sync::OnceLock;
 
 use super::frame::{
-    crc_extra, frame_crc, Frame, Version, IFLAG_SIGNED, MAGIC_V1, MAGIC_V2, SIGNATURE_LEN,
+    frame_crc, Frame, Version, IFLAG_SIGNED, MAGIC_V1, MAGIC_V2, MAX_FRAME_LEN, SIGNATURE_LEN,
 };
 use crate::dialect::MavMessage;
-use mavlink::Message;
+use mavlink::{MavlinkVersion, Message};
 
 /// Counters of what the parser saw on one link.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
@@ -76,25 +97,159 @@ impl ParserStats {
     }
 }
 
-/// Streaming frame parser. Feed it bytes with [`FrameParser::push`]; it calls back once per frame.
-#[derive(Debug, Default)]
-pub struct FrameParser {
-    buf: Vec<u8>,
-    start: usize,
-    stats: ParserStats,
+/// What the dialect says about one message id: its CRC_EXTRA and the longest payload it may have.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MsgLimits {
+    pub crc_extra: u8,
+    /// Payload length of the base fields: the only length a MAVLink 1 frame may carry.
+    pub max_len_v1: u8,
+    /// Payload length with the extension fields: the most a MAVLink 2 frame may carry.
+    pub max_len_v2: u8,
 }
 
+/// [`MsgLimits`] of every id the dialect knows, computed once from the generated code: ids below
+/// 65,536 (all of ardupilotmega's) in a two-level table, others asked for on the spot.
+struct MsgTable {
+    /// Page of each high byte of a 16-bit id; page 0 is all unknown.
+    index: [u16; 256],
+    pages: Vec<[Option<MsgLimits>; 256]>,
+}
+
+impl MsgTable {
+    fn build() -> MsgTable {
+        let mut t = MsgTable {
+            index: [0; 256],
+            pages: vec![[None; 256]],
+        };
+        for id in 0..=0xFFFFu32 {
+            if let Some(l) = limits_from_dialect(id) {
+                let hi = (id >> 8) as usize;
+                if t.index[hi] == 0 {
+                    t.index[hi] = t.pages.len() as u16;
+                    t.pages.push([None; 256]);
+                }
+                t.pages[t.index[hi] as usize][(id & 0xFF) as usize] = Some(l);
+            }
+        }
+        t
+    }
+
+    #[inline]
+    fn get(&self, msgid: u32) -> Option<MsgLimits> {
+        if msgid <= 0xFFFF {
+            self.pages[self.index[(msgid >> 8) as usize] as usize][(msgid & 0xFF) as usize]
+        } else {
+            limits_from_dialect(msgid)
+        }
+    }
+}
+
+fn table() -> &'static MsgTable {
+    static TABLE: OnceLock<MsgTable> = OnceLock::new();
+    TABLE.get_or_init(MsgTable::build)
+}
+
+/// CRC_EXTRA and payload limits of a message id, or `None` if the dialect does not know it.
+pub fn msg_limits(msgid: u32) -> Option<MsgLimits> {
+    table().get(msgid)
+}
+
+/// Ask the generated dialect code. The MAVLink 1 serializer writes exactly the base fields; the
+/// MAVLink 2 one writes all fields and then reports a length with trailing zeros cut, so its full
+/// length is read off the buffer instead: the last byte it wrote, over two fills of the buffer
+/// (a written byte equals at most one of the two fill values).
+fn limits_from_dialect(msgid: u32) -> Option<MsgLimits> {
+    let msg = MavMessage::default_message_from_id(msgid)?;
+    let mut buf = [0u8; 255];
+    let base = msg.ser(MavlinkVersion::V1, &mut buf);
+    let mut full = base;
+    for fill in [0xAA, 0x55] {
+        buf = [fill; 255];
+        msg.ser(MavlinkVersion::V2, &mut buf);
+        if let Some(last) = buf.iter().rposition(|&b| b != fill) {
+            full = full.max(last + 1);
+        }
+    }
+    Some(MsgLimits {
+        crc_extra: MavMessage::extra_crc(msgid),
+        max_len_v1: base as u8,
+        max_len_v2: full as u8,
+    })
+}
+
+/// Streaming frame parser. Feed it bytes with [`FrameParser::push`]; it calls back once per frame.
+pub struct FrameParser {
+    /// Bytes held back, undecided: `buf[0]` is at stream position `pos`.
+    buf: Vec<u8>,
+    /// Stream position (bytes since the start, or since the last datagram) of the next byte to
+    /// decide.
+    pos: u64,
+    stats: ParserStats,
+    /// Rejected candidates whose counter waits on whether a frame is accepted inside them, by
+    /// the end of their span: a bad CRC counts as `truncated` if one is, else as `crc_errors`;
+    /// an unknown id rejected counts as `truncated` if one is, else as nothing.
+    pending: BinaryHeap<Reverse<(u64, Rejected)>>,
+    /// Candidates cut off by the end of the datagram being flushed.
+    cut_off: u64,
+    /// Look-ahead for "does a CRC-valid frame start inside this unknown-id candidate": no
+    /// position in (`pos`, `probe`) starts one, except `found` if set.
+    probe: u64,
+    found: Option<(u64, usize)>,
+    /// Bad CRCs the look-ahead met, (position, length), so the CRC is not computed twice.
+    ahead: VecDeque<(u64, usize)>,
+    table: &'static MsgTable,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Rejected {
+    BadCrc,
+    UnknownId,
+}
+
+impl Default for FrameParser {
+    fn default() -> Self {
+        FrameParser {
+            buf: Vec::new(),
+            pos: 0,
+            stats: ParserStats::default(),
+            pending: BinaryHeap::new(),
+            cut_off: 0,
+            probe: 0,
+            found: None,
+            ahead: VecDeque::new(),
+            table: table(),
+        }
+    }
+}
+
+impl std::fmt::Debug for FrameParser {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FrameParser")
+            .field("pending_bytes", &self.buf.len())
+            .field("pos", &self.pos)
+            .field("stats", &self.stats)
+            .finish_non_exhaustive()
+    }
+}
+
+/// What the bytes at a magic byte are, from those bytes alone.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Candidate {
     /// Not enough bytes yet to decide.
     NeedMore,
-    /// Not a frame here: skip one byte.
+    /// Not a frame for us: skip one byte.
     Reject,
     /// A known-id frame with a bad CRC, `len` bytes long.
     BadCrc(usize),
     /// A frame with a good CRC, `len` bytes long.
     Good(usize),
-    /// An unknown-id frame, `len` bytes long, still to be confirmed by what follows.
+    /// An unknown-id frame, `len` bytes long, still to be confirmed by its surroundings.
     Unknown(usize),
+}
+
+#[inline]
+fn is_magic(b: u8) -> bool {
+    b == MAGIC_V1 || b == MAGIC_V2
 }
 
 impl FrameParser {
@@ -106,40 +261,53 @@ impl FrameParser {
         &self.stats
     }
 
-    /// Bytes held back waiting for the rest of a frame.
+    /// Bytes held back waiting for the rest of a frame (never more than two frames' worth).
     pub fn pending(&self) -> usize {
-        self.buf.len() - self.start
+        self.buf.len()
     }
 
     /// Feed bytes from a stream; `emit` is called for each complete frame, in order.
     pub fn push(&mut self, bytes: &[u8], mut emit: impl FnMut(Frame)) {
         self.stats.bytes += bytes.len() as u64;
-        if self.start > 0 && self.start == self.buf.len() {
-            self.buf.clear();
-            self.start = 0;
-        }
-        self.buf.extend_from_slice(bytes);
-        self.scan(false, &mut emit);
-        if self.start > 4096 || (self.start > 0 && self.start * 2 > self.buf.len()) {
-            self.buf.drain(..self.start);
-            self.start = 0;
+        let base = self.pos;
+        if self.buf.is_empty() {
+            // Nothing held back: parse the caller's bytes in place, keep only the undecided tail.
+            self.scan(bytes, base, false, &mut emit);
+            let used = (self.pos - base) as usize;
+            self.buf.extend_from_slice(&bytes[used..]);
+        } else {
+            let mut buf = std::mem::take(&mut self.buf);
+            buf.extend_from_slice(bytes);
+            self.scan(&buf, base, false, &mut emit);
+            buf.drain(..(self.pos - base) as usize);
+            if buf.capacity() > 64 * 1024 {
+                // A huge read arrived while bytes were held back: do not keep its room.
+                buf.shrink_to(4 * MAX_FRAME_LEN);
+            }
+            self.buf = buf;
         }
     }
 
-    /// A datagram (UDP packet) ended here: a frame cannot continue into the next one. Confirms a
-    /// pending unknown-id frame and counts any partial frame left over as truncated.
+    /// A datagram (UDP packet) ended here: a frame cannot continue into the next one. Decides
+    /// everything held back, and starts afresh.
     pub fn end_of_datagram(&mut self, mut emit: impl FnMut(Frame)) {
-        self.scan(true, &mut emit);
-        let rest = self.buf.len() - self.start;
-        if rest > 0 {
-            if self.buf[self.start] == MAGIC_V1 || self.buf[self.start] == MAGIC_V2 {
-                self.stats.truncated += 1;
-            } else {
-                self.stats.garbage_bytes += rest as u64;
+        let buf = std::mem::take(&mut self.buf);
+        self.scan(&buf, self.pos, true, &mut emit);
+        while let Some(Reverse((_, why))) = self.pending.pop() {
+            if why == Rejected::BadCrc {
+                self.stats.crc_errors += 1;
             }
         }
+        if self.cut_off > 0 {
+            self.stats.truncated += 1;
+        }
+        self.cut_off = 0;
+        self.found = None;
+        self.ahead.clear();
+        self.pos = 0;
+        self.probe = 0;
+        self.buf = buf;
         self.buf.clear();
-        self.start = 0;
     }
 
     /// Convenience: parse a whole buffer (e.g. a file of frames) and collect the frames.
@@ -150,79 +318,178 @@ impl FrameParser {
         out
     }
 
-    fn scan(&mut self, at_boundary: bool, emit: &mut impl FnMut(Frame)) {
+    /// Decide as many positions as the bytes allow. `d` holds the stream from position `base`
+    /// (`<= self.pos`) to its end; `at_end` says nothing follows it.
+    fn scan(&mut self, d: &[u8], base: u64, at_end: bool, emit: &mut impl FnMut(Frame)) {
+        let end = base + d.len() as u64;
         loop {
-            // Skip to the next magic byte.
-            let data = &self.buf[self.start..];
-            match data.iter().position(|&b| b == MAGIC_V1 || b == MAGIC_V2) {
-                Some(0) => {}
-                Some(n) => {
-                    self.stats.garbage_bytes += n as u64;
-                    self.start += n;
-                }
-                None => {
-                    self.stats.garbage_bytes += data.len() as u64;
-                    self.start = self.buf.len();
-                    return;
-                }
+            let i = (self.pos - base) as usize;
+            let Some(n) = d[i..].iter().position(|&b| is_magic(b)) else {
+                self.stats.garbage_bytes += (d.len() - i) as u64;
+                self.advance_to(end);
+                return;
+            };
+            if n > 0 {
+                self.stats.garbage_bytes += n as u64;
+                self.advance_to(self.pos + n as u64);
             }
-            let data = &self.buf[self.start..];
-            match check(data) {
-                Candidate::NeedMore => {
-                    // At the end of a datagram nothing more will come: if a real frame starts
-                    // inside what this candidate claims, the candidate was garbage.
-                    if at_boundary && valid_frame_starts_inside(data, data.len()) {
-                        self.stats.garbage_bytes += 1;
-                        self.start += 1;
-                        continue;
-                    }
-                    return;
-                }
-                Candidate::Reject => {
-                    self.stats.garbage_bytes += 1;
-                    self.start += 1;
-                }
+            let s = self.pos;
+            let here = &d[i + n..];
+            match self.candidate_at(s, here) {
+                Candidate::NeedMore if !at_end => return,
+                Candidate::NeedMore => self.cut_off_here(),
+                Candidate::Reject => self.skip_one(),
                 Candidate::BadCrc(len) => {
-                    if cut_off_by_a_frame(data, len) {
-                        self.stats.truncated += 1;
-                    } else {
-                        self.stats.crc_errors += 1;
-                    }
-                    self.stats.garbage_bytes += 1;
-                    self.start += 1;
+                    self.pending
+                        .push(Reverse((s + len as u64, Rejected::BadCrc)));
+                    self.skip_one();
                 }
-                Candidate::Good(len) => {
-                    let frame = self.build(len, true);
-                    self.start += len;
-                    emit(frame);
-                }
+                Candidate::Good(len) => self.accept(here, len, true, emit),
                 Candidate::Unknown(len) => {
-                    let followed_by_frame = match data.get(len) {
-                        Some(&b) => b == MAGIC_V1 || b == MAGIC_V2,
-                        None if at_boundary => true,
-                        None => return, // wait for the next byte
-                    };
-                    // A checkable frame starting inside the span wins over an uncheckable one.
-                    let confirmed = followed_by_frame && !valid_frame_starts_inside(data, len);
-                    if confirmed {
-                        let frame = self.build(len, false);
-                        self.start += len;
-                        emit(frame);
+                    let e = s + len as u64;
+                    // The byte after it must be a magic byte, or the datagram end there.
+                    let followed = if e < end {
+                        is_magic(d[(e - base) as usize])
+                    } else if !at_end {
+                        return;
+                    } else if e == end {
+                        true
                     } else {
-                        if valid_frame_starts_inside(data, len) {
-                            self.stats.truncated += 1;
-                        }
-                        self.stats.garbage_bytes += 1;
-                        self.start += 1;
+                        self.cut_off_here();
+                        continue;
+                    };
+                    let confirmed = followed
+                        && match self.good_frame_inside(d, base, s, e, at_end) {
+                            None => return,
+                            Some(inside) => !inside,
+                        };
+                    if confirmed {
+                        self.accept(here, len, false, emit);
+                    } else {
+                        self.pending.push(Reverse((e, Rejected::UnknownId)));
+                        self.skip_one();
                     }
                 }
             }
         }
     }
 
-    fn build(&mut self, len: usize, known: bool) -> Frame {
-        let raw = self.buf[self.start..self.start + len].to_vec();
-        let (version, seq, sysid, compid, msgid, iflags, cflags, hlen) = header_of(&raw);
+    /// The candidate at stream position `s`, whose bytes start `here`; reuses what the look-ahead
+    /// already worked out.
+    #[inline]
+    fn candidate_at(&mut self, s: u64, here: &[u8]) -> Candidate {
+        if let Some((f, len)) = self.found {
+            if f == s {
+                return Candidate::Good(len);
+            }
+        }
+        while let Some(&(p, len)) = self.ahead.front() {
+            if p > s {
+                break;
+            }
+            self.ahead.pop_front();
+            if p == s {
+                return Candidate::BadCrc(len);
+            }
+        }
+        check(here, self.table)
+    }
+
+    /// Does a CRC-valid known frame start strictly inside (`s`, `e`)? `None`: not enough bytes
+    /// yet to tell. Each position is looked at once however often this is asked.
+    fn good_frame_inside(
+        &mut self,
+        d: &[u8],
+        base: u64,
+        s: u64,
+        e: u64,
+        at_end: bool,
+    ) -> Option<bool> {
+        if let Some((f, _)) = self.found {
+            if f > s {
+                return Some(f < e);
+            }
+            self.found = None;
+        }
+        let end = base + d.len() as u64;
+        let mut p = self.probe.max(s + 1);
+        while p < e {
+            if p >= end {
+                self.probe = p;
+                return if at_end { Some(false) } else { None };
+            }
+            let j = (p - base) as usize;
+            let stop = (e.min(end) - base) as usize;
+            match d[j..stop].iter().position(|&b| is_magic(b)) {
+                None => {
+                    p = base + stop as u64;
+                    continue;
+                }
+                Some(k) => p += k as u64,
+            }
+            match check(&d[(p - base) as usize..], self.table) {
+                Candidate::NeedMore if !at_end => {
+                    self.probe = p;
+                    return None;
+                }
+                Candidate::Good(len) => {
+                    self.found = Some((p, len));
+                    self.probe = p + 1;
+                    return Some(true);
+                }
+                Candidate::BadCrc(len) => self.ahead.push_back((p, len)),
+                _ => {}
+            }
+            p += 1;
+        }
+        self.probe = p;
+        Some(false)
+    }
+
+    /// Skip the magic byte at `pos`: it does not start a frame.
+    #[inline]
+    fn skip_one(&mut self) {
+        self.stats.garbage_bytes += 1;
+        self.advance_to(self.pos + 1);
+    }
+
+    /// The candidate at `pos` runs past the end of the datagram.
+    fn cut_off_here(&mut self) {
+        self.cut_off += 1;
+        self.skip_one();
+    }
+
+    /// Move on to `to` without accepting a frame: rejected candidates that end by then had no
+    /// frame start inside them.
+    #[inline]
+    fn advance_to(&mut self, to: u64) {
+        self.pos = to;
+        while let Some(&Reverse((e, why))) = self.pending.peek() {
+            if e > to {
+                break;
+            }
+            self.pending.pop();
+            if why == Rejected::BadCrc {
+                self.stats.crc_errors += 1;
+            }
+        }
+    }
+
+    /// Accept the frame of `len` bytes at the start of `d` (stream position `pos`).
+    fn accept(&mut self, d: &[u8], len: usize, known: bool, emit: &mut impl FnMut(Frame)) {
+        // Every candidate still pending ends after this frame's start: it was cut off by it.
+        if !self.pending.is_empty() || self.cut_off > 0 {
+            self.stats.truncated += self.pending.len() as u64 + self.cut_off;
+            self.pending.clear();
+            self.cut_off = 0;
+        }
+        self.pos += len as u64;
+        let frame = self.build(&d[..len], known);
+        emit(frame);
+    }
+
+    fn build(&mut self, raw: &[u8], known: bool) -> Frame {
+        let (version, seq, sysid, compid, msgid, iflags, cflags, hlen) = header_of(raw);
         let plen = raw[1] as usize;
         self.stats.frames += 1;
         match version {
@@ -245,7 +512,7 @@ impl FrameParser {
             None
         };
         Frame {
-            raw,
+            raw: raw.to_vec(),
             version,
             seq,
             sysid,
@@ -260,6 +527,7 @@ impl FrameParser {
 
 /// (version, seq, sysid, compid, msgid, incompat, compat, header length) of a frame starting at 0.
 #[allow(clippy::type_complexity)]
+#[inline]
 fn header_of(d: &[u8]) -> (Version, u8, u8, u8, u32, u8, u8, usize) {
     if d[0] == MAGIC_V1 {
         (Version::V1, d[2], d[3], d[4], d[5] as u32, 0, 0, 6)
@@ -269,66 +537,52 @@ fn header_of(d: &[u8]) -> (Version, u8, u8, u8, u32, u8, u8, usize) {
     }
 }
 
-fn check(d: &[u8]) -> Candidate {
-    let hlen = if d[0] == MAGIC_V1 { 6 } else { 10 };
+/// Classify the candidate at `d[0]` (a magic byte) from its bytes alone. The answer never changes
+/// as bytes are added after `d`, except from `NeedMore`.
+#[inline]
+fn check(d: &[u8], table: &MsgTable) -> Candidate {
+    let v2 = d[0] == MAGIC_V2;
+    if v2 {
+        match d.get(2) {
+            None => return Candidate::NeedMore,
+            // An incompatibility flag we do not understand: by the spec, not a frame for us.
+            Some(&iflags) if iflags & !IFLAG_SIGNED != 0 => return Candidate::Reject,
+            Some(_) => {}
+        }
+    }
+    let hlen = if v2 { 10 } else { 6 };
     if d.len() < hlen {
         return Candidate::NeedMore;
     }
     let plen = d[1] as usize;
     let mut len = hlen + plen + 2;
-    if d[0] == MAGIC_V2 {
-        let iflags = d[2];
-        if iflags & !IFLAG_SIGNED != 0 {
-            // An incompatibility flag we do not understand: by the spec, not a frame for us.
-            return Candidate::Reject;
-        }
-        if iflags & IFLAG_SIGNED != 0 {
-            len += SIGNATURE_LEN;
-        }
+    if v2 && d[2] & IFLAG_SIGNED != 0 {
+        len += SIGNATURE_LEN;
     }
-    let (_, _, _, _, msgid, _, _, _) = header_of(d);
-    let extra = crc_extra(msgid);
-    if d.len() < hlen + plen + 2 {
-        return Candidate::NeedMore;
-    }
-    let Some(extra) = extra else {
-        if d.len() < len {
-            return Candidate::NeedMore;
-        }
+    let msgid = if v2 {
+        u32::from_le_bytes([d[7], d[8], d[9], 0])
+    } else {
+        d[5] as u32
+    };
+    let Some(limits) = table.get(msgid) else {
         return Candidate::Unknown(len);
     };
-    let crc = frame_crc(&d[1..hlen + plen], extra);
-    let got = u16::from_le_bytes([d[hlen + plen], d[hlen + plen + 1]]);
-    if crc != got {
-        return Candidate::BadCrc(len);
+    let max = if v2 {
+        limits.max_len_v2
+    } else {
+        limits.max_len_v1
+    };
+    if plen > max as usize {
+        return Candidate::Reject;
     }
     if d.len() < len {
         return Candidate::NeedMore;
     }
+    let crc = frame_crc(&d[1..hlen + plen], limits.crc_extra);
+    if crc.to_le_bytes() != [d[hlen + plen], d[hlen + plen + 1]] {
+        return Candidate::BadCrc(len);
+    }
     Candidate::Good(len)
-}
-
-/// True when a complete known-id frame with a good CRC starts at one of the first `tries` magic
-/// bytes inside the first `span` bytes of `d` (after the first byte).
-fn frame_starts_inside(d: &[u8], span: usize, tries: usize) -> bool {
-    let end = span.min(d.len());
-    (1..end)
-        .filter(|&i| d[i] == MAGIC_V1 || d[i] == MAGIC_V2)
-        .take(tries)
-        .any(|i| matches!(check(&d[i..]), Candidate::Good(_)))
-}
-
-/// Deciding whether to accept bytes as a frame: every magic byte inside is tried, so a real
-/// frame is never lost to garbage in front of it.
-fn valid_frame_starts_inside(d: &[u8], span: usize) -> bool {
-    frame_starts_inside(d, span, usize::MAX)
-}
-
-/// Only naming a rejection (cut off, or bad CRC): a cut-off frame is followed by the next one at
-/// its first magic byte or so, and garbage full of magic bytes must not cost hundreds of CRCs
-/// per rejected byte just for a counter's name.
-fn cut_off_by_a_frame(d: &[u8], span: usize) -> bool {
-    frame_starts_inside(d, span, 4)
 }
 
 #[cfg(test)]
@@ -528,6 +782,84 @@ mod tests {
                 .map(|f| f.seq)
                 .collect();
             assert_eq!(real, expect, "round {round}");
+        }
+    }
+
+    /// Payload lengths and CRC_EXTRA from the message definitions (common.xml, as listed on
+    /// mavlink.io): base fields only for MAVLink 1, with extension fields for MAVLink 2.
+    #[test]
+    fn limits_follow_the_message_definitions() {
+        let l = |id| msg_limits(id).map(|l| (l.crc_extra, l.max_len_v1, l.max_len_v2));
+        assert_eq!(l(0), Some((50, 9, 9))); // HEARTBEAT
+        assert_eq!(l(1), Some((124, 31, 43))); // SYS_STATUS: 3 u32 extensions
+        assert_eq!(l(22), Some((220, 25, 25))); // PARAM_VALUE
+        assert_eq!(l(24), Some((24, 30, 52))); // GPS_RAW_INT: 5 u32 + u16 extensions
+        assert_eq!(l(30), Some((39, 28, 28))); // ATTITUDE
+        assert_eq!(l(110), Some((84, 254, 254))); // FILE_TRANSFER_PROTOCOL
+        assert_eq!(l(193), Some((71, 22, 26))); // EKF_STATUS_REPORT (ardupilotmega)
+        assert_eq!(l(253), Some((83, 51, 54))); // STATUSTEXT: id u16 + chunk_seq u8
+        assert_eq!(l(0xBEEF), None);
+        assert_eq!(l(0x00AB_CDEF), None);
+    }
+
+    /// A SYS_STATUS of `plen` payload bytes, CRC correct.
+    fn sys_status(version: Version, plen: usize) -> Vec<u8> {
+        let mut f = match version {
+            Version::V1 => vec![MAGIC_V1, plen as u8, 3, 1, 1, 1],
+            Version::V2 => vec![MAGIC_V2, plen as u8, 0, 0, 3, 1, 1, 1, 0, 0],
+        };
+        f.extend((0..plen).map(|i| i as u8 + 1));
+        let crc = frame_crc(&f[1..], 124);
+        f.extend(crc.to_le_bytes());
+        f
+    }
+
+    #[test]
+    fn payload_longer_than_the_definition_is_not_a_frame() {
+        // MAVLink 1 carries the 31 base bytes only; MAVLink 2 up to the 43 with extensions.
+        let ok = |f: Vec<u8>| FrameParser::new().parse_all(&f).len() == 1;
+        assert!(ok(sys_status(Version::V1, 31)));
+        assert!(!ok(sys_status(Version::V1, 32)));
+        assert!(!ok(sys_status(Version::V1, 43)));
+        assert!(ok(sys_status(Version::V2, 31)));
+        assert!(ok(sys_status(Version::V2, 43)));
+        assert!(!ok(sys_status(Version::V2, 44)));
+        // Truncated MAVLink 2 payloads are fine.
+        assert!(ok(sys_status(Version::V2, 5)));
+        let mut p = FrameParser::new();
+        p.parse_all(&sys_status(Version::V2, 44));
+        assert_eq!((p.stats().frames, p.stats().crc_errors), (0, 0));
+        assert_eq!(p.stats().garbage_bytes, 10 + 44 + 2);
+    }
+
+    #[test]
+    fn counters_do_not_depend_on_read_boundaries() {
+        // A bad CRC cut off by a real frame, an unknown id, garbage with stray magic bytes.
+        let mut bytes = hb(1, Version::V2);
+        bytes.truncate(15);
+        bytes.extend(hb(2, Version::V2));
+        bytes.extend([
+            0xFD, 3, 0, 0, 42, 1, 1, 0xEF, 0xBE, 0x00, 1, 2, 3, 0xAA, 0xBB,
+        ]);
+        bytes.extend([0xFE, 0x00, 0xFD, 0x55]);
+        let mut bad = hb(3, Version::V1);
+        let n = bad.len();
+        bad[n - 2] ^= 0x40;
+        bytes.extend(bad);
+        bytes.extend(hb(4, Version::V1));
+        let mut whole = FrameParser::new();
+        let all = whole.parse_all(&bytes);
+        assert_eq!(seqs(&all), vec![2, 42, 4]);
+        let s = *whole.stats();
+        assert_eq!((s.truncated, s.crc_errors, s.unknown_ids), (1, 1, 1));
+        for cut in 0..bytes.len() {
+            let mut p = FrameParser::new();
+            let mut got = Vec::new();
+            p.push(&bytes[..cut], |f| got.push(f));
+            p.push(&bytes[cut..], |f| got.push(f));
+            p.end_of_datagram(|f| got.push(f));
+            assert_eq!(got, all, "split at {cut}");
+            assert_eq!(*p.stats(), s, "split at {cut}");
         }
     }
 
