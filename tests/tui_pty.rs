@@ -1,5 +1,6 @@
 //! The real terminal path under a pseudo-terminal (util-linux `script`): run_terminal enters the
-//! alternate screen and raw mode, and leaves them on quit and on panic.
+//! alternate screen and raw mode, and leaves them on quit, on panic, and on SIGHUP, SIGQUIT,
+//! SIGTERM and SIGINT (which end the session normally).
 //!
 //! The parent test re-runs this test binary's ignored `child_*` tests inside `script`, so the
 //! child's stdout is a real tty, then inspects everything the child wrote to it.
@@ -7,7 +8,7 @@
 use std::io::Write;
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicU32, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Once};
 use std::time::{Duration, Instant};
 
 use mavterm::app::AppConfig;
@@ -17,6 +18,7 @@ use mavterm::tui::{run_terminal, TuiOptions};
 
 const ENTER_ALT: &str = "\x1b[?1049h";
 const LEAVE_ALT: &str = "\x1b[?1049l";
+const SHOW_CURSOR: &str = "\x1b[?25h";
 
 /// A real clock that panics on its `n`th reading: a panic in the middle of the UI loop.
 #[derive(Clone)]
@@ -31,7 +33,45 @@ impl Clock for PanicClock {
     }
 }
 
-fn run_child(clock: impl Clock + Clone + Send + 'static) {
+/// A real clock that, the first time the UI loop reads it (the terminal is set up and the signal
+/// handlers are in place by then), has `kill` send `signal` to this process a moment later: the
+/// signal arrives while the session runs, from outside, as from a shell or sshd.
+#[derive(Clone)]
+struct SignalClock {
+    clock: RealClock,
+    signal: &'static str,
+    sent: Arc<Once>,
+}
+
+impl SignalClock {
+    fn new(signal: &'static str) -> Self {
+        SignalClock {
+            clock: RealClock::new(),
+            signal,
+            sent: Arc::new(Once::new()),
+        }
+    }
+}
+
+impl Clock for SignalClock {
+    fn now(&self) -> Micros {
+        let signal = self.signal;
+        self.sent.call_once(|| {
+            std::thread::spawn(move || {
+                std::thread::sleep(Duration::from_millis(300));
+                let status = Command::new("kill")
+                    .args([format!("-{signal}"), std::process::id().to_string()])
+                    .status()
+                    .expect("kill(1)");
+                assert!(status.success(), "kill -{signal} failed");
+            });
+        });
+        self.clock.now()
+    }
+}
+
+/// Run the terminal until it ends: by the quit key, or (`by_quit` false) by a signal.
+fn run_child_until(clock: impl Clock + Clone + Send + 'static, by_quit: bool) {
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -42,8 +82,12 @@ fn run_child(clock: impl Clock + Clone + Send + 'static) {
             run_terminal(core, TuiOptions::default()).await
         })
         .unwrap();
-    assert!(app.quit);
+    assert_eq!(app.quit, by_quit);
     println!("CHILD-DONE");
+}
+
+fn run_child(clock: impl Clock + Clone + Send + 'static) {
+    run_child_until(clock, true);
 }
 
 #[test]
@@ -56,6 +100,30 @@ fn child_quits_on_q() {
 #[ignore = "run by pty tests inside a pseudo-terminal"]
 fn child_panics() {
     run_child(PanicClock(RealClock::new(), Arc::new(AtomicU32::new(0)), 5));
+}
+
+#[test]
+#[ignore = "run by pty tests inside a pseudo-terminal"]
+fn child_gets_sighup() {
+    run_child_until(SignalClock::new("HUP"), false);
+}
+
+#[test]
+#[ignore = "run by pty tests inside a pseudo-terminal"]
+fn child_gets_sigquit() {
+    run_child_until(SignalClock::new("QUIT"), false);
+}
+
+#[test]
+#[ignore = "run by pty tests inside a pseudo-terminal"]
+fn child_gets_sigterm() {
+    run_child_until(SignalClock::new("TERM"), false);
+}
+
+#[test]
+#[ignore = "run by pty tests inside a pseudo-terminal"]
+fn child_gets_sigint() {
+    run_child_until(SignalClock::new("INT"), false);
 }
 
 /// Run `child` under `script`, typing `input` until it exits; returns (success, output).
@@ -129,4 +197,53 @@ fn panic_restores_the_terminal_before_the_message() {
     let nl = msg + out[msg..].find('\n').unwrap();
     assert_eq!(&out[nl - 1..nl], "\r", "raw mode still on: {out:?}");
     assert!(!out.contains("CHILD-DONE"));
+}
+
+/// The child got a signal mid-session: it left the alternate screen it entered, showed the
+/// cursor, turned raw mode off, and then ended normally (exit 0, its last line printed).
+fn signal_restores_the_terminal(child: &str) {
+    let (ok, out) = under_pty(child, b"");
+    assert!(ok, "{child} must exit 0 after the signal: {out:?}");
+    let enter = out
+        .find(ENTER_ALT)
+        .unwrap_or_else(|| panic!("never entered: {out:?}"));
+    let leave = out
+        .rfind(LEAVE_ALT)
+        .unwrap_or_else(|| panic!("never left: {out:?}"));
+    assert!(enter < leave, "{out:?}");
+    // It was running (had drawn) when the signal came.
+    assert!(out[enter..leave].contains("Vehicles"), "{out:?}");
+    let after = &out[leave..];
+    let show = after
+        .find(SHOW_CURSOR)
+        .unwrap_or_else(|| panic!("cursor not shown after leaving: {out:?}"));
+    let done = after
+        .find("CHILD-DONE")
+        .unwrap_or_else(|| panic!("child did not finish: {out:?}"));
+    assert!(show < done, "{out:?}");
+    // Raw mode off: the tty turns the line's `\n` into `\r\n` again.
+    assert!(
+        after[done..].starts_with("CHILD-DONE\r\n"),
+        "raw mode still on: {out:?}"
+    );
+}
+
+#[test]
+fn sighup_restores_the_terminal() {
+    signal_restores_the_terminal("child_gets_sighup");
+}
+
+#[test]
+fn sigquit_restores_the_terminal() {
+    signal_restores_the_terminal("child_gets_sigquit");
+}
+
+#[test]
+fn sigterm_restores_the_terminal() {
+    signal_restores_the_terminal("child_gets_sigterm");
+}
+
+#[test]
+fn sigint_restores_the_terminal() {
+    signal_restores_the_terminal("child_gets_sigint");
 }

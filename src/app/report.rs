@@ -3,7 +3,9 @@
 //! Field names and meanings are a contract with scripts: `links[].spec/state/frames/bytes/
 //! crc_errors/unknown_ids/sources[].{sysid,compid,received,lost,duplicates,reordered,loss_pct}`,
 //! `vehicles[].{sysid,compid,type,autopilot,mode,armed,system_status,lost}`. Extra fields may be
-//! added, never renamed.
+//! added, never renamed. Bounded tables and queues say what they let go: `links[].dropped` (frames
+//! a queue dropped), `links[].echoes` (our own frames heard back), `links[].evicted_sources`, and
+//! `vehicles_evicted` at the top. A tlog link's skipped bytes are in `links[].garbage_bytes`.
 
 use serde_json::{json, Value};
 
@@ -60,6 +62,9 @@ impl App {
                     "v1_frames": l.parser.v1_frames,
                     "v2_frames": l.parser.v2_frames,
                     "loss_pct": round2(loss_pct(l.totals())),
+                    "dropped": l.dropped,
+                    "echoes": l.echoes,
+                    "evicted_sources": l.evicted_sources,
                     "sources": sources,
                 })
             })
@@ -87,6 +92,10 @@ impl App {
                 })
             })
             .collect();
-        json!({ "links": links, "vehicles": vehicles })
+        json!({
+            "links": links,
+            "vehicles": vehicles,
+            "vehicles_evicted": self.vehicles.evicted,
+        })
     }
 }

@@ -17,7 +17,6 @@ use std::sync::Arc;
 use crate::app::{App, Effect, Event};
 use crate::clock::Micros;
 use crate::link::source::{SourceFactory, TlogSource, VirtualSource};
-use crate::link::tlog::read_tlog;
 use crate::link::transport::LinkEvent;
 use crate::link::{LinkId, LinkSpec};
 use crate::sim::{Sim, SimConfig};
@@ -79,9 +78,8 @@ pub fn write_atomic(path: &Path, contents: &[u8]) -> std::io::Result<()> {
 pub fn local_source(spec: &LinkSpec) -> Result<Box<dyn VirtualSource>, String> {
     match spec {
         LinkSpec::Tlog { path } => {
-            let bytes = std::fs::read(path).map_err(|e| format!("{path}: {e}"))?;
-            let records = read_tlog(&bytes).map_err(|e| format!("{path}: {e}"))?;
-            Ok(Box::new(TlogSource::new(records)))
+            let src = TlogSource::open(path).map_err(|e| format!("{path}: {e}"))?;
+            Ok(Box::new(src))
         }
         LinkSpec::Sim { query } => {
             let cfg = SimConfig::from_query(query).map_err(|e| format!("sim: {e}"))?;

@@ -13,8 +13,7 @@ use super::{local_source, step, write_atomic, Links};
 use crate::app::{App, AppConfig, Event};
 use crate::clock::Micros;
 use crate::keymap::Key;
-use crate::link::source::{TlogSource, VirtualSource};
-use crate::link::tlog::read_tlog;
+use crate::link::source::{TlogOpenError, TlogSource, VirtualSource};
 use crate::link::{FrameParser, LinkId, LinkSpec, LinkState, ParserStats};
 
 /// The wall-clock time shown for virtual time zero when nothing better is known.
@@ -78,6 +77,8 @@ struct VLink {
     src: Option<Box<dyn VirtualSource>>,
     parser: FrameParser,
     reported: ParserStats,
+    /// The source's skipped bytes already reported as garbage.
+    skipped_reported: u64,
 }
 
 /// The virtual links: frames the core sends go straight into the sources.
@@ -121,6 +122,7 @@ impl VLink {
             src,
             parser: FrameParser::new(),
             reported: ParserStats::default(),
+            skipped_reported: 0,
         }
     }
     fn deadline(&self) -> Micros {
@@ -170,15 +172,11 @@ impl VirtualRunner {
         for spec in specs {
             match spec {
                 LinkSpec::Tlog { path } => {
-                    let bytes = std::fs::read(path).map_err(|source| RunnerError::Io {
-                        path: path.clone(),
-                        source,
+                    let path = path.clone();
+                    let src = TlogSource::open(&path).map_err(|e| match e {
+                        TlogOpenError::Io(source) => RunnerError::Io { path, source },
+                        TlogOpenError::Tlog(source) => RunnerError::Tlog { path, source },
                     })?;
-                    let recs = read_tlog(&bytes).map_err(|source| RunnerError::Tlog {
-                        path: path.clone(),
-                        source,
-                    })?;
-                    let src = TlogSource::new(recs);
                     epoch = epoch.or(src.start_time());
                     sources.push(Box::new(src));
                 }
@@ -221,13 +219,19 @@ impl VirtualRunner {
         let l = &mut self.links.links[i];
         let Some(src) = l.src.as_mut() else { return };
         let bytes = src.poll(now);
-        if bytes.is_empty() {
+        // What the source passed over (a tlog's garbage) is garbage on the link, as if the
+        // parser had skipped it.
+        let skipped = src.skipped();
+        let new_skipped = skipped.saturating_sub(l.skipped_reported);
+        if bytes.is_empty() && new_skipped == 0 {
             return;
         }
+        l.skipped_reported = skipped;
         let mut frames = Vec::new();
         l.parser.push(&bytes, |f| frames.push(f));
         let total = *l.parser.stats();
-        let stats = total.since(&l.reported);
+        let mut stats = total.since(&l.reported);
+        stats.garbage_bytes += new_skipped;
         l.reported = total;
         self.step(Event::Frames {
             link: i,

@@ -15,6 +15,7 @@ pub(crate) async fn run_local(
     out: &mut mpsc::Receiver<Vec<u8>>,
 ) -> Result<(), String> {
     ingest.up();
+    let mut skipped_reported = 0;
     let start = tokio::time::Instant::now();
     let now = || start.elapsed().as_micros() as Micros;
     loop {
@@ -34,8 +35,12 @@ pub(crate) async fn run_local(
             },
         }
         let bytes = src.poll(now());
-        if !bytes.is_empty() {
-            ingest.feed(&bytes);
+        // What the source passed over (a tlog's garbage) counts as garbage on the link.
+        let skipped = src.skipped();
+        let new_skipped = skipped.saturating_sub(skipped_reported);
+        skipped_reported = skipped;
+        if !bytes.is_empty() || new_skipped > 0 {
+            ingest.feed_skipped(&bytes, new_skipped);
         }
     }
 }

@@ -190,6 +190,12 @@ impl<R: Read> TlogReader<R> {
         self.skipped
     }
 
+    /// Bytes of the stream held in memory (the read-ahead buffer's size): bounded by a few
+    /// chunks, however long the stream.
+    pub fn buffered_bytes(&self) -> usize {
+        self.buf.capacity()
+    }
+
     /// Offset in the stream of the next unread byte.
     pub fn offset(&self) -> u64 {
         self.offset

@@ -85,6 +85,8 @@ struct Ingest {
     events: EventTx,
     /// Frames dropped on a full queue and not reported yet.
     dropped: u64,
+    /// Bytes an in-process source passed over, not reported yet (added to the garbage bytes).
+    skipped: u64,
 }
 
 impl Ingest {
@@ -95,6 +97,7 @@ impl Ingest {
             reported: ParserStats::default(),
             events,
             dropped: 0,
+            skipped: 0,
         }
     }
 
@@ -108,6 +111,8 @@ impl Ingest {
         let now = *self.parser.stats();
         let delta = now.since(&self.reported);
         self.reported = now;
+        let mut stats = delta;
+        stats.garbage_bytes += self.skipped;
         if self.dropped > 0
             && self
                 .events
@@ -118,16 +123,16 @@ impl Ingest {
             self.dropped = 0;
         }
         let n = frames.len() as u64;
-        let ev = LinkEvent::Frames {
-            frames,
-            stats: delta,
-        };
-        if let Err(e) = self.events.frames.try_send((self.id, ev)) {
-            // The core is behind: keep reading, count what could not be handed on. The parser
-            // counters still reach it with the next report.
-            self.dropped += n;
-            if let mpsc::error::TrySendError::Full(_) = e {
-                self.reported = self.reported.since(&delta);
+        let ev = LinkEvent::Frames { frames, stats };
+        match self.events.frames.try_send((self.id, ev)) {
+            Ok(()) => self.skipped = 0,
+            Err(e) => {
+                // The core is behind: keep reading, count what could not be handed on. The
+                // parser counters (and skipped bytes) still reach it with the next report.
+                self.dropped += n;
+                if let mpsc::error::TrySendError::Full(_) = e {
+                    self.reported = self.reported.since(&delta);
+                }
             }
         }
     }
@@ -217,7 +222,9 @@ pub struct LocalIngest<'a> {
 }
 
 impl LocalIngest<'_> {
-    pub fn feed(&mut self, bytes: &[u8]) {
+    /// Feed `bytes`, and count `skipped` bytes the source passed over as garbage.
+    pub fn feed_skipped(&mut self, bytes: &[u8], skipped: u64) {
+        self.ingest.skipped += skipped;
         self.ingest.feed(bytes, false);
     }
     pub fn up(&mut self) {

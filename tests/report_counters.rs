@@ -1,0 +1,114 @@
+//! The JSON report says what the bounded tables and queues let go: frames dropped, our own frames
+//! echoed back, sources evicted per link, and vehicles evicted.
+
+use mavterm::app::links::MAX_SOURCES;
+use mavterm::app::{App, AppConfig, Effect, Event};
+use mavterm::clock::SECOND;
+use mavterm::dialect::{self, MavMessage};
+use mavterm::link::{FrameParser, LinkState, ParserStats};
+use mavterm::proto::vehicles::MAX_COMPONENTS;
+use mavterm::wire::frame::{encode, Header, Version};
+
+fn heartbeat(sysid: u8, compid: u8, seq: u8) -> Vec<u8> {
+    let msg = MavMessage::HEARTBEAT(dialect::HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype: dialect::MavType::MAV_TYPE_QUADROTOR,
+        autopilot: dialect::MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        base_mode: dialect::MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+        system_status: dialect::MavState::MAV_STATE_STANDBY,
+        mavlink_version: 3,
+    });
+    encode(Version::V2, Header { sysid, compid, seq }, &msg)
+}
+
+fn feed(app: &mut App, now: u64, bytes: &[u8]) -> Vec<Effect> {
+    let frames = FrameParser::new().parse_all(bytes);
+    assert!(!frames.is_empty());
+    app.update(
+        now,
+        Event::Frames {
+            link: 0,
+            frames,
+            stats: ParserStats::default(),
+        },
+    )
+}
+
+/// The frames the core sent in `fx`.
+fn sent(fx: &[Effect]) -> Vec<Vec<u8>> {
+    fx.iter()
+        .filter_map(|e| match e {
+            Effect::Send { frame, .. } => Some(frame.clone()),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn report_counts_drops_echoes_and_evictions() {
+    // The limits the counts below are worked out from.
+    assert_eq!(MAX_SOURCES, 256);
+    assert_eq!(MAX_COMPONENTS, 128);
+    let mut a = App::new(AppConfig {
+        links: vec!["test".into()],
+        request_streams: false,
+        ..AppConfig::default()
+    });
+    let mut ours = sent(&a.update(
+        0,
+        Event::LinkState {
+            link: 0,
+            state: LinkState::Up,
+        },
+    ));
+    ours.extend(sent(&a.update(0, Event::Tick)));
+
+    // Nothing let go yet: every counter is there, at zero.
+    let rep = a.report();
+    for field in ["dropped", "echoes", "evicted_sources"] {
+        assert_eq!(rep["links"][0][field], 0, "{field}: {rep}");
+    }
+    assert_eq!(rep["vehicles_evicted"], 0, "{rep}");
+
+    // 300 components (sysid 1..=150, compid 1 and 2), one heartbeat each, 10 ms apart: a link
+    // keeps 256 sources (44 evicted), the registry 128 components (172 evicted).
+    let mut t = 0;
+    for sysid in 1..=150u8 {
+        for compid in 1..=2u8 {
+            t += 10_000;
+            ours.extend(sent(&feed(&mut a, t, &heartbeat(sysid, compid, 0))));
+        }
+    }
+    // Our GCS heartbeats (1 Hz) from the first 3 s, and router echoes of them.
+    for s in 1..=3 {
+        ours.extend(sent(&a.update(s * SECOND + 500_000, Event::Tick)));
+    }
+    let gcs_heartbeats: Vec<&Vec<u8>> = ours
+        .iter()
+        .filter(|f| {
+            let fr = FrameParser::new().parse_all(f);
+            matches!(fr[0].message, Some(MavMessage::HEARTBEAT(_)))
+        })
+        .collect();
+    assert!(gcs_heartbeats.len() >= 3, "{}", gcs_heartbeats.len());
+    for f in &gcs_heartbeats[..3] {
+        feed(&mut a, 4 * SECOND, f);
+    }
+    a.update(4 * SECOND, Event::Dropped { link: 0, frames: 5 });
+    a.update(4 * SECOND, Event::Dropped { link: 0, frames: 2 });
+
+    let rep = a.report();
+    let link = &rep["links"][0];
+    assert_eq!(link["dropped"], 7, "{link}");
+    assert_eq!(link["echoes"], 3, "{link}");
+    assert_eq!(link["evicted_sources"], 300 - 256, "{link}");
+    assert_eq!(link["sources"].as_array().unwrap().len(), 256);
+    assert_eq!(rep["vehicles_evicted"], 300 - 128, "{rep}");
+    assert_eq!(rep["vehicles"].as_array().unwrap().len(), 128);
+    // Echoes are not sources nor vehicles: our own 255:190 is in neither.
+    assert!(!link["sources"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|s| s["sysid"] == 255));
+}
