@@ -125,9 +125,9 @@ fn shipped(name: &str) -> String {
 #[test]
 fn every_unknown_action_and_key_is_listed_by_name() {
     let e = invalid(
-        "[bindings]\nquit = [\"q\", \"ctrl-qq\"]\nfly = [\"f\"]\nland = [\"l\"]\nhelp = [\"hyper-h\"]\n",
+        "[bindings]\nquit = [\"q\", \"ctrl-qq\"]\nfly = [\"f\"]\nhover = [\"l\"]\nhelp = [\"hyper-h\"]\n",
     );
-    assert_eq!(e.actions, ["fly", "land"]);
+    assert_eq!(e.actions, ["fly", "hover"]);
     assert_eq!(e.keys, ["ctrl-qq", "hyper-h"]);
     assert!(e.dups.is_empty());
     assert_eq!(e.more, 0);
@@ -144,7 +144,7 @@ fn every_unknown_action_and_key_is_listed_by_name() {
         "{msg}"
     );
     assert!(
-        msg.contains("\n  my.toml:4:1: unknown action `land`"),
+        msg.contains("\n  my.toml:4:1: unknown action `hover`"),
         "{msg}"
     );
     assert!(
@@ -421,12 +421,28 @@ fn keys_for_and_bindings_list_what_applies_in_file_order() {
         ("toggle_expand", "enter space"),
     ]);
     overview.extend([("next_vehicle", "n"), ("prev_vehicle", "p")]);
+    overview.extend([
+        ("arm", "A"),
+        ("disarm", "D"),
+        ("takeoff", "T"),
+        ("land", "L"),
+        ("rtl", "R"),
+        ("mode", "M"),
+    ]);
     assert_eq!(
         names(km.bindings(Mode::Normal, "overview")),
         pairs(&overview)
     );
     let mut parameters = common.to_vec();
     parameters.extend([("next_vehicle", "n"), ("prev_vehicle", "p")]);
+    parameters.extend([
+        ("arm", "A"),
+        ("disarm", "D"),
+        ("takeoff", "T"),
+        ("land", "L"),
+        ("rtl", "R"),
+        ("mode", "M"),
+    ]);
     assert_eq!(
         names(km.bindings(Mode::Normal, "parameters")),
         pairs(&parameters)
