@@ -72,9 +72,9 @@ fn target_command_and_its_errors_show_on_the_status_line() {
     let s = status_line(&r);
     assert!(s.contains("no autopilot 9 heard"), "{s}");
     keys(&mut r, &[":"]);
-    typed(&mut r, "arm");
+    typed(&mut r, "jump");
     keys(&mut r, &["enter"]);
-    assert!(status_line(&r).contains("unknown command `arm`"));
+    assert!(status_line(&r).contains("unknown command `jump`"));
     // The next key clears the message.
     keys(&mut r, &["down"]);
     assert!(status_line(&r).contains("q quit"));
