@@ -209,47 +209,25 @@ pub struct Header {
 /// Serialize `msg` into a complete frame with exactly the header given (our own sequence).
 /// MAVLink 2 payloads have trailing zeros removed (keeping at least one byte), as the spec says.
 pub fn encode(version: Version, header: Header, msg: &MavMessage) -> Vec<u8> {
-    let mut payload = [0u8; 255];
-    let msgid = msg.message_id();
-    let mut len = msg.ser(version.to_mavlink(), &mut payload);
-    if version == Version::V2 {
-        while len > 1 && payload[len - 1] == 0 {
-            len -= 1;
-        }
-    }
-    let extra = MavMessage::extra_crc(msgid);
-    let mut out = Vec::with_capacity(len + 12);
+    // The crate's own serializers (payload, MAVLink 2 zero truncation, CRC with CRC_EXTRA), with
+    // our header: our sequence numbers survive.
+    let h = mavlink::MavHeader {
+        system_id: header.sysid as u32,
+        component_id: header.compid,
+        sequence: header.seq,
+    };
     match version {
-        Version::V1 => {
-            out.extend_from_slice(&[
-                MAGIC_V1,
-                len as u8,
-                header.seq,
-                header.sysid,
-                header.compid,
-                msgid as u8,
-            ]);
+        Version::V1 if msg.message_id() <= 255 => {
+            let mut raw = mavlink::MAVLinkV1MessageRaw::new();
+            raw.serialize_message(h, msg);
+            raw.raw_bytes().to_vec()
         }
-        Version::V2 => {
-            let id = msgid.to_le_bytes();
-            out.extend_from_slice(&[
-                MAGIC_V2,
-                len as u8,
-                0,
-                0,
-                header.seq,
-                header.sysid,
-                header.compid,
-                id[0],
-                id[1],
-                id[2],
-            ]);
+        _ => {
+            let mut raw = mavlink::MAVLinkV2MessageRaw::new();
+            raw.serialize_message(h, msg);
+            raw.raw_bytes().to_vec()
         }
     }
-    out.extend_from_slice(&payload[..len]);
-    let crc = frame_crc(&out[1..], extra);
-    out.extend_from_slice(&crc.to_le_bytes());
-    out
 }
 
 /// Decode a frame's bytes on their own (exactly one whole frame). Convenience for tests and tools.
