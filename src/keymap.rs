@@ -199,6 +199,10 @@ pub enum Action {
     Rtl,
     /// Opens the prompt with `mode ` and the target's modes listed.
     ModeMenu,
+    /// Commands screen: send the selected command again.
+    Reissue,
+    /// Commands screen: abort the selected command in progress (COMMAND_CANCEL).
+    CancelCommand,
 }
 
 impl Action {
@@ -299,6 +303,16 @@ impl Action {
             Action::ModeMenu,
             "mode",
             "change the target's flight mode (lists its modes)",
+        ),
+        (
+            Action::Reissue,
+            "reissue",
+            "send the selected command again (asks first if dangerous)",
+        ),
+        (
+            Action::CancelCommand,
+            "cancel_command",
+            "abort the selected command in progress",
         ),
     ];
 

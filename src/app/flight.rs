@@ -343,4 +343,51 @@ impl App {
             base_mode: MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
         })
     }
+
+    /// The Commands screen's selected entry (newest first) of the target.
+    fn selected_command(&self) -> Result<(VehicleKey, crate::proto::commands::Entry), String> {
+        let key = self.target.ok_or("no target vehicle")?;
+        let s = self.sessions.get(&key).ok_or("no commands sent")?;
+        let e = s
+            .commands
+            .entries()
+            .rev()
+            .nth(self.ui.cmd_sel)
+            .ok_or("no command selected")?;
+        Ok((key, e.clone()))
+    }
+
+    /// Send the selected command again, as the operator's own decision (a missing ACK of a
+    /// flight-critical command is never resent on its own): asks first if dangerous.
+    pub(super) fn reissue_selected(
+        &mut self,
+        fx: &mut Vec<Effect>,
+    ) -> Result<Option<String>, String> {
+        let (_, e) = self.selected_command()?;
+        if e.open() {
+            return Err(format!("{} is still {}", e.spec.name(), e.outcome()));
+        }
+        self.ui.cmd_sel = 0;
+        self.flight(
+            FlightAction::Command {
+                command: e.spec.command,
+                params: e.spec.params,
+            },
+            None,
+            fx,
+        )
+    }
+
+    /// Abort the selected command if it is in progress (COMMAND_CANCEL).
+    pub(super) fn cancel_selected(
+        &mut self,
+        fx: &mut Vec<Effect>,
+    ) -> Result<Option<String>, String> {
+        let (key, e) = self.selected_command()?;
+        let now = self.now;
+        let s = self.sessions.get_mut(&key).ok_or("no session")?;
+        let out = s.cancel(now, e.id)?;
+        self.session_out(key, out, fx);
+        Ok(Some(format!("{}: cancel sent", e.spec.name())))
+    }
 }

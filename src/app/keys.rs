@@ -341,6 +341,17 @@ impl App {
                 };
             }
             Action::Takeoff => self.open_prompt_with("takeoff 10", false),
+            Action::Reissue | Action::CancelCommand => {
+                let outcome = if action == Action::Reissue {
+                    self.reissue_selected(fx)
+                } else {
+                    self.cancel_selected(fx)
+                };
+                self.ui.message = match outcome {
+                    Ok(t) => t.map(|t| (SEV_INFO, t)),
+                    Err(e) => Some((SEV_ERROR, e)),
+                };
+            }
             Action::ModeMenu => self.open_prompt_with("mode ", true),
             // Far enough to clamp at either end of any list.
             Action::Top => self.move_selection(-(1 << 30)),
@@ -367,6 +378,14 @@ impl App {
                 return 0;
             }
             (v as isize + step).clamp(0, len as isize - 1) as usize
+        }
+        if self.ui.screen == "commands" {
+            let n = self
+                .target
+                .and_then(|k| self.sessions.get(&k))
+                .map_or(0, |s| s.commands.entries().len());
+            self.ui.cmd_sel = clamp(self.ui.cmd_sel, step, n);
+            return;
         }
         match self.ui.focus {
             Pane::Vehicles => {

@@ -154,6 +154,8 @@ pub struct UiState {
     pub help_scroll: usize,
     /// A dangerous action waiting for `y`.
     pub confirm: Option<flight::Confirm>,
+    /// Selected row of the Commands screen (0 = newest).
+    pub cmd_sel: usize,
 }
 
 impl Default for UiState {
@@ -170,6 +172,7 @@ impl Default for UiState {
             message: None,
             help_scroll: 0,
             confirm: None,
+            cmd_sel: 0,
         }
     }
 }

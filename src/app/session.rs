@@ -147,6 +147,12 @@ impl Session {
         Ok((id, self.drive(now, out)))
     }
 
+    /// Abort command `id` in progress.
+    pub fn cancel(&mut self, now: Micros, id: u64) -> Result<Vec<SessionOut>, String> {
+        let out = self.commands.cancel(now, id)?;
+        Ok(self.drive(now, out))
+    }
+
     /// Start a sequence (one at a time).
     pub fn start_sequence(
         &mut self,

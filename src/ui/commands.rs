@@ -30,8 +30,21 @@ fn style(e: &Entry, theme: &Theme) -> ratatui::style::Style {
 
 pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let session = app.target.and_then(|k| app.sessions.get(&k));
+    let key = |a| {
+        app.keymap
+            .keys_for(crate::keymap::Mode::Normal, "commands", a)
+            .first()
+            .map(|k| k.to_string())
+            .unwrap_or_default()
+    };
     let title = match app.target {
-        Some(k) => format!(" Commands to {}:{} ", k.0, k.1),
+        Some(k) => format!(
+            " Commands to {}:{}  {} send again  {} cancel ",
+            k.0,
+            k.1,
+            key(crate::keymap::Action::Reissue),
+            key(crate::keymap::Action::CancelCommand)
+        ),
         None => " Commands (no target) ".to_string(),
     };
     let block = Block::default()
@@ -59,7 +72,8 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         .commands
         .entries()
         .rev()
-        .map(|e| {
+        .enumerate()
+        .map(|(i, e)| {
             let t = app.wall(e.first_sent).format("%H:%M:%S").to_string();
             let params = e
                 .spec
@@ -93,7 +107,12 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             } else {
                 vec![t, e.spec.name(), params, result, rtt]
             };
-            Row::new(cells).style(style(e, theme))
+            let row = Row::new(cells).style(style(e, theme));
+            if i == app.ui.cmd_sel {
+                row.style(style(e, theme).patch(theme.selected()))
+            } else {
+                row
+            }
         })
         .collect();
     let widths: Vec<Constraint> = if wide {

@@ -1,0 +1,59 @@
+//! Flying over a real TCP link in real time: the `mavterm` binary, headless, replays typed
+//! commands against `mavterm sim --listen` (a separate process): GUIDED, arm, take off to 10 m.
+
+mod common;
+
+use std::process::Command;
+
+#[test]
+fn guided_arm_takeoff_over_tcp_in_real_time() {
+    let port = common::free_tcp_port();
+    let _sim = common::sim_server(port, "");
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("fly.txt");
+    // The sim's EKF uses GPS 5 s after boot; the sim booted a moment before us.
+    std::fs::write(
+        &script,
+        "6 text \":mode guided\\n\"\n\
+         8 text \":arm\\n\"\n\
+         8.2 key y\n\
+         10 text \":takeoff 10\\n\"\n\
+         10.2 key y\n\
+         19 snapshot overview\n\
+         19.1 key 3\n\
+         19.2 snapshot commands\n\
+         19.3 quit\n",
+    )
+    .unwrap();
+    let screens = dir.path().join("screens");
+    let out = Command::new(common::mavterm())
+        .args([
+            "--link",
+            &format!("tcp:127.0.0.1:{port}"),
+            "--headless",
+            "--input",
+        ])
+        .arg(&script)
+        .args(["--size", "100x30", "--screens"])
+        .arg(&screens)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let overview = std::fs::read_to_string(screens.join("overview.txt")).unwrap();
+    assert!(
+        overview.contains("GUIDED") && overview.contains("ARMED"),
+        "{overview}"
+    );
+    let commands = std::fs::read_to_string(screens.join("commands.txt")).unwrap();
+    for want in ["DO_SET_MODE", "COMPONENT_ARM_DISARM", "NAV_TAKEOFF"] {
+        let line = commands
+            .lines()
+            .find(|l| l.contains(want))
+            .unwrap_or_else(|| panic!("{want}: {commands}"));
+        assert!(line.contains("ACCEPTED"), "{line}");
+    }
+}
