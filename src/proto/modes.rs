@@ -261,4 +261,32 @@ mod tests {
             None
         );
     }
+
+    #[test]
+    fn tables_cover_every_mode_of_the_dialect() {
+        use crate::dialect::{CopterMode, PlaneMode, RoverMode, SubMode};
+        use num_traits::FromPrimitive;
+        let check = |table: &[(u32, &str)], known: &dyn Fn(u32) -> Option<String>| {
+            for n in 0..=255u32 {
+                if let Some(name) = known(n) {
+                    assert!(
+                        table.iter().any(|(m, _)| *m == n),
+                        "{name} ({n}) is missing"
+                    );
+                }
+            }
+        };
+        check(COPTER_MODES, &|n| {
+            CopterMode::from_u32(n).map(|m| format!("{m:?}"))
+        });
+        check(PLANE_MODES, &|n| {
+            PlaneMode::from_u32(n).map(|m| format!("{m:?}"))
+        });
+        check(ROVER_MODES, &|n| {
+            RoverMode::from_u32(n).map(|m| format!("{m:?}"))
+        });
+        check(SUB_MODES, &|n| {
+            SubMode::from_u32(n).map(|m| format!("{m:?}"))
+        });
+    }
 }
