@@ -216,58 +216,43 @@ impl App {
             }
             FlightAction::Takeoff(alt) => {
                 let mut steps = Vec::new();
-                if px4 {
-                    if !armed {
-                        steps.push(Step {
-                            spec: long(
-                                MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
-                                [1.0, 0., 0., 0., 0., 0., 0.],
-                            ),
-                            until: Until::Armed,
-                            label: "arm".into(),
-                            fallback: None,
-                        });
-                    }
-                    // PX4 takes the take-off altitude above mean sea level.
-                    let home = self
-                        .sessions
-                        .get(&key)
-                        .and_then(|s| s.home_amsl)
-                        .ok_or("home altitude not known yet: wait for GLOBAL_POSITION_INT")?;
-                    steps.push(Step {
-                        spec: long(
-                            MavCmd::MAV_CMD_NAV_TAKEOFF,
-                            [-1.0, 0., 0., nan, nan, nan, home + alt],
-                        ),
-                        until: Until::Ack,
-                        label: format!("take off to {alt} m"),
-                        fallback: None,
-                    });
-                } else {
+                // ArduPilot takes off only in GUIDED; PX4 switches to its take-off mode itself.
+                if !px4 {
                     let guided = modes::mode_number(autopilot, mavtype, "GUIDED")
                         .ok_or("this vehicle has no GUIDED mode")?;
                     if mode != guided {
                         steps.push(self.mode_step(key, autopilot, mavtype, "GUIDED")?);
                     }
-                    if !armed {
-                        steps.push(Step {
-                            spec: long(
-                                MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
-                                [1.0, 0., 0., 0., 0., 0., 0.],
-                            ),
-                            until: Until::Armed,
-                            label: "arm".into(),
-                            fallback: None,
-                        });
-                    }
-                    // ArduPilot: param7 is metres above home.
+                }
+                if !armed {
                     steps.push(Step {
-                        spec: long(MavCmd::MAV_CMD_NAV_TAKEOFF, [0., 0., 0., 0., 0., 0., alt]),
-                        until: Until::Ack,
-                        label: format!("take off to {alt} m"),
+                        spec: long(
+                            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+                            [1.0, 0., 0., 0., 0., 0., 0.],
+                        ),
+                        until: Until::Armed,
+                        label: "arm".into(),
                         fallback: None,
                     });
                 }
+                let params = if px4 {
+                    // PX4: the altitude above mean sea level; the rest unset.
+                    let home = self
+                        .sessions
+                        .get(&key)
+                        .and_then(|s| s.home_amsl)
+                        .ok_or("home altitude not known yet: wait for GLOBAL_POSITION_INT")?;
+                    [-1.0, 0., 0., nan, nan, nan, home + alt]
+                } else {
+                    // ArduPilot: param7 is metres above home.
+                    [0., 0., 0., 0., 0., 0., alt]
+                };
+                steps.push(Step {
+                    spec: long(MavCmd::MAV_CMD_NAV_TAKEOFF, params),
+                    until: Until::Ack,
+                    label: format!("take off to {alt} m"),
+                    fallback: None,
+                });
                 let seq = Sequence::new(format!("takeoff {alt} m"), steps);
                 return self
                     .start(key, seq, fx)
