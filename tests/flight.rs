@@ -9,7 +9,6 @@ use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::keymap::Key;
 use mavterm::link::{FrameParser, LinkSpec, ParserStats};
 use mavterm::sim::Sim;
-use mavterm::ui::{buffer_to_text, render_to_buffer, Theme};
 use serde_json::json;
 
 const SECOND: u64 = 1_000_000;
@@ -22,22 +21,10 @@ fn runner(query: &str) -> VirtualRunner {
     r
 }
 
-fn keys(r: &mut VirtualRunner, names: &[&str]) {
-    for n in names {
-        r.key(n.parse::<Key>().unwrap());
-    }
-}
-
-fn typed(r: &mut VirtualRunner, text: &str) {
-    for c in text.chars() {
-        r.key(Key::ch(c));
-    }
-}
-
 fn command(r: &mut VirtualRunner, line: &str) {
-    keys(r, &[":"]);
-    typed(r, line);
-    keys(r, &["enter"]);
+    common::keys(r, &[":"]);
+    common::typed(r, line);
+    common::keys(r, &["enter"]);
 }
 
 fn wait(r: &mut VirtualRunner, secs: f64) {
@@ -47,10 +34,6 @@ fn wait(r: &mut VirtualRunner, secs: f64) {
 
 fn sim(r: &VirtualRunner) -> &Sim {
     r.source(0).unwrap().as_any().downcast_ref::<Sim>().unwrap()
-}
-
-fn screen(r: &VirtualRunner, w: u16, h: u16) -> String {
-    buffer_to_text(&render_to_buffer(&r.app, w, h, &Theme::PLAIN))
 }
 
 /// Guided, armed, at 10 m: on the sim and on our screen.
@@ -63,7 +46,7 @@ fn assert_flying_at_10m(r: &VirtualRunner) {
     let ours = r.app.vehicles.get((1, 1)).unwrap();
     assert!(ours.armed());
     assert_eq!(ours.mode_name(), "GUIDED");
-    let s = screen(r, 80, 24);
+    let s = common::screen(r, 80, 24);
     assert!(s.contains("GUIDED") && s.contains("ARMED"), "{s}");
 }
 
@@ -81,19 +64,19 @@ fn guided_arm_takeoff_from_the_prompt() {
     command(&mut r, "arm");
     // Asked first: nothing sent until `y`.
     assert!(r.app.ui.confirm.is_some());
-    let s = screen(&r, 80, 24);
+    let s = common::screen(&r, 80, 24);
     assert!(s.contains("ARM 1:1") && s.contains("y = yes"), "{s}");
     insta::assert_snapshot!("confirm_arm_80x24", s);
-    keys(&mut r, &["y"]);
+    common::keys(&mut r, &["y"]);
     wait(&mut r, 2.0);
     assert!(sim(&r).vehicle(1).unwrap().armed());
     command(&mut r, "takeoff 10");
-    keys(&mut r, &["y"]);
+    common::keys(&mut r, &["y"]);
     wait(&mut r, 12.0);
     assert_flying_at_10m(&r);
     // The Commands screen lists what was sent and what became of it.
-    keys(&mut r, &["3"]);
-    let s = screen(&r, 80, 24);
+    common::keys(&mut r, &["3"]);
+    let s = common::screen(&r, 80, 24);
     for want in [
         "DO_SET_MODE",
         "COMPONENT_ARM_DISARM",
@@ -109,12 +92,12 @@ fn guided_arm_takeoff_from_the_prompt() {
 fn guided_arm_takeoff_by_keys_in_one_sequence() {
     let mut r = runner("");
     // `T` asks the altitude (prompt with `takeoff 10`), enter, then `y`: GUIDED, arm, take off.
-    keys(&mut r, &["T"]);
+    common::keys(&mut r, &["T"]);
     assert_eq!(r.app.ui.prompt.line.text, "takeoff 10");
-    keys(&mut r, &["enter"]);
-    let s = screen(&r, 80, 24);
+    common::keys(&mut r, &["enter"]);
+    let s = common::screen(&r, 80, 24);
     assert!(s.contains("TAKE OFF to 10 m 1:1"), "{s}");
-    keys(&mut r, &["y"]);
+    common::keys(&mut r, &["y"]);
     wait(&mut r, 15.0);
     assert_flying_at_10m(&r);
     assert!(r.app.notices.iter().any(|n| n.text == "takeoff 10 m: done"));
@@ -123,15 +106,15 @@ fn guided_arm_takeoff_by_keys_in_one_sequence() {
 #[test]
 fn without_the_confirmation_key_nothing_is_sent() {
     let mut r = runner("");
-    keys(&mut r, &["A"]);
+    common::keys(&mut r, &["A"]);
     assert!(r.app.ui.confirm.is_some());
-    keys(&mut r, &["n"]);
+    common::keys(&mut r, &["n"]);
     wait(&mut r, 3.0);
     assert!(!sim(&r).vehicle(1).unwrap().armed());
     assert_eq!(r.app.sessions[&(1, 1)].commands.entries().len(), 0);
-    assert!(screen(&r, 80, 24).contains("cancelled: nothing sent"));
+    assert!(common::screen(&r, 80, 24).contains("cancelled: nothing sent"));
     // The same key again confirms, like `y`.
-    keys(&mut r, &["A", "A"]);
+    common::keys(&mut r, &["A", "A"]);
     wait(&mut r, 2.0);
     assert!(sim(&r).vehicle(1).unwrap().armed());
 }
@@ -142,7 +125,7 @@ fn a_refused_arm_shows_the_vehicles_reason_and_the_sequence_stops() {
     let mut r = VirtualRunner::from_specs(&[spec], AppConfig::default()).unwrap();
     r.advance_to(2 * SECOND); // before the GPS fix: ArduCopter refuses to arm
     command(&mut r, "takeoff 5");
-    keys(&mut r, &["y"]);
+    common::keys(&mut r, &["y"]);
     wait(&mut r, 5.0);
     assert!(!sim(&r).vehicle(1).unwrap().armed());
     let texts: Vec<&str> = r.app.notices.iter().map(|n| n.text.as_str()).collect();
@@ -174,9 +157,9 @@ fn a_refused_arm_shows_the_vehicles_reason_and_the_sequence_stops() {
 fn a_second_arm_while_the_first_is_pending_is_refused_locally() {
     let mut r = runner("");
     command(&mut r, "arm");
-    keys(&mut r, &["y"]);
+    common::keys(&mut r, &["y"]);
     command(&mut r, "arm");
-    keys(&mut r, &["y"]);
+    common::keys(&mut r, &["y"]);
     let (_, msg) = r.app.ui.message.clone().unwrap();
     assert!(msg.contains("still waiting"), "{msg}");
     assert_eq!(r.app.sessions[&(1, 1)].commands.entries().len(), 1);

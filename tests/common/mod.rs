@@ -224,3 +224,23 @@ pub fn pymavlink_encode(requests: &[serde_json::Value]) -> Vec<Vec<u8>> {
         })
         .collect()
 }
+
+/// Press keys by name (`"enter"`, `"ctrl-p"`, `"y"`) on a virtual runner.
+pub fn keys(r: &mut mavterm::driver::virtual_time::VirtualRunner, names: &[&str]) {
+    for n in names {
+        r.key(n.parse::<mavterm::keymap::Key>().unwrap());
+    }
+}
+
+/// Type text, one key per character.
+pub fn typed(r: &mut mavterm::driver::virtual_time::VirtualRunner, text: &str) {
+    for c in text.chars() {
+        r.key(mavterm::keymap::Key::ch(c));
+    }
+}
+
+/// The screen as plain text at `w`x`h`.
+pub fn screen(r: &mavterm::driver::virtual_time::VirtualRunner, w: u16, h: u16) -> String {
+    use mavterm::ui::{buffer_to_text, render_to_buffer, Theme};
+    buffer_to_text(&render_to_buffer(&r.app, w, h, &Theme::PLAIN))
+}
