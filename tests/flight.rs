@@ -283,3 +283,62 @@ fn px4_takeoff_is_encoded_the_px4_way() {
         assert_eq!(d[p], "nan", "{d}");
     }
 }
+
+#[test]
+fn a_request_dropped_twice_is_resent_and_the_third_is_acked_and_shown_once() {
+    // SET_MESSAGE_INTERVAL (GLOBAL_POSITION_INT at 5 Hz) is safe to repeat. (REQUEST_MESSAGE is
+    // too, but the flight telemetry asks for HOME_POSITION with it on its own.)
+    let mut r = runner("drop_cmd=511:2");
+    command(&mut r, "long SET_MESSAGE_INTERVAL 33 200000");
+    wait(&mut r, 20.0);
+    let e = r.app.sessions[&(1, 1)]
+        .commands
+        .entries()
+        .find(|e| e.spec.name() == "SET_MESSAGE_INTERVAL")
+        .unwrap()
+        .clone();
+    assert_eq!(e.sends, 3, "{e:?}");
+    assert_eq!(e.outcome(), "ACCEPTED");
+    let shown = r
+        .app
+        .notices
+        .iter()
+        .filter(|n| n.text.starts_with("SET_MESSAGE_INTERVAL to 1:1"))
+        .count();
+    assert_eq!(shown, 1);
+    // The vehicle executed it once: the third copy carried confirmation 2 (what pymavlink
+    // reads of our third send is checked in the unit tests of the queue).
+}
+
+#[test]
+fn an_arm_whose_ack_is_lost_is_not_resent_and_is_reissued_with_one_key() {
+    let mut r = runner("drop_cmd=400:1");
+    command(&mut r, "arm");
+    common::keys(&mut r, &["y"]);
+    wait(&mut r, 15.0);
+    let s = &r.app.sessions[&(1, 1)];
+    let arm: Vec<_> = s.commands.entries().collect();
+    assert_eq!(arm.len(), 1);
+    assert_eq!(arm[0].sends, 1, "never resent on its own");
+    assert_eq!(arm[0].outcome(), "no ACK");
+    assert!(!sim(&r).vehicle(1).unwrap().armed());
+    assert!(r.app.notices.iter().any(|n| n.text.contains("COMPONENT_ARM_DISARM to 1:1: no ACK")));
+    // On the Commands screen, enter sends it again (after the confirmation).
+    common::keys(&mut r, &["3", "enter"]);
+    assert!(r.app.ui.confirm.is_some());
+    common::keys(&mut r, &["y"]);
+    wait(&mut r, 2.0);
+    assert!(sim(&r).vehicle(1).unwrap().armed());
+}
+
+#[test]
+fn a_vehicle_that_never_answers_shows_a_timeout() {
+    // Drop every copy of DO_SET_MODE (it is resent: all three get no answer).
+    let mut r = runner("drop_cmd=176:100");
+    command(&mut r, "mode loiter");
+    wait(&mut r, 30.0);
+    let e = r.app.sessions[&(1, 1)].commands.entries().next().unwrap().clone();
+    assert_eq!(e.outcome(), "no ACK");
+    assert_eq!(e.sends, 3);
+    assert!(r.app.notices.iter().any(|n| n.text.contains("no ACK after 3 sends")));
+}
