@@ -1,5 +1,6 @@
 //! `sim://?key=value&...` options, parsed into a [`SimConfig`].
 
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 /// Why the simulator could not be configured or served. Each message names the offending part.
@@ -20,7 +21,7 @@ pub enum SimError {
 }
 
 /// Listed in the unknown-key error so the operator sees what is accepted.
-pub const KNOWN_KEYS: &str = "vehicles, sysid, loss, dup, reorder, corrupt, latency_ms, seed, params, baud, state, impair_in";
+pub const KNOWN_KEYS: &str = "vehicles, sysid, loss, dup, reorder, corrupt, latency_ms, seed, params, baud, state, impair_in, drop_cmd";
 
 /// How many vehicles, which ids, and how bad the simulated link is.
 #[derive(Debug, Clone, PartialEq)]
@@ -49,6 +50,10 @@ pub struct SimConfig {
     pub state: Option<PathBuf>,
     /// Also apply loss/corruption to bytes coming from the GCS.
     pub impair_in: bool,
+    /// `drop_cmd=ID:N,...`: each vehicle silently ignores (no ACK, no effect) the first N
+    /// COMMAND_LONG / COMMAND_INT it receives with command id ID, as if they were lost on the
+    /// way, so a GCS's resends can be tested deterministically.
+    pub drop_cmd: BTreeMap<u16, u32>,
 }
 
 impl Default for SimConfig {
@@ -66,6 +71,7 @@ impl Default for SimConfig {
             baud: None,
             state: None,
             impair_in: false,
+            drop_cmd: BTreeMap::new(),
         }
     }
 }
@@ -86,6 +92,46 @@ fn prob(key: &str, value: &str) -> Result<f64, SimError> {
         return Err(bad(key, value, "expected a probability from 0 to 1"));
     }
     Ok(p)
+}
+
+/// `drop_cmd=ID:N[,ID:N...]`: command id (0..=65535) and how many of its first copies to drop
+/// (1 or more); each id at most once.
+fn drop_list(key: &str, value: &str) -> Result<BTreeMap<u16, u32>, SimError> {
+    const SYNTAX: &str = "expected COMMAND_ID:COUNT[,COMMAND_ID:COUNT...], e.g. 512:2,400:1";
+    let mut map = BTreeMap::new();
+    if value.is_empty() {
+        return Err(bad(key, value, SYNTAX));
+    }
+    for item in value.split(',') {
+        let Some((id, n)) = item.split_once(':') else {
+            return Err(bad(key, value, format!("`{item}`: {SYNTAX}")));
+        };
+        let id: u16 = id.trim().parse().map_err(|_| {
+            bad(
+                key,
+                value,
+                format!("`{item}`: command id must be a number from 0 to 65535"),
+            )
+        })?;
+        let n: u32 = n.trim().parse().map_err(|_| {
+            bad(
+                key,
+                value,
+                format!("`{item}`: count must be a whole number from 1"),
+            )
+        })?;
+        if n == 0 {
+            return Err(bad(
+                key,
+                value,
+                format!("`{item}`: count must be a whole number from 1"),
+            ));
+        }
+        if map.insert(id, n).is_some() {
+            return Err(bad(key, value, format!("command {id} listed twice")));
+        }
+    }
+    Ok(map)
 }
 
 fn num<T: std::str::FromStr>(key: &str, value: &str, what: &str) -> Result<T, SimError> {
@@ -151,6 +197,7 @@ impl SimConfig {
                     }
                     c.state = Some(PathBuf::from(value));
                 }
+                "drop_cmd" => c.drop_cmd = drop_list(key, value)?,
                 "impair_in" => {
                     c.impair_in = match value {
                         "" | "1" | "true" | "yes" => true,
@@ -208,6 +255,25 @@ mod tests {
     }
 
     #[test]
+    fn drop_cmd_parses_ids_and_counts() {
+        let c = SimConfig::from_query("drop_cmd=512:2,400:1").unwrap();
+        assert_eq!(c.drop_cmd, BTreeMap::from([(512, 2), (400, 1)]));
+        assert!(SimConfig::default().drop_cmd.is_empty());
+        let e = SimConfig::from_query("drop_cmd=512")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("COMMAND_ID:COUNT"), "{e}");
+        let e = SimConfig::from_query("drop_cmd=512:2,x:1")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("`x:1`") && e.contains("command id"), "{e}");
+        let e = SimConfig::from_query("drop_cmd=400:0")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("count"), "{e}");
+    }
+
+    #[test]
     fn errors_name_the_key() {
         for (q, key) in [
             ("bogus=1", "bogus"),
@@ -221,6 +287,15 @@ mod tests {
             ("latency_ms=1.5", "latency_ms"),
             ("sysid=250&vehicles=10", "vehicles"),
             ("state=", "state"),
+            ("drop_cmd=", "drop_cmd"),
+            ("drop_cmd=512", "drop_cmd"),
+            ("drop_cmd=512:", "drop_cmd"),
+            ("drop_cmd=abc:1", "drop_cmd"),
+            ("drop_cmd=70000:1", "drop_cmd"),
+            ("drop_cmd=512:0", "drop_cmd"),
+            ("drop_cmd=512:-1", "drop_cmd"),
+            ("drop_cmd=512:1,,400:1", "drop_cmd"),
+            ("drop_cmd=512:1,512:2", "drop_cmd"),
         ] {
             let e = SimConfig::from_query(q).unwrap_err().to_string();
             assert!(e.contains(&format!("`{key}`")), "{q}: {e}");

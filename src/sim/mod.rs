@@ -26,14 +26,14 @@ pub use server::serve;
 pub use vehicle::SimVehicle;
 
 use crate::clock::Micros;
-use crate::dialect::{MavMessage, MavResult};
+use crate::dialect::MavResult;
 use crate::wire::frame::{crc_extra, encode, frame_crc, Header, Version, MAGIC_V2};
 use crate::wire::parser::FrameParser;
 use impair::{ImpairConfig, Impairer};
 use params::ParamTable;
 use rng::Rng;
 use std::path::PathBuf;
-use vehicle::TICK;
+use vehicle::{Out, TICK};
 
 /// Message id of COMMAND_LONG and COMMAND_ACK.
 const COMMAND_LONG_ID: u32 = 76;
@@ -114,7 +114,9 @@ impl Sim {
             if let Some(text) = path.as_deref().and_then(&state) {
                 params.load_parm_text(&text);
             }
-            vehicles.push(SimVehicle::new(sysid, i, cfg.seed, params, path));
+            let mut v = SimVehicle::new(sysid, i, cfg.seed, params, path);
+            v.drop_left = cfg.drop_cmd.clone();
+            vehicles.push(v);
         }
         let impair = Impairer::new(
             ImpairConfig {
@@ -201,7 +203,7 @@ impl Sim {
         p[..n].copy_from_slice(&payload[..n]);
         let command = u16::from_le_bytes([p[28], p[29]]);
         for i in 0..self.vehicles.len() {
-            if !self.vehicles[i].for_me(p[30], p[31]) {
+            if !self.vehicles[i].for_me(p[30], p[31]) || self.vehicles[i].take_drop(command) {
                 continue;
             }
             // COMMAND_ACK: command u16, result u8, progress u8, result_param2 i32,
@@ -276,12 +278,16 @@ impl Sim {
 
     /// Encode vehicle `i`'s pending messages (own sequence counter) into the link.
     fn flush(&mut self, i: usize, t: Micros) {
-        let msgs: Vec<MavMessage> = self.vehicles[i].drain();
+        let msgs: Vec<Out> = self.vehicles[i].drain();
         let sysid = self.vehicles[i].sysid;
         let compid = self.vehicles[i].compid;
         for m in msgs {
             let seq = self.next_seq(i);
-            let frame = encode(Version::V2, Header { sysid, compid, seq }, &m);
+            let h = Header { sysid, compid, seq };
+            let frame = match m {
+                Out::Msg(m) => encode(Version::V2, h, &m),
+                Out::Raw { msgid, payload } => encode_raw(h, msgid, &payload),
+            };
             self.impair.push(t, sysid, frame);
         }
     }

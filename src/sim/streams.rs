@@ -14,6 +14,7 @@ pub mod id {
     pub const GPS_RAW_INT: u32 = 24;
     pub const RAW_IMU: u32 = 27;
     pub const SCALED_PRESSURE: u32 = 29;
+    pub const GPS_GLOBAL_ORIGIN: u32 = 49;
     pub const ATTITUDE: u32 = 30;
     pub const LOCAL_POSITION_NED: u32 = 32;
     pub const GLOBAL_POSITION_INT: u32 = 33;
@@ -65,9 +66,17 @@ pub fn stream_group(stream_id: u8) -> &'static [u32] {
 /// All stream groups, for MAV_DATA_STREAM_ALL (0).
 pub const ALL_GROUPS: [u8; 7] = [1, 2, 3, 6, 10, 11, 12];
 
+/// Messages in no stream group that a GCS can still ask for by SET_MESSAGE_INTERVAL (ArduPilot's
+/// MSG_HOME and MSG_ORIGIN are sent only once home is set; EXTENDED_SYS_STATE).
+pub const INTERVAL_ONLY: [u32; 3] = [
+    id::EXTENDED_SYS_STATE,
+    id::HOME_POSITION,
+    id::GPS_GLOBAL_ORIGIN,
+];
+
 /// True when the simulator can produce message `msgid` on request or on a stream.
 pub fn streamable(msgid: u32) -> bool {
-    ALL_GROUPS.iter().any(|g| stream_group(*g).contains(&msgid)) || msgid == id::EXTENDED_SYS_STATE
+    ALL_GROUPS.iter().any(|g| stream_group(*g).contains(&msgid)) || INTERVAL_ONLY.contains(&msgid)
 }
 
 /// Per-message intervals and due times. BTreeMap keeps emission order deterministic.

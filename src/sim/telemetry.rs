@@ -3,7 +3,7 @@
 
 use super::params::{mav_type, ParamTable};
 use super::streams::id;
-use super::vehicle::{mode, SimVehicle};
+use super::vehicle::{mode, Out, SimVehicle};
 use crate::dialect::*;
 use crate::wire::mavftp::FtpPacket;
 
@@ -55,6 +55,17 @@ pub fn command_ack(command: MavCmd, result: MavResult, to: (u8, u8)) -> MavMessa
     })
 }
 
+/// COMMAND_ACK for a command id the dialect's MavCmd cannot hold (ArduPilot acknowledges the
+/// SET_MODE message with command = 11, its message id), built by hand.
+pub(super) fn raw_command_ack(command: u16, result: MavResult, to: (u8, u8)) -> Out {
+    // command u16, result u8, progress u8, result_param2 i32, target_system, target_component.
+    let mut payload = Vec::with_capacity(10);
+    payload.extend_from_slice(&command.to_le_bytes());
+    payload.push(result as u8);
+    payload.extend_from_slice(&[0, 0, 0, 0, 0, to.0, to.1]);
+    Out::Raw { msgid: 77, payload }
+}
+
 fn deg_e7(d: f64) -> i32 {
     (d * 1e7).round() as i32
 }
@@ -64,7 +75,8 @@ impl SimVehicle {
         (self.now / 1000) as u32
     }
 
-    fn heading_deg(&self) -> f64 {
+    /// Course over ground, degrees (0 when not moving).
+    fn course_deg(&self) -> f64 {
         if self.vn != 0.0 || self.ve != 0.0 {
             self.ve.atan2(self.vn).to_degrees().rem_euclid(360.0)
         } else {
@@ -159,6 +171,15 @@ impl SimVehicle {
         })
     }
 
+    pub(super) fn gps_global_origin(&self) -> MavMessage {
+        MavMessage::GPS_GLOBAL_ORIGIN(GPS_GLOBAL_ORIGIN_DATA {
+            latitude: deg_e7(self.origin.0),
+            longitude: deg_e7(self.origin.1),
+            altitude: (self.origin.2 * 1000.0).round() as i32,
+            time_usec: self.now,
+        })
+    }
+
     pub(super) fn home_position(&self) -> MavMessage {
         MavMessage::HOME_POSITION(HOME_POSITION_DATA {
             latitude: deg_e7(self.home.0),
@@ -174,14 +195,17 @@ impl SimVehicle {
     /// produce it.
     pub(super) fn build(&mut self, msgid: u32) -> Option<MavMessage> {
         let t_ms = self.time_boot_ms();
-        let (lat, lon) = if self.ekf_gps {
+        // ArduPilot's location: none (zeros) until the GPS has a fix, as in the real capture.
+        let (lat, lon) = if self.gps_fix {
             self.lat_lon()
         } else {
             (0.0, 0.0)
         };
         let amsl = self.home.2 + self.alt;
+        let loc_alt = if self.gps_fix { amsl } else { 0.0 };
         let groundspeed = self.vn.hypot(self.ve);
-        let heading = self.heading_deg();
+        let heading = self.yaw;
+        let course = self.course_deg();
         let m = match msgid {
             id::HEARTBEAT => self.heartbeat(),
             id::AUTOPILOT_VERSION => self.autopilot_version(),
@@ -190,6 +214,12 @@ impl SimVehicle {
                     return None;
                 }
                 self.home_position()
+            }
+            id::GPS_GLOBAL_ORIGIN => {
+                if !self.ekf_gps {
+                    return None;
+                }
+                self.gps_global_origin()
             }
             id::SYS_STATUS => {
                 let sensors = MavSysStatusSensor::from_bits_truncate(0x0120_FC2F);
@@ -230,7 +260,7 @@ impl SimVehicle {
                     eph: if self.gps_fix { 121 } else { u16::MAX },
                     epv: if self.gps_fix { 200 } else { u16::MAX },
                     vel: (groundspeed * 100.0) as u16,
-                    cog: (heading * 100.0) as u16,
+                    cog: (course * 100.0) as u16,
                     fix_type: if self.gps_fix {
                         GpsFixType::GPS_FIX_TYPE_3D_FIX
                     } else {
@@ -244,7 +274,7 @@ impl SimVehicle {
                 time_boot_ms: t_ms,
                 lat: deg_e7(lat),
                 lon: deg_e7(lon),
-                alt: (amsl * 1000.0).round() as i32,
+                alt: (loc_alt * 1000.0).round() as i32,
                 relative_alt: (self.alt * 1000.0).round() as i32,
                 vx: (self.vn * 100.0).round() as i16,
                 vy: (self.ve * 100.0).round() as i16,
@@ -270,19 +300,28 @@ impl SimVehicle {
                     time_boot_ms: t_ms,
                     roll: self.rng.jitter(a) as f32,
                     pitch: (self.rng.jitter(a) - groundspeed * 0.02) as f32,
-                    yaw: heading.to_radians() as f32,
+                    yaw: {
+                        let y = heading.to_radians();
+                        (if y > std::f64::consts::PI {
+                            y - 2.0 * std::f64::consts::PI
+                        } else {
+                            y
+                        }) as f32
+                    },
                     rollspeed: self.rng.jitter(a) as f32,
                     pitchspeed: self.rng.jitter(a) as f32,
                     yawspeed: self.rng.jitter(a / 2.0) as f32,
                 })
             }
+            // ArduCopter's airspeed is the length of its (3D) airspeed estimate, so it includes
+            // the climb rate; heading is the yaw; throttle about 35 % hovering (real capture).
             id::VFR_HUD => MavMessage::VFR_HUD(VFR_HUD_DATA {
-                airspeed: groundspeed as f32,
+                airspeed: groundspeed.hypot(self.vu) as f32,
                 groundspeed: groundspeed as f32,
-                alt: amsl as f32,
+                alt: loc_alt as f32,
                 climb: self.vu as f32,
                 heading: heading.round() as i16 % 360,
-                throttle: if self.armed && !self.landed { 38 } else { 0 },
+                throttle: if self.armed && !self.landed { 35 } else { 0 },
             }),
             id::BATTERY_STATUS => {
                 let mut voltages = [u16::MAX; 10];
@@ -294,9 +333,11 @@ impl SimVehicle {
                     voltages,
                     current_battery: self.current_ca(),
                     id: 0,
-                    battery_function: MavBatteryFunction::MAV_BATTERY_FUNCTION_ALL,
-                    mavtype: MavBatteryType::MAV_BATTERY_TYPE_LIPO,
+                    // GCS_MAVLINK::send_battery_status: function and type UNKNOWN.
+                    battery_function: MavBatteryFunction::MAV_BATTERY_FUNCTION_UNKNOWN,
+                    mavtype: MavBatteryType::MAV_BATTERY_TYPE_UNKNOWN,
                     battery_remaining: self.remaining_pct(),
+                    charge_state: MavBatteryChargeState::MAV_BATTERY_CHARGE_STATE_OK,
                     ..Default::default()
                 })
             }

@@ -9,7 +9,8 @@ use super::params::ParamTable;
 use super::rng::Rng;
 use super::streams::Streams;
 use crate::clock::{Micros, SECOND};
-use crate::dialect::{MavMessage, MavSeverity};
+use crate::dialect::{MavCmd, MavMessage, MavResult, MavSeverity};
+use std::collections::{BTreeMap, VecDeque};
 use std::path::PathBuf;
 
 /// Physics and scheduling step. ArduPilot's main loop is faster, but 10 ms resolves every rate
@@ -30,6 +31,16 @@ pub const CLIMB_RATE: f64 = 1.5;
 pub const RTL_SPEED: f64 = 5.0;
 /// A repeated command with confirmation > 0 inside this window is a retransmission.
 pub const RETRANSMIT_WINDOW: Micros = 3 * SECOND;
+/// MAV_CMD_PREFLIGHT_CALIBRATION gyro (param1=1): ArduPilot calibrates synchronously in its main
+/// loop (`AP_InertialSensor::calibrate_gyros`): passes of 50 samples 5 ms apart until two agree,
+/// so about half a second during which the vehicle sends nothing, then one COMMAND_ACK.
+pub const GYRO_CAL_TIME: Micros = 600_000;
+/// Simple accel (param5=4) and level (param5=2) calibration, also synchronous: the same
+/// averaging passes, then 0.5 s of samples thrown away while the filters settle.
+pub const ACCEL_CAL_TIME: Micros = 1_100_000;
+/// Airspeed calibration started by a baro calibration (param3=1) when an airspeed sensor is
+/// enabled: `AP_Airspeed` averages for at least a second and 15 readings at 10 Hz.
+pub const AIRSPEED_CAL_TIME: Micros = 1_500_000;
 
 /// The SITL default home (ArduPilot's CMAC field, Canberra).
 pub const HOME_LAT: f64 = -35.363_262_1;
@@ -65,9 +76,75 @@ pub mod mode {
     pub const AUTO_RTL: u32 = 27;
     pub const TURTLE: u32 = 28;
 
-    /// Every mode number ArduCopter knows.
+    /// Every mode number a quad build of ArduCopter has a mode object for
+    /// (`Copter::mode_from_mode_num`): AUTOROTATE is heli-only, AUTO_RTL is AUTO in disguise and
+    /// handled before the lookup, 8, 10 and 12 are unused.
     pub fn exists(m: u32) -> bool {
-        matches!(m, 0..=7 | 9 | 11 | 13..=28)
+        matches!(m, 0..=7 | 9 | 11 | 13..=25 | 28)
+    }
+
+    /// The mode's `name()` as ArduCopter prints it in STATUSTEXTs.
+    pub fn name(m: u32) -> &'static str {
+        match m {
+            STABILIZE => "STABILIZE",
+            ACRO => "ACRO",
+            ALT_HOLD => "ALT_HOLD",
+            AUTO => "AUTO",
+            GUIDED => "GUIDED",
+            LOITER => "LOITER",
+            RTL => "RTL",
+            CIRCLE => "CIRCLE",
+            LAND => "LAND",
+            DRIFT => "DRIFT",
+            SPORT => "SPORT",
+            FLIP => "FLIP",
+            AUTOTUNE => "AUTOTUNE",
+            POSHOLD => "POSHOLD",
+            BRAKE => "BRAKE",
+            THROW => "THROW",
+            AVOID_ADSB => "AVOID_ADSB",
+            GUIDED_NOGPS => "GUIDED_NOGPS",
+            SMART_RTL => "SMARTRTL",
+            FLOWHOLD => "FLOWHOLD",
+            FOLLOW => "FOLLOW",
+            ZIGZAG => "ZIGZAG",
+            SYSTEMID => "SYSTEMID",
+            AUTOROTATE => "AUTOROTATE",
+            AUTO_RTL => "AUTO RTL",
+            TURTLE => "TURTLE",
+            _ => "?",
+        }
+    }
+
+    /// Bit of FLTMODE_GCSBLOCK that blocks mode `m` from the GCS (`Copter::gcs_mode_enabled`).
+    pub fn gcs_block_bit(m: u32) -> Option<u32> {
+        const LIST: [u32; 24] = [
+            STABILIZE,
+            ACRO,
+            ALT_HOLD,
+            AUTO,
+            GUIDED,
+            LOITER,
+            CIRCLE,
+            DRIFT,
+            SPORT,
+            FLIP,
+            AUTOTUNE,
+            POSHOLD,
+            BRAKE,
+            THROW,
+            AVOID_ADSB,
+            GUIDED_NOGPS,
+            SMART_RTL,
+            FLOWHOLD,
+            FOLLOW,
+            ZIGZAG,
+            SYSTEMID,
+            AUTOROTATE,
+            AUTO_RTL,
+            TURTLE,
+        ];
+        LIST.iter().position(|&x| x == m).map(|i| i as u32)
     }
 
     /// Modes that need a position estimate (ArduCopter `requires_GPS`).
@@ -78,6 +155,7 @@ pub mod mode {
                 | LOITER
                 | RTL
                 | CIRCLE
+                | DRIFT
                 | POSHOLD
                 | BRAKE
                 | THROW
@@ -89,12 +167,32 @@ pub mod mode {
         )
     }
 
-    /// Modes ArduCopter refuses to arm in.
+    /// Modes ArduCopter refuses to arm in (`allows_arming` false with default options).
     pub fn armable(m: u32) -> bool {
         !matches!(
             m,
-            AUTO | RTL | CIRCLE | LAND | SMART_RTL | AUTO_RTL | FOLLOW | AUTOROTATE | AVOID_ADSB
+            AUTO | RTL
+                | CIRCLE
+                | LAND
+                | SMART_RTL
+                | AUTO_RTL
+                | FOLLOW
+                | AUTOROTATE
+                | AVOID_ADSB
+                | BRAKE
+                | FLIP
+                | AUTOTUNE
         )
+    }
+
+    /// `Mode::has_user_takeoff(must_navigate)`: the modes NAV_TAKEOFF works in. `must_navigate`
+    /// is NAV_TAKEOFF param3 == 0 (horizontal navigation by the pilot not acceptable).
+    pub fn has_user_takeoff(m: u32, must_navigate: bool) -> bool {
+        match m {
+            GUIDED | LOITER | POSHOLD | ZIGZAG => true,
+            ALT_HOLD | SPORT | FLOWHOLD => !must_navigate,
+            _ => false,
+        }
     }
 
     /// Modes that set MAV_MODE_FLAG_GUIDED_ENABLED in the heartbeat (ArduCopter `base_mode()`).
@@ -122,6 +220,38 @@ pub(super) enum RtlPhase {
     Descend,
 }
 
+/// What a vehicle queues for the link.
+// Nearly every item is a MavMessage; boxing them all to shrink the rare Raw is not worth it.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone)]
+pub(super) enum Out {
+    Msg(MavMessage),
+    /// A message the dialect types cannot express (e.g. the COMMAND_ACK ArduPilot sends for
+    /// SET_MODE, whose command is the message id 11): message id and MAVLink 2 payload.
+    Raw {
+        msgid: u32,
+        payload: Vec<u8>,
+    },
+}
+
+/// A synchronous calibration in progress: until `until` the vehicle's main loop is busy, sends
+/// nothing and reads nothing (what arrives waits in `queued_in`); then the ACK goes out.
+#[derive(Debug, Clone)]
+pub(super) struct Blocked {
+    pub until: Micros,
+    pub ack: (MavCmd, MavResult, (u8, u8)),
+    /// Sent right after the ACK.
+    pub then: Vec<Out>,
+}
+
+/// An airspeed calibration answered with MAV_RESULT_IN_PROGRESS (`GCS_MAVLINK_InProgress`).
+#[derive(Debug, Clone)]
+pub(super) struct AirspeedCal {
+    pub started: Micros,
+    pub to: (u8, u8),
+    pub calibrated: bool,
+}
+
 /// The last command executed, to recognise retransmissions.
 #[derive(Debug, Clone)]
 pub(super) struct LastCommand {
@@ -145,6 +275,21 @@ pub struct SimVehicle {
     pub(super) armed: bool,
     pub(super) custom_mode: u32,
     pub(super) home: (f64, f64, f64),
+    /// EKF origin (the first home); HOME moves to the vehicle when it arms.
+    pub(super) origin: (f64, f64, f64),
+    /// Heading, degrees 0..360 (the vehicle faces where it flies and keeps facing there).
+    pub(super) yaw: f64,
+    /// GUIDED destination (DO_REPOSITION): metres north/east of home, metres above home.
+    pub(super) guided_target: Option<(f64, f64, f64)>,
+    /// SmartRTL has a path (recorded from arming with a position estimate).
+    pub(super) srtl_active: bool,
+    pub(super) blocked: Option<Blocked>,
+    /// Messages that arrived while blocked, handled when the block ends.
+    pub(super) queued_in: VecDeque<((u8, u8), MavMessage)>,
+    pub(super) airspeed_cal: Option<AirspeedCal>,
+    /// `drop_cmd`: copies of each command id still to drop.
+    pub(super) drop_left: BTreeMap<u16, u32>,
+    pub(super) commands_dropped: u64,
     /// Metres north/east of home, metres above home (up), velocities m/s (north, east, up).
     pub(super) north: f64,
     pub(super) east: f64,
@@ -169,7 +314,7 @@ pub struct SimVehicle {
     pub(super) last_command: Option<LastCommand>,
     pub(super) last_tick: Micros,
     pub(super) now: Micros,
-    pub(super) out: Vec<MavMessage>,
+    pub(super) out: Vec<Out>,
 }
 
 impl SimVehicle {
@@ -201,6 +346,15 @@ impl SimVehicle {
             armed: false,
             custom_mode: mode::STABILIZE,
             home,
+            origin: home,
+            yaw: 0.0,
+            guided_target: None,
+            srtl_active: false,
+            blocked: None,
+            queued_in: VecDeque::new(),
+            airspeed_cal: None,
+            drop_left: BTreeMap::new(),
+            commands_dropped: 0,
             north: 0.0,
             east: 0.0,
             alt: 0.0,
@@ -272,14 +426,55 @@ impl SimVehicle {
     pub fn message_interval(&self, msgid: u32) -> Option<Micros> {
         self.streams.interval(msgid)
     }
+    /// Heading, degrees.
+    pub fn heading_deg(&self) -> f64 {
+        self.yaw
+    }
+    /// Home: latitude, longitude (degrees), altitude AMSL (metres).
+    pub fn home(&self) -> (f64, f64, f64) {
+        self.home
+    }
+    /// Commands ignored because of `drop_cmd`.
+    pub fn commands_dropped(&self) -> u64 {
+        self.commands_dropped
+    }
+    /// True while a synchronous calibration keeps the vehicle silent.
+    pub fn busy(&self) -> bool {
+        self.blocked.is_some()
+    }
 
     /// Take what the vehicle has to send.
-    pub(super) fn drain(&mut self) -> Vec<MavMessage> {
+    pub(super) fn drain(&mut self) -> Vec<Out> {
         std::mem::take(&mut self.out)
     }
 
+    pub(super) fn push(&mut self, m: MavMessage) {
+        self.out.push(Out::Msg(m));
+    }
+
     pub(super) fn text(&mut self, severity: MavSeverity, s: &str) {
-        self.out.push(super::telemetry::statustext(severity, s));
+        self.push(super::telemetry::statustext(severity, s));
+    }
+
+    /// `drop_cmd`: true (and one fewer left) if this copy of `command` is to be dropped.
+    pub(super) fn take_drop(&mut self, command: u16) -> bool {
+        match self.drop_left.get_mut(&command) {
+            Some(n) if *n > 0 => {
+                *n -= 1;
+                self.commands_dropped += 1;
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// HOME_POSITION and GPS_GLOBAL_ORIGIN, as ArduPilot sends them whenever home is set
+    /// (`AP_AHRS::set_home`).
+    pub(super) fn announce_home(&mut self) {
+        let origin = self.gps_global_origin();
+        self.push(origin);
+        let home = self.home_position();
+        self.push(home);
     }
 
     /// The boot banner ArduPilot sends at start and again after every PARAM_REQUEST_LIST.
@@ -297,6 +492,26 @@ impl SimVehicle {
 
     /// Advance to `now` (a tick boundary): boot events, flight model, then everything due.
     pub(super) fn tick(&mut self, now: Micros) {
+        if let Some(b) = &self.blocked {
+            if now < b.until {
+                // The main loop is busy calibrating: nothing is sent, nothing advances.
+                return;
+            }
+            let b = self.blocked.take().expect("checked");
+            self.now = now;
+            let (command, result, to) = b.ack;
+            self.push(super::telemetry::command_ack(command, result, to));
+            self.out.extend(b.then);
+            while self.blocked.is_none() {
+                let Some((from, msg)) = self.queued_in.pop_front() else {
+                    break;
+                };
+                self.handle(now, from, &msg);
+            }
+            if self.blocked.is_some() {
+                return;
+            }
+        }
         let dt = now.saturating_sub(self.last_tick) as f64 / 1e6;
         self.last_tick = now;
         self.now = now;
@@ -314,15 +529,18 @@ impl SimVehicle {
             self.text(MavSeverity::MAV_SEVERITY_INFO, "EKF3 IMU0 is using GPS");
             let field = format!("Field Elevation Set: {}m", self.home.2.round());
             self.text(MavSeverity::MAV_SEVERITY_INFO, &field);
+            self.announce_home();
         }
         self.step(now, dt);
+        self.airspeed_cal_tick(now);
         if now >= self.next_heartbeat {
-            self.out.push(self.heartbeat());
+            let hb = self.heartbeat();
+            self.push(hb);
             self.next_heartbeat = now - now % SECOND + SECOND;
         }
         for msgid in self.streams.take_due(now) {
             if let Some(m) = self.build(msgid) {
-                self.out.push(m);
+                self.push(m);
             }
         }
         self.send_param_burst();
@@ -330,7 +548,7 @@ impl SimVehicle {
             match self.ftp.next_burst_packet(now) {
                 Some(p) => {
                     let m = super::telemetry::ftp_message(self.ftp_peer, &p);
-                    self.out.push(m);
+                    self.push(m);
                 }
                 None => break,
             }
@@ -341,7 +559,11 @@ impl SimVehicle {
     /// only acts on tick boundaries.
     pub(super) fn next_event(&self, after: Micros) -> Micros {
         let next_tick = after - after % TICK + TICK;
+        if let Some(b) = &self.blocked {
+            return (b.until.div_ceil(TICK) * TICK).max(next_tick);
+        }
         let busy = self.param_cursor.is_some()
+            || self.airspeed_cal.is_some()
             || self.ftp.bursting()
             || (self.armed && !self.landed)
             || (self.armed && self.armed_on_ground_since.is_some())
@@ -372,7 +594,7 @@ impl SimVehicle {
                 return;
             }
             let m = super::telemetry::param_value(&self.params, i);
-            self.out.push(m);
+            self.push(m);
             self.param_cursor = Some(i + 1);
         }
         if self.param_cursor.is_some_and(|i| i >= self.params.len()) {
@@ -406,7 +628,7 @@ impl SimVehicle {
         }
         if self.landed {
             let m = self.custom_mode;
-            if m == mode::LAND || m == mode::RTL {
+            if m == mode::LAND || m == mode::RTL || m == mode::SMART_RTL {
                 self.disarm("Disarming motors");
                 return;
             }
@@ -431,31 +653,133 @@ impl SimVehicle {
                     }
                 }
                 RtlPhase::Return => {
-                    let dist = self.north.hypot(self.east);
-                    let step = RTL_SPEED * dt;
-                    if dist <= step.max(0.05) {
-                        self.north = 0.0;
-                        self.east = 0.0;
+                    if self.fly_home(dt) {
                         self.rtl_phase = RtlPhase::Descend;
-                    } else {
-                        let (un, ue) = (-self.north / dist, -self.east / dist);
-                        self.north += un * step;
-                        self.east += ue * step;
-                        self.vn = un * RTL_SPEED;
-                        self.ve = ue * RTL_SPEED;
                     }
                 }
                 RtlPhase::Descend => self.descend(dt),
             },
-            _ => {
+            // SmartRTL retraces its path; flown here as a straight line home, then a landing.
+            mode::SMART_RTL => match self.rtl_phase {
+                RtlPhase::Climb | RtlPhase::Return => {
+                    if self.fly_home(dt) {
+                        self.rtl_phase = RtlPhase::Descend;
+                    }
+                }
+                RtlPhase::Descend => self.descend(dt),
+            },
+            m => {
                 if let Some(target) = self.takeoff_target {
                     if self.alt < target {
                         self.climb_to(target, dt);
                     } else {
                         self.takeoff_target = None;
                     }
+                } else if m == mode::GUIDED {
+                    if let Some(target) = self.guided_target {
+                        self.fly_to(target, dt);
+                    }
                 }
             }
+        }
+        if self.vn != 0.0 || self.ve != 0.0 {
+            self.yaw = self.ve.atan2(self.vn).to_degrees().rem_euclid(360.0);
+        }
+    }
+
+    /// RTL's return leg: towards home at RTL_SPEED; true once there.
+    fn fly_home(&mut self, dt: f64) -> bool {
+        let dist = self.north.hypot(self.east);
+        let step = RTL_SPEED * dt;
+        if dist <= step.max(0.05) {
+            self.north = 0.0;
+            self.east = 0.0;
+            return true;
+        }
+        let (un, ue) = (-self.north / dist, -self.east / dist);
+        self.north += un * step;
+        self.east += ue * step;
+        self.vn = un * RTL_SPEED;
+        self.ve = ue * RTL_SPEED;
+        false
+    }
+
+    /// Horizontal and vertical speed limits of GUIDED position control (WPNAV_SPEED,
+    /// WPNAV_SPEED_UP, WPNAV_SPEED_DN, cm/s), m/s.
+    fn wpnav_speeds(&self) -> (f64, f64, f64) {
+        let p = |n: &str, d: f64| (self.params.value(n).unwrap_or(d) / 100.0).clamp(0.1, 50.0);
+        (
+            p("WPNAV_SPEED", 1000.0),
+            p("WPNAV_SPEED_UP", 250.0),
+            p("WPNAV_SPEED_DN", 150.0),
+        )
+    }
+
+    /// GUIDED towards a destination (north, east, up from home) in a straight line; it holds
+    /// there once arrived. A destination at or below the ground is a landing.
+    fn fly_to(&mut self, (tn, te, ta): (f64, f64, f64), dt: f64) {
+        let (h, up, down) = self.wpnav_speeds();
+        let (dn, de) = (tn - self.north, te - self.east);
+        let dist = dn.hypot(de);
+        let step = h * dt;
+        if dist <= step.max(0.01) {
+            self.north = tn;
+            self.east = te;
+        } else if dist > 0.0 {
+            self.north += dn / dist * step;
+            self.east += de / dist * step;
+            self.vn = dn / dist * h;
+            self.ve = de / dist * h;
+        }
+        let da = ta.max(0.0) - self.alt;
+        let dz = if da > 0.0 {
+            da.min(up * dt)
+        } else {
+            da.max(-down * dt)
+        };
+        self.alt += dz;
+        self.vu = if dt > 0.0 { dz / dt } else { 0.0 };
+        if self.alt <= 0.0 && ta <= 0.0 {
+            self.alt = 0.0;
+            self.vu = 0.0;
+            self.landed = true;
+            self.guided_target = None;
+            self.armed_on_ground_since = Some(self.now);
+        }
+    }
+
+    /// One second of `GCS_MAVLINK_InProgress::check_tasks` (it runs at most once a second):
+    /// IN_PROGRESS while the airspeed calibration runs, then its result.
+    fn airspeed_cal_tick(&mut self, now: Micros) {
+        let Some(cal) = &mut self.airspeed_cal else {
+            return;
+        };
+        let mut texts = Vec::new();
+        if !cal.calibrated && now >= cal.started + AIRSPEED_CAL_TIME {
+            cal.calibrated = true;
+            texts.push("Airspeed 1 calibrated");
+        }
+        let (calibrated, started, to) = (cal.calibrated, cal.started, cal.to);
+        for t in texts {
+            self.text(MavSeverity::MAV_SEVERITY_INFO, t);
+        }
+        if !now.is_multiple_of(SECOND) || now <= started {
+            return;
+        }
+        let cmd = MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION;
+        if calibrated {
+            self.airspeed_cal = None;
+            self.push(super::telemetry::command_ack(
+                cmd,
+                MavResult::MAV_RESULT_ACCEPTED,
+                to,
+            ));
+        } else {
+            self.push(super::telemetry::command_ack(
+                cmd,
+                MavResult::MAV_RESULT_IN_PROGRESS,
+                to,
+            ));
         }
     }
 
@@ -478,6 +802,7 @@ impl SimVehicle {
             self.vu = 0.0;
             self.landed = true;
             self.takeoff_target = None;
+            self.guided_target = None;
             self.armed_on_ground_since = Some(self.now);
         }
     }
@@ -487,19 +812,28 @@ impl SimVehicle {
             self.armed = false;
             self.armed_on_ground_since = None;
             self.takeoff_target = None;
+            self.guided_target = None;
+            self.srtl_active = false;
             self.text(MavSeverity::MAV_SEVERITY_INFO, why);
         }
     }
 
-    /// Enter a mode (already validated).
+    /// Enter a mode (already validated): the old mode's takeoff or destination is dropped,
+    /// and ArduCopter sends a HEARTBEAT at once so the GCS sees the new mode.
     pub(super) fn enter_mode(&mut self, m: u32) {
-        if m == mode::RTL && self.custom_mode != mode::RTL {
-            self.rtl_phase = RtlPhase::Climb;
+        if m == self.custom_mode {
+            return;
         }
-        if m != mode::GUIDED {
-            self.takeoff_target = None;
-        }
+        self.rtl_phase = if m == mode::SMART_RTL {
+            RtlPhase::Return
+        } else {
+            RtlPhase::Climb
+        };
+        self.takeoff_target = None;
+        self.guided_target = None;
         self.custom_mode = m;
+        let hb = self.heartbeat();
+        self.push(hb);
     }
 
     /// Latitude/longitude (degrees) of the current position (flat earth around home).
