@@ -141,7 +141,7 @@ fn a_refused_arm_shows_the_vehicles_reason_and_the_sequence_stops() {
         .find(|e| e.spec.name() == "COMPONENT_ARM_DISARM")
         .unwrap();
     assert!(
-        arm.reason.as_deref().unwrap_or("").starts_with("PreArm"),
+        arm.reason.as_deref().unwrap_or("").starts_with("Arm: "),
         "{arm:?}"
     );
     // No take-off was sent after the refusal.
@@ -322,7 +322,11 @@ fn an_arm_whose_ack_is_lost_is_not_resent_and_is_reissued_with_one_key() {
     assert_eq!(arm[0].sends, 1, "never resent on its own");
     assert_eq!(arm[0].outcome(), "no ACK");
     assert!(!sim(&r).vehicle(1).unwrap().armed());
-    assert!(r.app.notices.iter().any(|n| n.text.contains("COMPONENT_ARM_DISARM to 1:1: no ACK")));
+    assert!(r
+        .app
+        .notices
+        .iter()
+        .any(|n| n.text.contains("COMPONENT_ARM_DISARM to 1:1: no ACK")));
     // On the Commands screen, enter sends it again (after the confirmation).
     common::keys(&mut r, &["3", "enter"]);
     assert!(r.app.ui.confirm.is_some());
@@ -337,8 +341,17 @@ fn a_vehicle_that_never_answers_shows_a_timeout() {
     let mut r = runner("drop_cmd=176:100");
     command(&mut r, "mode loiter");
     wait(&mut r, 30.0);
-    let e = r.app.sessions[&(1, 1)].commands.entries().next().unwrap().clone();
+    let e = r.app.sessions[&(1, 1)]
+        .commands
+        .entries()
+        .next()
+        .unwrap()
+        .clone();
     assert_eq!(e.outcome(), "no ACK");
     assert_eq!(e.sends, 3);
-    assert!(r.app.notices.iter().any(|n| n.text.contains("no ACK after 3 sends")));
+    assert!(r
+        .app
+        .notices
+        .iter()
+        .any(|n| n.text.contains("no ACK after 3 sends")));
 }
