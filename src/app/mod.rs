@@ -554,7 +554,14 @@ impl App {
             .collect();
         for skey in sessions {
             let out = match self.sessions.get_mut(&skey) {
-                Some(s) => s.on_message(now, link, (key.1, frame.msgid), msg, ack.as_ref()),
+                Some(s) => s.on_message(
+                    now,
+                    link,
+                    (key.1, frame.msgid),
+                    msg,
+                    ack.as_ref(),
+                    frame.payload(),
+                ),
                 None => continue,
             };
             self.session_out(skey, out, fx);

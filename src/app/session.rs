@@ -16,6 +16,7 @@ use crate::dialect::{MavAutopilot, MavMessage};
 use crate::link::LinkId;
 use crate::proto::ack::CommandAck;
 use crate::proto::streams::{StreamMachine, StreamOut};
+use crate::proto::telemetry::FlightTelemetry;
 use crate::proto::vehicles::VehicleKey;
 
 /// What a session wants done.
@@ -40,6 +41,8 @@ pub struct Session {
     /// When anything of this system was last heard on each link.
     heard: BTreeMap<LinkId, Micros>,
     pub streams: StreamMachine,
+    /// What the autopilot tells of its flight (position, battery, GPS, home...).
+    pub flight: FlightTelemetry,
 }
 
 impl Session {
@@ -49,6 +52,7 @@ impl Session {
             pinned: None,
             heard: BTreeMap::new(),
             streams: StreamMachine::new(key, autopilot, request_streams),
+            flight: FlightTelemetry::new(key, request_streams),
         }
     }
 
@@ -74,7 +78,8 @@ impl Session {
     }
 
     /// A frame of this system, for us or broadcast, heard on `link`: its source component, its
-    /// message id, and the message when the dialect could read it (or read it by hand).
+    /// message id, and the message when the dialect could read it (or read it by hand), and its
+    /// payload as sent (for fields of messages the dialect could not read).
     pub fn on_message(
         &mut self,
         now: Micros,
@@ -82,6 +87,7 @@ impl Session {
         (from, id): (u8, u32),
         msg: Option<&MavMessage>,
         ack: Option<&CommandAck>,
+        payload: &[u8],
     ) -> Vec<SessionOut> {
         self.heard.insert(link, now);
         let mut out = Vec::new();
@@ -93,6 +99,7 @@ impl Session {
             _ => None,
         };
         self.streams.on_message(now, link, id, hb);
+        self.flight.on_message(now, id, msg, payload);
         if let Some(a) = ack {
             out.extend(
                 self.streams
@@ -116,17 +123,22 @@ impl Session {
 
     /// Whatever is due at `now`.
     pub fn poll(&mut self, now: Micros) -> Vec<SessionOut> {
-        self.streams.poll(now).into_iter().map(map).collect()
+        let mut out: Vec<SessionOut> = self.streams.poll(now).into_iter().map(map).collect();
+        out.extend(self.flight.poll(now).into_iter().map(SessionOut::Send));
+        out
     }
 
     /// True when a poll now would do something (a machine has work that is not on a timer).
     pub fn due(&self) -> bool {
-        self.streams.due()
+        self.streams.due() || self.flight.due()
     }
 
     /// When the session next needs a poll.
     pub fn next_deadline(&self) -> Option<Micros> {
-        self.streams.next_deadline()
+        [self.streams.next_deadline(), self.flight.next_deadline()]
+            .into_iter()
+            .flatten()
+            .min()
     }
 }
 
