@@ -402,6 +402,9 @@ impl App {
                 self.next_heartbeat = self.now + SECOND;
             }
         }
+        for l in &mut self.links {
+            l.sample_loss(self.now);
+        }
         let events = self.vehicles.tick(self.now);
         self.on_vehicle_events(events, fx);
         for t in self.statustext.poll(self.now) {
