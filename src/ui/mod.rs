@@ -5,6 +5,7 @@
 //! a one-line status bar, which becomes the `:` prompt while a command is typed; the key help
 //! pops up over both. Nothing here can panic on any size: every rectangle is clipped to the frame.
 
+pub mod flight;
 pub mod fmt;
 pub mod help;
 pub mod links;

@@ -9,6 +9,7 @@ encode: {"sysid", "compid", "seq", "v1": bool, "msg": "HEARTBEAT", "fields": {..
 pymavlink with its own CRC.
 """
 import json
+import math
 import sys
 
 from pymavlink.dialects.v20 import ardupilotmega as v2
@@ -40,8 +41,17 @@ def decode(line):
             continue
         if isinstance(v, (bytes, bytearray)):
             v = v.hex()
-        out[k] = v
+        out[k] = finite(v)
     return out
+
+
+def finite(v):
+    """NaN and infinities (HOME_POSITION's unknown quaternion) as null: JSON has no NaN."""
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    if isinstance(v, list):
+        return [finite(x) for x in v]
+    return v
 
 
 def encode(req):
