@@ -204,9 +204,10 @@ pub fn lines(app: &App, width: usize, theme: &Theme) -> Vec<Line<'static>> {
         "GPS",
         t.gps.map(|g| {
             let v = g.value;
+            // Satellites of a receiver that is not there (fix type 0) mean nothing.
             let text = match v.satellites {
-                Some(n) => format!("{} {n} sats", fix_name(v.fix_type)),
-                None => fix_name(v.fix_type),
+                Some(n) if v.fix_type != 0 => format!("{} {n} sats", fix_name(v.fix_type)),
+                _ => fix_name(v.fix_type),
             };
             (text, g.at)
         }),
