@@ -409,6 +409,8 @@ fn a_gps_fix_type_newer_than_our_dialect_shows_as_a_number() {
     // What was never heard shows `--`, not a made-up value.
     assert!(text.contains("ALT --"), "{text}");
     assert!(text.contains("HOME --"), "{text}");
+    // EKF and pre-arm state are shown only once reported.
+    assert!(!text.contains("EKF") && !text.contains("PRE"), "{text}");
 }
 
 #[test]

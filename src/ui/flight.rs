@@ -15,7 +15,8 @@
 //! 100 %, any loss at least one step up; LOSS itself is over the last 10 s). A blank is a second
 //! without data.
 //!
-//! A value older than [`STALE_AFTER`] is dimmed and ends in `?`; one never heard shows `--`.
+//! A value older than [`STALE_AFTER`] is dimmed and ends in `?`; one never heard shows `--`
+//! (EKF and PRE, which not every autopilot reports, are left out until they are).
 //! Items are whole or absent: a line too narrow drops its last items, never cuts a number.
 //! With no target, or nothing heard yet, the pane is its title line alone.
 
@@ -170,7 +171,11 @@ pub fn lines(app: &App, width: usize, theme: &Theme) -> Vec<Line<'static>> {
         (Some(_), _, _) => it.value("HOME", Some(("set".into(), now))),
         (None, _, _) => it.value("HOME", None),
     };
-    let ekf = it.value("EKF", t.ekf.map(|e| (ekf_summary(e.value).into(), e.at)));
+    // EKF_STATUS_REPORT is ArduPilot's, and the pre-arm bit not every autopilot's: each is
+    // shown once reported.
+    let ekf = t
+        .ekf
+        .map(|e| it.value("EKF", Some((ekf_summary(e.value).into(), e.at))));
     let prearm = t.prearm.map(|p| {
         let word = match (p.value.enabled, p.value.healthy) {
             (false, _) => "off",
@@ -230,7 +235,8 @@ pub fn lines(app: &App, width: usize, theme: &Theme) -> Vec<Line<'static>> {
     });
 
     let mut l1 = vec![alt, alt_spark, gs, climb, hdg];
-    let mut l2 = vec![where_, home, ekf];
+    let mut l2 = vec![where_, home];
+    l2.extend(ekf);
     l2.extend(prearm);
     let mut l3 = vec![bat, gps, loss];
     l3.extend(loss_spark);
