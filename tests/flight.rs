@@ -48,6 +48,9 @@ fn assert_flying_at_10m(r: &VirtualRunner) {
     assert_eq!(ours.mode_name(), "GUIDED");
     let s = common::screen(r, 80, 24);
     assert!(s.contains("GUIDED") && s.contains("ARMED"), "{s}");
+    // And the Overview's flight pane says so.
+    let shown = common::shown_altitude(&s).unwrap_or_else(|| panic!("{s}"));
+    assert!((shown - 10.0).abs() <= 0.5, "{shown}: {s}");
 }
 
 #[test]

@@ -48,6 +48,8 @@ fn guided_arm_takeoff_over_tcp_in_real_time() {
         overview.contains("GUIDED") && overview.contains("ARMED"),
         "{overview}"
     );
+    let alt = common::shown_altitude(&overview).unwrap_or_else(|| panic!("{overview}"));
+    assert!((alt - 10.0).abs() <= 0.5, "{alt}: {overview}");
     let commands = std::fs::read_to_string(screens.join("commands.txt")).unwrap();
     for want in ["DO_SET_MODE", "COMPONENT_ARM_DISARM", "NAV_TAKEOFF"] {
         let line = commands

@@ -9,6 +9,7 @@ use crate::clock::{Micros, SECOND};
 pub use crate::link::LinkState;
 use crate::link::ParserStats;
 use crate::proto::loss::SeqTracker;
+use crate::proto::telemetry::History;
 use crate::wire::tx::LinkTx;
 
 /// How soon a repeated frame must follow the original to be a duplicate (radios and routers
@@ -109,6 +110,10 @@ pub struct LinkStatus {
     pub expanded: bool,
     /// The last "down" reason the operator was told of, so retries do not repeat it.
     pub notified_down: Option<String>,
+    /// Loss (percent, all sources) of each second of the last minute.
+    pub loss_history: History,
+    /// The second the loss history was last sampled in, and the totals then.
+    loss_mark: (u64, (u64, u64)),
 }
 
 impl LinkStatus {
@@ -127,6 +132,8 @@ impl LinkStatus {
             rate: RateMeter::default(),
             expanded: false,
             notified_down: None,
+            loss_history: History::default(),
+            loss_mark: (0, (0, 0)),
         }
     }
 
@@ -186,6 +193,27 @@ impl LinkStatus {
     }
 }
 
+impl LinkStatus {
+    /// Called from the core's timers: on the first call in a new second, the loss of the frames
+    /// counted since the last sample goes into [`LinkStatus::loss_history`] as the previous
+    /// second's. A second without frames has no value.
+    pub fn sample_loss(&mut self, now: Micros) {
+        let sec = now / SECOND;
+        if sec <= self.loss_mark.0 {
+            return;
+        }
+        let totals = self.totals();
+        let (r0, l0) = self.loss_mark.1;
+        // Totals can shrink (a source evicted, a late frame un-counting a loss): no negatives.
+        let (rx, lost) = (totals.0.saturating_sub(r0), totals.1.saturating_sub(l0));
+        if rx + lost > 0 {
+            self.loss_history
+                .set((sec - 1) * SECOND, loss_pct((rx, lost)) as f32);
+        }
+        self.loss_mark = (sec, totals);
+    }
+}
+
 /// Loss percent from (received, lost).
 pub fn loss_pct((received, lost): (u64, u64)) -> f64 {
     crate::proto::loss::pct(lost, received)
@@ -207,5 +235,31 @@ mod tests {
         assert_eq!((f, b), (10.0, 200.0));
         // Silence: rates fall to zero once the window has passed.
         assert_eq!(r.rates(20 * SECOND), (0.0, 0.0));
+    }
+
+    #[test]
+    fn loss_history_has_one_value_per_second_with_frames() {
+        let mut l = LinkStatus::new("test".into(), 255, 190);
+        // Second 0: 10 frames, none lost. Second 1: 8 frames after 2 lost. Second 2: silent.
+        let mut seq = 0u8;
+        for (sec, frames, skip) in [(0u64, 10u8, 0u8), (1, 8, 2)] {
+            l.sample_loss(sec * SECOND);
+            for i in 0..frames {
+                if i == 1 {
+                    seq = seq.wrapping_add(skip);
+                }
+                l.source((1, 1))
+                    .seq
+                    .record(seq, sec * SECOND + i as u64 * 1000);
+                seq = seq.wrapping_add(1);
+            }
+        }
+        l.sample_loss(2 * SECOND);
+        l.sample_loss(2 * SECOND + 500_000); // the same second: nothing more
+        l.sample_loss(3 * SECOND);
+        assert_eq!(
+            l.loss_history.recent(2 * SECOND, 3),
+            vec![Some(0.0), Some(20.0), None]
+        );
     }
 }

@@ -409,6 +409,9 @@ impl App {
                 self.next_heartbeat = self.now + SECOND;
             }
         }
+        for l in &mut self.links {
+            l.sample_loss(self.now);
+        }
         let events = self.vehicles.tick(self.now);
         self.on_vehicle_events(events, fx);
         for t in self.statustext.poll(self.now) {
@@ -572,7 +575,14 @@ impl App {
             .collect();
         for skey in sessions {
             let out = match self.sessions.get_mut(&skey) {
-                Some(s) => s.on_message(now, link, (key.1, frame.msgid), msg, ack.as_ref()),
+                Some(s) => s.on_message(
+                    now,
+                    link,
+                    (key.1, frame.msgid),
+                    msg,
+                    ack.as_ref(),
+                    frame.payload(),
+                ),
                 None => continue,
             };
             self.session_out(skey, out, fx);

@@ -18,6 +18,7 @@ use crate::proto::ack::CommandAck;
 use crate::proto::commands::{CmdOut, CommandQueue, CommandSpec, State};
 use crate::proto::sequence::{SeqOut, Sequence};
 use crate::proto::streams::{StreamMachine, StreamOut};
+use crate::proto::telemetry::FlightTelemetry;
 use crate::proto::vehicles::VehicleKey;
 
 /// What a session wants done.
@@ -48,6 +49,8 @@ pub struct Session {
     pub home_amsl: Option<f64>,
     /// A mode change waiting for the heartbeat, or a take-off working through its steps.
     pub sequence: Option<Sequence>,
+    /// What the autopilot tells of its flight (position, battery, GPS, home...).
+    pub flight: FlightTelemetry,
 }
 
 impl Session {
@@ -60,6 +63,7 @@ impl Session {
             commands: CommandQueue::default(),
             home_amsl: None,
             sequence: None,
+            flight: FlightTelemetry::new(key, request_streams),
         }
     }
 
@@ -85,7 +89,8 @@ impl Session {
     }
 
     /// A frame of this system, for us or broadcast, heard on `link`: its source component, its
-    /// message id, and the message when the dialect could read it (or read it by hand).
+    /// message id, and the message when the dialect could read it (or read it by hand), and its
+    /// payload as sent (for fields of messages the dialect could not read).
     pub fn on_message(
         &mut self,
         now: Micros,
@@ -93,6 +98,7 @@ impl Session {
         (from, id): (u8, u32),
         msg: Option<&MavMessage>,
         ack: Option<&CommandAck>,
+        payload: &[u8],
     ) -> Vec<SessionOut> {
         self.heard.insert(link, now);
         let mut out = Vec::new();
@@ -112,6 +118,7 @@ impl Session {
             _ => None,
         };
         self.streams.on_message(now, link, id, hb);
+        self.flight.on_message(now, id, msg, payload);
         if let Some(a) = ack {
             out.extend(
                 self.streams
@@ -246,12 +253,13 @@ impl Session {
             .map(|s| s.poll(now))
             .unwrap_or_default();
         out.extend(self.seq_out(now, r));
+        out.extend(self.flight.poll(now).into_iter().map(SessionOut::Send));
         out
     }
 
     /// True when a poll now would do something (a machine has work that is not on a timer).
     pub fn due(&self) -> bool {
-        self.streams.due()
+        self.streams.due() || self.flight.due()
     }
 
     /// When the session next needs a poll.
@@ -260,6 +268,7 @@ impl Session {
             self.streams.next_deadline(),
             self.commands.next_deadline(),
             self.sequence.as_ref().and_then(|s| s.next_deadline()),
+            self.flight.next_deadline(),
         ]
         .into_iter()
         .flatten()

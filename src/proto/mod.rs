@@ -8,6 +8,7 @@ pub mod modes;
 pub mod sequence;
 pub mod statustext;
 pub mod streams;
+pub mod telemetry;
 pub mod vehicles;
 
 /// MAVLink severities (RFC-5424, as in STATUSTEXT): 0 = EMERGENCY … 7 = DEBUG.

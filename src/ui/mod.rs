@@ -7,6 +7,7 @@
 
 pub mod commands;
 pub mod confirm;
+pub mod flight;
 pub mod fmt;
 pub mod help;
 pub mod links;

@@ -1,17 +1,27 @@
-//! The Overview screen (`1`): the Vehicles, Links and Messages panes stacked top to bottom.
-//! When the screen is too short, panes other than the focused one collapse to a one-line title,
-//! and at the very smallest sizes are dropped.
+//! The Overview screen (`1`): the target's flight telemetry on top, then the Vehicles, Links and
+//! Messages panes stacked top to bottom. When the screen is too short, panes other than the
+//! focused one collapse to a one-line title, and at the very smallest sizes are dropped; the
+//! flight pane gives way first to its title line, then entirely.
 
 use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::Paragraph;
 use ratatui::Frame;
 
-use super::{links, messages, vehicles, Theme};
+use super::{flight, links, messages, vehicles, Theme};
 use crate::app::{App, Pane};
 
 /// Draw the Overview in `body`.
 pub fn render(app: &App, frame: &mut Frame, body: Rect, theme: &Theme) {
+    let fh = flight_height(app, body.height);
+    if fh > 0 {
+        flight::render(app, frame, Rect { height: fh, ..body }, theme);
+    }
+    let body = Rect {
+        y: body.y + fh,
+        height: body.height - fh,
+        ..body
+    };
     for (pane, rect, full) in layout(app, body) {
         if full {
             match pane {
@@ -46,6 +56,23 @@ fn wanted_height(app: &App, pane: Pane, avail: u16) -> u16 {
 
 /// Smallest height a pane is drawn in full (borders and one row).
 const MIN_FULL: u16 = 3;
+
+/// Rows the other panes keep at least before the flight pane takes any: the focused pane in
+/// full and the other two as title lines.
+const MIN_REST: u16 = MIN_FULL + 2;
+
+/// Rows of the flight pane in a body `avail` rows high: in full if the rest still fits, else its
+/// title line, else none.
+fn flight_height(app: &App, avail: u16) -> u16 {
+    let want = flight::wanted_height(app);
+    if avail >= want + MIN_REST {
+        want
+    } else if avail > MIN_REST {
+        1
+    } else {
+        0
+    }
+}
 
 /// Where each pane goes: (pane, rect, full) where `full == false` means a one-line title.
 fn layout(app: &App, body: Rect) -> Vec<(Pane, Rect, bool)> {

@@ -244,3 +244,11 @@ pub fn screen(r: &mavterm::driver::virtual_time::VirtualRunner, w: u16, h: u16) 
     use mavterm::ui::{buffer_to_text, render_to_buffer, Theme};
     buffer_to_text(&render_to_buffer(&r.app, w, h, &Theme::PLAIN))
 }
+
+/// The relative altitude the Overview's flight pane shows (`ALT 10.0 m rel`).
+pub fn shown_altitude(screen: &str) -> Option<f64> {
+    let at = screen.find("ALT ")?;
+    let rest = &screen[at + 4..];
+    let end = rest.find(" m rel")?;
+    rest[..end].trim().parse().ok()
+}

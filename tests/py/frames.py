@@ -42,6 +42,8 @@ def decode(line):
             v = v.hex()
         if isinstance(v, float) and v != v:
             v = "nan"  # JSON has no NaN
+        if isinstance(v, list):
+            v = ["nan" if isinstance(x, float) and x != x else x for x in v]
         out[k] = v
     return out
 
