@@ -199,6 +199,8 @@ pub enum Action {
     Rtl,
     /// Opens the prompt with `mode ` and the target's modes listed.
     ModeMenu,
+    /// The command palette: any MAV_CMD, searched, its parameters filled in, previewed, sent.
+    Palette,
 }
 
 impl Action {
@@ -299,6 +301,11 @@ impl Action {
             Action::ModeMenu,
             "mode",
             "change the target's flight mode (lists its modes)",
+        ),
+        (
+            Action::Palette,
+            "palette",
+            "command palette: any MAV_CMD, with its parameters",
         ),
     ];
 

@@ -25,6 +25,10 @@ impl App {
             return;
         }
         let action = self.keymap.lookup(self.ui.mode, self.ui.screen, &key);
+        if self.ui.palette.is_some() && self.ui.mode == Mode::Edit {
+            self.on_palette_key(key, action, fx);
+            return;
+        }
         match self.ui.mode {
             Mode::Normal => {
                 self.ui.message = None;
@@ -342,6 +346,7 @@ impl App {
             }
             Action::Takeoff => self.open_prompt_with("takeoff 10", false),
             Action::ModeMenu => self.open_prompt_with("mode ", true),
+            Action::Palette => self.open_palette(),
             // Far enough to clamp at either end of any list.
             Action::Top => self.move_selection(-(1 << 30)),
             Action::Bottom => self.move_selection(1 << 30),

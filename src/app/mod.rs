@@ -8,6 +8,7 @@ pub mod input;
 mod keys;
 pub mod links;
 pub mod notices;
+pub mod palette;
 pub mod report;
 pub mod screen;
 pub mod session;
@@ -154,6 +155,8 @@ pub struct UiState {
     pub help_scroll: usize,
     /// A dangerous action waiting for `y`.
     pub confirm: Option<flight::Confirm>,
+    /// The command palette, while open (typed in [`Mode::Edit`]).
+    pub palette: Option<palette::Palette>,
 }
 
 impl Default for UiState {
@@ -170,6 +173,7 @@ impl Default for UiState {
             message: None,
             help_scroll: 0,
             confirm: None,
+            palette: None,
         }
     }
 }
