@@ -72,6 +72,11 @@ fn arm_from_the_palette_asks_first_then_arms_the_sim() {
         keys(&mut r, &["down"]);
     }
     assert_eq!(r.app.ui.palette.as_ref().unwrap().selected(), Some(400));
+    // up/down (and ctrl-n/ctrl-p) move the selection.
+    keys(&mut r, &["down"]);
+    assert_ne!(r.app.ui.palette.as_ref().unwrap().selected(), Some(400));
+    keys(&mut r, &["ctrl-p"]);
+    assert_eq!(r.app.ui.palette.as_ref().unwrap().selected(), Some(400));
     let s = screen(&r);
     assert!(
         s.contains("> arm") && s.contains("COMPONENT_ARM_DISARM"),
@@ -284,4 +289,33 @@ fn a_camera_is_reached_through_its_vehicle_and_its_ack_is_matched() {
     let e = a.sessions[&(1, 1)].commands.entries().next().unwrap();
     assert_eq!(e.spec.target, (1, 100));
     assert_eq!(e.state, State::Done(0));
+}
+
+#[test]
+fn the_takeoff_form_shows_units_and_the_command_long_to_be_sent() {
+    let mut r = runner();
+    keys(&mut r, &["ctrl-p"]);
+    typed(&mut r, "takeoff");
+    assert_eq!(r.app.ui.palette.as_ref().unwrap().selected(), Some(22));
+    keys(&mut r, &["enter", "down", "down", "down"]);
+    typed(&mut r, "nan");
+    keys(&mut r, &["tab", "tab", "tab"]);
+    typed(&mut r, "10");
+    let s = screen(&r);
+    for want in [
+        "NAV_TAKEOFF (22)",
+        "p1 Pitch",
+        "p4 Yaw",
+        "p7 Altitude",
+        "] m ",
+        "] deg ",
+        "COMMAND_LONG target 1:1 command 22 NAV_TAKEOFF confirmation 0",
+        "p1=0 p2=0 p3=0 p4=nan p5=0 p6=0 p7=10",
+    ] {
+        assert!(s.contains(want), "{want}: {s}");
+    }
+    insta::assert_snapshot!("palette_takeoff_form_80x24", s);
+    keys(&mut r, &["esc", "esc"]);
+    assert!(r.app.ui.palette.is_none());
+    assert_eq!(r.app.sessions[&(1, 1)].commands.entries().len(), 0);
 }

@@ -174,10 +174,15 @@ pub fn parse_target(text: &str) -> Result<VehicleKey, String> {
     Ok((s, c))
 }
 
+/// What a commonly used command gains in the ranking: half a matched character, as much as
+/// starting a word (`arm`: COMPONENT_ARM_DISARM level with ARM_AUTHORIZATION_REQUEST, and first).
+const COMMON_BONUS: u32 = 8;
+
 /// The commands matching `query`, best first: fuzzy over the names (without `MAV_CMD_`; case and
-/// a typed `MAV_CMD_` prefix do not matter), ties going to the commonly used commands, then the
-/// shorter name (`takeoff`: NAV_TAKEOFF before NAV_VTOL_TAKEOFF). Digits find commands by
-/// number, the exact one first. An empty query lists every command by number.
+/// a typed `MAV_CMD_` prefix do not matter), the commonly used commands ([`mav_cmds::DOCS`])
+/// winning near ties, then the shorter name (`takeoff`: NAV_TAKEOFF before NAV_VTOL_TAKEOFF).
+/// Digits find commands by number, the exact one first. An empty query lists every command by
+/// number.
 pub fn search(query: &str) -> Vec<u16> {
     let all = mav_cmds::all();
     let q = query.trim();
@@ -202,7 +207,9 @@ pub fn search(query: &str) -> Vec<u16> {
         .iter()
         .filter_map(|(n, name)| {
             let score = pattern.score(Utf32Str::new(name, &mut buf), &mut matcher)?;
-            Some((score, mav_cmds::doc(*n).is_none(), name.len(), *n))
+            let common = mav_cmds::doc(*n).is_some();
+            let score = score + if common { COMMON_BONUS } else { 0 };
+            Some((score, !common, name.len(), *n))
         })
         .collect();
     hits.sort_by(|a, b| b.0.cmp(&a.0).then((a.1, a.2, a.3).cmp(&(b.1, b.2, b.3))));
@@ -327,6 +334,12 @@ mod tests {
     fn arm_finds_component_arm_disarm_among_the_first() {
         let top = names("arm", 3);
         assert!(top.contains(&"COMPONENT_ARM_DISARM".to_string()), "{top:?}");
+        // The commonly used one first, though another starts with `ARM`.
+        assert_eq!(top[0], "COMPONENT_ARM_DISARM", "{top:?}");
+        assert!(
+            top.contains(&"ARM_AUTHORIZATION_REQUEST".to_string()),
+            "{top:?}"
+        );
         assert_eq!(names("armdis", 1), ["COMPONENT_ARM_DISARM"]);
     }
 
