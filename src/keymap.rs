@@ -203,6 +203,8 @@ pub enum Action {
     Reissue,
     /// Commands screen: abort the selected command in progress (COMMAND_CANCEL).
     CancelCommand,
+    /// The command palette: any MAV_CMD, searched, its parameters filled in, previewed, sent.
+    Palette,
 }
 
 impl Action {
@@ -313,6 +315,11 @@ impl Action {
             Action::CancelCommand,
             "cancel_command",
             "abort the selected command in progress",
+        ),
+        (
+            Action::Palette,
+            "palette",
+            "command palette: any MAV_CMD, with its parameters",
         ),
     ];
 

@@ -428,6 +428,7 @@ fn keys_for_and_bindings_list_what_applies_in_file_order() {
         ("land", "L"),
         ("rtl", "R"),
         ("mode", "M"),
+        ("palette", "ctrl-p"),
     ]);
     assert_eq!(
         names(km.bindings(Mode::Normal, "overview")),
@@ -442,6 +443,7 @@ fn keys_for_and_bindings_list_what_applies_in_file_order() {
         ("land", "L"),
         ("rtl", "R"),
         ("mode", "M"),
+        ("palette", "ctrl-p"),
     ]);
     assert_eq!(
         names(km.bindings(Mode::Normal, "parameters")),

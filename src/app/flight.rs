@@ -67,17 +67,40 @@ impl App {
     /// The target, if it can be commanded now.
     fn commandable(&self) -> Result<VehicleKey, String> {
         let key = self.target.ok_or("no target vehicle: none heard yet")?;
-        let v = self
-            .vehicles
-            .get(key)
-            .ok_or_else(|| format!("{}:{} has not been heard", key.0, key.1))?;
+        self.commandable_at(key)
+    }
+
+    /// `key`, if it can be commanded now: heard (compid 0, every component of the system: its
+    /// autopilot heard) and not lost, with an autopilot of its system to route by.
+    fn commandable_at(&self, key: VehicleKey) -> Result<VehicleKey, String> {
+        let session = self.session_for(key);
+        let heard = match key.1 {
+            0 => session.and_then(|s| self.vehicles.get(s)),
+            _ => self.vehicles.get(key),
+        };
+        let v = heard.ok_or_else(|| format!("{}:{} has not been heard", key.0, key.1))?;
         if v.lost {
             return Err(format!("{}:{} is lost: not sent", key.0, key.1));
         }
-        if !self.sessions.contains_key(&key) {
-            return Err(format!("{}:{} is not an autopilot", key.0, key.1));
+        if session.is_none() {
+            return Err(format!(
+                "{}:{} is not an autopilot, and no autopilot of system {} is heard to reach it by",
+                key.0, key.1, key.0
+            ));
         }
         Ok(key)
+    }
+
+    /// The session commands to `key` go through: its own (an autopilot), else that of an
+    /// autopilot of the same system (a camera or gimbal is reached through its vehicle).
+    fn session_for(&self, key: VehicleKey) -> Option<VehicleKey> {
+        if self.sessions.contains_key(&key) {
+            return Some(key);
+        }
+        self.sessions
+            .range((key.0, 0)..=(key.0, u8::MAX))
+            .map(|(k, _)| *k)
+            .next()
     }
 
     /// True when the target is flying (armed and not on the ground), as far as we can tell.
@@ -133,6 +156,34 @@ impl App {
         fx: &mut Vec<Effect>,
     ) -> Result<Option<String>, String> {
         let target = self.commandable()?;
+        self.ask_or_carry_out(target, action, key, fx)
+    }
+
+    /// Ask for `action` on `target`, which need not be the app's target (the palette's
+    /// `SYSID:COMPID`): the same checks and confirmation as [`App::flight`]. Only a
+    /// [`FlightAction::Command`] may go to a component that is not an autopilot.
+    pub fn flight_to(
+        &mut self,
+        target: VehicleKey,
+        action: FlightAction,
+        key: Option<Key>,
+        fx: &mut Vec<Effect>,
+    ) -> Result<Option<String>, String> {
+        let target = self.commandable_at(target)?;
+        self.ask_or_carry_out(target, action, key, fx)
+    }
+
+    fn ask_or_carry_out(
+        &mut self,
+        target: VehicleKey,
+        action: FlightAction,
+        key: Option<Key>,
+        fx: &mut Vec<Effect>,
+    ) -> Result<Option<String>, String> {
+        let any = matches!(action, FlightAction::Command { .. });
+        if !any && !self.sessions.contains_key(&target) {
+            return Err(format!("{}:{} is not an autopilot", target.0, target.1));
+        }
         if let Some(text) = self.question(target, &action) {
             self.ui.confirm = Some(Confirm {
                 text,
@@ -169,8 +220,10 @@ impl App {
         action: FlightAction,
         fx: &mut Vec<Effect>,
     ) -> Result<Option<String>, String> {
+        // A component that is not an autopilot is reached through its system's autopilot.
+        let via = self.session_for(key).ok_or("no session")?;
         let (autopilot, mavtype, mode, armed) = {
-            let v = self.vehicles.get(key).ok_or("vehicle gone")?;
+            let v = self.vehicles.get(via).ok_or("vehicle gone")?;
             (v.autopilot, v.mavtype, v.custom_mode, v.armed())
         };
         let px4 = autopilot == MavAutopilot::MAV_AUTOPILOT_PX4;
@@ -260,9 +313,9 @@ impl App {
             }
         };
         let now = self.now;
-        let s = self.sessions.get_mut(&key).ok_or("no session")?;
+        let s = self.sessions.get_mut(&via).ok_or("no session")?;
         let (_, out) = s.submit(now, spec)?;
-        self.session_out(key, out, fx);
+        self.session_out(via, out, fx);
         Ok(Some(format!("{label}: sent")))
     }
 

@@ -73,6 +73,23 @@ impl TextLine {
         self.text.clear();
         self.cursor = 0;
     }
+
+    /// Apply a line-editing action; false for an action that is not one.
+    pub fn edit(&mut self, action: crate::keymap::Action) -> bool {
+        use crate::keymap::Action::*;
+        match action {
+            CursorLeft => self.left(),
+            CursorRight => self.right(),
+            LineStart => self.home(),
+            LineEnd => self.end(),
+            DeleteBack => self.backspace(),
+            DeleteForward => self.delete(),
+            DeleteWord => self.delete_word(),
+            ClearLine => self.clear(),
+            _ => return false,
+        }
+        true
+    }
 }
 
 /// Lines kept in the prompt's history.
@@ -280,7 +297,7 @@ pub fn parse_mav_cmd(word: &str) -> Result<u16, String> {
 }
 
 /// A parameter value: a number, `nan`, or empty/`-` for 0.
-fn param(s: &str) -> Result<f64, String> {
+pub fn parse_param(s: &str) -> Result<f64, String> {
     match s.to_ascii_lowercase().as_str() {
         "nan" => Ok(f64::NAN),
         "-" | "" => Ok(0.0),
@@ -369,7 +386,7 @@ pub fn parse_command(line: &str) -> Result<Command, String> {
                 if i >= 7 {
                     return Err("at most 7 parameters".into());
                 }
-                params[i] = param(w)?;
+                params[i] = parse_param(w)?;
             }
             Ok(Command::Flight(FlightAction::Command { command, params }))
         }

@@ -25,6 +25,10 @@ impl App {
             return;
         }
         let action = self.keymap.lookup(self.ui.mode, self.ui.screen, &key);
+        if self.ui.palette.is_some() && self.ui.mode == Mode::Edit {
+            self.on_palette_key(key, action, fx);
+            return;
+        }
         match self.ui.mode {
             Mode::Normal => {
                 self.ui.message = None;
@@ -353,6 +357,7 @@ impl App {
                 };
             }
             Action::ModeMenu => self.open_prompt_with("mode ", true),
+            Action::Palette => self.open_palette(),
             // Far enough to clamp at either end of any list.
             Action::Top => self.move_selection(-(1 << 30)),
             Action::Bottom => self.move_selection(1 << 30),

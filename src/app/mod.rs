@@ -8,6 +8,7 @@ pub mod input;
 mod keys;
 pub mod links;
 pub mod notices;
+pub mod palette;
 pub mod report;
 pub mod screen;
 pub mod session;
@@ -156,6 +157,8 @@ pub struct UiState {
     pub confirm: Option<flight::Confirm>,
     /// Selected row of the Commands screen (0 = newest).
     pub cmd_sel: usize,
+    /// The command palette, while open (typed in [`Mode::Edit`]).
+    pub palette: Option<palette::Palette>,
 }
 
 impl Default for UiState {
@@ -173,6 +176,7 @@ impl Default for UiState {
             help_scroll: 0,
             confirm: None,
             cmd_sel: 0,
+            palette: None,
         }
     }
 }

@@ -103,6 +103,12 @@ impl Session {
         self.heard.insert(link, now);
         let mut out = Vec::new();
         if from != self.key.1 {
+            // Another component of this system (a camera, a gimbal): the answers to commands
+            // sent to it through this session's queue.
+            if let Some(a) = ack {
+                let done = self.commands.on_ack(now, (self.key.0, from), a);
+                out.extend(self.drive(now, done));
+            }
             return out;
         }
         let hb = match msg {

@@ -2,8 +2,9 @@
 //! exactly the same screen for the same state.
 //!
 //! Layout: the screen shown (`screens`, one file each; `1` is the Overview of `overview.rs`) above
-//! a one-line status bar, which becomes the `:` prompt while a command is typed; the key help
-//! pops up over both. Nothing here can panic on any size: every rectangle is clipped to the frame.
+//! a one-line status bar, which becomes the `:` prompt while a command is typed; the command
+//! palette, the key help and a confirmation pop up over both. Nothing here can panic on any size:
+//! every rectangle is clipped to the frame.
 
 pub mod commands;
 pub mod confirm;
@@ -13,6 +14,7 @@ pub mod help;
 pub mod links;
 pub mod messages;
 pub mod overview;
+pub mod palette;
 pub mod screens;
 pub mod status;
 pub mod theme;
@@ -52,6 +54,7 @@ pub fn render_with(app: &App, frame: &mut Frame, theme: &Theme) {
     };
     screens::render(app, frame, body, theme);
     status::render(app, frame, status_area, theme);
+    palette::render(app, frame, area, theme);
     if app.ui.mode == Mode::Help {
         help::render(app, frame, area, theme);
     }

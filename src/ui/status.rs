@@ -69,7 +69,10 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             let hint = app.ui.message.as_ref().map(|m| m.1.as_str());
             return text_line(frame, area, ":", &app.ui.prompt.line, hint, theme);
         }
-        Mode::Edit => return text_line(frame, area, "= ", &app.ui.edit, None, theme),
+        // The palette shows what is typed in its popup.
+        Mode::Edit if app.ui.palette.is_none() => {
+            return text_line(frame, area, "= ", &app.ui.edit, None, theme)
+        }
         _ => {}
     }
     let clock = app.wall(app.now).format("%H:%M:%S").to_string();
@@ -85,6 +88,9 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     // The last command's outcome stands where the hints are, until the next key.
     let tail = match &app.ui.message {
         Some((sev, text)) => Span::styled(ellipsize(text, room), theme.severity(*sev)),
+        None if app.ui.palette.is_some() => {
+            Span::styled(ellipsize("palette: esc goes back", room), theme.dim())
+        }
         None => Span::styled(hints_text(app, room), theme.dim()),
     };
     let line = Line::from(vec![

@@ -1,0 +1,321 @@
+//! The command palette (`ctrl-p`): searched, picked, filled in and sent on the simulated
+//! ArduCopter (virtual clock), with the same checks and confirmation as the keys; and a command
+//! to a camera component, reached through its vehicle's autopilot.
+
+use mavterm::app::palette::TARGET;
+use mavterm::app::{App, AppConfig, Effect, Event};
+use mavterm::dialect::{self, MavCmd, MavMessage};
+use mavterm::driver::virtual_time::VirtualRunner;
+use mavterm::keymap::{Key, Mode};
+use mavterm::link::{FrameParser, LinkSpec, ParserStats};
+use mavterm::proto::commands::State;
+use mavterm::sim::Sim;
+use mavterm::ui::{buffer_to_text, render_to_buffer, Theme};
+use mavterm::wire::{frame, Header, Version};
+
+const SECOND: u64 = 1_000_000;
+
+fn runner() -> VirtualRunner {
+    let spec: LinkSpec = "sim://".parse().unwrap();
+    let mut r = VirtualRunner::from_specs(&[spec], AppConfig::default()).unwrap();
+    // The sim's EKF uses GPS from 5 s: arming is allowed after that.
+    r.advance_to(6 * SECOND);
+    r
+}
+
+fn keys(r: &mut VirtualRunner, names: &[&str]) {
+    for n in names {
+        r.key(n.parse::<Key>().unwrap());
+    }
+}
+
+fn typed(r: &mut VirtualRunner, text: &str) {
+    for c in text.chars() {
+        r.key(Key::ch(c));
+    }
+}
+
+fn wait(r: &mut VirtualRunner, secs: f64) {
+    let t = r.now() + (secs * SECOND as f64) as u64;
+    r.advance_to(t);
+}
+
+fn sim(r: &VirtualRunner) -> &Sim {
+    r.source(0).unwrap().as_any().downcast_ref::<Sim>().unwrap()
+}
+
+fn screen(r: &VirtualRunner) -> String {
+    buffer_to_text(&render_to_buffer(&r.app, 80, 24, &Theme::PLAIN))
+}
+
+fn error(r: &VirtualRunner) -> String {
+    r.app
+        .ui
+        .palette
+        .as_ref()
+        .unwrap()
+        .error
+        .clone()
+        .unwrap_or_default()
+}
+
+#[test]
+fn arm_from_the_palette_asks_first_then_arms_the_sim() {
+    let mut r = runner();
+    keys(&mut r, &["ctrl-p"]);
+    assert_eq!(r.app.ui.mode, Mode::Edit);
+    typed(&mut r, "arm");
+    let p = r.app.ui.palette.as_ref().unwrap();
+    let i = p.matches.iter().position(|&n| n == 400).unwrap();
+    assert!(i < 3, "COMPONENT_ARM_DISARM at {i}");
+    for _ in 0..i {
+        keys(&mut r, &["down"]);
+    }
+    assert_eq!(r.app.ui.palette.as_ref().unwrap().selected(), Some(400));
+    // up/down (and ctrl-n/ctrl-p) move the selection.
+    keys(&mut r, &["down"]);
+    assert_ne!(r.app.ui.palette.as_ref().unwrap().selected(), Some(400));
+    keys(&mut r, &["ctrl-p"]);
+    assert_eq!(r.app.ui.palette.as_ref().unwrap().selected(), Some(400));
+    let s = screen(&r);
+    assert!(
+        s.contains("> arm") && s.contains("COMPONENT_ARM_DISARM"),
+        "{s}"
+    );
+    insta::assert_snapshot!("palette_list_80x24", s);
+
+    keys(&mut r, &["enter"]);
+    typed(&mut r, "1");
+    let s = screen(&r);
+    for want in [
+        "COMPONENT_ARM_DISARM (400)",
+        "Arms / disarms a component",
+        "p1 Arm",
+        "p2 Force",
+        "[1:1",
+        "COMMAND_LONG target 1:1 command 400 COMPONENT_ARM_DISARM confirmation 0",
+        "p1=1 p2=0 p3=0 p4=0 p5=0 p6=0 p7=0",
+    ] {
+        assert!(s.contains(want), "{want}: {s}");
+    }
+    insta::assert_snapshot!("palette_form_80x24", s);
+
+    // Dangerous: asked first, nothing sent yet.
+    keys(&mut r, &["enter"]);
+    assert!(r.app.ui.palette.is_none());
+    assert_eq!(r.app.ui.mode, Mode::Normal);
+    let c = r.app.ui.confirm.as_ref().expect("a confirmation");
+    assert!(c.text.contains("COMPONENT_ARM_DISARM") && c.text.contains("1:1"));
+    assert_eq!(r.app.sessions[&(1, 1)].commands.entries().len(), 0);
+    keys(&mut r, &["y"]);
+    wait(&mut r, 2.0);
+    assert!(sim(&r).vehicle(1).unwrap().armed());
+    let e = r.app.sessions[&(1, 1)].commands.entries().next().unwrap();
+    assert_eq!((e.spec.target, e.spec.command), ((1, 1), 400));
+    assert_eq!(e.spec.params, [1.0, 0., 0., 0., 0., 0., 0.]);
+    assert_eq!(e.state, State::Done(0));
+}
+
+#[test]
+fn a_wrong_field_or_target_keeps_the_palette_open_and_sends_nothing() {
+    let mut r = runner();
+    keys(&mut r, &["ctrl-p"]);
+    typed(&mut r, "land");
+    assert_eq!(r.app.ui.palette.as_ref().unwrap().selected(), Some(21));
+    keys(&mut r, &["tab"]); // picks, like enter
+    typed(&mut r, "x");
+    keys(&mut r, &["enter"]);
+    assert!(
+        error(&r).contains("param1 (Abort Alt): `x` is not a number"),
+        "{}",
+        error(&r)
+    );
+    assert!(screen(&r).contains("`x` is not a number"));
+    keys(&mut r, &["backspace"]);
+    // Up from the first field is the target.
+    keys(&mut r, &["up"]);
+    assert_eq!(
+        r.app
+            .ui
+            .palette
+            .as_ref()
+            .unwrap()
+            .form
+            .as_ref()
+            .unwrap()
+            .focus,
+        TARGET
+    );
+    for (target, why) in [
+        ("9:1", "9:1 has not been heard"),
+        ("1:100", "1:100 has not been heard"),
+        ("one", "SYSID:COMPID"),
+    ] {
+        keys(&mut r, &["ctrl-u"]);
+        typed(&mut r, target);
+        keys(&mut r, &["enter"]);
+        assert!(error(&r).contains(why), "{target}: {}", error(&r));
+    }
+    assert_eq!(r.app.sessions[&(1, 1)].commands.entries().len(), 0);
+    // Esc: back to the list, then closed.
+    keys(&mut r, &["esc"]);
+    let p = r.app.ui.palette.as_ref().unwrap();
+    assert!(p.form.is_none());
+    assert_eq!(p.query.text, "land");
+    keys(&mut r, &["esc"]);
+    assert!(r.app.ui.palette.is_none());
+    assert_eq!(r.app.ui.mode, Mode::Normal);
+    // Not dangerous: sent at once (nan allowed), its outcome in the status bar.
+    keys(&mut r, &["ctrl-p"]);
+    typed(&mut r, "land");
+    keys(&mut r, &["enter"]);
+    for _ in 0..3 {
+        keys(&mut r, &["tab"]);
+    }
+    typed(&mut r, "nan");
+    keys(&mut r, &["enter"]);
+    assert!(r.app.ui.palette.is_none() && r.app.ui.confirm.is_none());
+    let (_, msg) = r.app.ui.message.clone().unwrap();
+    assert_eq!(msg, "NAV_LAND: sent");
+    let e = r.app.sessions[&(1, 1)].commands.entries().next().unwrap();
+    assert_eq!(e.spec.command, 21);
+    assert!(e.spec.params[3].is_nan());
+}
+
+/// Frames from (sysid, compid) as the link would hand them to the core.
+fn frames_from(key: (u8, u8), seq: u8, msg: &MavMessage) -> Event {
+    let bytes = frame::encode(
+        Version::V2,
+        Header {
+            sysid: key.0,
+            compid: key.1,
+            seq,
+        },
+        msg,
+    );
+    Event::Frames {
+        link: 0,
+        frames: FrameParser::new().parse_all(&bytes),
+        stats: ParserStats::default(),
+    }
+}
+
+fn heartbeat(mavtype: dialect::MavType, autopilot: dialect::MavAutopilot) -> MavMessage {
+    MavMessage::HEARTBEAT(dialect::HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype,
+        autopilot,
+        base_mode: dialect::MavModeFlag::empty(),
+        system_status: dialect::MavState::MAV_STATE_STANDBY,
+        mavlink_version: 3,
+    })
+}
+
+#[test]
+fn a_camera_is_reached_through_its_vehicle_and_its_ack_is_matched() {
+    let mut a = App::new(AppConfig {
+        links: vec!["x".into()],
+        request_streams: false,
+        ..AppConfig::default()
+    });
+    a.update(
+        0,
+        frames_from(
+            (1, 1),
+            0,
+            &heartbeat(
+                dialect::MavType::MAV_TYPE_QUADROTOR,
+                dialect::MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+            ),
+        ),
+    );
+    a.update(
+        0,
+        frames_from(
+            (1, 100),
+            0,
+            &heartbeat(
+                dialect::MavType::MAV_TYPE_CAMERA,
+                dialect::MavAutopilot::MAV_AUTOPILOT_INVALID,
+            ),
+        ),
+    );
+    assert_eq!(a.target, Some((1, 1)));
+    let key = |a: &mut App, k: &str| a.update(1000, Event::Key(k.parse::<Key>().unwrap()));
+    key(&mut a, "ctrl-p");
+    for c in "image start".chars() {
+        a.update(1000, Event::Key(Key::ch(c)));
+    }
+    assert_eq!(a.ui.palette.as_ref().unwrap().selected(), Some(2000));
+    key(&mut a, "enter");
+    key(&mut a, "tab");
+    a.update(1000, Event::Key(Key::ch('2'))); // interval 2 s
+    key(&mut a, "backtab");
+    key(&mut a, "backtab");
+    key(&mut a, "ctrl-u");
+    for c in "1:100".chars() {
+        a.update(1000, Event::Key(Key::ch(c)));
+    }
+    let form = a.ui.palette.as_ref().unwrap().form.as_ref().unwrap();
+    assert_eq!(
+        form.preview()[0],
+        "COMMAND_LONG target 1:100 command 2000 IMAGE_START_CAPTURE confirmation 0"
+    );
+    let fx = key(&mut a, "enter");
+    assert!(a.ui.palette.is_none(), "{:?}", a.ui.palette);
+    let sent: Vec<&MavMessage> = fx
+        .iter()
+        .filter_map(|e| match e {
+            Effect::Send { msg, .. } => Some(msg),
+            _ => None,
+        })
+        .collect();
+    let [MavMessage::COMMAND_LONG(c)] = sent.as_slice() else {
+        panic!("{sent:?}")
+    };
+    assert_eq!((c.target_system, c.target_component), (1, 100));
+    assert_eq!(c.command, MavCmd::MAV_CMD_IMAGE_START_CAPTURE);
+    assert_eq!((c.param1, c.param2, c.confirmation), (0.0, 2.0, 0));
+    // The camera's answer closes the command in its vehicle's queue.
+    let ack = MavMessage::COMMAND_ACK(dialect::COMMAND_ACK_DATA {
+        command: MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
+        result: dialect::MavResult::MAV_RESULT_ACCEPTED,
+        progress: 0,
+        result_param2: 0,
+        target_system: 255,
+        target_component: 190,
+    });
+    a.update(200_000, frames_from((1, 100), 1, &ack));
+    let e = a.sessions[&(1, 1)].commands.entries().next().unwrap();
+    assert_eq!(e.spec.target, (1, 100));
+    assert_eq!(e.state, State::Done(0));
+}
+
+#[test]
+fn the_takeoff_form_shows_units_and_the_command_long_to_be_sent() {
+    let mut r = runner();
+    keys(&mut r, &["ctrl-p"]);
+    typed(&mut r, "takeoff");
+    assert_eq!(r.app.ui.palette.as_ref().unwrap().selected(), Some(22));
+    keys(&mut r, &["enter", "down", "down", "down"]);
+    typed(&mut r, "nan");
+    keys(&mut r, &["tab", "tab", "tab"]);
+    typed(&mut r, "10");
+    let s = screen(&r);
+    for want in [
+        "NAV_TAKEOFF (22)",
+        "p1 Pitch",
+        "p4 Yaw",
+        "p7 Altitude",
+        "] m ",
+        "] deg ",
+        "COMMAND_LONG target 1:1 command 22 NAV_TAKEOFF confirmation 0",
+        "p1=0 p2=0 p3=0 p4=nan p5=0 p6=0 p7=10",
+    ] {
+        assert!(s.contains(want), "{want}: {s}");
+    }
+    insta::assert_snapshot!("palette_takeoff_form_80x24", s);
+    keys(&mut r, &["esc", "esc"]);
+    assert!(r.app.ui.palette.is_none());
+    assert_eq!(r.app.sessions[&(1, 1)].commands.entries().len(), 0);
+}
