@@ -35,7 +35,8 @@ use std::collections::{BinaryHeap, VecDeque};
 use std::sync::OnceLock;
 
 use super::frame::{
-    frame_crc, Frame, Version, IFLAG_SIGNED, MAGIC_V1, MAGIC_V2, MAX_FRAME_LEN, SIGNATURE_LEN,
+    frame_crc, Frame, RawBytes, Version, IFLAG_SIGNED, MAGIC_V1, MAGIC_V2, MAX_FRAME_LEN,
+    SIGNATURE_LEN,
 };
 use crate::dialect::MavMessage;
 use mavlink::{MavlinkVersion, Message};
@@ -266,19 +267,47 @@ impl FrameParser {
         self.buf.len()
     }
 
+    /// An empty Vec with room for the frames `len` more bytes probably hold (from the bytes per
+    /// frame seen so far, plus a quarter), so collecting them seldom has to grow it: a frame is a
+    /// few hundred bytes to move.
+    pub fn frame_vec(&self, len: usize) -> Vec<Frame> {
+        const FIRST_GUESS: u64 = 32;
+        let per_frame = match self.stats.frames {
+            0 => FIRST_GUESS,
+            n => (self.stats.bytes / n).max(8),
+        } as usize;
+        let n = len / per_frame;
+        Vec::with_capacity(n + n / 4 + 4)
+    }
+
     /// Feed bytes from a stream; `emit` is called for each complete frame, in order.
-    pub fn push(&mut self, bytes: &[u8], mut emit: impl FnMut(Frame)) {
+    pub fn push(&mut self, bytes: &[u8], emit: impl FnMut(Frame)) {
+        self.push_to(bytes, &mut Emit(emit));
+    }
+
+    /// [`FrameParser::push`] appending the frames to `frames`: each is decoded where it lies in
+    /// the Vec instead of being moved there (a frame is a few hundred bytes).
+    pub fn push_into(&mut self, bytes: &[u8], frames: &mut Vec<Frame>) {
+        self.push_to(bytes, frames);
+    }
+
+    /// [`FrameParser::end_of_datagram`] appending the frames to `frames`.
+    pub fn end_of_datagram_into(&mut self, frames: &mut Vec<Frame>) {
+        self.end_of_datagram_to(frames);
+    }
+
+    fn push_to(&mut self, bytes: &[u8], emit: &mut impl Sink) {
         self.stats.bytes += bytes.len() as u64;
         let base = self.pos;
         if self.buf.is_empty() {
             // Nothing held back: parse the caller's bytes in place, keep only the undecided tail.
-            self.scan(bytes, base, false, &mut emit);
+            self.scan(bytes, base, false, emit);
             let used = (self.pos - base) as usize;
             self.buf.extend_from_slice(&bytes[used..]);
         } else {
             let mut buf = std::mem::take(&mut self.buf);
             buf.extend_from_slice(bytes);
-            self.scan(&buf, base, false, &mut emit);
+            self.scan(&buf, base, false, emit);
             buf.drain(..(self.pos - base) as usize);
             if buf.capacity() > 64 * 1024 {
                 // A huge read arrived while bytes were held back: do not keep its room.
@@ -290,9 +319,13 @@ impl FrameParser {
 
     /// A datagram (UDP packet) ended here: a frame cannot continue into the next one. Decides
     /// everything held back, and starts afresh.
-    pub fn end_of_datagram(&mut self, mut emit: impl FnMut(Frame)) {
+    pub fn end_of_datagram(&mut self, emit: impl FnMut(Frame)) {
+        self.end_of_datagram_to(&mut Emit(emit));
+    }
+
+    fn end_of_datagram_to(&mut self, emit: &mut impl Sink) {
         let buf = std::mem::take(&mut self.buf);
-        self.scan(&buf, self.pos, true, &mut emit);
+        self.scan(&buf, self.pos, true, emit);
         while let Some(Reverse((_, why))) = self.pending.pop() {
             if why == Rejected::BadCrc {
                 self.stats.crc_errors += 1;
@@ -313,14 +346,14 @@ impl FrameParser {
     /// Convenience: parse a whole buffer (e.g. a file of frames) and collect the frames.
     pub fn parse_all(&mut self, bytes: &[u8]) -> Vec<Frame> {
         let mut out = Vec::new();
-        self.push(bytes, |f| out.push(f));
-        self.end_of_datagram(|f| out.push(f));
+        self.push_into(bytes, &mut out);
+        self.end_of_datagram_into(&mut out);
         out
     }
 
     /// Decide as many positions as the bytes allow. `d` holds the stream from position `base`
     /// (`<= self.pos`) to its end; `at_end` says nothing follows it.
-    fn scan(&mut self, d: &[u8], base: u64, at_end: bool, emit: &mut impl FnMut(Frame)) {
+    fn scan(&mut self, d: &[u8], base: u64, at_end: bool, emit: &mut impl Sink) {
         let end = base + d.len() as u64;
         loop {
             let i = (self.pos - base) as usize;
@@ -476,7 +509,7 @@ impl FrameParser {
     }
 
     /// Accept the frame of `len` bytes at the start of `d` (stream position `pos`).
-    fn accept(&mut self, d: &[u8], len: usize, known: bool, emit: &mut impl FnMut(Frame)) {
+    fn accept(&mut self, d: &[u8], len: usize, known: bool, emit: &mut impl Sink) {
         // Every candidate still pending ends after this frame's start: it was cut off by it.
         if !self.pending.is_empty() || self.cut_off > 0 {
             self.stats.truncated += self.pending.len() as u64 + self.cut_off;
@@ -484,13 +517,8 @@ impl FrameParser {
             self.cut_off = 0;
         }
         self.pos += len as u64;
-        let frame = self.build(&d[..len], known);
-        emit(frame);
-    }
-
-    fn build(&mut self, raw: &[u8], known: bool) -> Frame {
+        let raw = &d[..len];
         let (version, seq, sysid, compid, msgid, iflags, cflags, hlen) = header_of(raw);
-        let plen = raw[1] as usize;
         self.stats.frames += 1;
         match version {
             Version::V1 => self.stats.v1_frames += 1,
@@ -499,20 +527,11 @@ impl FrameParser {
         if version == Version::V2 && iflags & IFLAG_SIGNED != 0 {
             self.stats.signed_frames += 1;
         }
-        let message = if known {
-            match MavMessage::parse(version.to_mavlink(), msgid, &raw[hlen..hlen + plen]) {
-                Ok(m) => Some(m),
-                Err(_) => {
-                    self.stats.decode_errors += 1;
-                    None
-                }
-            }
-        } else {
+        if !known {
             self.stats.unknown_ids += 1;
-            None
-        };
-        Frame {
-            raw: raw.to_vec(),
+        }
+        let frame = Frame {
+            raw: RawBytes::new(raw),
             version,
             seq,
             sysid,
@@ -520,7 +539,44 @@ impl FrameParser {
             msgid,
             incompat_flags: iflags,
             compat_flags: cflags,
-            message,
+            message: None,
+        };
+        let stats = &mut self.stats;
+        emit.put(frame, |message| {
+            if known {
+                let payload = &raw[hlen..hlen + raw[1] as usize];
+                match MavMessage::parse(version.to_mavlink(), msgid, payload) {
+                    Ok(m) => *message = Some(m),
+                    Err(_) => stats.decode_errors += 1,
+                }
+            }
+        });
+    }
+}
+
+/// Where accepted frames go: a frame is handed over with its message still `None`, and decoded
+/// where it then lies, so its few hundred bytes are not moved again.
+trait Sink {
+    fn put(&mut self, frame: Frame, decode: impl FnOnce(&mut Option<MavMessage>));
+}
+
+/// A callback taking each frame.
+struct Emit<F>(F);
+
+impl<F: FnMut(Frame)> Sink for Emit<F> {
+    #[inline]
+    fn put(&mut self, mut frame: Frame, decode: impl FnOnce(&mut Option<MavMessage>)) {
+        decode(&mut frame.message);
+        (self.0)(frame)
+    }
+}
+
+impl Sink for Vec<Frame> {
+    #[inline]
+    fn put(&mut self, frame: Frame, decode: impl FnOnce(&mut Option<MavMessage>)) {
+        self.push(frame);
+        if let Some(last) = self.last_mut() {
+            decode(&mut last.message);
         }
     }
 }
