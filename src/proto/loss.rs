@@ -190,7 +190,9 @@ impl SeqTracker {
     fn spread_steps(&mut self, steps: u8, from: Micros, to: Micros) {
         let to_sec = to / SECOND;
         let steps = steps as f64;
-        if to <= from {
+        if to <= from || from / SECOND == to_sec {
+            // All in one second (the usual case): what the spreading below gives exactly, as
+            // `steps * span / span` is `steps` for integers this small.
             self.rate_bucket(to_sec).steps += steps;
             return;
         }
