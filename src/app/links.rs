@@ -78,6 +78,7 @@ impl RecentFrames {
 impl SourceStats {
     /// Remember `crc` for `seq` at `now`; true if the last frame with that seq was the same
     /// frame, heard within [`DUPLICATE_WINDOW`].
+    #[inline]
     pub fn same_as_before(&mut self, seq: u8, crc: u16, now: Micros) -> bool {
         if self.crcs.is_empty() {
             self.crcs = vec![None; 256];
@@ -203,8 +204,16 @@ impl LinkStatus {
     /// The per-source statistics for `key`, made if new; a full table first evicts the source
     /// heard least recently.
     pub fn source(&mut self, key: (u8, u8)) -> &mut SourceStats {
-        // Below the limit nothing is evicted: one lookup.
-        if self.sources.len() >= MAX_SOURCES && !self.sources.contains_key(&key) {
+        if !self.sources.contains_key(&key) {
+            self.add_source(key);
+        }
+        self.sources.get_mut(&key).expect("added above")
+    }
+
+    /// A new source: a full table first evicts the source heard least recently.
+    #[cold]
+    fn add_source(&mut self, key: (u8, u8)) {
+        if self.sources.len() >= MAX_SOURCES {
             let oldest = self
                 .sources
                 .iter()
@@ -215,7 +224,7 @@ impl LinkStatus {
                 self.evicted_sources += 1;
             }
         }
-        self.sources.entry(key).or_default()
+        self.sources.insert(key, SourceStats::default());
     }
 
     /// (received, lost) summed over all sources, since start.

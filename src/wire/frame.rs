@@ -153,12 +153,14 @@ impl RawBytes {
 
     pub fn new(bytes: &[u8]) -> RawBytes {
         if bytes.len() <= Self::INLINE {
-            let mut inline = [0u8; Self::INLINE];
-            inline[..bytes.len()].copy_from_slice(bytes);
-            RawBytes(RawRepr::Inline {
+            let mut raw = RawBytes(RawRepr::Inline {
                 len: bytes.len() as u8,
-                bytes: inline,
-            })
+                bytes: [0; Self::INLINE],
+            });
+            if let RawRepr::Inline { bytes: inline, .. } = &mut raw.0 {
+                inline[..bytes.len()].copy_from_slice(bytes);
+            }
+            raw
         } else {
             RawBytes(RawRepr::Heap(bytes.into()))
         }

@@ -583,7 +583,7 @@ impl Sink for Vec<Frame> {
 
 /// (version, seq, sysid, compid, msgid, incompat, compat, header length) of a frame starting at 0.
 #[allow(clippy::type_complexity)]
-#[inline]
+#[inline(always)]
 fn header_of(d: &[u8]) -> (Version, u8, u8, u8, u32, u8, u8, usize) {
     if d[0] == MAGIC_V1 {
         (Version::V1, d[2], d[3], d[4], d[5] as u32, 0, 0, 6)
