@@ -204,27 +204,29 @@ impl LinkStatus {
     /// The per-source statistics for `key`, made if new; a full table first evicts the source
     /// heard least recently.
     pub fn source(&mut self, key: (u8, u8)) -> &mut SourceStats {
-        if !self.sources.contains_key(&key) {
-            self.add_source(key);
+        use std::collections::btree_map::Entry;
+        if self.sources.len() >= MAX_SOURCES && !self.sources.contains_key(&key) {
+            self.evict_source();
         }
-        self.sources.get_mut(&key).expect("added above")
+        // One search, the common case being a source heard before.
+        match self.sources.entry(key) {
+            Entry::Occupied(e) => e.into_mut(),
+            Entry::Vacant(e) => e.insert(SourceStats::default()),
+        }
     }
 
-    /// A new source: a full table first evicts the source heard least recently.
+    /// Make room for a new source: evict the one heard least recently.
     #[cold]
-    fn add_source(&mut self, key: (u8, u8)) {
-        if self.sources.len() >= MAX_SOURCES {
-            let oldest = self
-                .sources
-                .iter()
-                .min_by_key(|(_, s)| s.last_heard)
-                .map(|(k, _)| *k);
-            if let Some(k) = oldest {
-                self.sources.remove(&k);
-                self.evicted_sources += 1;
-            }
+    fn evict_source(&mut self) {
+        let oldest = self
+            .sources
+            .iter()
+            .min_by_key(|(_, s)| s.last_heard)
+            .map(|(k, _)| *k);
+        if let Some(k) = oldest {
+            self.sources.remove(&k);
+            self.evicted_sources += 1;
         }
-        self.sources.insert(key, SourceStats::default());
     }
 
     /// (received, lost) summed over all sources, since start.

@@ -483,14 +483,15 @@ impl App {
                         .get(&key)
                         .is_some_and(|s| s.recent.has(frame.seq, frame.msgid, crc, now))
             });
-        let l = &mut self.links[link];
         let (outcome, repeat) = {
-            let src = l.source(key);
+            let src = self.links[link].source(key);
             src.frames += 1;
             src.last_heard = now;
-            let repeat = src.same_as_before(frame.seq, crc, now);
+            let same = src.same_as_before(frame.seq, crc, now);
             let outcome = src.seq.record(frame.seq, now);
-            if !copy && !(outcome == SeqOutcome::Duplicate && repeat) {
+            // The same frame again carries nothing new.
+            let repeat = outcome == SeqOutcome::Duplicate && same;
+            if !copy && !repeat {
                 src.recent.push(frame.seq, frame.msgid, crc, now);
             }
             (outcome, repeat)
@@ -499,8 +500,8 @@ impl App {
             let ev = self.vehicles.on_sequence_restart(key, now);
             self.on_vehicle_events(ev, fx);
         }
-        if outcome == SeqOutcome::Duplicate && repeat {
-            return; // the same frame again carries nothing new
+        if repeat {
+            return;
         }
         let fallback;
         let msg = match &frame.message {

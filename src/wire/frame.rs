@@ -166,6 +166,20 @@ impl RawBytes {
         }
     }
 
+    /// The first `len` bytes of `bytes`. When `bytes` goes on long enough, a whole inline
+    /// buffer's worth is copied (a fixed-size copy is a few instructions; the bytes past `len`
+    /// are never read).
+    #[inline]
+    pub fn first(bytes: &[u8], len: usize) -> RawBytes {
+        match bytes.first_chunk::<{ Self::INLINE }>() {
+            Some(block) if len <= Self::INLINE => RawBytes(RawRepr::Inline {
+                len: len as u8,
+                bytes: *block,
+            }),
+            _ => RawBytes::new(&bytes[..len]),
+        }
+    }
+
     #[inline]
     pub fn as_slice(&self) -> &[u8] {
         match &self.0 {

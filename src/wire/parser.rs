@@ -531,7 +531,7 @@ impl FrameParser {
             self.stats.unknown_ids += 1;
         }
         let frame = Frame {
-            raw: RawBytes::new(raw),
+            raw: RawBytes::first(d, len),
             version,
             seq,
             sysid,
