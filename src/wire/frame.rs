@@ -474,6 +474,34 @@ mod tests {
     }
 
     #[test]
+    fn raw_bytes_read_as_the_bytes_given() {
+        let bytes: Vec<u8> = (0..=255u8).collect();
+        for len in [
+            0,
+            1,
+            17,
+            RawBytes::INLINE - 1,
+            RawBytes::INLINE,
+            RawBytes::INLINE + 1,
+            255,
+        ] {
+            let want = &bytes[..len];
+            let made = RawBytes::new(want);
+            // From a longer buffer (a whole block copied) and from one that ends with the frame.
+            let within = RawBytes::first(&bytes, len);
+            let at_end = RawBytes::first(want, len);
+            for r in [&made, &within, &at_end] {
+                assert_eq!(&r[..], want);
+                assert_eq!(r.len(), len);
+                assert_eq!(*r, want.to_vec());
+                assert_eq!(format!("{r:?}"), format!("{want:?}"));
+                assert_eq!(r.clone(), made);
+            }
+        }
+        assert_ne!(RawBytes::new(&[1, 2]), RawBytes::new(&[1, 2, 0]));
+    }
+
+    #[test]
     fn unknown_id_has_no_crc_extra() {
         assert_eq!(crc_extra(0), Some(50));
         assert_eq!(crc_extra(0x00ABCDEF), None);

@@ -841,6 +841,68 @@ mod tests {
         }
     }
 
+    #[test]
+    fn push_into_gives_what_push_gives() {
+        // Frames held inline and on the heap (a long STATUSTEXT), one whose payload does not
+        // decode, an unknown id, garbage with magic bytes, cut at every sort of boundary.
+        let text = MavMessage::STATUSTEXT(apm::STATUSTEXT_DATA {
+            severity: apm::MavSeverity::MAV_SEVERITY_INFO,
+            text: [b'x'; 50].into(),
+            id: 7,
+            chunk_seq: 1,
+        });
+        let text = encode(
+            Version::V2,
+            Header {
+                sysid: 1,
+                compid: 1,
+                seq: 200,
+            },
+            &text,
+        );
+        assert!(text.len() > RawBytes::INLINE);
+        let mut bad_enum = hb(9, Version::V2);
+        bad_enum[14] = 250; // MAV_TYPE 250 does not exist
+        let n = bad_enum.len();
+        let crc = frame_crc(&bad_enum[1..n - 2], 50);
+        bad_enum[n - 2..].copy_from_slice(&crc.to_le_bytes());
+        let mut unknown = vec![MAGIC_V2, 1, 0, 0, 3, 1, 1, 0xEF, 0xBE, 0x00, 42];
+        unknown.extend([0x12, 0x34]);
+        let mut rng = 0x0123_4567_89AB_CDEFu64;
+        let mut bytes = Vec::new();
+        for i in 0..60u8 {
+            match i % 5 {
+                0 => bytes.extend(&text),
+                1 => bytes.extend(&bad_enum),
+                2 => bytes.extend(&unknown),
+                _ => bytes.extend(hb(i, Version::V1)),
+            }
+            for _ in 0..xorshift(&mut rng) % 5 {
+                bytes.push(if xorshift(&mut rng) % 2 == 0 {
+                    MAGIC_V2
+                } else {
+                    xorshift(&mut rng) as u8
+                });
+            }
+        }
+        for chunk in [1, 7, 61, 62, 63, 4096] {
+            let mut a = FrameParser::new();
+            let mut by_push = Vec::new();
+            let mut b = FrameParser::new();
+            let mut by_push_into = b.frame_vec(0);
+            for c in bytes.chunks(chunk) {
+                a.push(c, |f| by_push.push(f));
+                b.push_into(c, &mut by_push_into);
+            }
+            a.end_of_datagram(|f| by_push.push(f));
+            b.end_of_datagram_into(&mut by_push_into);
+            assert_eq!(by_push, by_push_into, "chunks of {chunk}");
+            assert_eq!(a.stats(), b.stats(), "chunks of {chunk}");
+            assert!(a.stats().decode_errors > 0 && a.stats().unknown_ids > 0);
+            assert!(by_push.iter().any(|f| f.raw == text));
+        }
+    }
+
     /// Payload lengths and CRC_EXTRA from the message definitions (common.xml, as listed on
     /// mavlink.io): base fields only for MAVLink 1, with extension fields for MAVLink 2.
     #[test]
