@@ -878,7 +878,7 @@ mod tests {
                 _ => bytes.extend(hb(i, Version::V1)),
             }
             for _ in 0..xorshift(&mut rng) % 5 {
-                bytes.push(if xorshift(&mut rng) % 2 == 0 {
+                bytes.push(if xorshift(&mut rng) & 1 == 0 {
                     MAGIC_V2
                 } else {
                     xorshift(&mut rng) as u8
