@@ -59,8 +59,8 @@ fn bench(c: &mut Criterion) {
             let mut reported = ParserStats::default();
             let mut t = 0u64;
             for chunk in bytes.chunks(4096) {
-                let mut frames = Vec::new();
-                p.push(chunk, |f| frames.push(f));
+                let mut frames = p.frame_vec(chunk.len());
+                p.push_into(chunk, &mut frames);
                 let total = *p.stats();
                 let stats = total.since(&reported);
                 reported = total;

@@ -447,7 +447,7 @@ fn outcome(frames: &[Frame], stats: ParserStats) -> Outcome {
     Outcome {
         frames: frames
             .iter()
-            .map(|f| (f.raw.clone(), f.message.is_some()))
+            .map(|f| (f.raw.to_vec(), f.message.is_some()))
             .collect(),
         stats,
     }
@@ -586,7 +586,7 @@ fn noise_overlapping_a_real_frame_gives_the_same_frames_however_split() {
         p.push(&d[..cut], |f| got.push(f));
         p.push(&d[cut..], |f| got.push(f));
         p.end_of_datagram(|f| got.push(f));
-        let raws: Vec<Vec<u8>> = got.iter().map(|f| f.raw.clone()).collect();
+        let raws: Vec<Vec<u8>> = got.iter().map(|f| f.raw.to_vec()).collect();
         assert_eq!(raws, expect, "split at {cut}");
         assert!(got.iter().all(|f| f.message.is_some()));
         assert_eq!(p.stats().unknown_ids, 0, "split at {cut}");
@@ -610,7 +610,11 @@ fn heartbeat_with_an_impossible_length_and_a_matching_crc_is_not_a_frame() {
     fake.extend(crc.to_le_bytes());
     fake.extend(&recs[103]);
     let mut p = FrameParser::new();
-    let got: Vec<Vec<u8>> = p.parse_all(&fake).into_iter().map(|f| f.raw).collect();
+    let got: Vec<Vec<u8>> = p
+        .parse_all(&fake)
+        .into_iter()
+        .map(|f| f.raw.to_vec())
+        .collect();
     let mut expect = inner.clone();
     expect.push(recs[103].clone());
     assert_eq!(got, expect);

@@ -27,11 +27,59 @@ pub struct SourceStats {
     /// Every frame heard, duplicates included.
     pub frames: u64,
     pub last_heard: Micros,
+    /// The last frames of this source handled from this link: the same frame arriving on another
+    /// link soon after is a copy (redundant radios), whose content was handled already.
+    pub(crate) recent: RecentFrames,
+}
+
+/// Frames remembered per source and link to know their copies on other links.
+pub const RECENT_PER_SOURCE: usize = 16;
+
+/// A frame remembered to recognise its copy on another link.
+#[derive(Debug, Clone, Copy, Default)]
+struct RecentFrame {
+    seq: u8,
+    crc: u16,
+    msgid: u32,
+    t: Micros,
+}
+
+/// The last [`RECENT_PER_SOURCE`] frames of a source on a link, oldest overwritten.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct RecentFrames {
+    frames: [RecentFrame; RECENT_PER_SOURCE],
+    /// Slot the next frame goes in; slots from here on are unused until the ring is full.
+    next: u8,
+    full: bool,
+}
+
+impl RecentFrames {
+    pub(crate) fn push(&mut self, seq: u8, msgid: u32, crc: u16, t: Micros) {
+        self.frames[self.next as usize] = RecentFrame { seq, crc, msgid, t };
+        self.next += 1;
+        if self.next as usize == RECENT_PER_SOURCE {
+            self.next = 0;
+            self.full = true;
+        }
+    }
+
+    /// True when the frame (seq, id, CRC) is here, heard within [`DUPLICATE_WINDOW`] of `now`.
+    pub(crate) fn has(&self, seq: u8, msgid: u32, crc: u16, now: Micros) -> bool {
+        let n = if self.full {
+            RECENT_PER_SOURCE
+        } else {
+            self.next as usize
+        };
+        self.frames[..n].iter().any(|r| {
+            r.seq == seq && r.msgid == msgid && r.crc == crc && now < r.t + DUPLICATE_WINDOW
+        })
+    }
 }
 
 impl SourceStats {
     /// Remember `crc` for `seq` at `now`; true if the last frame with that seq was the same
     /// frame, heard within [`DUPLICATE_WINDOW`].
+    #[inline]
     pub fn same_as_before(&mut self, seq: u8, crc: u16, now: Micros) -> bool {
         if self.crcs.is_empty() {
             self.crcs = vec![None; 256];
@@ -163,18 +211,29 @@ impl LinkStatus {
     /// The per-source statistics for `key`, made if new; a full table first evicts the source
     /// heard least recently.
     pub fn source(&mut self, key: (u8, u8)) -> &mut SourceStats {
-        if !self.sources.contains_key(&key) && self.sources.len() >= MAX_SOURCES {
-            let oldest = self
-                .sources
-                .iter()
-                .min_by_key(|(_, s)| s.last_heard)
-                .map(|(k, _)| *k);
-            if let Some(k) = oldest {
-                self.sources.remove(&k);
-                self.evicted_sources += 1;
-            }
+        use std::collections::btree_map::Entry;
+        if self.sources.len() >= MAX_SOURCES && !self.sources.contains_key(&key) {
+            self.evict_source();
         }
-        self.sources.entry(key).or_default()
+        // One search, the common case being a source heard before.
+        match self.sources.entry(key) {
+            Entry::Occupied(e) => e.into_mut(),
+            Entry::Vacant(e) => e.insert(SourceStats::default()),
+        }
+    }
+
+    /// Make room for a new source: evict the one heard least recently.
+    #[cold]
+    fn evict_source(&mut self) {
+        let oldest = self
+            .sources
+            .iter()
+            .min_by_key(|(_, s)| s.last_heard)
+            .map(|(k, _)| *k);
+        if let Some(k) = oldest {
+            self.sources.remove(&k);
+            self.evicted_sources += 1;
+        }
     }
 
     /// (received, lost) summed over all sources, since start.

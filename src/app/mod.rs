@@ -13,7 +13,7 @@ pub mod report;
 pub mod screen;
 pub mod session;
 
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::BTreeMap;
 
 use chrono::{DateTime, Utc};
 
@@ -25,7 +25,7 @@ use crate::proto::ack::CommandAck;
 use crate::proto::loss::SeqOutcome;
 use crate::proto::statustext::StatusTextJoiner;
 use crate::proto::vehicles::{Registry, VehicleEvent, VehicleKey, DEFAULT_LOST_TIMEOUT};
-use links::{LinkState, LinkStatus, DUPLICATE_WINDOW};
+use links::{LinkState, LinkStatus};
 use notices::{Notice, Notices, SEV_ERROR, SEV_INFO, SEV_NOTICE, SEV_WARNING};
 use session::{Session, SessionOut};
 
@@ -196,27 +196,11 @@ pub struct App {
     /// One session per autopilot heard, holding its protocol machines.
     pub sessions: BTreeMap<VehicleKey, Session>,
     statustext: StatusTextJoiner,
-    /// The last frames of each source, over all links: the same frame arriving on a second link
-    /// is handled once.
-    recent: BTreeMap<(u8, u8), VecDeque<RecentFrame>>,
     next_heartbeat: Micros,
     dirty: bool,
     last_drawn_sec: u64,
     pub quit: bool,
 }
-
-/// A frame remembered to recognise its copy on another link.
-#[derive(Debug, Clone, Copy)]
-struct RecentFrame {
-    seq: u8,
-    msgid: u32,
-    crc: u16,
-    link: LinkId,
-    t: Micros,
-}
-
-/// Frames remembered per source for cross-link duplicates.
-const RECENT_PER_SOURCE: usize = 16;
 
 impl App {
     pub fn new(cfg: AppConfig) -> Self {
@@ -237,7 +221,6 @@ impl App {
             keymap: Keymap::default(),
             sessions: BTreeMap::new(),
             statustext: StatusTextJoiner::default(),
-            recent: BTreeMap::new(),
             next_heartbeat: 0,
             dirty: true,
             last_drawn_sec: 0,
@@ -478,53 +461,67 @@ impl App {
             self.on_link_state(link, LinkState::Up);
         }
         self.dirty = true;
-        for frame in frames {
+        // By reference: a frame (its decoded message inline) is a few hundred bytes to move.
+        for frame in &frames {
             self.on_frame(link, frame, fx);
         }
     }
 
     /// One frame from `link`: counted on the link, then handled once however many links carry it.
-    fn on_frame(&mut self, link: LinkId, frame: Frame, fx: &mut Vec<Effect>) {
+    fn on_frame(&mut self, link: LinkId, frame: &Frame, fx: &mut Vec<Effect>) {
         let now = self.now;
         let key = (frame.sysid, frame.compid);
         // An id our dialect does not know has no CRC we could check: counted on the link only
         // (the parser did), never a source, never loss.
-        if frame.message.is_none() && crate::wire::frame::crc_extra(frame.msgid).is_none() {
+        if frame.message.is_none() && crate::wire::parser::msg_limits(frame.msgid).is_none() {
             return;
         }
         let crc = frame.crc();
-        let l = &mut self.links[link];
         // Our own frame coming back through a router: not another GCS, not a source.
-        if key == (self.cfg.sysid, self.cfg.compid) && l.sent_by_us(frame.seq, crc) {
-            l.echoes += 1;
+        if key == (self.cfg.sysid, self.cfg.compid) && self.links[link].sent_by_us(frame.seq, crc) {
+            self.links[link].echoes += 1;
             return;
         }
+        // The same frame on a second link (redundant radios): counted on this link below, and
+        // it tells us the vehicle is heard here, but its content was handled when it first came.
+        // With one link there is no other link for it to have come on.
+        let copy = self.links.len() > 1
+            && self.links.iter().enumerate().any(|(i, other)| {
+                i != link
+                    && other
+                        .sources
+                        .get(&key)
+                        .is_some_and(|s| s.recent.has(frame.seq, frame.msgid, crc, now))
+            });
         let (outcome, repeat) = {
-            let src = l.source(key);
+            let src = self.links[link].source(key);
             src.frames += 1;
             src.last_heard = now;
-            let repeat = src.same_as_before(frame.seq, crc, now);
-            (src.seq.record(frame.seq, now), repeat)
+            let same = src.same_as_before(frame.seq, crc, now);
+            let outcome = src.seq.record(frame.seq, now);
+            // The same frame again carries nothing new.
+            let repeat = outcome == SeqOutcome::Duplicate && same;
+            if !copy && !repeat {
+                src.recent.push(frame.seq, frame.msgid, crc, now);
+            }
+            (outcome, repeat)
         };
         if outcome == SeqOutcome::Restart && self.vehicles.get(key).is_some() {
             let ev = self.vehicles.on_sequence_restart(key, now);
             self.on_vehicle_events(ev, fx);
         }
-        if outcome == SeqOutcome::Duplicate && repeat {
-            return; // the same frame again carries nothing new
+        if repeat {
+            return;
         }
-        // The same frame on a second link (redundant radios): counted on this link above, and
-        // it tells us the vehicle is heard here, but its content was handled when it first came.
-        let copy = self.copy_from_another_link(link, key, &frame, crc);
         let fallback;
         let msg = match &frame.message {
             Some(m) => Some(m),
             None => {
-                fallback = heartbeat_fallback(&frame);
+                fallback = heartbeat_fallback(frame);
                 fallback.as_ref()
             }
         };
-        let ack = CommandAck::from_frame(&frame).filter(|_| !copy);
+        let ack = CommandAck::from_frame(frame).filter(|_| !copy);
         match msg {
             Some(MavMessage::HEARTBEAT(hb)) => {
                 let ev = self
@@ -572,24 +569,40 @@ impl App {
         if !self.for_us(msg, ack.as_ref()) {
             return;
         }
-        let sessions: Vec<VehicleKey> = self
-            .sessions
-            .range((key.0, 0)..=(key.0, u8::MAX))
-            .map(|(k, _)| *k)
-            .collect();
-        for skey in sessions {
-            let out = match self.sessions.get_mut(&skey) {
-                Some(s) => s.on_message(
-                    now,
-                    link,
-                    (key.1, frame.msgid),
-                    msg,
-                    ack.as_ref(),
-                    frame.payload(),
-                ),
-                None => continue,
-            };
-            self.session_out(skey, out, fx);
+        // Every session of the sender's system (almost always one) is handed the message, then
+        // what they ask for is carried out, in key order. A session's own state is all
+        // `on_message` touches, so this is the same as doing each in turn. Few sessions are
+        // looked through faster than a range is found.
+        let id = (key.1, frame.msgid);
+        let mut outs = Vec::new();
+        let mut handle = |k: &VehicleKey, s: &mut Session| {
+            let out = s.on_message(now, link, id, msg, ack.as_ref(), frame.payload());
+            if !out.is_empty() {
+                outs.push((*k, out));
+            }
+        };
+        if self.sessions.len() == 1 {
+            if let Some(mut only) = self.sessions.first_entry() {
+                let k = *only.key();
+                if k.0 == key.0 {
+                    handle(&k, only.get_mut());
+                }
+            }
+        } else if self.sessions.len() <= 8 {
+            for (k, s) in self.sessions.iter_mut() {
+                if k.0 == key.0 {
+                    handle(k, s);
+                }
+            }
+        } else {
+            for (k, s) in self.sessions.range_mut((key.0, 0)..=(key.0, u8::MAX)) {
+                handle(k, s);
+            }
+        }
+        if !outs.is_empty() {
+            for (k, out) in outs {
+                self.session_out(k, out, fx);
+            }
         }
     }
 
@@ -603,43 +616,6 @@ impl App {
         };
         let ok = |t: Option<u8>, us: u8| t.is_none_or(|t| t == 0 || t == us);
         ok(sys, self.cfg.sysid) && ok(comp, self.cfg.compid)
-    }
-
-    /// True when the same frame (source, seq, id, CRC) came on another link moments ago.
-    fn copy_from_another_link(
-        &mut self,
-        link: LinkId,
-        key: (u8, u8),
-        frame: &Frame,
-        crc: u16,
-    ) -> bool {
-        let now = self.now;
-        let recent = self.recent.entry(key).or_default();
-        let copy = recent.iter().any(|r| {
-            r.link != link
-                && r.seq == frame.seq
-                && r.msgid == frame.msgid
-                && r.crc == crc
-                && now < r.t + DUPLICATE_WINDOW
-        });
-        if !copy {
-            if recent.len() == RECENT_PER_SOURCE {
-                recent.pop_front();
-            }
-            recent.push_back(RecentFrame {
-                seq: frame.seq,
-                msgid: frame.msgid,
-                crc,
-                link,
-                t: now,
-            });
-        }
-        if self.recent.len() > 4 * links::MAX_SOURCES {
-            // Bounded: forget sources not heard within the window.
-            self.recent
-                .retain(|_, r| r.back().is_some_and(|f| now < f.t + DUPLICATE_WINDOW));
-        }
-        copy
     }
 
     fn on_vehicle_events(&mut self, events: Vec<VehicleEvent>, _fx: &mut Vec<Effect>) {

@@ -103,10 +103,10 @@ impl Ingest {
 
     /// Frame `bytes`; `datagram` says they were one whole UDP packet.
     fn feed(&mut self, bytes: &[u8], datagram: bool) {
-        let mut frames = Vec::new();
-        self.parser.push(bytes, |f| frames.push(f));
+        let mut frames = self.parser.frame_vec(bytes.len());
+        self.parser.push_into(bytes, &mut frames);
         if datagram {
-            self.parser.end_of_datagram(|f| frames.push(f));
+            self.parser.end_of_datagram_into(&mut frames);
         }
         let now = *self.parser.stats();
         let delta = now.since(&self.reported);

@@ -135,6 +135,7 @@ impl SeqTracker {
         }
     }
 
+    #[inline]
     fn bucket(&mut self, now: Micros) -> &mut Bucket {
         let sec = now / SECOND;
         let b = &mut self.window[(sec % WINDOW_SECS) as usize];
@@ -162,6 +163,7 @@ impl SeqTracker {
     }
 
     /// Move `last` forward by `d` to `seq`: `d - 1` lost.
+    #[inline]
     fn advance(&mut self, seq: u8, d: u8, now: Micros) -> SeqOutcome {
         let last = self.last.unwrap_or(seq);
         let mut s = last;
@@ -187,13 +189,22 @@ impl SeqTracker {
     }
 
     /// Add `steps` sequence steps to the rate history, spread evenly over `from..to`.
+    #[inline]
     fn spread_steps(&mut self, steps: u8, from: Micros, to: Micros) {
         let to_sec = to / SECOND;
-        let steps = steps as f64;
-        if to <= from {
-            self.rate_bucket(to_sec).steps += steps;
-            return;
+        if to <= from || from / SECOND == to_sec {
+            // All in one second (the usual case): what the spreading below gives exactly, as
+            // `steps * span / span` is `steps` for integers this small.
+            self.rate_bucket(to_sec).steps += steps as f64;
+        } else {
+            self.spread_steps_over_seconds(steps, from, to);
         }
+    }
+
+    #[inline(never)]
+    fn spread_steps_over_seconds(&mut self, steps: u8, from: Micros, to: Micros) {
+        let to_sec = to / SECOND;
+        let steps = steps as f64;
         let span = (to - from) as f64;
         for sec in (from / SECOND).max(to_sec.saturating_sub(RATE_SECS - 1))..=to_sec {
             let lo = from.max(sec * SECOND);
@@ -204,6 +215,7 @@ impl SeqTracker {
         }
     }
 
+    #[inline]
     fn rate_bucket(&mut self, sec: u64) -> &mut RateBucket {
         let b = &mut self.rate[(sec % RATE_SECS) as usize];
         if b.sec != sec {
@@ -259,6 +271,16 @@ impl SeqTracker {
 
     /// Count a frame with sequence `seq` heard at `now`.
     pub fn record(&mut self, seq: u8, now: Micros) -> SeqOutcome {
+        if self.last.is_some_and(|last| seq == last.wrapping_add(1)) {
+            // The next frame, the usual case: what the rules below come to for `d == 1`.
+            self.last_time = now;
+            return self.advance(seq, 1, now);
+        }
+        self.record_other(seq, now)
+    }
+
+    #[inline(never)]
+    fn record_other(&mut self, seq: u8, now: Micros) -> SeqOutcome {
         let silence = now.saturating_sub(self.last_time);
         let outcome = match self.last {
             None => {

@@ -133,12 +133,132 @@ impl Version {
     }
 }
 
+/// The bytes of one frame: held inline when they fit (almost every frame does), so taking a
+/// frame off the wire allocates nothing; on the heap otherwise. Reads as a `[u8]`.
+#[derive(Clone)]
+pub struct RawBytes(RawRepr);
+
+#[derive(Clone)]
+enum RawRepr {
+    Inline {
+        len: u8,
+        bytes: [u8; RawBytes::INLINE],
+    },
+    Heap(Box<[u8]>),
+}
+
+impl RawBytes {
+    /// Frames up to this long are held inline (the type is then 64 bytes, like a cache line).
+    pub const INLINE: usize = 62;
+
+    pub fn new(bytes: &[u8]) -> RawBytes {
+        if bytes.len() <= Self::INLINE {
+            let mut raw = RawBytes(RawRepr::Inline {
+                len: bytes.len() as u8,
+                bytes: [0; Self::INLINE],
+            });
+            if let RawRepr::Inline { bytes: inline, .. } = &mut raw.0 {
+                inline[..bytes.len()].copy_from_slice(bytes);
+            }
+            raw
+        } else {
+            RawBytes(RawRepr::Heap(bytes.into()))
+        }
+    }
+
+    /// The first `len` bytes of `bytes`. When `bytes` goes on long enough, a whole inline
+    /// buffer's worth is copied (a fixed-size copy is a few instructions; the bytes past `len`
+    /// are never read).
+    #[inline]
+    pub fn first(bytes: &[u8], len: usize) -> RawBytes {
+        match bytes.first_chunk::<{ Self::INLINE }>() {
+            Some(block) if len <= Self::INLINE => RawBytes(RawRepr::Inline {
+                len: len as u8,
+                bytes: *block,
+            }),
+            _ => RawBytes::new(&bytes[..len]),
+        }
+    }
+
+    #[inline]
+    pub fn as_slice(&self) -> &[u8] {
+        match &self.0 {
+            RawRepr::Inline { len, bytes } => &bytes[..*len as usize],
+            RawRepr::Heap(b) => b,
+        }
+    }
+}
+
+impl std::ops::Deref for RawBytes {
+    type Target = [u8];
+    #[inline]
+    fn deref(&self) -> &[u8] {
+        self.as_slice()
+    }
+}
+
+impl AsRef<[u8]> for RawBytes {
+    fn as_ref(&self) -> &[u8] {
+        self.as_slice()
+    }
+}
+
+impl std::borrow::Borrow<[u8]> for RawBytes {
+    fn borrow(&self) -> &[u8] {
+        self.as_slice()
+    }
+}
+
+impl From<&[u8]> for RawBytes {
+    fn from(bytes: &[u8]) -> RawBytes {
+        RawBytes::new(bytes)
+    }
+}
+
+impl From<RawBytes> for Vec<u8> {
+    fn from(raw: RawBytes) -> Vec<u8> {
+        raw.to_vec()
+    }
+}
+
+impl std::fmt::Debug for RawBytes {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.as_slice().fmt(f)
+    }
+}
+
+impl PartialEq for RawBytes {
+    fn eq(&self, other: &RawBytes) -> bool {
+        self.as_slice() == other.as_slice()
+    }
+}
+
+impl Eq for RawBytes {}
+
+impl PartialEq<[u8]> for RawBytes {
+    fn eq(&self, other: &[u8]) -> bool {
+        self.as_slice() == other
+    }
+}
+
+impl PartialEq<Vec<u8>> for RawBytes {
+    fn eq(&self, other: &Vec<u8>) -> bool {
+        self.as_slice() == &other[..]
+    }
+}
+
+impl PartialEq<RawBytes> for Vec<u8> {
+    fn eq(&self, other: &RawBytes) -> bool {
+        &self[..] == other.as_slice()
+    }
+}
+
 /// One frame as it came off the wire: its exact bytes, the header fields, and the decoded
 /// message when the dialect knows the id.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Frame {
     /// The frame exactly as received, magic byte to the end of the signature.
-    pub raw: Vec<u8>,
+    pub raw: RawBytes,
     pub version: Version,
     pub seq: u8,
     pub sysid: u8,
@@ -170,6 +290,7 @@ impl Frame {
     }
 
     /// True when a MAVLink 2 frame carries a signature.
+    #[inline]
     pub fn is_signed(&self) -> bool {
         self.version == Version::V2 && self.incompat_flags & IFLAG_SIGNED != 0
     }
@@ -184,9 +305,11 @@ impl Frame {
     }
 
     /// The frame's CRC as sent (two bytes before any signature).
+    #[inline]
     pub fn crc(&self) -> u16 {
-        let end = self.raw.len() - if self.is_signed() { SIGNATURE_LEN } else { 0 };
-        u16::from_le_bytes([self.raw[end - 2], self.raw[end - 1]])
+        let raw = self.raw.as_slice();
+        let end = raw.len() - if self.is_signed() { SIGNATURE_LEN } else { 0 };
+        u16::from_le_bytes([raw[end - 2], raw[end - 1]])
     }
 
     /// Name of the message, or `UNKNOWN_<id>` for ids the dialect does not know.
@@ -348,6 +471,34 @@ mod tests {
         );
         assert_eq!(bytes[1], 1, "payload length");
         assert_eq!(decode_one(&bytes).unwrap().message, Some(msg));
+    }
+
+    #[test]
+    fn raw_bytes_read_as_the_bytes_given() {
+        let bytes: Vec<u8> = (0..=255u8).collect();
+        for len in [
+            0,
+            1,
+            17,
+            RawBytes::INLINE - 1,
+            RawBytes::INLINE,
+            RawBytes::INLINE + 1,
+            255,
+        ] {
+            let want = &bytes[..len];
+            let made = RawBytes::new(want);
+            // From a longer buffer (a whole block copied) and from one that ends with the frame.
+            let within = RawBytes::first(&bytes, len);
+            let at_end = RawBytes::first(want, len);
+            for r in [&made, &within, &at_end] {
+                assert_eq!(&r[..], want);
+                assert_eq!(r.len(), len);
+                assert_eq!(*r, want.to_vec());
+                assert_eq!(format!("{r:?}"), format!("{want:?}"));
+                assert_eq!(r.clone(), made);
+            }
+        }
+        assert_ne!(RawBytes::new(&[1, 2]), RawBytes::new(&[1, 2, 0]));
     }
 
     #[test]

@@ -8,5 +8,5 @@ pub mod param_pck;
 pub mod parser;
 pub mod tx;
 
-pub use frame::{Frame, Header, Version};
+pub use frame::{Frame, Header, RawBytes, Version};
 pub use parser::{FrameParser, ParserStats};

@@ -35,7 +35,8 @@ use std::collections::{BinaryHeap, VecDeque};
 use std::sync::OnceLock;
 
 use super::frame::{
-    frame_crc, Frame, Version, IFLAG_SIGNED, MAGIC_V1, MAGIC_V2, MAX_FRAME_LEN, SIGNATURE_LEN,
+    frame_crc, Frame, RawBytes, Version, IFLAG_SIGNED, MAGIC_V1, MAGIC_V2, MAX_FRAME_LEN,
+    SIGNATURE_LEN,
 };
 use crate::dialect::MavMessage;
 use mavlink::{MavlinkVersion, Message};
@@ -266,19 +267,47 @@ impl FrameParser {
         self.buf.len()
     }
 
+    /// An empty Vec with room for the frames `len` more bytes probably hold (from the bytes per
+    /// frame seen so far, plus a quarter), so collecting them seldom has to grow it: a frame is a
+    /// few hundred bytes to move.
+    pub fn frame_vec(&self, len: usize) -> Vec<Frame> {
+        const FIRST_GUESS: u64 = 32;
+        let per_frame = match self.stats.frames {
+            0 => FIRST_GUESS,
+            n => (self.stats.bytes / n).max(8),
+        } as usize;
+        let n = len / per_frame;
+        Vec::with_capacity(n + n / 4 + 4)
+    }
+
     /// Feed bytes from a stream; `emit` is called for each complete frame, in order.
-    pub fn push(&mut self, bytes: &[u8], mut emit: impl FnMut(Frame)) {
+    pub fn push(&mut self, bytes: &[u8], emit: impl FnMut(Frame)) {
+        self.push_to(bytes, &mut Emit(emit));
+    }
+
+    /// [`FrameParser::push`] appending the frames to `frames`: each is decoded where it lies in
+    /// the Vec instead of being moved there (a frame is a few hundred bytes).
+    pub fn push_into(&mut self, bytes: &[u8], frames: &mut Vec<Frame>) {
+        self.push_to(bytes, frames);
+    }
+
+    /// [`FrameParser::end_of_datagram`] appending the frames to `frames`.
+    pub fn end_of_datagram_into(&mut self, frames: &mut Vec<Frame>) {
+        self.end_of_datagram_to(frames);
+    }
+
+    fn push_to(&mut self, bytes: &[u8], emit: &mut impl Sink) {
         self.stats.bytes += bytes.len() as u64;
         let base = self.pos;
         if self.buf.is_empty() {
             // Nothing held back: parse the caller's bytes in place, keep only the undecided tail.
-            self.scan(bytes, base, false, &mut emit);
+            self.scan(bytes, base, false, emit);
             let used = (self.pos - base) as usize;
             self.buf.extend_from_slice(&bytes[used..]);
         } else {
             let mut buf = std::mem::take(&mut self.buf);
             buf.extend_from_slice(bytes);
-            self.scan(&buf, base, false, &mut emit);
+            self.scan(&buf, base, false, emit);
             buf.drain(..(self.pos - base) as usize);
             if buf.capacity() > 64 * 1024 {
                 // A huge read arrived while bytes were held back: do not keep its room.
@@ -290,9 +319,13 @@ impl FrameParser {
 
     /// A datagram (UDP packet) ended here: a frame cannot continue into the next one. Decides
     /// everything held back, and starts afresh.
-    pub fn end_of_datagram(&mut self, mut emit: impl FnMut(Frame)) {
+    pub fn end_of_datagram(&mut self, emit: impl FnMut(Frame)) {
+        self.end_of_datagram_to(&mut Emit(emit));
+    }
+
+    fn end_of_datagram_to(&mut self, emit: &mut impl Sink) {
         let buf = std::mem::take(&mut self.buf);
-        self.scan(&buf, self.pos, true, &mut emit);
+        self.scan(&buf, self.pos, true, emit);
         while let Some(Reverse((_, why))) = self.pending.pop() {
             if why == Rejected::BadCrc {
                 self.stats.crc_errors += 1;
@@ -313,14 +346,14 @@ impl FrameParser {
     /// Convenience: parse a whole buffer (e.g. a file of frames) and collect the frames.
     pub fn parse_all(&mut self, bytes: &[u8]) -> Vec<Frame> {
         let mut out = Vec::new();
-        self.push(bytes, |f| out.push(f));
-        self.end_of_datagram(|f| out.push(f));
+        self.push_into(bytes, &mut out);
+        self.end_of_datagram_into(&mut out);
         out
     }
 
     /// Decide as many positions as the bytes allow. `d` holds the stream from position `base`
     /// (`<= self.pos`) to its end; `at_end` says nothing follows it.
-    fn scan(&mut self, d: &[u8], base: u64, at_end: bool, emit: &mut impl FnMut(Frame)) {
+    fn scan(&mut self, d: &[u8], base: u64, at_end: bool, emit: &mut impl Sink) {
         let end = base + d.len() as u64;
         loop {
             let i = (self.pos - base) as usize;
@@ -476,7 +509,7 @@ impl FrameParser {
     }
 
     /// Accept the frame of `len` bytes at the start of `d` (stream position `pos`).
-    fn accept(&mut self, d: &[u8], len: usize, known: bool, emit: &mut impl FnMut(Frame)) {
+    fn accept(&mut self, d: &[u8], len: usize, known: bool, emit: &mut impl Sink) {
         // Every candidate still pending ends after this frame's start: it was cut off by it.
         if !self.pending.is_empty() || self.cut_off > 0 {
             self.stats.truncated += self.pending.len() as u64 + self.cut_off;
@@ -484,13 +517,8 @@ impl FrameParser {
             self.cut_off = 0;
         }
         self.pos += len as u64;
-        let frame = self.build(&d[..len], known);
-        emit(frame);
-    }
-
-    fn build(&mut self, raw: &[u8], known: bool) -> Frame {
+        let raw = &d[..len];
         let (version, seq, sysid, compid, msgid, iflags, cflags, hlen) = header_of(raw);
-        let plen = raw[1] as usize;
         self.stats.frames += 1;
         match version {
             Version::V1 => self.stats.v1_frames += 1,
@@ -499,20 +527,11 @@ impl FrameParser {
         if version == Version::V2 && iflags & IFLAG_SIGNED != 0 {
             self.stats.signed_frames += 1;
         }
-        let message = if known {
-            match MavMessage::parse(version.to_mavlink(), msgid, &raw[hlen..hlen + plen]) {
-                Ok(m) => Some(m),
-                Err(_) => {
-                    self.stats.decode_errors += 1;
-                    None
-                }
-            }
-        } else {
+        if !known {
             self.stats.unknown_ids += 1;
-            None
-        };
-        Frame {
-            raw: raw.to_vec(),
+        }
+        let frame = Frame {
+            raw: RawBytes::first(d, len),
             version,
             seq,
             sysid,
@@ -520,14 +539,51 @@ impl FrameParser {
             msgid,
             incompat_flags: iflags,
             compat_flags: cflags,
-            message,
+            message: None,
+        };
+        let stats = &mut self.stats;
+        emit.put(frame, |message| {
+            if known {
+                let payload = &raw[hlen..hlen + raw[1] as usize];
+                match MavMessage::parse(version.to_mavlink(), msgid, payload) {
+                    Ok(m) => *message = Some(m),
+                    Err(_) => stats.decode_errors += 1,
+                }
+            }
+        });
+    }
+}
+
+/// Where accepted frames go: a frame is handed over with its message still `None`, and decoded
+/// where it then lies, so its few hundred bytes are not moved again.
+trait Sink {
+    fn put(&mut self, frame: Frame, decode: impl FnOnce(&mut Option<MavMessage>));
+}
+
+/// A callback taking each frame.
+struct Emit<F>(F);
+
+impl<F: FnMut(Frame)> Sink for Emit<F> {
+    #[inline]
+    fn put(&mut self, mut frame: Frame, decode: impl FnOnce(&mut Option<MavMessage>)) {
+        decode(&mut frame.message);
+        (self.0)(frame)
+    }
+}
+
+impl Sink for Vec<Frame> {
+    #[inline]
+    fn put(&mut self, frame: Frame, decode: impl FnOnce(&mut Option<MavMessage>)) {
+        self.push(frame);
+        if let Some(last) = self.last_mut() {
+            decode(&mut last.message);
         }
     }
 }
 
 /// (version, seq, sysid, compid, msgid, incompat, compat, header length) of a frame starting at 0.
 #[allow(clippy::type_complexity)]
-#[inline]
+#[inline(always)]
 fn header_of(d: &[u8]) -> (Version, u8, u8, u8, u32, u8, u8, usize) {
     if d[0] == MAGIC_V1 {
         (Version::V1, d[2], d[3], d[4], d[5] as u32, 0, 0, 6)
@@ -782,6 +838,68 @@ mod tests {
                 .map(|f| f.seq)
                 .collect();
             assert_eq!(real, expect, "round {round}");
+        }
+    }
+
+    #[test]
+    fn push_into_gives_what_push_gives() {
+        // Frames held inline and on the heap (a long STATUSTEXT), one whose payload does not
+        // decode, an unknown id, garbage with magic bytes, cut at every sort of boundary.
+        let text = MavMessage::STATUSTEXT(apm::STATUSTEXT_DATA {
+            severity: apm::MavSeverity::MAV_SEVERITY_INFO,
+            text: [b'x'; 50].into(),
+            id: 7,
+            chunk_seq: 1,
+        });
+        let text = encode(
+            Version::V2,
+            Header {
+                sysid: 1,
+                compid: 1,
+                seq: 200,
+            },
+            &text,
+        );
+        assert!(text.len() > RawBytes::INLINE);
+        let mut bad_enum = hb(9, Version::V2);
+        bad_enum[14] = 250; // MAV_TYPE 250 does not exist
+        let n = bad_enum.len();
+        let crc = frame_crc(&bad_enum[1..n - 2], 50);
+        bad_enum[n - 2..].copy_from_slice(&crc.to_le_bytes());
+        let mut unknown = vec![MAGIC_V2, 1, 0, 0, 3, 1, 1, 0xEF, 0xBE, 0x00, 42];
+        unknown.extend([0x12, 0x34]);
+        let mut rng = 0x0123_4567_89AB_CDEFu64;
+        let mut bytes = Vec::new();
+        for i in 0..60u8 {
+            match i % 5 {
+                0 => bytes.extend(&text),
+                1 => bytes.extend(&bad_enum),
+                2 => bytes.extend(&unknown),
+                _ => bytes.extend(hb(i, Version::V1)),
+            }
+            for _ in 0..xorshift(&mut rng) % 5 {
+                bytes.push(if xorshift(&mut rng) & 1 == 0 {
+                    MAGIC_V2
+                } else {
+                    xorshift(&mut rng) as u8
+                });
+            }
+        }
+        for chunk in [1, 7, 61, 62, 63, 4096] {
+            let mut a = FrameParser::new();
+            let mut by_push = Vec::new();
+            let mut b = FrameParser::new();
+            let mut by_push_into = b.frame_vec(0);
+            for c in bytes.chunks(chunk) {
+                a.push(c, |f| by_push.push(f));
+                b.push_into(c, &mut by_push_into);
+            }
+            a.end_of_datagram(|f| by_push.push(f));
+            b.end_of_datagram_into(&mut by_push_into);
+            assert_eq!(by_push, by_push_into, "chunks of {chunk}");
+            assert_eq!(a.stats(), b.stats(), "chunks of {chunk}");
+            assert!(a.stats().decode_errors > 0 && a.stats().unknown_ids > 0);
+            assert!(by_push.iter().any(|f| f.raw == text));
         }
     }
 

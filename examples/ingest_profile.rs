@@ -1,0 +1,94 @@
+//! The ingest benchmark's three workloads, run a given number of times, for instruction counts:
+//! `valgrind --tool=callgrind target/release/examples/ingest_profile full 3` (or `crate`,
+//! `framing`). Instructions per frame: the difference between two repeat counts over the
+//! difference in frames (this leaves out loading the capture).
+
+use std::hint::black_box;
+
+use mavterm::app::{App, AppConfig, Event};
+use mavterm::dialect::MavMessage;
+use mavterm::link::tlog::read_tlog;
+use mavterm::link::{FrameParser, ParserStats};
+
+fn capture() -> (Vec<u8>, u64) {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/copter-flight.vehicle.tlog"
+    );
+    let recs = read_tlog(&std::fs::read(path).unwrap()).unwrap();
+    let mut bytes = Vec::new();
+    let mut n = 0u64;
+    while n < 100_000 {
+        for r in &recs {
+            bytes.extend_from_slice(&r.frame);
+            n += 1;
+        }
+    }
+    (bytes, n)
+}
+
+fn full(bytes: &[u8], n: u64) {
+    let mut app = App::new(AppConfig {
+        links: vec!["bench".into()],
+        ..AppConfig::default()
+    });
+    let mut p = FrameParser::new();
+    let mut reported = ParserStats::default();
+    let mut t = 0u64;
+    for chunk in bytes.chunks(4096) {
+        let mut frames = p.frame_vec(chunk.len());
+        p.push_into(chunk, &mut frames);
+        let total = *p.stats();
+        let stats = total.since(&reported);
+        reported = total;
+        t += 1_000;
+        black_box(app.update(
+            t,
+            Event::Frames {
+                link: 0,
+                frames,
+                stats,
+            },
+        ));
+    }
+    assert_eq!(app.links[0].parser.frames, n);
+}
+
+fn framing(bytes: &[u8], n: u64) {
+    let mut p = FrameParser::new();
+    let mut count = 0u64;
+    for chunk in bytes.chunks(4096) {
+        p.push(chunk, |f| {
+            count += 1;
+            black_box(&f);
+        });
+    }
+    assert_eq!(count, n);
+}
+
+fn crate_reader(bytes: &[u8], n: u64) {
+    let mut r = mavlink::MavlinkReader::new(bytes);
+    let mut count = 0u64;
+    while let Ok((h, m)) = r.read_any_message::<MavMessage>() {
+        black_box((h, m));
+        count += 1;
+    }
+    assert_eq!(count, n);
+}
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let what = args.next().unwrap_or_else(|| "full".into());
+    let times: u32 = args.next().map_or(1, |s| s.parse().unwrap());
+    let (bytes, n) = capture();
+    let run: fn(&[u8], u64) = match what.as_str() {
+        "full" => full,
+        "framing" => framing,
+        "crate" => crate_reader,
+        other => panic!("unknown workload {other}"),
+    };
+    for _ in 0..times {
+        run(&bytes, n);
+    }
+    println!("{what}: {times} x {n} frames");
+}
