@@ -358,3 +358,20 @@ fn a_vehicle_that_never_answers_shows_a_timeout() {
         .iter()
         .any(|n| n.text.contains("no ACK after 3 sends")));
 }
+
+#[test]
+fn positional_commands_go_as_command_int_with_an_explicit_frame() {
+    let d = sent_for(
+        3,
+        "long DO_REPOSITION -1 1 0 nan -35.3632621 149.1652374 20",
+    );
+    assert_eq!(d.len(), 1, "{d:?}");
+    let m = &d[0];
+    assert_eq!(m["name"], "COMMAND_INT");
+    assert_eq!(m["command"], 192);
+    assert_eq!(m["frame"], 3); // MAV_FRAME_GLOBAL_RELATIVE_ALT
+    assert_eq!(m["x"], -353632621);
+    assert_eq!(m["y"], 1491652374);
+    assert_eq!(m["z"], 20.0);
+    assert_eq!(m["param4"], "nan");
+}

@@ -258,7 +258,7 @@ impl App {
                 target: key,
                 command,
                 params,
-                form: crate::proto::commands::Form::Long,
+                form: crate::proto::commands::form_for(command),
             })?,
             FlightAction::Mode(name) => {
                 let step = self.mode_step(key, autopilot, mavtype, &name)?;

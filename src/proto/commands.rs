@@ -105,6 +105,19 @@ impl CommandSpec {
     }
 }
 
+/// How a command goes: positional commands (a latitude and longitude in params 5 and 6) as
+/// COMMAND_INT with an explicit frame, altitude above home, so the position is not rounded to a
+/// float and the frame is never implicit; everything else as COMMAND_LONG.
+pub fn form_for(command: u16) -> Form {
+    use MavCmd::*;
+    match MavCmd::from_u16(command) {
+        Some(MAV_CMD_DO_REPOSITION | MAV_CMD_DO_SET_ROI_LOCATION | MAV_CMD_DO_SET_HOME) => {
+            Form::Int(MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT)
+        }
+        _ => Form::Long,
+    }
+}
+
 /// Commands that only ask for information or set a rate: repeating them is harmless.
 pub fn safe_to_resend(command: u16) -> bool {
     use MavCmd::*;
