@@ -293,7 +293,7 @@ impl App {
                     let home = self
                         .sessions
                         .get(&key)
-                        .and_then(|s| s.home_amsl)
+                        .and_then(|s| s.home_amsl())
                         .ok_or("home altitude not known yet: wait for GLOBAL_POSITION_INT")?;
                     [-1.0, 0., 0., nan, nan, nan, home + alt]
                 } else {

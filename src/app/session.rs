@@ -44,9 +44,6 @@ pub struct Session {
     heard: BTreeMap<LinkId, Micros>,
     pub streams: StreamMachine,
     pub commands: CommandQueue,
-    /// Home's altitude above mean sea level (HOME_POSITION, else GLOBAL_POSITION_INT's alt minus
-    /// relative_alt), for PX4's take-off altitude.
-    pub home_amsl: Option<f64>,
     /// A mode change waiting for the heartbeat, or a take-off working through its steps.
     pub sequence: Option<Sequence>,
     /// What the autopilot tells of its flight (position, battery, GPS, home...).
@@ -61,7 +58,6 @@ impl Session {
             heard: BTreeMap::new(),
             streams: StreamMachine::new(key, autopilot, request_streams),
             commands: CommandQueue::default(),
-            home_amsl: None,
             sequence: None,
             flight: FlightTelemetry::new(key, request_streams),
         }
@@ -113,14 +109,6 @@ impl Session {
         }
         let hb = match msg {
             Some(MavMessage::HEARTBEAT(hb)) => Some(hb),
-            Some(MavMessage::HOME_POSITION(h)) => {
-                self.home_amsl = Some(h.altitude as f64 / 1000.0);
-                None
-            }
-            Some(MavMessage::GLOBAL_POSITION_INT(g)) if self.home_amsl.is_none() => {
-                self.home_amsl = Some((g.alt as f64 - g.relative_alt as f64) / 1000.0);
-                None
-            }
             _ => None,
         };
         self.streams.on_message(now, link, id, hb);
@@ -143,6 +131,16 @@ impl Session {
             out.extend(self.seq_out(now, r));
         }
         out
+    }
+
+    /// Home's altitude above mean sea level in metres, for PX4's take-off altitude: from
+    /// HOME_POSITION, else from GLOBAL_POSITION_INT (alt minus relative_alt).
+    pub fn home_amsl(&self) -> Option<f64> {
+        if let Some(h) = &self.flight.home {
+            return Some(h.value.alt_mm as f64 / 1000.0);
+        }
+        let p = &self.flight.position.as_ref()?.value;
+        Some((p.alt_mm as f64 - p.relative_alt_mm as f64) / 1000.0)
     }
 
     /// A text the vehicle said (joined STATUSTEXT): it may explain a refusal.
