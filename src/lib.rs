@@ -12,6 +12,7 @@ pub mod driver;
 pub mod headless;
 pub mod keymap;
 pub mod link;
+pub mod params;
 pub mod proto;
 pub mod sim;
 pub mod tui;
