@@ -6,6 +6,7 @@ pub mod commands;
 pub mod loss;
 pub mod mav_cmds;
 pub mod modes;
+pub mod param_ftp;
 pub mod sequence;
 pub mod statustext;
 pub mod streams;
