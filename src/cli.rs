@@ -44,6 +44,17 @@ pub struct Cli {
     #[arg(long, value_enum)]
     pub report: Option<ReportFormat>,
 
+    /// Headless: download every parameter of the first autopilot and write them to FILE
+    /// (`.params` = QGroundControl's format, anything else MAVProxy's `.parm`); exits 0 only
+    /// when the set is complete. `--duration` limits the wait (default 300 s).
+    #[arg(long, value_name = "FILE")]
+    pub params_out: Option<PathBuf>,
+
+    /// Parameter metadata: ArduPilot's `apm.pdef.xml` or PX4's `parameters.xml` (default:
+    /// `param-meta.xml` in mavterm's config directory, when there is one).
+    #[arg(long, value_name = "FILE")]
+    pub param_meta: Option<PathBuf>,
+
     /// Headless: replay recorded input (keys, snapshots) from FILE.
     #[arg(long, value_name = "FILE")]
     pub input: Option<PathBuf>,

@@ -35,13 +35,30 @@ fn init_logging(path: Option<&std::path::Path>) -> Result<()> {
     Ok(())
 }
 
-fn app_config(cli: &Cli) -> AppConfig {
-    AppConfig {
+fn app_config(cli: &Cli) -> Result<AppConfig> {
+    Ok(AppConfig {
         sysid: cli.sysid,
         compid: cli.compid,
         lost_timeout: (cli.lost_timeout.max(0.1) * SECOND as f64) as u64,
+        param_meta: load_param_meta(cli)?,
         ..AppConfig::default()
-    }
+    })
+}
+
+/// `--param-meta FILE`, or `param-meta.xml` in the config directory when it is there.
+fn load_param_meta(cli: &Cli) -> Result<Option<std::sync::Arc<mavterm::params::meta::MetaSet>>> {
+    let path = match &cli.param_meta {
+        Some(p) => p.clone(),
+        None => match Keymap::user_path().and_then(|p| Some(p.parent()?.join("param-meta.xml"))) {
+            Some(p) if p.is_file() => p,
+            _ => return Ok(None),
+        },
+    };
+    let text = std::fs::read_to_string(&path)
+        .with_context(|| format!("reading parameter metadata {}", path.display()))?;
+    let meta = mavterm::params::meta::MetaSet::parse(&text)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    Ok(Some(std::sync::Arc::new(meta)))
 }
 
 fn main() -> Result<()> {
@@ -85,6 +102,9 @@ fn main() -> Result<()> {
     let keymap = Keymap::load_user(cli.keymap.as_deref())?;
 
     if cli.headless {
+        if let Some(out) = &cli.params_out {
+            return params_out(&cli, out, &links, rt.handle());
+        }
         if let Some(input) = &cli.input {
             return replay(&cli, input, &links, keymap, rt.handle());
         }
@@ -93,13 +113,13 @@ fn main() -> Result<()> {
         };
         let secs = cli.duration.unwrap_or(10.0).max(0.0);
         let app = if all_virtual(&links) {
-            let mut r = VirtualRunner::from_specs(&links, app_config(&cli))?;
+            let mut r = VirtualRunner::from_specs(&links, app_config(&cli)?)?;
             r.advance_to((secs * SECOND as f64) as u64);
             r.app
         } else {
             rt.block_on(mavterm::driver::real_time::run_for(
                 &links,
-                app_config(&cli),
+                app_config(&cli)?,
                 Duration::from_secs_f64(secs),
             ))
         };
@@ -110,6 +130,68 @@ fn main() -> Result<()> {
         bail!("--input and --report need --headless");
     }
     rt.block_on(terminal(&cli, &links, keymap))
+}
+
+/// `--headless --params-out FILE`: the first autopilot's parameters, progress on stderr.
+fn params_out(
+    cli: &Cli,
+    out: &std::path::Path,
+    links: &[LinkSpec],
+    rt: &tokio::runtime::Handle,
+) -> Result<()> {
+    use mavterm::headless::params::{file_text, progress, Progress};
+    let limit = (cli.duration.unwrap_or(300.0) * SECOND as f64) as u64;
+    let mut last = String::new();
+    let mut show = |p: &Progress| {
+        let line = p.line();
+        if line != last {
+            eprintln!("{line}");
+            last = line;
+        }
+    };
+    let app = if all_virtual(links) {
+        let mut r = VirtualRunner::from_specs(links, app_config(cli)?)?;
+        let mut t = 0;
+        while t < limit && !progress(&r.app).ended() {
+            t += SECOND / 4;
+            r.advance_to(t);
+            show(&progress(&r.app));
+        }
+        r.app
+    } else {
+        let mut runner = RealTimeRunner::start(rt.clone(), links, app_config(cli)?);
+        let start = runner.inner.now();
+        let mut front = mavterm::headless::params::StopWhenDone::default();
+        let _ = rt.block_on(runner.inner.run(Some(start + limit), &mut front));
+        runner.inner.app
+    };
+    let p = progress(&app);
+    show(&p);
+    let text = file_text(&app, out);
+    match (&p, text) {
+        (Progress::Ended { missing: 0, .. }, Some(text)) => {
+            mavterm::driver::write_atomic(out, text.as_bytes())
+                .with_context(|| format!("writing {}", out.display()))?;
+            eprintln!("wrote {}", out.display());
+            Ok(())
+        }
+        (Progress::Ended { missing, count, .. }, text) => {
+            if let Some(text) = text {
+                let partial = out.with_extension("partial");
+                mavterm::driver::write_atomic(&partial, text.as_bytes())
+                    .with_context(|| format!("writing {}", partial.display()))?;
+                eprintln!("wrote what came to {}", partial.display());
+            }
+            bail!("{missing} of {count} parameters missing")
+        }
+        (Progress::NoVehicle, _) => bail!("no autopilot heard"),
+        (Progress::Running { got, count, .. }, _) => bail!(
+            "timed out with {} parameters missing",
+            count.map_or("all".to_string(), |c| (c as usize)
+                .saturating_sub(*got)
+                .to_string())
+        ),
+    }
 }
 
 /// `--headless --input FILE`: replay recorded input on a virtual clock; exit 0 only if the script
@@ -134,12 +216,12 @@ fn replay(
     };
     let stdout = std::io::stdout();
     let (outcome, report) = if all_virtual(links) {
-        let mut runner = VirtualRunner::from_specs(links, app_config(cli))?;
+        let mut runner = VirtualRunner::from_specs(links, app_config(cli)?)?;
         runner.app.keymap = keymap;
         let outcome = run_script(&script, &mut runner, &opts, &mut stdout.lock())?;
         (outcome, runner.app.report())
     } else {
-        let mut runner = RealTimeRunner::start(rt.clone(), links, app_config(cli));
+        let mut runner = RealTimeRunner::start(rt.clone(), links, app_config(cli)?);
         runner.app_mut().keymap = keymap;
         let outcome = run_script(&script, &mut runner, &opts, &mut stdout.lock())?;
         (outcome, runner.app().report())
@@ -158,7 +240,7 @@ fn replay(
 
 /// The terminal front end over real links (and `sim://` in real time).
 async fn terminal(cli: &Cli, links: &[LinkSpec], keymap: Keymap) -> Result<()> {
-    let mut rt = RealTime::start(links, app_config(cli));
+    let mut rt = RealTime::start(links, app_config(cli)?);
     rt.app.keymap = keymap;
     let opts = TuiOptions {
         fps: cli.fps,

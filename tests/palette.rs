@@ -216,6 +216,7 @@ fn a_camera_is_reached_through_its_vehicle_and_its_ack_is_matched() {
     let mut a = App::new(AppConfig {
         links: vec!["x".into()],
         request_streams: false,
+        fetch_params: false,
         ..AppConfig::default()
     });
     a.update(

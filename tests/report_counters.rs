@@ -52,6 +52,7 @@ fn report_counts_drops_echoes_and_evictions() {
     let mut a = App::new(AppConfig {
         links: vec!["test".into()],
         request_streams: false,
+        fetch_params: false,
         ..AppConfig::default()
     });
     let mut ours = sent(&a.update(

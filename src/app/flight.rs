@@ -42,10 +42,18 @@ pub enum FlightAction {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Confirm {
     pub text: String,
-    pub action: FlightAction,
+    pub action: Confirmed,
     pub target: VehicleKey,
     /// The key that asked: pressing it again confirms too.
     pub key: Option<Key>,
+}
+
+/// What a confirmation lets go ahead.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Confirmed {
+    Flight(FlightAction),
+    /// Parameter writes: (component, name, value).
+    Params(Vec<(u8, String, f64)>),
 }
 
 /// Commands that need a confirmation whatever sends them.
@@ -187,7 +195,7 @@ impl App {
         if let Some(text) = self.question(target, &action) {
             self.ui.confirm = Some(Confirm {
                 text,
-                action,
+                action: Confirmed::Flight(action),
                 target,
                 key,
             });
@@ -202,7 +210,10 @@ impl App {
             return;
         };
         if key == Key::ch('y') || key == Key::ch('Y') || Some(key) == c.key {
-            let outcome = self.carry_out(c.target, c.action, fx);
+            let outcome = match c.action {
+                Confirmed::Flight(a) => self.carry_out(c.target, a, fx),
+                Confirmed::Params(p) => self.write_params(c.target, p, fx),
+            };
             self.ui.message = match outcome {
                 Ok(Some(t)) => Some((SEV_INFO, t)),
                 Ok(None) => None,

@@ -219,6 +219,11 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
         "any MAV_CMD by name or number (empty = 0, nan allowed)",
     ),
     ("reboot", "", "reboot the autopilot (asks first)"),
+    (
+        "param",
+        "fetch|set NAME VALUE|save FILE|load FILE|diff FILE",
+        "parameters of the target (.params = QGC's format, else .parm)",
+    ),
     ("help", "", "show the keys of this screen"),
     (
         "link",
@@ -247,6 +252,8 @@ pub enum Command {
     Route(Option<usize>),
     /// Fly the target.
     Flight(super::flight::FlightAction),
+    /// Parameters of the target.
+    Param(super::params::ParamCmd),
 }
 
 /// A MAV_CMD by name (`NAV_TAKEOFF`, `mav_cmd_nav_takeoff`, `takeoff` when only one matches
@@ -371,6 +378,7 @@ pub fn parse_command(line: &str) -> Result<Command, String> {
         "land" => no_args(Command::Flight(FlightAction::Land)),
         "rtl" => no_args(Command::Flight(FlightAction::Rtl)),
         "reboot" => no_args(Command::Flight(FlightAction::Reboot)),
+        "param" => super::params::parse(rest).map(Command::Param),
         "mode" if rest.is_empty() || rest.contains(' ') => {
             Err("usage: mode NAME, e.g. mode guided (tab lists the modes)".into())
         }

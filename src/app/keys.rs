@@ -207,6 +207,7 @@ impl App {
                 Ok(Some(format!("link {link}: opening {name}")))
             }
             Command::Flight(action) => self.flight(action, None, fx),
+            Command::Param(cmd) => self.run_param(cmd, fx),
             Command::Route(link) => {
                 let key = self.target.ok_or("no target vehicle")?;
                 if let Some(l) = link.filter(|&l| l >= self.links.len()) {

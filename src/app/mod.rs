@@ -9,6 +9,7 @@ mod keys;
 pub mod links;
 pub mod notices;
 pub mod palette;
+pub mod params;
 pub mod report;
 pub mod screen;
 pub mod session;
@@ -43,6 +44,10 @@ pub struct AppConfig {
     pub epoch: DateTime<Utc>,
     /// Ask vehicles for telemetry when first heard.
     pub request_streams: bool,
+    /// Download an autopilot's parameters when first heard.
+    pub fetch_params: bool,
+    /// Parameter metadata (`--param-meta`), shared read-only.
+    pub param_meta: Option<std::sync::Arc<crate::params::meta::MetaSet>>,
 }
 
 impl Default for AppConfig {
@@ -54,6 +59,8 @@ impl Default for AppConfig {
             links: Vec::new(),
             epoch: DateTime::<Utc>::UNIX_EPOCH,
             request_streams: true,
+            fetch_params: true,
+            param_meta: None,
         }
     }
 }
@@ -86,6 +93,12 @@ pub enum Event {
         path: std::path::PathBuf,
         error: Option<String>,
     },
+    /// A file the core asked for ([`Effect::ReadFile`]): its bytes, or why not.
+    FileRead {
+        path: std::path::PathBuf,
+        purpose: params::FileUse,
+        result: Result<Vec<u8>, String>,
+    },
 }
 
 /// What the core wants done.
@@ -102,6 +115,11 @@ pub enum Effect {
     WriteFile {
         path: std::path::PathBuf,
         contents: Vec<u8>,
+    },
+    /// Read a file; the bytes come back as [`Event::FileRead`].
+    ReadFile {
+        path: std::path::PathBuf,
+        purpose: params::FileUse,
     },
     /// Open another link, whose id is `link` (the next free one).
     OpenLink {
@@ -159,6 +177,8 @@ pub struct UiState {
     pub cmd_sel: usize,
     /// The command palette, while open (typed in [`Mode::Edit`]).
     pub palette: Option<palette::Palette>,
+    /// The Parameters screen.
+    pub params: params::ParamView,
 }
 
 impl Default for UiState {
@@ -177,6 +197,7 @@ impl Default for UiState {
             confirm: None,
             cmd_sel: 0,
             palette: None,
+            params: params::ParamView::default(),
         }
     }
 }
@@ -195,6 +216,8 @@ pub struct App {
     pub keymap: Keymap,
     /// One session per autopilot heard, holding its protocol machines.
     pub sessions: BTreeMap<VehicleKey, Session>,
+    /// The parameter file last loaded or compared.
+    pub param_file: Option<params::LoadedFile>,
     statustext: StatusTextJoiner,
     next_heartbeat: Micros,
     dirty: bool,
@@ -220,6 +243,7 @@ impl App {
             ui: UiState::default(),
             keymap: Keymap::default(),
             sessions: BTreeMap::new(),
+            param_file: None,
             statustext: StatusTextJoiner::default(),
             next_heartbeat: 0,
             dirty: true,
@@ -376,6 +400,11 @@ impl App {
                     format!("could not save {}: {e}", path.display()),
                 ),
             },
+            Event::FileRead {
+                path,
+                purpose,
+                result,
+            } => self.on_file_read(path, purpose, result),
             Event::Dropped { link, frames } => {
                 if let Some(l) = self.links.get_mut(link) {
                     l.dropped += frames;
@@ -531,7 +560,12 @@ impl App {
                 if !self.sessions.contains_key(&key)
                     && self.vehicles.get(key).is_some_and(|v| v.is_autopilot())
                 {
-                    let s = Session::new(key, hb.autopilot, self.cfg.request_streams);
+                    let s = Session::new(
+                        key,
+                        hb.autopilot,
+                        self.cfg.request_streams,
+                        self.cfg.fetch_params,
+                    );
                     self.sessions.insert(key, s);
                 }
             }

@@ -16,6 +16,7 @@ use crate::dialect::{MavAutopilot, MavMessage};
 use crate::link::LinkId;
 use crate::proto::ack::CommandAck;
 use crate::proto::commands::{CmdOut, CommandQueue, CommandSpec, State};
+use crate::proto::params::{ParamMachine, ParamOut};
 use crate::proto::sequence::{SeqOut, Sequence};
 use crate::proto::streams::{StreamMachine, StreamOut};
 use crate::proto::telemetry::FlightTelemetry;
@@ -48,10 +49,17 @@ pub struct Session {
     pub sequence: Option<Sequence>,
     /// What the autopilot tells of its flight (position, battery, GPS, home...).
     pub flight: FlightTelemetry,
+    /// Parameters of the autopilot and the other components of its system.
+    pub params: ParamMachine,
 }
 
 impl Session {
-    pub fn new(key: VehicleKey, autopilot: MavAutopilot, request_streams: bool) -> Self {
+    pub fn new(
+        key: VehicleKey,
+        autopilot: MavAutopilot,
+        request_streams: bool,
+        fetch_params: bool,
+    ) -> Self {
         Self {
             key,
             pinned: None,
@@ -60,6 +68,7 @@ impl Session {
             commands: CommandQueue::default(),
             sequence: None,
             flight: FlightTelemetry::new(key, request_streams),
+            params: ParamMachine::new(key, autopilot, fetch_params),
         }
     }
 
@@ -98,6 +107,25 @@ impl Session {
     ) -> Vec<SessionOut> {
         self.heard.insert(link, now);
         let mut out = Vec::new();
+        // Parameters are kept per component of the system.
+        match id {
+            22 => out.extend(self.params.on_param_value(now, from, payload).into_iter().map(pmap)),
+            // FILE_TRANSFER_PROTOCOL: target_network, target_system, target_component, then
+            // the FTP payload.
+            110 if payload.len() > 3 => out.extend(
+                self.params
+                    .on_ftp(now, from, &payload[3..])
+                    .into_iter()
+                    .map(pmap),
+            ),
+            148 if from == self.key.1 && payload.len() >= 8 => {
+                let mut caps = [0u8; 8];
+                caps.copy_from_slice(&payload[..8]);
+                let caps = u64::from_le_bytes(caps);
+                out.extend(self.params.on_autopilot_version(now, caps).into_iter().map(pmap));
+            }
+            _ => {}
+        }
         if from != self.key.1 {
             // Another component of this system (a camera, a gimbal): the answers to commands
             // sent to it through this session's queue.
@@ -258,12 +286,13 @@ impl Session {
             .unwrap_or_default();
         out.extend(self.seq_out(now, r));
         out.extend(self.flight.poll(now).into_iter().map(SessionOut::Send));
+        out.extend(self.params.poll(now).into_iter().map(pmap));
         out
     }
 
     /// True when a poll now would do something (a machine has work that is not on a timer).
     pub fn due(&self) -> bool {
-        self.streams.due() || self.flight.due()
+        self.streams.due() || self.flight.due() || self.params.due()
     }
 
     /// When the session next needs a poll.
@@ -273,6 +302,7 @@ impl Session {
             self.commands.next_deadline(),
             self.sequence.as_ref().and_then(|s| s.next_deadline()),
             self.flight.next_deadline(),
+            self.params.next_deadline(),
         ]
         .into_iter()
         .flatten()
@@ -284,5 +314,12 @@ fn map(o: StreamOut) -> SessionOut {
     match o {
         StreamOut::SendOn(l, m) => SessionOut::SendOn(l, m),
         StreamOut::Notice(s, t) => SessionOut::Notice(s, t),
+    }
+}
+
+pub(crate) fn pmap(o: ParamOut) -> SessionOut {
+    match o {
+        ParamOut::Send(m) => SessionOut::Send(m),
+        ParamOut::Notice(s, t) => SessionOut::Notice(s, t),
     }
 }

@@ -29,6 +29,8 @@ pub trait Links {
     fn open(&mut self, now: Micros, link: LinkId, spec: LinkSpec);
     /// Write a file atomically; the outcome comes back as [`Event::FileWritten`], now or later.
     fn write_file(&mut self, path: PathBuf, contents: Vec<u8>);
+    /// Read a file; its bytes come back as [`Event::FileRead`], now or later.
+    fn read_file(&mut self, path: PathBuf, purpose: crate::app::params::FileUse);
 }
 
 /// A link's report as a core event.
@@ -57,11 +59,28 @@ pub fn step(app: &mut App, links: &mut impl Links, now: Micros, ev: Event) {
                     }
                 }
                 Effect::WriteFile { path, contents } => links.write_file(path, contents),
+                Effect::ReadFile { path, purpose } => links.read_file(path, purpose),
                 Effect::OpenLink { link, spec } => links.open(now, link, spec),
                 Effect::Quit => {}
             }
         }
     }
+}
+
+/// Read a file the core asked for, bounded: parameter files are small, and a wrong path must
+/// not fill the memory.
+pub fn read_bounded(path: &Path) -> Result<Vec<u8>, String> {
+    use std::io::Read;
+    const MAX: u64 = 16 * 1024 * 1024;
+    let f = std::fs::File::open(path).map_err(|e| e.to_string())?;
+    let mut out = Vec::new();
+    f.take(MAX + 1)
+        .read_to_end(&mut out)
+        .map_err(|e| e.to_string())?;
+    if out.len() as u64 > MAX {
+        return Err(format!("larger than {} MiB", MAX / 1024 / 1024));
+    }
+    Ok(out)
 }
 
 /// Write a file so that a crash never leaves it half written: temp file, fsync, rename.

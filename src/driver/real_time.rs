@@ -68,6 +68,17 @@ impl Links for RealLinks {
             let _ = done.send(Event::FileWritten { path, error });
         });
     }
+    fn read_file(&mut self, path: PathBuf, purpose: crate::app::params::FileUse) {
+        let done = self.done.clone();
+        tokio::task::spawn_blocking(move || {
+            let result = super::read_bounded(&path);
+            let _ = done.send(Event::FileRead {
+                path,
+                purpose,
+                result,
+            });
+        });
+    }
 }
 
 /// The core on real links and the wall clock (`C` is the clock; tests may wrap it).

@@ -114,6 +114,15 @@ impl Links for VLinks {
         let error = write_atomic(&path, &contents).err().map(|e| e.to_string());
         self.pending.push(Event::FileWritten { path, error });
     }
+
+    fn read_file(&mut self, path: PathBuf, purpose: crate::app::params::FileUse) {
+        let result = super::read_bounded(&path);
+        self.pending.push(Event::FileRead {
+            path,
+            purpose,
+            result,
+        });
+    }
 }
 
 impl VLink {

@@ -3,3 +3,4 @@
 
 pub mod replay;
 pub mod script;
+pub mod params;

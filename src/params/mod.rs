@@ -2,3 +2,5 @@
 //! ([`value`]), parameter files ([`file`]) and parameter metadata ([`meta`]).
 
 pub mod value;
+pub mod file;
+pub mod meta;

@@ -7,6 +7,7 @@ pub mod loss;
 pub mod mav_cmds;
 pub mod modes;
 pub mod param_ftp;
+pub mod params;
 pub mod sequence;
 pub mod statustext;
 pub mod streams;

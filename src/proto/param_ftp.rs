@@ -28,8 +28,9 @@ use crate::wire::mavftp::{err, op, FtpPacket, DATA_LEN};
 
 /// Block size asked for: the largest an FTP packet carries.
 pub const BLOCK: usize = DATA_LEN;
-/// OpenFileRO attempts before giving up on FTP.
-pub const OPEN_TRIES: u32 = 3;
+/// OpenFileRO attempts before giving up on FTP, and when AUTOPILOT_VERSION announced FTP.
+pub const OPEN_TRIES: u32 = 2;
+pub const OPEN_TRIES_ANNOUNCED: u32 = 5;
 /// Reads of one block before the transfer fails.
 pub const MAX_TRIES: u32 = 6;
 /// ReadFile requests in flight at once while filling gaps.
@@ -88,6 +89,7 @@ pub struct FtpRead {
     reads: BTreeMap<u32, (Micros, u32)>,
     tries: BTreeMap<u32, u32>,
     open_tries: u32,
+    max_open_tries: u32,
     /// When the open or the current burst request went out (for the round trip and the stall).
     pending_since: Micros,
     last_rx: Micros,
@@ -114,6 +116,7 @@ impl FtpRead {
             reads: BTreeMap::new(),
             tries: BTreeMap::new(),
             open_tries: 0,
+            max_open_tries: OPEN_TRIES,
             pending_since: now,
             last_rx: now,
             srtt: None,
@@ -130,6 +133,16 @@ impl FtpRead {
     pub fn progress(&self) -> (u64, Option<u32>) {
         let got = self.blocks.values().map(|b| b.len() as u64).sum();
         (got, self.end.or(self.announced))
+    }
+
+    /// How many times to try opening the file.
+    pub fn set_open_tries(&mut self, n: u32) {
+        self.max_open_tries = n;
+    }
+
+    /// The first block, once it came (param.pck's header is in it).
+    pub fn head(&self) -> Option<&[u8]> {
+        self.blocks.get(&0).map(|b| b.as_slice())
     }
 
     pub fn finished(&self) -> bool {
@@ -180,8 +193,8 @@ impl FtpRead {
             self.stats.retries += 1;
         }
         self.pending_since = now;
-        // Back off: 1 s, 2 s, 4 s without a measured round trip.
-        self.deadline = Some(now + (self.rto() << (self.open_tries - 1).min(3)));
+        // A vehicle without FTP never answers: keep the wait short so the fallback is quick.
+        self.deadline = Some(now + self.rto());
         let mut path = self.path.as_bytes().to_vec();
         path.truncate(DATA_LEN);
         let mut out = vec![self.packet(op::TERMINATE_SESSION, 0, 0, Vec::new())];
@@ -271,7 +284,7 @@ impl FtpRead {
             }
             (Phase::Opening, op::NAK, op::OPEN_FILE_RO) => {
                 let code = p.data.first().copied().unwrap_or(0);
-                if code == err::FAIL && self.open_tries < OPEN_TRIES {
+                if code == err::FAIL && self.open_tries < self.max_open_tries {
                     // Likely our own earlier open whose ACK was lost: the terminate sent with
                     // the next try closes it.
                     return Vec::new();
@@ -446,7 +459,7 @@ impl FtpRead {
         }
         match self.phase {
             Phase::Opening => {
-                if self.open_tries >= OPEN_TRIES {
+                if self.open_tries >= self.max_open_tries {
                     self.fail("no answer to MAVFTP".into())
                 } else {
                     self.open(now)
@@ -681,7 +694,7 @@ mod tests {
             }
             sends += out.len();
         }
-        // Two more tries of terminate + open.
-        assert_eq!(sends, 4);
+        // One more try of terminate + open.
+        assert_eq!(sends, 2);
     }
 }

@@ -27,6 +27,7 @@ impl Drive {
             links: links.iter().map(|s| s.to_string()).collect(),
             epoch: epoch(),
             request_streams: false,
+            fetch_params: false,
             ..AppConfig::default()
         };
         Drive {

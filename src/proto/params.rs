@@ -1,0 +1,1101 @@
+//! Parameters of one vehicle: the complete set downloaded fast and surely, kept per component,
+//! and edits confirmed by the vehicle's echo.
+//!
+//! **Download** ([`ParamMachine::fetch`], on the first heartbeat and on demand):
+//! - MAVFTP first: `@PARAM/param.pck` read by [`FtpRead`] (burst, gaps re-read). Used unless
+//!   AUTOPILOT_VERSION says the vehicle has no FTP; a NAK, a timeout or a file that does not
+//!   decode falls back to the parameter protocol.
+//! - The parameter protocol: PARAM_REQUEST_LIST, PARAM_VALUE collected by `param_index`. When
+//!   new indices stop arriving for a gap adapted to their measured arrival rate, the missing ones
+//!   are asked for with PARAM_REQUEST_READ, [`READ_WINDOW`] in flight, each retried on a timeout
+//!   from the measured round trip, or at once when a read sent after it is answered first (the
+//!   vehicle answers reads in order), up to [`READ_TRIES`] times. A `param_count` that changes
+//!   resizes the set; duplicates only refresh a value; PARAM_VALUE with index 65535 (ArduPilot's
+//!   answer to PARAM_SET and its notice of a value changed by anyone) updates by name.
+//!
+//! **Values**: integer types ride in the float either C-cast (ArduPilot) or bytewise (PX4), see
+//! [`crate::params::value`]. The encoding is chosen by the HEARTBEAT's autopilot unless
+//! AUTOPILOT_VERSION announces PARAM_ENCODE_BYTEWISE or PARAM_ENCODE_C_CAST; the float as
+//! received is kept so a later AUTOPILOT_VERSION can re-read every value.
+//!
+//! **Edits** ([`ParamMachine::set`]): PARAM_SET with the parameter's type and encoding. The
+//! vehicle answers with PARAM_VALUE even when it refused the write, so an edit is confirmed only
+//! by an echo of the value sent. No echo: resent up to [`SET_RESENDS`] times. An echo of another
+//! value: resent once (it may have been a stale PARAM_VALUE already on its way), then failed.
+//!
+//! Sans-I/O: payloads and time in, [`ParamOut`] out, [`ParamMachine::next_deadline`].
+
+use std::collections::BTreeMap;
+
+use crate::clock::{Micros, SECOND};
+use crate::dialect::{self, MavAutopilot, MavMessage, MavParamType};
+use crate::params::value::{self, Encoding, ParamType};
+use crate::proto::param_ftp::{FtpOut, FtpRead};
+use crate::proto::severity::{ERROR as SEV_ERROR, INFO as SEV_INFO, NOTICE as SEV_NOTICE, WARNING as SEV_WARNING};
+use crate::proto::vehicles::VehicleKey;
+use crate::wire::mavftp::{FtpPacket, PAYLOAD_LEN};
+use crate::wire::param_pck::{self, PckType};
+
+/// What is read over MAVFTP (with defaults, as MAVProxy asks, so non-default values can be
+/// told apart).
+pub const PCK_PATH: &str = "@PARAM/param.pck?withdefaults=1";
+/// PARAM_REQUEST_READs in flight at once while filling gaps.
+pub const READ_WINDOW: usize = 16;
+/// Reads of one index before the download gives up on it.
+pub const READ_TRIES: u32 = 10;
+/// PARAM_REQUEST_LIST attempts when nothing at all comes back.
+pub const LIST_TRIES: u32 = 3;
+/// PARAM_SET resends when no echo comes.
+pub const SET_RESENDS: u32 = 3;
+/// PARAM_SETs waiting for their echo at once; more wait their turn (a file applied at once
+/// must not flood a radio).
+pub const SET_WINDOW: usize = 8;
+/// MAV_PROTOCOL_CAPABILITY bits read from AUTOPILOT_VERSION.
+pub const CAP_PARAM_ENCODE_BYTEWISE: u64 = 16;
+pub const CAP_FTP: u64 = 32;
+pub const CAP_PARAM_ENCODE_C_CAST: u64 = 131_072;
+
+const MS: Micros = 1_000;
+const LIST_WAIT: Micros = 1_500 * MS;
+const INITIAL_RTO: Micros = 1_000 * MS;
+const MIN_RTO: Micros = 200 * MS;
+const MAX_RTO: Micros = 4 * SECOND;
+const MIN_GAP: Micros = 150 * MS;
+const MAX_GAP: Micros = 2 * SECOND;
+
+/// An edit of one parameter and how it stands.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Edit {
+    pub value: f64,
+    pub state: EditState,
+    sends: u32,
+    mismatch_resent: bool,
+    sent_at: Micros,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum EditState {
+    Pending,
+    Confirmed,
+    Failed(String),
+}
+
+/// One parameter as the vehicle last told it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Param {
+    pub value: f64,
+    pub ptype: ParamType,
+    /// The float as received (re-read if the encoding turns out otherwise).
+    raw: f32,
+    pub index: Option<u16>,
+    /// The value when the set was downloaded, for the changed-since-download mark.
+    pub fetched: Option<f64>,
+    /// The default, when MAVFTP's param.pck carried it.
+    pub default: Option<f64>,
+    pub edit: Option<Edit>,
+}
+
+impl Param {
+    pub fn changed_since_fetch(&self) -> bool {
+        self.fetched
+            .is_some_and(|f| !value::same(f, self.value, self.ptype))
+    }
+
+    pub fn text(&self) -> String {
+        value::format(self.value, self.ptype)
+    }
+}
+
+/// The parameters of one component.
+#[derive(Debug, Clone, Default)]
+pub struct ParamSet {
+    /// By name (the order people look them up in).
+    pub params: BTreeMap<String, Param>,
+    /// Name at each index; as long as the count.
+    names: Vec<Option<String>>,
+    /// How many the component says it has.
+    pub count: Option<u16>,
+    received: usize,
+}
+
+impl ParamSet {
+    /// Parameters received of those the component has.
+    pub fn progress(&self) -> (usize, Option<u16>) {
+        (self.received, self.count)
+    }
+
+    pub fn complete(&self) -> bool {
+        self.count.is_some_and(|c| self.received >= c as usize)
+    }
+
+    /// Indices not yet received.
+    pub fn missing(&self) -> impl Iterator<Item = u16> + '_ {
+        self.names
+            .iter()
+            .enumerate()
+            .filter(|(_, n)| n.is_none())
+            .map(|(i, _)| i as u16)
+    }
+
+    pub fn get(&self, name: &str) -> Option<&Param> {
+        self.params.get(name)
+    }
+
+    fn resize(&mut self, count: u16) {
+        if self.count == Some(count) {
+            return;
+        }
+        let n = count as usize;
+        if n < self.names.len() {
+            for name in self.names.drain(n..).flatten() {
+                if self.params.get(&name).is_some_and(|p| p.index.is_some()) {
+                    self.params.remove(&name);
+                }
+                self.received -= 1;
+            }
+        } else {
+            self.names.resize(n, None);
+        }
+        self.count = Some(count);
+    }
+
+    /// Record a value at `index` (or by name only when `index` is `None`). Returns the value it
+    /// had, if it had one.
+    fn record(
+        &mut self,
+        name: &str,
+        index: Option<u16>,
+        ptype: ParamType,
+        raw: f32,
+        v: f64,
+        download: bool,
+    ) -> Option<f64> {
+        if let Some(i) = index {
+            let i = i as usize;
+            if i >= self.names.len() {
+                return None;
+            }
+            match &self.names[i] {
+                Some(old) if old == name => {}
+                Some(old) => {
+                    // Another name at this index (the set changed): the old one is gone.
+                    let old = old.clone();
+                    self.params.remove(&old);
+                    self.names[i] = Some(name.to_string());
+                }
+                None => {
+                    self.names[i] = Some(name.to_string());
+                    self.received += 1;
+                }
+            }
+        }
+        let p = self.params.entry(name.to_string()).or_insert(Param {
+            value: v,
+            ptype,
+            raw,
+            index,
+            fetched: None,
+            default: None,
+            edit: None,
+        });
+        let before = p.value;
+        let had = p.fetched.is_some() || p.edit.is_some() || index.is_none();
+        p.value = v;
+        p.ptype = ptype;
+        p.raw = raw;
+        if index.is_some() {
+            p.index = index;
+        }
+        if download && p.fetched.is_none() {
+            p.fetched = Some(v);
+        }
+        had.then_some(before)
+    }
+}
+
+/// How a download went, for the operator and the benchmark.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DownloadStats {
+    pub component: u8,
+    pub method: Method,
+    pub started: Micros,
+    pub finished: Option<Micros>,
+    /// Requests sent (FTP packets, PARAM_REQUEST_LIST and PARAM_REQUEST_READ), retries included.
+    pub requests: u32,
+    pub retries: u32,
+    /// Why MAVFTP was left for the parameter protocol.
+    pub fallback: Option<String>,
+    /// Parameters still missing when it gave up (0 when complete).
+    pub missing: usize,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    Ftp,
+    List,
+}
+
+impl Method {
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Ftp => "MAVFTP",
+            Method::List => "parameter protocol",
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+enum Phase {
+    Ftp(Box<FtpRead>),
+    List(ListDownload),
+}
+
+#[derive(Debug, Clone, Default)]
+struct ListDownload {
+    list_sent: Micros,
+    list_tries: u32,
+    /// When a new index last arrived, and the smoothed time between new indices.
+    last_new: Option<Micros>,
+    interval: Option<Micros>,
+    filling: bool,
+    /// Index → (sent at, tries, order sent) of PARAM_REQUEST_READs in flight.
+    reads: BTreeMap<u16, (Micros, u32, u64)>,
+    sent: u64,
+    tries: BTreeMap<u16, u32>,
+}
+
+#[derive(Debug, Clone)]
+struct Download {
+    comp: u8,
+    phase: Phase,
+    stats: DownloadStats,
+}
+
+/// What the machine wants done.
+#[derive(Debug, Clone, PartialEq)]
+#[allow(clippy::large_enum_variant)]
+pub enum ParamOut {
+    Send(MavMessage),
+    Notice(u8, String),
+}
+
+/// A PARAM_VALUE read from its payload (so a type code newer than the dialect still reads).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamValueMsg {
+    pub raw: f32,
+    pub count: u16,
+    pub index: u16,
+    pub name: String,
+    pub type_code: u8,
+}
+
+impl ParamValueMsg {
+    /// Wire order: param_value f32, param_count u16, param_index u16, param_id char[16],
+    /// param_type u8; MAVLink 2 may have cut trailing zeros.
+    pub fn parse(payload: &[u8]) -> Option<ParamValueMsg> {
+        let mut p = [0u8; 25];
+        let n = payload.len().min(25);
+        p[..n].copy_from_slice(&payload[..n]);
+        let id = &p[8..24];
+        let len = id.iter().position(|&b| b == 0).unwrap_or(16);
+        let name = std::str::from_utf8(&id[..len]).ok()?.to_string();
+        if name.is_empty() {
+            return None;
+        }
+        Some(ParamValueMsg {
+            raw: f32::from_le_bytes([p[0], p[1], p[2], p[3]]),
+            count: u16::from_le_bytes([p[4], p[5]]),
+            index: u16::from_le_bytes([p[6], p[7]]),
+            name,
+            type_code: p[24],
+        })
+    }
+}
+
+/// The parameter machines of one vehicle (its autopilot and the components of its system).
+#[derive(Debug, Clone)]
+pub struct ParamMachine {
+    key: VehicleKey,
+    pub encoding: Encoding,
+    /// Whether AUTOPILOT_VERSION said FTP is there, once it said anything.
+    ftp_capable: Option<bool>,
+    pub sets: BTreeMap<u8, ParamSet>,
+    download: Option<Download>,
+    /// The last download that ended.
+    pub last: Option<DownloadStats>,
+    /// Fetch on the first poll (the first heartbeat).
+    auto: bool,
+    /// REQUEST_MESSAGE(AUTOPILOT_VERSION) sent, and when to ask again if it does not come.
+    version_asked: u32,
+    version_retry: Option<Micros>,
+    /// Smoothed round trip of reads and edits (RFC 6298).
+    srtt: Option<(Micros, Micros)>,
+    /// Pending edit deadlines come from `Edit::sent_at`.
+    edits_pending: usize,
+}
+
+fn pck_type(t: PckType) -> ParamType {
+    match t {
+        PckType::Int8 => ParamType::Int8,
+        PckType::Int16 => ParamType::Int16,
+        PckType::Int32 => ParamType::Int32,
+        PckType::Float => ParamType::Real32,
+    }
+}
+
+fn param_id(name: &str) -> mavlink::types::CharArray<16> {
+    name.into()
+}
+
+impl ParamMachine {
+    pub fn new(key: VehicleKey, autopilot: MavAutopilot, auto_fetch: bool) -> Self {
+        let encoding = if autopilot == MavAutopilot::MAV_AUTOPILOT_PX4 {
+            Encoding::Bytewise
+        } else {
+            Encoding::CCast
+        };
+        Self {
+            key,
+            encoding,
+            ftp_capable: None,
+            sets: BTreeMap::new(),
+            download: None,
+            last: None,
+            auto: auto_fetch,
+            version_asked: 0,
+            version_retry: None,
+            srtt: None,
+            edits_pending: 0,
+        }
+    }
+
+    /// The autopilot's set, if any came.
+    pub fn autopilot(&self) -> Option<&ParamSet> {
+        self.sets.get(&self.key.1)
+    }
+
+    /// The running download: (component, received, count, method).
+    pub fn downloading(&self) -> Option<(u8, usize, Option<u16>, Method)> {
+        let d = self.download.as_ref()?;
+        let (got, count) = self
+            .sets
+            .get(&d.comp)
+            .map(|s| s.progress())
+            .unwrap_or((0, None));
+        if let Phase::Ftp(f) = &d.phase {
+            // Over MAVFTP parameters come all at once at the end: show the bytes' share.
+            let (bytes, size) = f.progress();
+            let total = count.or(self.ftp_total(f));
+            let shown = match (total, size) {
+                (Some(t), Some(s)) if s > 0 => {
+                    ((bytes as f64 / s as f64).min(1.0) * t as f64) as usize
+                }
+                _ => 0,
+            };
+            return Some((d.comp, shown.min(total.map_or(0, |t| t as usize)), total, Method::Ftp));
+        }
+        Some((d.comp, got, count, d.stats.method))
+    }
+
+    fn ftp_total(&self, f: &FtpRead) -> Option<u16> {
+        f.head().filter(|h| h.len() >= 6).map(|h| u16::from_le_bytes([h[4], h[5]]))
+    }
+
+    fn rto(&self) -> Micros {
+        match self.srtt {
+            None => INITIAL_RTO,
+            Some((s, v)) => (s + 4 * v).clamp(MIN_RTO, MAX_RTO),
+        }
+    }
+
+    fn sample_rtt(&mut self, rtt: Micros) {
+        self.srtt = Some(match self.srtt {
+            None => (rtt, rtt / 2),
+            Some((s, v)) => ((7 * s + rtt) / 8, (3 * v + s.abs_diff(rtt)) / 4),
+        });
+    }
+
+    /// Start (or start over) downloading component `comp`'s parameters.
+    pub fn fetch(&mut self, now: Micros, comp: u8) -> Vec<ParamOut> {
+        self.auto = false;
+        let mut out = Vec::new();
+        if self.version_asked == 0 {
+            self.version_asked = 1;
+            self.version_retry = Some(now + SECOND);
+            out.push(ParamOut::Send(request_autopilot_version(self.key)));
+        }
+        let mut stats = DownloadStats {
+            component: comp,
+            method: Method::Ftp,
+            started: now,
+            finished: None,
+            requests: 0,
+            retries: 0,
+            fallback: None,
+            missing: 0,
+        };
+        // Only the autopilot serves param.pck; a component answers the parameter protocol.
+        let try_ftp = comp == self.key.1 && self.ftp_capable != Some(false);
+        let phase = if try_ftp {
+            let (f, o) = FtpRead::start(now, PCK_PATH);
+            out.extend(self.ftp_out(comp, o));
+            Phase::Ftp(Box::new(f))
+        } else {
+            stats.method = Method::List;
+            if comp == self.key.1 {
+                stats.fallback = Some("AUTOPILOT_VERSION announces no MAVFTP".into());
+            }
+            out.push(self.list_request(comp));
+            Phase::List(ListDownload {
+                list_sent: now,
+                list_tries: 1,
+                ..Default::default()
+            })
+        };
+        if let Phase::List(_) = phase {
+            stats.requests += 1;
+        }
+        self.sets.entry(comp).or_default();
+        self.download = Some(Download { comp, phase, stats });
+        out
+    }
+
+    fn list_request(&self, comp: u8) -> ParamOut {
+        ParamOut::Send(MavMessage::PARAM_REQUEST_LIST(
+            dialect::PARAM_REQUEST_LIST_DATA {
+                target_system: self.key.0,
+                target_component: comp,
+            },
+        ))
+    }
+
+    fn ftp_out(&self, comp: u8, o: Vec<FtpOut>) -> Vec<ParamOut> {
+        o.into_iter()
+            .filter_map(|o| match o {
+                FtpOut::Send(p) => Some(ParamOut::Send(MavMessage::FILE_TRANSFER_PROTOCOL(
+                    dialect::FILE_TRANSFER_PROTOCOL_DATA {
+                        target_network: 0,
+                        target_system: self.key.0,
+                        target_component: comp,
+                        payload: p.to_payload(),
+                    },
+                ))),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// Hand FTP output on; a finished transfer is decoded, a failed one falls back.
+    fn on_ftp_out(&mut self, now: Micros, o: Vec<FtpOut>) -> Vec<ParamOut> {
+        let Some(d) = self.download.as_ref() else {
+            return Vec::new();
+        };
+        let comp = d.comp;
+        let mut out = self.ftp_out(comp, o.clone());
+        for r in o {
+            match r {
+                FtpOut::Send(_) => {}
+                FtpOut::Done(bytes) => match param_pck::decode(&bytes) {
+                    Ok(file) if file.num_params == file.total_params => {
+                        self.take_ftp_stats();
+                        let set = self.sets.entry(comp).or_default();
+                        *set = ParamSet::default();
+                        set.resize(file.total_params);
+                        for (i, p) in file.params.iter().enumerate() {
+                            let t = pck_type(p.ptype);
+                            let raw = value::encode(p.value, t, self.encoding);
+                            set.record(&p.name, Some(i as u16), t, raw, p.value, true);
+                            if let Some(prm) = set.params.get_mut(&p.name) {
+                                prm.default = p.default;
+                            }
+                        }
+                        out.extend(self.check_done(now));
+                    }
+                    Ok(file) => {
+                        let why = format!(
+                            "param.pck holds {} of {} parameters",
+                            file.num_params, file.total_params
+                        );
+                        out.extend(self.fall_back(now, why));
+                    }
+                    Err(e) => out.extend(self.fall_back(now, e.to_string())),
+                },
+                FtpOut::Failed(why) => out.extend(self.fall_back(now, why)),
+            }
+        }
+        out
+    }
+
+    fn take_ftp_stats(&mut self) {
+        if let Some(d) = self.download.as_mut() {
+            if let Phase::Ftp(f) = &d.phase {
+                d.stats.requests += f.stats.requests;
+                d.stats.retries += f.stats.retries;
+            }
+        }
+    }
+
+    /// MAVFTP did not work: the parameter protocol.
+    fn fall_back(&mut self, now: Micros, why: String) -> Vec<ParamOut> {
+        self.take_ftp_stats();
+        let Some(d) = self.download.as_mut() else {
+            return Vec::new();
+        };
+        d.stats.method = Method::List;
+        d.stats.fallback = Some(why.clone());
+        d.stats.requests += 1;
+        d.phase = Phase::List(ListDownload {
+            list_sent: now,
+            list_tries: 1,
+            ..Default::default()
+        });
+        let comp = d.comp;
+        vec![
+            ParamOut::Notice(
+                SEV_INFO,
+                format!("parameters: {why}; using the parameter protocol"),
+            ),
+            self.list_request(comp),
+        ]
+    }
+
+    /// AUTOPILOT_VERSION's capability bits (the first 8 bytes of its payload).
+    pub fn on_autopilot_version(&mut self, now: Micros, caps: u64) -> Vec<ParamOut> {
+        let enc = if caps & CAP_PARAM_ENCODE_C_CAST != 0 {
+            Some(Encoding::CCast)
+        } else if caps & CAP_PARAM_ENCODE_BYTEWISE != 0 {
+            Some(Encoding::Bytewise)
+        } else {
+            None
+        };
+        if let Some(e) = enc.filter(|e| *e != self.encoding) {
+            self.encoding = e;
+            // Every integer value re-read from the float as it came.
+            for set in self.sets.values_mut() {
+                for p in set.params.values_mut() {
+                    let v = value::decode(p.raw, p.ptype, e);
+                    if let Some(f) = p.fetched.as_mut().filter(|f| **f == p.value) {
+                        *f = v;
+                    }
+                    p.value = v;
+                }
+            }
+        }
+        let ftp = caps & CAP_FTP != 0;
+        self.ftp_capable = Some(ftp);
+        self.version_retry = None;
+        // A vehicle that says it has FTP is worth more tries to open the file.
+        if let Some(Download {
+            phase: Phase::Ftp(f),
+            ..
+        }) = self.download.as_mut()
+        {
+            if ftp {
+                f.set_open_tries(crate::proto::param_ftp::OPEN_TRIES_ANNOUNCED);
+            }
+        }
+        // Still waiting for an FTP answer from a vehicle that says it has no FTP: stop waiting.
+        let waiting = self.download.as_ref().is_some_and(|d| match &d.phase {
+            Phase::Ftp(f) => f.progress().0 == 0 && !f.finished(),
+            _ => false,
+        });
+        if !ftp && waiting {
+            return self.fall_back(now, "AUTOPILOT_VERSION announces no MAVFTP".into());
+        }
+        Vec::new()
+    }
+
+    /// A FILE_TRANSFER_PROTOCOL payload from component `from`.
+    pub fn on_ftp(&mut self, now: Micros, from: u8, payload: &[u8]) -> Vec<ParamOut> {
+        let Some(d) = self.download.as_mut().filter(|d| d.comp == from) else {
+            return Vec::new();
+        };
+        let Phase::Ftp(f) = &mut d.phase else {
+            return Vec::new();
+        };
+        let mut p = [0u8; PAYLOAD_LEN];
+        let n = payload.len().min(PAYLOAD_LEN);
+        p[..n].copy_from_slice(&payload[..n]);
+        let o = f.on_packet(now, &FtpPacket::parse(&p));
+        self.on_ftp_out(now, o)
+    }
+
+    /// A PARAM_VALUE payload from component `from`.
+    pub fn on_param_value(&mut self, now: Micros, from: u8, payload: &[u8]) -> Vec<ParamOut> {
+        let Some(m) = ParamValueMsg::parse(payload) else {
+            return Vec::new();
+        };
+        let Some(ptype) = ParamType::from_code(m.type_code) else {
+            return vec![ParamOut::Notice(
+                SEV_WARNING,
+                format!("{}: unknown parameter type {}", m.name, m.type_code),
+            )];
+        };
+        let enc = self.encoding;
+        let v = value::decode(m.raw, ptype, enc);
+        let mut out = Vec::new();
+        let downloading = self
+            .download
+            .as_ref()
+            .is_some_and(|d| d.comp == from && matches!(d.phase, Phase::List(_)));
+        let set = self.sets.entry(from).or_default();
+        let index = (m.index != u16::MAX).then_some(m.index);
+        if index.is_some() && m.count != u16::MAX {
+            let before = set.count;
+            set.resize(m.count);
+            if before.is_some_and(|b| b != m.count) {
+                out.push(ParamOut::Notice(
+                    SEV_NOTICE,
+                    format!(
+                        "{}:{} now has {} parameters (was {})",
+                        self.key.0,
+                        from,
+                        m.count,
+                        before.unwrap_or(0)
+                    ),
+                ));
+            }
+        }
+        let new_index = index.is_some_and(|i| {
+            (i as usize) < set.names.len() && set.names[i as usize].is_none()
+        });
+        let before = set.record(&m.name, index, ptype, m.raw, v, downloading);
+        let Some(p) = set.params.get_mut(&m.name) else {
+            return out;
+        };
+        // An edit waiting for its echo.
+        let mut resend = None;
+        let mut rtt_sample = None;
+        if let Some(e) = p
+            .edit
+            .as_mut()
+            .filter(|e| e.state == EditState::Pending && e.sends > 0)
+        {
+            if value::same(v, e.value, ptype) {
+                e.state = EditState::Confirmed;
+                self.edits_pending -= 1;
+                if e.sends == 1 {
+                    rtt_sample = Some(now.saturating_sub(e.sent_at));
+                }
+                out.push(ParamOut::Notice(
+                    SEV_INFO,
+                    format!("{} = {} confirmed", m.name, value::format(v, ptype)),
+                ));
+            } else if !e.mismatch_resent {
+                e.mismatch_resent = true;
+                e.sends += 1;
+                e.sent_at = now;
+                resend = Some((e.value, ptype));
+            } else {
+                let why = format!("refused: the vehicle kept {}", value::format(v, ptype));
+                out.push(ParamOut::Notice(
+                    SEV_ERROR,
+                    format!(
+                        "{} = {} {why}",
+                        m.name,
+                        value::format(e.value, ptype)
+                    ),
+                ));
+                e.state = EditState::Failed(why);
+                self.edits_pending -= 1;
+            }
+        } else if index.is_none() && !m.name.starts_with("STAT_") {
+            // A change nobody here asked for: another GCS, or the vehicle itself (calibration
+            // offsets, counters; ArduPilot's STAT_ statistics change all flight long and are
+            // left out).
+            if let Some(b) = before.filter(|b| !value::same(*b, v, ptype)) {
+                out.push(ParamOut::Notice(
+                    SEV_INFO,
+                    format!(
+                        "{} changed to {} (was {})",
+                        m.name,
+                        value::format(v, ptype),
+                        value::format(b, ptype)
+                    ),
+                ));
+            }
+        }
+        if let Some(rtt) = rtt_sample {
+            self.sample_rtt(rtt);
+        }
+        if let Some((val, t)) = resend {
+            out.push(ParamOut::Send(self.param_set(from, &m.name, val, t)));
+        }
+        out.extend(self.send_queued(now));
+        // The download: a read answered, the arrival rate, completion.
+        let mut rtt_read = None;
+        if let Some(d) = self.download.as_mut().filter(|d| d.comp == from) {
+            if let (Phase::List(l), Some(i)) = (&mut d.phase, index) {
+                if let Some((sent, tries, order)) = l.reads.remove(&i) {
+                    if tries == 1 {
+                        rtt_read = Some(now.saturating_sub(sent));
+                    }
+                    // Reads sent before this one and still unanswered were lost: ask again now.
+                    l.reads.retain(|_, r| r.2 > order);
+                }
+                if new_index {
+                    if let Some(last) = l.last_new {
+                        let gap = now.saturating_sub(last);
+                        l.interval = Some(match l.interval {
+                            None => gap,
+                            Some(iv) => (7 * iv + gap) / 8,
+                        });
+                    }
+                    l.last_new = Some(now);
+                }
+            }
+            if let Some(rtt) = rtt_read {
+                self.sample_rtt(rtt);
+            }
+            out.extend(self.check_done(now));
+            if let Some(Download {
+                phase: Phase::List(l),
+                ..
+            }) = &self.download
+            {
+                if l.filling {
+                    out.extend(self.fill(now));
+                }
+            }
+        }
+        out
+    }
+
+    /// Finish the download when its set is whole.
+    fn check_done(&mut self, now: Micros) -> Vec<ParamOut> {
+        let Some(d) = self.download.as_ref() else {
+            return Vec::new();
+        };
+        let Some(set) = self.sets.get(&d.comp) else {
+            return Vec::new();
+        };
+        if !set.complete() {
+            return Vec::new();
+        }
+        let count = set.count.unwrap_or(0);
+        let mut d = self.download.take().expect("checked above");
+        d.stats.finished = Some(now);
+        let secs = (now - d.stats.started) as f64 / SECOND as f64;
+        let text = format!(
+            "parameters of {}:{}: {count}/{count} in {secs:.1} s by {}",
+            self.key.0,
+            d.comp,
+            d.stats.method.name()
+        );
+        self.last = Some(d.stats);
+        vec![ParamOut::Notice(SEV_INFO, text)]
+    }
+
+    /// Ask for missing indices, [`READ_WINDOW`] in flight.
+    fn fill(&mut self, now: Micros) -> Vec<ParamOut> {
+        let (sys, _) = self.key;
+        let Some(d) = self.download.as_mut() else {
+            return Vec::new();
+        };
+        let comp = d.comp;
+        let Phase::List(l) = &mut d.phase else {
+            return Vec::new();
+        };
+        let Some(set) = self.sets.get(&comp) else {
+            return Vec::new();
+        };
+        let mut out = Vec::new();
+        let mut gave_up = false;
+        for i in set.missing() {
+            if l.reads.len() >= READ_WINDOW {
+                break;
+            }
+            if l.reads.contains_key(&i) {
+                continue;
+            }
+            let t = l.tries.entry(i).or_insert(0);
+            if *t >= READ_TRIES {
+                gave_up = true;
+                continue;
+            }
+            *t += 1;
+            if *t > 1 {
+                d.stats.retries += 1;
+            }
+            d.stats.requests += 1;
+            l.sent += 1;
+            l.reads.insert(i, (now, *t, l.sent));
+            out.push(ParamOut::Send(MavMessage::PARAM_REQUEST_READ(
+                dialect::PARAM_REQUEST_READ_DATA {
+                    param_index: i as i16,
+                    target_system: sys,
+                    target_component: comp,
+                    param_id: param_id(""),
+                },
+            )));
+        }
+        if gave_up && l.reads.is_empty() {
+            let missing = set.missing().count();
+            let count = set.count.unwrap_or(0);
+            let mut d = self.download.take().expect("checked above");
+            d.stats.missing = missing;
+            d.stats.finished = Some(now);
+            self.last = Some(d.stats);
+            out.push(ParamOut::Notice(
+                SEV_ERROR,
+                format!(
+                    "parameters of {}:{comp}: {} of {count} never came ({} asked {READ_TRIES} times)",
+                    sys,
+                    missing,
+                    if missing == 1 { "it was" } else { "each" }
+                ),
+            ));
+        }
+        out
+    }
+
+    /// Set `name` of component `comp` to `v`.
+    pub fn set(&mut self, now: Micros, comp: u8, name: &str, v: f64) -> Result<Vec<ParamOut>, String> {
+        let set = self
+            .sets
+            .get_mut(&comp)
+            .ok_or_else(|| format!("no parameters of {}:{comp} yet", self.key.0))?;
+        let p = set
+            .params
+            .get_mut(name)
+            .ok_or_else(|| format!("no parameter {name}"))?;
+        p.ptype.check(v)?;
+        if p.edit.as_ref().is_some_and(|e| e.state == EditState::Pending) {
+            self.edits_pending -= 1;
+        }
+        p.edit = Some(Edit {
+            value: v,
+            state: EditState::Pending,
+            sends: 0,
+            mismatch_resent: false,
+            sent_at: now,
+        });
+        self.edits_pending += 1;
+        Ok(self.send_queued(now))
+    }
+
+    /// Edits in flight (sent, no echo yet).
+    fn edits_in_flight(&self) -> usize {
+        self.sets
+            .values()
+            .flat_map(|s| s.params.values())
+            .filter_map(|p| p.edit.as_ref())
+            .filter(|e| e.state == EditState::Pending && e.sends > 0)
+            .count()
+    }
+
+    /// Send edits waiting their turn while fewer than [`SET_WINDOW`] are in flight.
+    fn send_queued(&mut self, now: Micros) -> Vec<ParamOut> {
+        if self.edits_pending == 0 {
+            return Vec::new();
+        }
+        let mut room = SET_WINDOW.saturating_sub(self.edits_in_flight());
+        let mut go = Vec::new();
+        for (comp, s) in self.sets.iter_mut() {
+            for (name, p) in s.params.iter_mut() {
+                if room == 0 {
+                    break;
+                }
+                let t = p.ptype;
+                if let Some(e) = p
+                    .edit
+                    .as_mut()
+                    .filter(|e| e.state == EditState::Pending && e.sends == 0)
+                {
+                    e.sends = 1;
+                    e.sent_at = now;
+                    room -= 1;
+                    go.push((*comp, name.clone(), e.value, t));
+                }
+            }
+        }
+        go.into_iter()
+            .map(|(c, n, v, t)| ParamOut::Send(self.param_set(c, &n, v, t)))
+            .collect()
+    }
+
+    fn param_set(&self, comp: u8, name: &str, v: f64, t: ParamType) -> MavMessage {
+        use num_traits::FromPrimitive;
+        MavMessage::PARAM_SET(dialect::PARAM_SET_DATA {
+            param_value: value::encode(v, t, self.encoding),
+            target_system: self.key.0,
+            target_component: comp,
+            param_id: param_id(name),
+            param_type: MavParamType::from_u8(t.code()).unwrap_or(MavParamType::MAV_PARAM_TYPE_REAL32),
+        })
+    }
+
+    /// True when a poll now would start the first download.
+    pub fn due(&self) -> bool {
+        self.auto
+    }
+
+    pub fn next_deadline(&self) -> Option<Micros> {
+        if self.auto {
+            return Some(0);
+        }
+        let rto = self.rto();
+        let mut t: Option<Micros> = None;
+        let mut at = |d: Micros| t = Some(t.map_or(d, |x| x.min(d)));
+        if let Some(v) = self.version_retry {
+            at(v);
+        }
+        if let Some(d) = &self.download {
+            match &d.phase {
+                Phase::Ftp(f) => {
+                    if let Some(x) = f.next_deadline() {
+                        at(x)
+                    }
+                }
+                Phase::List(l) => {
+                    if l.last_new.is_none() && self.sets.get(&d.comp).is_none_or(|s| s.count.is_none()) {
+                        at(l.list_sent + (LIST_WAIT << (l.list_tries - 1).min(3)));
+                    } else if !l.filling {
+                        at(l.last_new.unwrap_or(l.list_sent) + gap(l.interval));
+                    }
+                    for (sent, tries, _) in l.reads.values() {
+                        at(sent + (rto << (tries - 1).min(3)));
+                    }
+                }
+            }
+        }
+        if self.edits_pending > 0 {
+            for s in self.sets.values() {
+                for p in s.params.values() {
+                    if let Some(e) = p
+                        .edit
+                        .as_ref()
+                        .filter(|e| e.state == EditState::Pending && e.sends > 0)
+                    {
+                        at(e.sent_at + rto.max(SECOND));
+                    }
+                }
+            }
+        }
+        t
+    }
+
+    pub fn poll(&mut self, now: Micros) -> Vec<ParamOut> {
+        let mut out = Vec::new();
+        if self.auto {
+            out.extend(self.fetch(now, self.key.1));
+        }
+        let rto = self.rto();
+        if self.version_retry.is_some_and(|v| now >= v) {
+            // AUTOPILOT_VERSION did not come: ask again, three times in all.
+            self.version_asked += 1;
+            self.version_retry = (self.version_asked < 3).then_some(now + 2 * SECOND);
+            out.push(ParamOut::Send(request_autopilot_version(self.key)));
+        }
+        // Edits without an echo.
+        if self.edits_pending > 0 {
+            let mut resend = Vec::new();
+            for (comp, s) in self.sets.iter_mut() {
+                for (name, p) in s.params.iter_mut() {
+                    let t = p.ptype;
+                    let Some(e) = p
+                        .edit
+                        .as_mut()
+                        .filter(|e| e.state == EditState::Pending && e.sends > 0)
+                    else {
+                        continue;
+                    };
+                    if now < e.sent_at + rto.max(SECOND) {
+                        continue;
+                    }
+                    if e.sends > SET_RESENDS {
+                        let why = format!("no answer after {} tries", e.sends);
+                        out.push(ParamOut::Notice(
+                            SEV_ERROR,
+                            format!("{name} = {}: {why}", value::format(e.value, t)),
+                        ));
+                        e.state = EditState::Failed(why);
+                        self.edits_pending -= 1;
+                    } else {
+                        e.sends += 1;
+                        e.sent_at = now;
+                        resend.push((*comp, name.clone(), e.value, t));
+                    }
+                }
+            }
+            for (comp, name, v, t) in resend {
+                out.push(ParamOut::Send(self.param_set(comp, &name, v, t)));
+            }
+            out.extend(self.send_queued(now));
+        }
+        let Some(d) = self.download.as_mut() else {
+            return out;
+        };
+        let comp = d.comp;
+        match &mut d.phase {
+            Phase::Ftp(f) => {
+                let o = f.poll(now);
+                out.extend(self.on_ftp_out(now, o));
+            }
+            Phase::List(l) => {
+                let got_any = l.last_new.is_some()
+                    || self.sets.get(&comp).is_some_and(|s| s.count.is_some());
+                if !got_any {
+                    if now >= l.list_sent + (LIST_WAIT << (l.list_tries - 1).min(3)) {
+                        if l.list_tries >= LIST_TRIES {
+                            let d = self.download.take().expect("present");
+                            let mut stats = d.stats;
+                            stats.finished = Some(now);
+                            self.last = Some(stats);
+                            out.push(ParamOut::Notice(
+                                SEV_ERROR,
+                                format!(
+                                    "parameters of {}:{comp}: no answer to PARAM_REQUEST_LIST",
+                                    self.key.0
+                                ),
+                            ));
+                            return out;
+                        }
+                        l.list_tries += 1;
+                        l.list_sent = now;
+                        d.stats.requests += 1;
+                        d.stats.retries += 1;
+                        out.push(self.list_request(comp));
+                    }
+                    return out;
+                }
+                // Reads that timed out go again.
+                l.reads
+                    .retain(|_, (sent, tries, _)| now < *sent + (rto << (*tries - 1).min(3)));
+                if !l.filling && now >= l.last_new.unwrap_or(l.list_sent) + gap(l.interval) {
+                    l.filling = true;
+                }
+                if l.filling {
+                    out.extend(self.fill(now));
+                }
+            }
+        }
+        out
+    }
+}
+
+/// How long without a new index before the list is taken as ended: several times the measured
+/// time between indices.
+fn gap(interval: Option<Micros>) -> Micros {
+    match interval {
+        Some(i) => (10 * i).clamp(MIN_GAP, MAX_GAP),
+        None => 4 * MIN_GAP,
+    }
+}
+
+/// MAV_CMD_REQUEST_MESSAGE for AUTOPILOT_VERSION (148).
+fn request_autopilot_version(key: VehicleKey) -> MavMessage {
+    MavMessage::COMMAND_LONG(dialect::COMMAND_LONG_DATA {
+        param1: 148.0,
+        param2: 0.0,
+        param3: 0.0,
+        param4: 0.0,
+        param5: 0.0,
+        param6: 0.0,
+        param7: 0.0,
+        command: dialect::MavCmd::MAV_CMD_REQUEST_MESSAGE,
+        target_system: key.0,
+        target_component: key.1,
+        confirmation: 0,
+    })
+}
