@@ -92,9 +92,71 @@ impl App {
                 })
             })
             .collect();
+        // Parameters of each session: per component, how far the download got, and every edit
+        // with its outcome.
+        let params: Vec<Value> = self
+            .sessions
+            .iter()
+            .map(|(key, s)| {
+                let sets: Vec<Value> = s
+                    .params
+                    .sets
+                    .iter()
+                    .map(|(comp, set)| {
+                        let (got, count) = set.progress();
+                        let edits: Vec<Value> = set
+                            .params
+                            .iter()
+                            .filter_map(|(name, p)| {
+                                let e = p.edit.as_ref()?;
+                                let (state, why) = match &e.state {
+                                    crate::proto::params::EditState::Pending => ("pending", None),
+                                    crate::proto::params::EditState::Confirmed => {
+                                        ("confirmed", None)
+                                    }
+                                    crate::proto::params::EditState::Failed(w) => {
+                                        ("failed", Some(w.clone()))
+                                    }
+                                };
+                                Some(json!({
+                                    "name": name,
+                                    "value": e.value,
+                                    "state": state,
+                                    "reason": why,
+                                    "vehicle_value": p.value,
+                                }))
+                            })
+                            .collect();
+                        json!({
+                            "compid": comp,
+                            "received": got,
+                            "count": count,
+                            "complete": set.complete(),
+                            "edits": edits,
+                        })
+                    })
+                    .collect();
+                let last = s.params.last.as_ref().map(|d| {
+                    json!({
+                        "method": d.method.name(),
+                        "seconds": d.finished.map(|f| (f - d.started) as f64 / 1e6),
+                        "requests": d.requests,
+                        "retries": d.retries,
+                        "fallback": d.fallback,
+                    })
+                });
+                json!({
+                    "sysid": key.0,
+                    "compid": key.1,
+                    "components": sets,
+                    "download": last,
+                })
+            })
+            .collect();
         json!({
             "links": links,
             "vehicles": vehicles,
+            "params": params,
             "vehicles_evicted": self.vehicles.evicted,
         })
     }

@@ -118,9 +118,11 @@ impl Session {
                     .into_iter()
                     .map(pmap),
             ),
-            148 if from == self.key.1 && payload.len() >= 8 => {
+            // AUTOPILOT_VERSION: capabilities u64 first (MAVLink 2 may have cut its zeros).
+            148 if from == self.key.1 => {
                 let mut caps = [0u8; 8];
-                caps.copy_from_slice(&payload[..8]);
+                let n = payload.len().min(8);
+                caps[..n].copy_from_slice(&payload[..n]);
                 let caps = u64::from_le_bytes(caps);
                 out.extend(self.params.on_autopilot_version(now, caps).into_iter().map(pmap));
             }

@@ -39,18 +39,18 @@ pub fn progress(app: &App) -> Progress {
     }
     match &s.params.last {
         Some(st) => {
-            let count = s
-                .params
-                .autopilot()
-                .and_then(|p| p.count)
-                .map_or(0, |c| c as usize);
+            let set = s.params.autopilot();
+            let count = set.and_then(|p| p.count).map_or(0, |c| c as usize);
+            // Complete only when the vehicle's whole set is here (a download that got no
+            // answer at all is not a complete empty set).
+            let missing = match set {
+                Some(p) if p.complete() => 0,
+                Some(p) if p.count.is_some() => count.saturating_sub(p.progress().0).max(1),
+                _ => st.missing.max(1),
+            };
             Progress::Ended {
                 count,
-                missing: st.missing.max(
-                    s.params
-                        .autopilot()
-                        .map_or(count, |p| count.saturating_sub(p.progress().0)),
-                ),
+                missing,
                 method: st.method,
                 secs: st
                     .finished
@@ -96,7 +96,7 @@ impl Progress {
                     .unwrap_or_default();
                 format!(
                     "parameters {}/{count} in {secs:.2} s by {} ({requests} requests, {retries} retries{fb})",
-                    count - missing,
+                    count.saturating_sub(*missing),
                     method.name()
                 )
             }

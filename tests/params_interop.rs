@@ -1,0 +1,214 @@
+//! Parameters against pymavlink stand-in vehicles (tests/py/fake_param_vehicle.py) over TCP, in
+//! real time, through the `mavterm` binary: `--headless --params-out` for downloads, a replay
+//! script for edits. Expected values come from the stand-in's own table (what pymavlink sent),
+//! never from mavterm.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::io::BufRead;
+use std::path::Path;
+use std::process::{Command, Stdio};
+
+use common::ChildGuard;
+
+/// Start the stand-in with `args`; returns it once it listens.
+fn fake(port: u16, dir: &Path, args: &[&str]) -> ChildGuard {
+    let mut child = Command::new(common::python())
+        .arg(common::test_path("py/fake_param_vehicle.py"))
+        .args(["--port", &port.to_string()])
+        .arg("--table-out")
+        .arg(dir.join("table.json"))
+        .arg("--log-out")
+        .arg(dir.join("sets.json"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    assert_eq!(line.trim(), "listening", "stand-in did not start");
+    ChildGuard(child)
+}
+
+/// The stand-in's table: name -> (value, MAV_PARAM_TYPE).
+fn table(dir: &Path) -> BTreeMap<String, (f64, u8)> {
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("table.json")).unwrap()).unwrap();
+    v.as_object()
+        .unwrap()
+        .iter()
+        .map(|(k, v)| {
+            (
+                k.clone(),
+                (v[0].as_f64().unwrap(), v[1].as_u64().unwrap() as u8),
+            )
+        })
+        .collect()
+}
+
+/// A `.parm` file: name -> value text.
+fn parm(path: &Path) -> BTreeMap<String, String> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+        .map(|l| {
+            let mut w = l.split_whitespace();
+            (w.next().unwrap().to_string(), w.next().unwrap().to_string())
+        })
+        .collect()
+}
+
+/// Download with `--params-out` from a stand-in started with `args`; every value must be the
+/// stand-in's, integers exact, reals as the f32 it sent.
+fn download_matches(args: &[&str]) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let port = common::free_tcp_port();
+    let _v = fake(port, dir.path(), args);
+    let out = dir.path().join("got.parm");
+    let run = Command::new(common::mavterm())
+        .args(["--link", &format!("tcp:127.0.0.1:{port}"), "--headless", "--duration", "40"])
+        .arg("--params-out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr).to_string();
+    assert!(run.status.success(), "{args:?}: {stderr}");
+    let want = table(dir.path());
+    let got = parm(&out);
+    assert_eq!(
+        got.keys().collect::<Vec<_>>(),
+        want.keys().collect::<Vec<_>>(),
+        "{args:?}: names"
+    );
+    for (name, (v, t)) in &want {
+        let text = &got[name];
+        if *t == 9 {
+            let g: f32 = text.parse().unwrap();
+            assert_eq!(g, *v as f32, "{name}: {text} vs {v}");
+        } else {
+            // Integers print without a fraction and exactly.
+            assert_eq!(text, &format!("{}", *v as i64), "{name}");
+        }
+    }
+    stderr
+}
+
+#[test]
+fn ardupilot_list_with_loss_duplicates_and_a_change_by_another_gcs() {
+    let err = download_matches(&[
+        "--caps",
+        "8192", // MAVLINK2 only: no FTP, no encoding bit
+        "--loss",
+        "0.2",
+        "--dup",
+        "10",
+        "--change",
+        "AP_I16_001=1234",
+    ]);
+    assert!(err.contains("parameter protocol"), "{err}");
+}
+
+#[test]
+fn a_param_count_that_grows_mid_download_is_followed() {
+    let err = download_matches(&["--caps", "8192", "--count-change", "7"]);
+    assert!(err.contains("parameters 207/207"), "{err}");
+}
+
+#[test]
+fn px4_bytewise_int32_by_heartbeat() {
+    // No AUTOPILOT_VERSION: the HEARTBEAT's autopilot (PX4) decides; FTP answered with a NAK.
+    let err = download_matches(&["--autopilot", "px4", "--ftp", "nak"]);
+    assert!(err.contains("file not found"), "{err}");
+}
+
+#[test]
+fn autopilot_version_bytewise_bit_overrides_an_ardupilot_heartbeat() {
+    // An ArduPilot heartbeat whose AUTOPILOT_VERSION announces PARAM_ENCODE_BYTEWISE (16): the
+    // values come bytewise, and mavterm must read them so.
+    download_matches(&["--autopilot", "px4", "--heartbeat", "ardupilot", "--caps", "16"]);
+}
+
+#[test]
+fn autopilot_version_c_cast_bit_overrides_a_px4_heartbeat() {
+    // A PX4 heartbeat whose AUTOPILOT_VERSION announces PARAM_ENCODE_C_CAST (131072).
+    download_matches(&["--heartbeat", "px4", "--caps", "131072"]);
+}
+
+/// Run a replay script against a stand-in started with `args`; returns the JSON report and the
+/// PARAM_SETs the stand-in received (name -> count).
+fn replay(args: &[&str], script: &str) -> (serde_json::Value, BTreeMap<String, u64>) {
+    let dir = tempfile::tempdir().unwrap();
+    let port = common::free_tcp_port();
+    let _v = fake(port, dir.path(), args);
+    let path = dir.path().join("script.txt");
+    std::fs::write(&path, script).unwrap();
+    let run = Command::new(common::mavterm())
+        .args(["--link", &format!("tcp:127.0.0.1:{port}"), "--headless", "--input"])
+        .arg(&path)
+        .args(["--report", "json", "--screens"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    let sets = std::fs::read_to_string(dir.path().join("sets.json"))
+        .map(|t| serde_json::from_str::<BTreeMap<String, u64>>(&t).unwrap())
+        .unwrap_or_default();
+    (report, sets)
+}
+
+/// The report's edit of `name` on the autopilot.
+fn edit<'a>(report: &'a serde_json::Value, name: &str) -> &'a serde_json::Value {
+    report["params"][0]["components"][0]["edits"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|e| e["name"] == name)
+        .unwrap_or_else(|| panic!("no edit of {name}: {report}"))
+}
+
+const SET_SCRIPT: &str = "3 text \":param set AP_I16_001 77\\n\"\n9 quit\n";
+
+#[test]
+fn param_set_echoed_is_confirmed() {
+    let (r, sets) = replay(&["--caps", "8192"], SET_SCRIPT);
+    let e = edit(&r, "AP_I16_001");
+    assert_eq!(e["state"], "confirmed", "{e}");
+    assert_eq!(e["vehicle_value"], 77.0);
+    assert_eq!(sets["AP_I16_001"], 1);
+}
+
+#[test]
+fn param_set_whose_echo_is_lost_is_sent_again() {
+    let (r, sets) = replay(&["--caps", "8192", "--set", "lose-first"], SET_SCRIPT);
+    assert_eq!(edit(&r, "AP_I16_001")["state"], "confirmed");
+    assert_eq!(sets["AP_I16_001"], 2);
+}
+
+#[test]
+fn param_set_refused_shows_failed_after_one_resend() {
+    // The vehicle echoes its old value (-300): resent once (it may have been stale), then failed.
+    let (r, sets) = replay(&["--caps", "8192", "--set", "refuse"], SET_SCRIPT);
+    let e = edit(&r, "AP_I16_001");
+    assert_eq!(e["state"], "failed", "{e}");
+    assert_eq!(e["reason"], "refused: the vehicle kept -300");
+    assert_eq!(e["vehicle_value"], -300.0);
+    assert_eq!(sets["AP_I16_001"], 2);
+}
+
+#[test]
+fn param_set_never_answered_fails_after_three_resends() {
+    let (r, sets) = replay(&["--caps", "8192", "--set", "silent"], SET_SCRIPT);
+    let e = edit(&r, "AP_I16_001");
+    assert_eq!(e["state"], "failed", "{e}");
+    assert_eq!(sets["AP_I16_001"], 4);
+}
