@@ -10,8 +10,10 @@
 //!   ACK is only an estimate on ArduPilot).
 //! - **Gaps**: when the burst ends, or stalls (nothing for a gap adapted to the measured arrival
 //!   rate), every missing block below the end is read with ReadFile, several in flight, each
-//!   retried on a timeout adapted to the measured round trip. A lost tail (end unknown) is read
-//!   by another burst from the first missing offset.
+//!   retried on a timeout adapted to the measured round trip. When the end is still unknown (a
+//!   lost tail, or a vehicle that ends its bursts after a number of packets, as ArduPilot 4.x
+//!   does after 100, flagging `burst_complete` on the last), the gaps are read first and then
+//!   another burst goes on from the highest block received.
 //! - **Done**: TerminateSession, and the whole file handed back. A block that will not come after
 //!   [`MAX_TRIES`] reads fails the transfer.
 //!
@@ -410,23 +412,6 @@ impl FtpRead {
             }
             self.reads.insert(o, (now, tries));
             out.push(self.packet(op::READ_FILE, BLOCK as u8, o, Vec::new()));
-        }
-        // Past the highest block when the end is unknown: probe for more.
-        if self.end.is_none() && self.reads.len() < WINDOW {
-            let next = self
-                .blocks
-                .keys()
-                .next_back()
-                .map_or(0, |&o| o + BLOCK as u32);
-            if !self.reads.contains_key(&next) {
-                let t = self.tries.entry(next).or_insert(0);
-                *t += 1;
-                if *t > MAX_TRIES {
-                    return self.fail(format!("MAVFTP: no data at offset {next}"));
-                }
-                self.reads.insert(next, (now, *t));
-                out.push(self.packet(op::READ_FILE, BLOCK as u8, next, Vec::new()));
-            }
         }
         self.deadline = self
             .reads
