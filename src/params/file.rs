@@ -20,15 +20,16 @@
 //! # Git Revision: 1a2b3c4d
 //! #
 //! # Vehicle-Id Component-Id Name Value Type
-//! 1	1	ACRO_BAL_PITCH	1.000000000000000000	9
-//! 1	1	ANGLE_MAX	3000	4
+//! 1\t1\tACRO_BAL_PITCH\t1.000000000000000000\t9
+//! 1\t1\tANGLE_MAX\t3000\t4
 //! ```
 //!
-//! Data lines are tab-separated `vehicle-id component-id name value type`, `type` the
-//! MAV_PARAM_TYPE code, in component order then name order (QMap keys). The value is
+//! (`\t` is a tab.) Data lines are tab-separated `vehicle-id component-id name value type`,
+//! `type` the MAV_PARAM_TYPE code, in component order then name order (QMap keys). The value is
 //! `Fact::rawValueStringFullPrecision()`: reals as `QString::arg(v, 0, 'f', 18)` (the `float`
 //! widened to `double`, 18 decimals: 0.3 is `0.300000011920928955`), integers as
-//! `QVariant::toString()` (`3000`). QGC's reader skips lines starting with `#` and wants exactly
+//! `QVariant::toString()` (`3000`). (Values too small for 18 decimals are the one departure:
+//! see [`qgc_value`].) QGC's reader skips lines starting with `#` and wants exactly
 //! five tab-separated fields.
 //!
 //! **Which format** a text is in is decided by its content, never its name: if any data line is
@@ -181,7 +182,11 @@ fn looks_qgc(line: &str) -> bool {
 /// Reads a parameter file in either format. Never fails as a whole; see the module docs.
 pub fn parse(text: &str) -> ParamFile {
     let format = detect(text);
-    let mut out = ParamFile { format, params: Vec::new(), errors: Vec::new() };
+    let mut out = ParamFile {
+        format,
+        params: Vec::new(),
+        errors: Vec::new(),
+    };
     // (component, name) -> line of first appearance.
     let mut seen: HashMap<(Option<u8>, String), usize> = HashMap::new();
     for (i, raw) in text.lines().enumerate() {
@@ -190,7 +195,11 @@ pub fn parse(text: &str) -> ParamFile {
             Format::Parm => parse_parm_line(raw),
             Format::Qgc => parse_qgc_line(raw),
         };
-        let err = |why: String| LineError { line, text: raw.to_string(), why };
+        let err = |why: String| LineError {
+            line,
+            text: raw.to_string(),
+            why,
+        };
         match parsed {
             Ok(None) => {}
             Ok(Some(mut p)) => {
@@ -257,7 +266,8 @@ fn parse_qgc_line(raw: &str) -> Result<Option<FileParam>, String> {
         ));
     }
     let id = |s: &str, what: &str| {
-        s.parse::<u8>().map_err(|_| format!("{what} id {s:?} is not a number from 0 to 255"))
+        s.parse::<u8>()
+            .map_err(|_| format!("{what} id {s:?} is not a number from 0 to 255"))
     };
     let system = id(fields[0], "vehicle")?;
     let component = id(fields[1], "component")?;
@@ -268,7 +278,12 @@ fn parse_qgc_line(raw: &str) -> Result<Option<FileParam>, String> {
         .parse::<u8>()
         .ok()
         .and_then(ParamType::from_code)
-        .ok_or_else(|| format!("unknown parameter type {:?} (MAV_PARAM_TYPE 1 to 10)", fields[4]))?;
+        .ok_or_else(|| {
+            format!(
+                "unknown parameter type {:?} (MAV_PARAM_TYPE 1 to 10)",
+                fields[4]
+            )
+        })?;
     ptype.check(value)?;
     Ok(Some(FileParam {
         name: name.to_string(),
@@ -285,8 +300,13 @@ pub fn check_name(name: &str) -> Result<(), String> {
     if name.is_empty() {
         return Err("empty parameter name".into());
     }
-    if let Some(c) = name.chars().find(|c| !(c.is_ascii_alphanumeric() || *c == '_')) {
-        return Err(format!("{name:?}: {c:?} cannot be in a parameter name (A-Z, a-z, 0-9, _)"));
+    if let Some(c) = name
+        .chars()
+        .find(|c| !(c.is_ascii_alphanumeric() || *c == '_'))
+    {
+        return Err(format!(
+            "{name:?}: {c:?} cannot be in a parameter name (A-Z, a-z, 0-9, _)"
+        ));
     }
     if name.len() > MAX_NAME {
         return Err(format!(
@@ -319,12 +339,19 @@ pub fn write(format: Format, params: &[Saved], header: &Header) -> String {
         Format::Parm => {
             sorted.sort_by(|a, b| a.name.cmp(b.name).then(a.component.cmp(&b.component)));
             for p in sorted {
-                out.push_str(&format!("{:<16} {}\n", p.name, value::format(p.value, p.ptype)));
+                out.push_str(&format!(
+                    "{:<16} {}\n",
+                    p.name,
+                    value::format(p.value, p.ptype)
+                ));
             }
         }
         Format::Qgc => {
             sorted.sort_by(|a, b| a.component.cmp(&b.component).then(a.name.cmp(b.name)));
-            out.push_str(&format!("# Onboard parameters for Vehicle {}\n#\n", header.sysid));
+            out.push_str(&format!(
+                "# Onboard parameters for Vehicle {}\n#\n",
+                header.sysid
+            ));
             for (label, v) in [
                 ("Stack", &header.stack),
                 ("Vehicle", &header.vehicle),
@@ -353,10 +380,28 @@ pub fn write(format: Format, params: &[Saved], header: &Header) -> String {
 
 /// A value as QGroundControl writes it in `.params`: reals with 18 decimals of the value the
 /// type holds (a REAL32 widened from `f32`), integers plain.
+///
+/// 18 decimals cannot hold values below about 1e-10 (`1e-20` would be `0.000000000000000000`);
+/// those, and only those, are written in exponent form (`1e-20`), which QGC reads back too.
 pub fn qgc_value(v: f64, t: ParamType) -> String {
     match t {
-        ParamType::Real32 => format!("{:.18}", v as f32 as f64),
-        ParamType::Real64 => format!("{v:.18}"),
+        ParamType::Real32 => {
+            let f = v as f32;
+            let fixed = format!("{:.18}", f as f64);
+            if fixed.parse::<f32>() == Ok(f) {
+                fixed
+            } else {
+                format!("{f:e}")
+            }
+        }
+        ParamType::Real64 => {
+            let fixed = format!("{v:.18}");
+            if fixed.parse::<f64>() == Ok(v) {
+                fixed
+            } else {
+                format!("{v:e}")
+            }
+        }
         _ => value::fmt_plain(v),
     }
 }
@@ -421,9 +466,14 @@ pub fn diff(vehicle: &[Saved], file: &ParamFile) -> Diff {
             }
         }
     }
-    d.only_vehicle =
-        vehicle.iter().zip(&matched).filter(|(_, m)| !**m).map(|(p, _)| p.name.to_string()).collect();
-    d.changed.sort_by(|a, b| a.name.cmp(&b.name).then(a.component.cmp(&b.component)));
+    d.only_vehicle = vehicle
+        .iter()
+        .zip(&matched)
+        .filter(|(_, m)| !**m)
+        .map(|(p, _)| p.name.to_string())
+        .collect();
+    d.changed
+        .sort_by(|a, b| a.name.cmp(&b.name).then(a.component.cmp(&b.component)));
     d.only_vehicle.sort();
     d.only_file.sort();
     d
@@ -435,7 +485,12 @@ mod tests {
     use ParamType::*;
 
     fn saved(name: &str, value: f64, ptype: ParamType) -> Saved<'_> {
-        Saved { name, value, ptype, component: 1 }
+        Saved {
+            name,
+            value,
+            ptype,
+            component: 1,
+        }
     }
 
     #[test]
@@ -449,8 +504,11 @@ mod tests {
         let f = parse(text);
         assert_eq!(f.format, Format::Parm);
         assert!(f.errors.is_empty(), "{:?}", f.errors);
-        let got: Vec<(&str, f64, usize)> =
-            f.params.iter().map(|p| (p.name.as_str(), p.value, p.line)).collect();
+        let got: Vec<(&str, f64, usize)> = f
+            .params
+            .iter()
+            .map(|p| (p.name.as_str(), p.value, p.line))
+            .collect();
         assert_eq!(
             got,
             vec![
@@ -460,12 +518,16 @@ mod tests {
                 ("LOG_BITMASK", 1023.0, 6),
             ]
         );
-        assert!(f.params.iter().all(|p| p.ptype.is_none() && p.component.is_none()));
+        assert!(f
+            .params
+            .iter()
+            .all(|p| p.ptype.is_none() && p.component.is_none()));
     }
 
     #[test]
     fn qgc_lines_as_qgc_writes_them() {
-        let text = "# Onboard parameters for Vehicle 1\n#\n# Vehicle-Id Component-Id Name Value Type\n\
+        let text =
+            "# Onboard parameters for Vehicle 1\n#\n# Vehicle-Id Component-Id Name Value Type\n\
                     1\t1\tACRO_BAL_PITCH\t1.000000000000000000\t9\n\
                     1\t1\tANGLE_MAX\t3000\t4\n";
         let f = parse(text);
@@ -517,7 +579,9 @@ mod tests {
         let lines: Vec<usize> = f.errors.iter().map(|e| e.line).collect();
         assert_eq!(lines, vec![2, 3, 4, 5, 6, 7, 8, 9]);
         assert_eq!(f.errors[0].text, "LONELY");
-        assert!(f.errors[7].to_string().starts_with("line 9: GOOD_ONE appears again"));
+        assert!(f.errors[7]
+            .to_string()
+            .starts_with("line 9: GOOD_ONE appears again"));
     }
 
     #[test]
@@ -532,8 +596,11 @@ mod tests {
                     1\t2\tOK\t2\t6\n";
         let f = parse(text);
         assert_eq!(f.format, Format::Qgc);
-        let kept: Vec<(&str, Option<u8>)> =
-            f.params.iter().map(|p| (p.name.as_str(), p.component)).collect();
+        let kept: Vec<(&str, Option<u8>)> = f
+            .params
+            .iter()
+            .map(|p| (p.name.as_str(), p.component))
+            .collect();
         assert_eq!(kept, vec![("OK", Some(1)), ("OK", Some(2))]);
         let lines: Vec<usize> = f.errors.iter().map(|e| e.line).collect();
         assert_eq!(lines, vec![2, 3, 4, 5, 6, 7]);
@@ -568,12 +635,21 @@ mod tests {
         assert_eq!(qgc_value(3000.0, Int16), "3000");
         assert_eq!(qgc_value(-1.0, Int8), "-1");
         assert_eq!(qgc_value(4294967295.0, Uint32), "4294967295");
+        // Too small for 18 decimals: exponent form instead of 0.000000000000000000.
+        assert_eq!(qgc_value(1e-20f32 as f64, Real32), "1e-20");
+        assert_eq!(qgc_value(0.0, Real32), "0.000000000000000000");
+        assert_eq!(qgc_value(1e-7f32 as f64, Real32), "0.000000100000001169");
     }
 
     #[test]
     fn qgc_is_written_with_header_by_component_then_name() {
         let params = [
-            Saved { name: "MNT1_TYPE", value: 1.0, ptype: Int8, component: 154 },
+            Saved {
+                name: "MNT1_TYPE",
+                value: 1.0,
+                ptype: Int8,
+                component: 154,
+            },
             saved("ZED", 0.5, Real32),
             saved("ANGLE_MAX", 3000.0, Int16),
         ];
@@ -605,17 +681,28 @@ mod tests {
             saved("A_REAL", 0.1f32 as f64, Real32),
             saved("B_INT", -32768.0, Int16),
             saved("C_U32", 4294967295.0, Uint32),
-            saved("D_SMALL", 1.17549435e-38f32 as f64, Real32),
+            saved("D_SMALL", f32::MIN_POSITIVE as f64, Real32),
             saved("E_BIG", 3.4e38f32 as f64, Real32),
         ];
         for format in [Format::Parm, Format::Qgc] {
-            let f = parse(&write(format, &params, &Header { sysid: 1, ..Header::default() }));
+            let f = parse(&write(
+                format,
+                &params,
+                &Header {
+                    sysid: 1,
+                    ..Header::default()
+                },
+            ));
             assert_eq!(f.format, format);
             assert!(f.errors.is_empty(), "{format:?}: {:?}", f.errors);
             assert_eq!(f.params.len(), params.len());
             for (p, fp) in params.iter().zip(&f.params) {
                 assert_eq!(p.name, fp.name);
-                assert!(value::same(p.value, fp.value, p.ptype), "{format:?} {}", p.name);
+                assert!(
+                    value::same(p.value, fp.value, p.ptype),
+                    "{format:?} {}",
+                    p.name
+                );
                 if format == Format::Qgc {
                     assert_eq!(fp.ptype, Some(p.ptype));
                     assert_eq!(fp.component, Some(1));
