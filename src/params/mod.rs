@@ -4,5 +4,3 @@
 pub mod file;
 pub mod meta;
 pub mod value;
-pub mod file;
-pub mod meta;
