@@ -21,6 +21,8 @@ const PX4: u64 = 12;
 fn app(links: usize) -> App {
     App::new(AppConfig {
         links: (0..links).map(|i| format!("test{i}")).collect(),
+        // Streams and commands only: the parameter download is tested on its own.
+        fetch_params: false,
         ..AppConfig::default()
     })
 }

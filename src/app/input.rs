@@ -221,8 +221,8 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
     ("reboot", "", "reboot the autopilot (asks first)"),
     (
         "param",
-        "fetch|set NAME VALUE|save FILE|load FILE|diff FILE",
-        "parameters of the target (.params = QGC's format, else .parm)",
+        "SUB …",
+        "fetch; set NAME VALUE; save, load, diff FILE (.params: QGC's)",
     ),
     ("help", "", "show the keys of this screen"),
     (

@@ -117,7 +117,10 @@ pub enum Encoding {
 pub fn decode(f: f32, t: ParamType, enc: Encoding) -> f64 {
     use ParamType::*;
     match (enc, t) {
-        (_, Real32) | (_, Real64) | (Encoding::CCast, _) => f as f64,
+        (_, Real32) | (_, Real64) => f as f64,
+        // The float holds a whole number; anything else is rounded as the vehicle would cast.
+        (Encoding::CCast, _) if f.is_finite() => (f as f64).round(),
+        (Encoding::CCast, _) => 0.0,
         (Encoding::Bytewise, _) => {
             let b = f.to_le_bytes();
             match t {

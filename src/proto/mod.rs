@@ -20,4 +20,5 @@ pub mod severity {
     pub const WARNING: u8 = 4;
     pub const NOTICE: u8 = 5;
     pub const INFO: u8 = 6;
+    pub const DEBUG: u8 = 7;
 }

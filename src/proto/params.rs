@@ -31,7 +31,10 @@ use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavAutopilot, MavMessage, MavParamType};
 use crate::params::value::{self, Encoding, ParamType};
 use crate::proto::param_ftp::{FtpOut, FtpRead};
-use crate::proto::severity::{ERROR as SEV_ERROR, INFO as SEV_INFO, NOTICE as SEV_NOTICE, WARNING as SEV_WARNING};
+use crate::proto::severity::{
+    DEBUG as SEV_DEBUG, ERROR as SEV_ERROR, INFO as SEV_INFO, NOTICE as SEV_NOTICE,
+    WARNING as SEV_WARNING,
+};
 use crate::proto::vehicles::VehicleKey;
 use crate::wire::mavftp::{FtpPacket, PAYLOAD_LEN};
 use crate::wire::param_pck::{self, PckType};
@@ -701,11 +704,12 @@ impl ParamMachine {
             }
         } else if index.is_none() && !m.name.starts_with("STAT_") {
             // A change nobody here asked for: another GCS, or the vehicle itself (calibration
-            // offsets, counters; ArduPilot's STAT_ statistics change all flight long and are
-            // left out).
+            // offsets, ground pressure, counters: ArduPilot sends many at boot and after
+            // calibrations, so they are told at DEBUG; the Parameters screen marks them, and
+            // STAT_ statistics, which change all flight long, are left out).
             if let Some(b) = before.filter(|b| !value::same(*b, v, ptype)) {
                 out.push(ParamOut::Notice(
-                    SEV_INFO,
+                    SEV_DEBUG,
                     format!(
                         "{} changed to {} (was {})",
                         m.name,
@@ -1098,4 +1102,186 @@ fn request_autopilot_version(key: VehicleKey) -> MavMessage {
         target_component: key.1,
         confirmation: 0,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const KEY: VehicleKey = (1, 1);
+
+    /// A PARAM_VALUE payload as it goes on the wire (MAVLink 2 trailing zeros cut).
+    fn pv(name: &str, raw: f32, t: u8, count: u16, index: u16) -> Vec<u8> {
+        let mut p = Vec::new();
+        p.extend_from_slice(&raw.to_le_bytes());
+        p.extend_from_slice(&count.to_le_bytes());
+        p.extend_from_slice(&index.to_le_bytes());
+        let mut id = [0u8; 16];
+        id[..name.len()].copy_from_slice(name.as_bytes());
+        p.extend_from_slice(&id);
+        p.push(t);
+        while p.last() == Some(&0) {
+            p.pop();
+        }
+        p
+    }
+
+    fn sends(out: &[ParamOut]) -> Vec<&MavMessage> {
+        out.iter()
+            .filter_map(|o| match o {
+                ParamOut::Send(m) => Some(m),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// A machine past MAVFTP (the vehicle said it has none), listing.
+    fn listing() -> ParamMachine {
+        let mut m = ParamMachine::new(KEY, MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA, true);
+        m.poll(0);
+        let out = m.on_autopilot_version(1_000, 8192);
+        assert!(sends(&out)
+            .iter()
+            .any(|s| matches!(s, MavMessage::PARAM_REQUEST_LIST(_))));
+        m
+    }
+
+    #[test]
+    fn parse_reads_a_cut_payload() {
+        let m = ParamValueMsg::parse(&pv("ABC", 0.0, 9, 5, 0)).unwrap();
+        assert_eq!((m.name.as_str(), m.count, m.index, m.type_code), ("ABC", 5, 0, 9));
+        assert!(ParamValueMsg::parse(&[]).is_none());
+    }
+
+    #[test]
+    fn a_gap_is_asked_for_by_index_and_in_order_loss_is_resent_at_once() {
+        let mut m = listing();
+        let mut t = 10_000;
+        // 0..10 of 12 arrive except 3 and 7, 20 ms apart; 10 and 11 never do.
+        for i in (0..10).filter(|i| *i != 3 && *i != 7) {
+            m.on_param_value(t, 1, &pv(&format!("P{i}"), i as f32, 9, 12, i));
+            t += 20_000;
+        }
+        let d = m.next_deadline().unwrap();
+        // The gap adapts to the 20 ms between arrivals: 10 × 20 ms.
+        assert_eq!(d, t - 20_000 + 200_000);
+        let out = m.poll(d);
+        let reads: Vec<i16> = sends(&out)
+            .iter()
+            .filter_map(|s| match s {
+                MavMessage::PARAM_REQUEST_READ(r) => Some(r.param_index),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(reads, vec![3, 7, 10, 11]);
+        // 7 answered before 3: 3's request or answer was lost, and is asked again at once.
+        let out = m.on_param_value(d + 5_000, 1, &pv("P7", 7.0, 9, 12, 7));
+        let again: Vec<i16> = sends(&out)
+            .iter()
+            .filter_map(|s| match s {
+                MavMessage::PARAM_REQUEST_READ(r) => Some(r.param_index),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(again, vec![3]);
+        for i in [10u16, 11, 3] {
+            m.on_param_value(d + 6_000, 1, &pv(&format!("P{i}"), i as f32, 9, 12, i));
+        }
+        let set = m.autopilot().unwrap();
+        assert!(set.complete());
+        assert_eq!(m.last.as_ref().unwrap().missing, 0);
+        assert_eq!(m.last.as_ref().unwrap().retries, 1);
+    }
+
+    #[test]
+    fn count_changes_resize_and_shrink_drops_the_tail() {
+        let mut m = listing();
+        m.on_param_value(10, 1, &pv("A", 1.0, 9, 3, 0));
+        m.on_param_value(20, 1, &pv("B", 1.0, 9, 3, 1));
+        m.on_param_value(30, 1, &pv("C", 1.0, 9, 3, 2));
+        assert!(m.last.is_some());
+        // The vehicle now says 2: C is gone.
+        let out = m.on_param_value(40, 1, &pv("A", 1.0, 9, 2, 0));
+        assert!(out
+            .iter()
+            .any(|o| matches!(o, ParamOut::Notice(_, t) if t.contains("now has 2 parameters (was 3)"))));
+        let set = m.autopilot().unwrap();
+        assert_eq!(set.progress(), (2, Some(2)));
+        assert!(set.get("C").is_none());
+    }
+
+    #[test]
+    fn unsolicited_changes_update_by_name_and_are_told() {
+        let mut m = listing();
+        m.on_param_value(10, 1, &pv("A", 1.0, 9, 2, 0));
+        m.on_param_value(20, 1, &pv("STAT_RUNTIME", 5.0, 6, 2, 1));
+        let out = m.on_param_value(30, 1, &pv("A", 2.5, 9, 2, 65535));
+        assert!(out
+            .iter()
+            .any(|o| matches!(o, ParamOut::Notice(_, t) if t == "A changed to 2.5 (was 1)")));
+        let p = m.autopilot().unwrap().get("A").unwrap();
+        assert_eq!((p.value, p.index, p.fetched), (2.5, Some(0), Some(1.0)));
+        assert!(p.changed_since_fetch());
+        // Statistics change all flight long: kept quiet.
+        let out = m.on_param_value(40, 1, &pv("STAT_RUNTIME", 6.0, 6, 2, 65535));
+        assert!(out.is_empty());
+    }
+
+    #[test]
+    fn edits_wait_their_turn_eight_at_a_time() {
+        let mut m = listing();
+        for i in 0..20u16 {
+            m.on_param_value(10, 1, &pv(&format!("P{i:02}"), 0.0, 2, 20, i));
+        }
+        let mut sent = 0;
+        for i in 0..20 {
+            sent += sends(&m.set(100, 1, &format!("P{i:02}"), 1.0).unwrap()).len();
+        }
+        assert_eq!(sent, SET_WINDOW);
+        // One echo lets one more go.
+        let out = m.on_param_value(200, 1, &pv("P00", 1.0, 2, 20, 65535));
+        assert_eq!(sends(&out).len(), 1);
+        assert_eq!(
+            m.autopilot().unwrap().get("P00").unwrap().edit.as_ref().unwrap().state,
+            EditState::Confirmed
+        );
+        // Out of range for INT8: refused before sending.
+        assert!(m.set(300, 1, "P01", 128.0).is_err());
+    }
+
+    #[test]
+    fn bytewise_values_are_reread_when_autopilot_version_says_so() {
+        let mut m = ParamMachine::new(KEY, MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA, false);
+        m.on_param_value(10, 1, &pv("I", f32::from_bits(123_456_789), 6, 1, 0));
+        // C-cast first (ArduPilot heartbeat): the float's tiny value truncates to 0.
+        assert_eq!(m.autopilot().unwrap().get("I").unwrap().value, 0.0);
+        m.on_autopilot_version(20, CAP_PARAM_ENCODE_BYTEWISE);
+        let p = m.autopilot().unwrap().get("I").unwrap();
+        assert_eq!(p.value, 123_456_789.0);
+        // The edit goes bytewise too.
+        let out = m.set(30, 1, "I", -1.0).unwrap();
+        match sends(&out)[0] {
+            MavMessage::PARAM_SET(s) => {
+                assert_eq!(s.param_value.to_bits(), u32::MAX);
+                assert_eq!(s.param_type, MavParamType::MAV_PARAM_TYPE_INT32);
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn no_answer_to_the_list_ends_incomplete() {
+        let mut m = listing();
+        let mut now = 1_000;
+        for _ in 0..10 {
+            let Some(d) = m.next_deadline() else { break };
+            now = d.max(now);
+            m.poll(now);
+        }
+        let last = m.last.as_ref().unwrap();
+        // MAVFTP's terminate and open, then the list asked LIST_TRIES times.
+        assert_eq!(last.requests, 2 + LIST_TRIES);
+        assert_eq!(last.retries, LIST_TRIES - 1);
+        assert!(!m.autopilot().unwrap().complete());
+    }
 }
