@@ -177,7 +177,7 @@ fn overview_with_the_flight_pane_mid_flight() {
     assert!(text.contains("> 1:1     QUADROTOR"), "{text}");
     assert!(text.contains("+0 tlog:"), "{text}");
     // The capture's 41 texts, the vehicle found, the parameters downloaded (the capture holds the
-    // original GCS's MAVFTP transfer, to 255:190 as we are) and 17 values the vehicle changed
+    // original GCS's MAVFTP transfer, to 255:190 as we are) and 16 values the vehicle changed
     // (calibrations at boot, the mission count), told at DEBUG.
     assert!(text.contains("Messages (59)"), "{text}");
 }
