@@ -322,19 +322,17 @@ impl FtpRead {
                 self.last_rx = now;
                 let code = p.data.first().copied().unwrap_or(0);
                 if code == err::EOF {
-                    // The offset of an EOF NAK is where the burst stood: the end, unless blocks
-                    // before it were lost (then the gaps are read).
+                    // The offset of an EOF NAK is where the burst stood, the end of the file
+                    // (blocks lost before it are read as gaps). An offset below what already
+                    // came says nothing: the end is found by reading on.
                     let at = self
                         .blocks
                         .iter()
                         .next_back()
                         .map_or(0, |(o, b)| o + b.len() as u32);
-                    let end = if p.offset % BLOCK as u32 == 0 && p.offset >= at {
-                        p.offset
-                    } else {
-                        at
-                    };
-                    self.end = Some(self.end.map_or(end, |e| e.min(end)));
+                    if p.offset >= at && p.offset < MAX_FILE {
+                        self.end = Some(self.end.map_or(p.offset, |e| e.min(p.offset)));
+                    }
                     self.after_burst(now)
                 } else {
                     self.fail(format!("MAVFTP burst read refused ({})", nak_name(code)))
