@@ -72,6 +72,11 @@ pub fn convert(t: PckType, v: f64) -> f64 {
     }
 }
 
+/// ArduPilot's `is_equal` for floats: closer than `FLT_EPSILON`.
+fn is_equal(a: f32, b: f32) -> bool {
+    (a - b).abs() < f32::EPSILON
+}
+
 /// `default` as `AP_Filesystem_Param::pack_param` stores it in the packed file: a C conversion
 /// of the float to the parameter's integer type (two's-complement wrap, so 65535 in an INT16 is
 /// -1), or the float itself.
@@ -208,7 +213,7 @@ impl ParamTable {
                 name: p.name.clone(),
                 ptype: p.ptype,
                 value: p.value,
-                default: (with_defaults && p.value as f32 != p.default as f32)
+                default: (with_defaults && !is_equal(p.value as f32, p.default as f32))
                     .then(|| default_as_stored(p.ptype, p.default)),
             })
             .collect()
@@ -324,6 +329,15 @@ mod tests {
         assert_eq!((relay.value, relay.default), (-1.0, Some(-1.0)));
         assert!(t.to_pck().iter().all(|p| p.default.is_none()));
         assert_eq!(default_as_stored(PckType::Int16, 65535.0), -1.0);
+        // is_equal: within FLT_EPSILON counts as at the default.
+        let mut u = ParamTable::copter(0);
+        u.set("ACRO_Y_EXPO", 1e-9);
+        u.set("ACRO_THR_MID", 1e-3);
+        let d = u.to_pck_with(true);
+        let at = |n: &str| d.iter().find(|p| p.name == n).unwrap().default;
+        assert_eq!(u.value("ACRO_Y_EXPO"), Some(1e-9f32 as f64));
+        assert_eq!(at("ACRO_Y_EXPO"), None);
+        assert_eq!(at("ACRO_THR_MID"), Some(0.0));
         assert_eq!(default_as_stored(PckType::Int8, 3.0), 3.0);
     }
 
