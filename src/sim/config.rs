@@ -21,7 +21,7 @@ pub enum SimError {
 }
 
 /// Listed in the unknown-key error so the operator sees what is accepted.
-pub const KNOWN_KEYS: &str = "vehicles, sysid, loss, dup, reorder, corrupt, latency_ms, seed, params, baud, state, impair_in, drop_cmd";
+pub const KNOWN_KEYS: &str = "vehicles, sysid, loss, dup, reorder, corrupt, latency_ms, seed, params, baud, state, impair_in, drop_cmd, ftp";
 
 /// How many vehicles, which ids, and how bad the simulated link is.
 #[derive(Debug, Clone, PartialEq)]
@@ -54,6 +54,9 @@ pub struct SimConfig {
     /// COMMAND_LONG / COMMAND_INT it receives with command id ID, as if they were lost on the
     /// way, so a GCS's resends can be tested deterministically.
     pub drop_cmd: BTreeMap<u16, u32>,
+    /// `ftp=0`: a firmware built without MAVFTP (`AP_MAVLINK_FTP_ENABLED` 0): FILE_TRANSFER_PROTOCOL
+    /// goes unanswered and AUTOPILOT_VERSION does not announce MAV_PROTOCOL_CAPABILITY_FTP.
+    pub ftp: bool,
 }
 
 impl Default for SimConfig {
@@ -72,6 +75,7 @@ impl Default for SimConfig {
             state: None,
             impair_in: false,
             drop_cmd: BTreeMap::new(),
+            ftp: true,
         }
     }
 }
@@ -132,6 +136,14 @@ fn drop_list(key: &str, value: &str) -> Result<BTreeMap<u16, u32>, SimError> {
         }
     }
     Ok(map)
+}
+
+fn flag(key: &str, value: &str) -> Result<bool, SimError> {
+    match value {
+        "" | "1" | "true" | "yes" => Ok(true),
+        "0" | "false" | "no" => Ok(false),
+        _ => Err(bad(key, value, "expected true or false")),
+    }
 }
 
 fn num<T: std::str::FromStr>(key: &str, value: &str, what: &str) -> Result<T, SimError> {
@@ -198,13 +210,8 @@ impl SimConfig {
                     c.state = Some(PathBuf::from(value));
                 }
                 "drop_cmd" => c.drop_cmd = drop_list(key, value)?,
-                "impair_in" => {
-                    c.impair_in = match value {
-                        "" | "1" | "true" | "yes" => true,
-                        "0" | "false" | "no" => false,
-                        _ => return Err(bad(key, value, "expected true or false")),
-                    }
-                }
+                "impair_in" => c.impair_in = flag(key, value)?,
+                "ftp" => c.ftp = flag(key, value)?,
                 _ => {
                     return Err(SimError::UnknownKey {
                         key: key.to_string(),
@@ -274,6 +281,19 @@ mod tests {
     }
 
     #[test]
+    fn ftp_switch() {
+        assert!(SimConfig::default().ftp);
+        assert!(!SimConfig::from_query("ftp=0").unwrap().ftp);
+        assert!(!SimConfig::from_query("ftp=false").unwrap().ftp);
+        assert!(SimConfig::from_query("ftp=1").unwrap().ftp);
+        assert!(SimConfig::from_query("ftp=0&ftp=yes").unwrap().ftp);
+        let e = SimConfig::from_query("ftp=2").unwrap_err().to_string();
+        assert!(e.contains("`ftp`") && e.contains("true or false"), "{e}");
+        let e = SimConfig::from_query("ftpx=0").unwrap_err().to_string();
+        assert!(e.contains("ftp"), "known keys listed: {e}");
+    }
+
+    #[test]
     fn errors_name_the_key() {
         for (q, key) in [
             ("bogus=1", "bogus"),
@@ -296,6 +316,8 @@ mod tests {
             ("drop_cmd=512:-1", "drop_cmd"),
             ("drop_cmd=512:1,,400:1", "drop_cmd"),
             ("drop_cmd=512:1,512:2", "drop_cmd"),
+            ("ftp=2", "ftp"),
+            ("ftp=off", "ftp"),
         ] {
             let e = SimConfig::from_query(q).unwrap_err().to_string();
             assert!(e.contains(&format!("`{key}`")), "{q}: {e}");

@@ -5,14 +5,14 @@
 //! the handler wrote go out later from its text queue: a refusal is ACK first, then its reason
 //! (the real capture shows `COMMAND_ACK 400 FAILED` then `Arm: ...`). So does the simulator.
 
+use super::mavftp::Request as FtpRequest;
 use super::streams::{self, id, DEFAULT_INTERVAL};
-use super::telemetry::{command_ack, param_value, raw_command_ack};
+use super::telemetry::{command_ack, param_value_notify, raw_command_ack};
 use super::vehicle::{
     mode, AirspeedCal, Blocked, LastCommand, SimVehicle, ACCEL_CAL_TIME, GYRO_CAL_TIME,
 };
 use crate::clock::Micros;
 use crate::dialect::*;
-use crate::wire::mavftp::FtpPacket;
 
 /// ArduPilot's magic param2 that skips arming checks / allows disarm in flight.
 pub const FORCE_MAGIC: f32 = 21196.0;
@@ -49,6 +49,12 @@ impl Command {
             None => (f32_as_i32(self.p[4]), f32_as_i32(self.p[5])),
         }
     }
+}
+
+/// A PARAM_* name field: up to 16 bytes, ended by the first NUL.
+fn param_name(b: &[u8]) -> String {
+    let n = b.iter().position(|&c| c == 0).unwrap_or(b.len()).min(16);
+    String::from_utf8_lossy(&b[..n]).into_owned()
 }
 
 fn f32_as_i32(v: f32) -> i32 {
@@ -91,31 +97,17 @@ impl SimVehicle {
             {
                 // ArduPilot resends its banner so a GCS that connects late still sees it.
                 self.banner();
-                self.param_cursor = Some(0);
+                self.param_send.request_list(now, &self.params);
             }
+            // handle_param_request_read: queued, answered from the parameter send schedule.
             MavMessage::PARAM_REQUEST_READ(m)
                 if self.for_me(m.target_system, m.target_component) =>
             {
-                let index = if m.param_index >= 0 {
-                    Some(m.param_index as usize).filter(|&i| i < self.params.len())
-                } else {
-                    m.param_id
-                        .to_str()
-                        .ok()
-                        .and_then(|n| self.params.index_of(n))
-                };
-                if let Some(i) = index {
-                    self.push(param_value(&self.params, i));
-                }
+                let name = param_name(&m.param_id[..]);
+                self.param_send.request_read(m.param_index, name);
             }
             MavMessage::PARAM_SET(m) if self.for_me(m.target_system, m.target_component) => {
-                let Ok(name) = m.param_id.to_str() else {
-                    return;
-                };
-                if let Some(i) = self.params.set(name, m.param_value as f64) {
-                    self.push(param_value(&self.params, i));
-                    self.save_params();
-                }
+                self.param_set(&param_name(&m.param_id[..]), m.param_value);
             }
             MavMessage::REQUEST_DATA_STREAM(m)
                 if self.for_me(m.target_system, m.target_component) =>
@@ -136,14 +128,23 @@ impl SimVehicle {
                 self.out.push(raw_command_ack(SET_MODE_ID, result, from));
                 self.out.extend(texts);
             }
+            // A build without MAVFTP has no handler: the message is ignored.
             MavMessage::FILE_TRANSFER_PROTOCOL(m)
-                if self.for_me(m.target_system, m.target_component) =>
+                if self.ftp_built && self.for_me(m.target_system, m.target_component) =>
             {
-                let req = FtpPacket::parse(&m.payload);
-                self.ftp_peer = from;
-                for r in self.ftp.handle(now, &req, &self.params) {
-                    self.push(super::telemetry::ftp_message(from, &r));
+                if !self.ftp_enabled() {
+                    // GCS_MAVLINK::ftp_init with BRD_OPTIONS DISABLE_FTP: no worker, every
+                    // request dropped with this warning.
+                    self.text(
+                        MavSeverity::MAV_SEVERITY_WARNING,
+                        "failed to initialize MAVFTP",
+                    );
+                    return;
                 }
+                let out = self
+                    .ftp
+                    .receive(now, FtpRequest::parse(from, &m.payload), &self.params);
+                self.ftp_out(out);
             }
             MavMessage::COMMAND_LONG(m) if self.for_me(m.target_system, m.target_component) => {
                 if self.take_drop(m.command as u16) {
@@ -182,6 +183,33 @@ impl SimVehicle {
         }
     }
 
+    /// GCS_MAVLINK::handle_param_set: an unknown name, NaN or infinity is ignored (nothing is
+    /// sent). A parameter MAVLink may not set (`allow_set_via_mavlink`) stays as it is; the
+    /// refusal sends its current value to this GCS (index -1) and warns "Param write denied".
+    /// Otherwise the value is set (`set_float`) and saved, and saving notifies every GCS with
+    /// PARAM_VALUE index -1 carrying the value as stored, changed or not.
+    fn param_set(&mut self, name: &str, value: f32) {
+        let Some(i) = self.params.index_of(name) else {
+            return;
+        };
+        if !value.is_finite() {
+            return;
+        }
+        let internal = self.params.get(i).is_some_and(|p| p.internal);
+        let options = self.params.value("BRD_OPTIONS").unwrap_or(0.0) as i64 as u32;
+        if internal && options & super::vehicle::BRD_OPTION_ALLOW_SET_INTERNAL_PARM == 0 {
+            self.push(param_value_notify(&self.params, i));
+            self.text(
+                MavSeverity::MAV_SEVERITY_WARNING,
+                &format!("Param write denied ({name})"),
+            );
+            return;
+        }
+        self.params.set(name, value as f64);
+        self.push(param_value_notify(&self.params, i));
+        self.save_params();
+    }
+
     fn command(&mut self, now: Micros, cmd: Command) {
         let key: [u32; 7] = cmd.p.map(f32::to_bits);
         let command_id = cmd.command as u16;
@@ -204,6 +232,9 @@ impl SimVehicle {
         let result = self.execute(&cmd, &mut after);
         let mut then = self.out.split_off(mark);
         then.extend(after.into_iter().map(super::vehicle::Out::Msg));
+        // Sent by the handler itself, before its ACK (PARAM_VALUE notifications).
+        let immediate = std::mem::take(&mut self.immediate);
+        self.out.extend(immediate);
         match &mut self.blocked {
             // A synchronous calibration: the ACK comes when it is over.
             Some(b) => b.then.extend(then),
@@ -320,7 +351,11 @@ impl SimVehicle {
                     None => MAV_RESULT_FAILED,
                 }
             }
+            // handle_command_request_autopilot_capabilities: only param1 = 1 asks.
             MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES => {
+                if p[0] != 1.0 {
+                    return MAV_RESULT_FAILED;
+                }
                 after.push(self.autopilot_version());
                 MAV_RESULT_ACCEPTED
             }
@@ -598,6 +633,7 @@ impl SimVehicle {
                 MavSeverity::MAV_SEVERITY_INFO,
                 "Updating barometer calibration",
             );
+            self.baro_update_calibration();
             self.text(
                 MavSeverity::MAV_SEVERITY_INFO,
                 "Barometer calibration complete",
@@ -632,6 +668,28 @@ impl SimVehicle {
             76 => MAV_RESULT_ACCEPTED,
             _ if p[1] == 76.0 => MAV_RESULT_ACCEPTED,
             _ => MAV_RESULT_UNSUPPORTED,
+        }
+    }
+
+    /// AP_Baro::update_calibration: the ground pressures are reset (here: kept) and each
+    /// barometer's BAROn_GND_PRESS is notified to every GCS (PARAM_VALUE index -1), at once,
+    /// but not within 10 s of the last notification ("don't notify the GCS too rapidly"; the
+    /// clock starts at boot, so not in the first 10 s either). A barometer is fitted when its
+    /// BAROn_DEVID is set.
+    fn baro_update_calibration(&mut self) {
+        let now_ms = self.now / 1000;
+        if now_ms.saturating_sub(self.baro_notified / 1000) <= 10_000 {
+            return;
+        }
+        self.baro_notified = self.now;
+        for n in 1..=3 {
+            if self.params.value(&format!("BARO{n}_DEVID")).unwrap_or(0.0) == 0.0 {
+                continue;
+            }
+            if let Some(i) = self.params.index_of(&format!("BARO{n}_GND_PRESS")) {
+                let m = param_value_notify(&self.params, i);
+                self.immediate.push(super::vehicle::Out::Msg(m));
+            }
         }
     }
 

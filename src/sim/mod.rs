@@ -7,12 +7,14 @@
 //!
 //! Modules: `config` (query string), `rng` (seeded PRNG), `vehicle` (state and flight model),
 //! `handlers` (GCS messages and commands), `telemetry` (messages out), `streams` (rates),
-//! `params` + `param_pck` (parameter table, packed file), `mavftp` (FTP server), `impair` (link).
+//! `params` + `param_pck` (parameter table, packed file), `param_send` (PARAM_VALUE pacing),
+//! `mavftp` (FTP server), `impair` (link).
 
 pub mod config;
 pub mod handlers;
 pub mod impair;
 pub mod mavftp;
+pub mod param_send;
 pub mod params;
 pub mod rng;
 pub mod server;
@@ -116,6 +118,7 @@ impl Sim {
             }
             let mut v = SimVehicle::new(sysid, i, cfg.seed, params, path);
             v.drop_left = cfg.drop_cmd.clone();
+            v.set_link(cfg.baud, cfg.ftp);
             vehicles.push(v);
         }
         let impair = Impairer::new(

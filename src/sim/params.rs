@@ -2,8 +2,10 @@
 //!
 //! Names and values come from a real ArduCopter's full download (`assets/sim/copter-params.parm`);
 //! the order and AP_Param storage types from the same vehicle's `param.pck`
-//! (`assets/sim/copter-param-types.txt`), so PARAM_VALUE indices and types are what a GCS sees
-//! from ArduPilot, not guesses.
+//! (`assets/sim/copter-param-types.txt`), and the defaults of the parameters that differ from
+//! theirs from its `param.pck?withdefaults=1` (`assets/sim/copter-param-defaults.txt`), so
+//! PARAM_VALUE indices and types and the packed file are what a GCS sees from ArduPilot, not
+//! guesses.
 
 use crate::dialect::MavParamType;
 use crate::wire::param_pck::{PckParam, PckType};
@@ -11,6 +13,20 @@ use std::collections::BTreeMap;
 
 const PARM: &str = include_str!("../../assets/sim/copter-params.parm");
 const TYPES: &str = include_str!("../../assets/sim/copter-param-types.txt");
+const DEFAULTS: &str = include_str!("../../assets/sim/copter-param-defaults.txt");
+
+/// Parameters ArduPilot declares `AP_PARAM_FLAG_INTERNAL_USE_ONLY` (AP_Baro's `n_GND_PRESS` and
+/// `n_DEVID`, AP_Mission's `TOTAL`): `AP_Param::allow_set_via_mavlink` refuses a PARAM_SET of
+/// them unless BRD_OPTIONS has ALLOW_SET_INTERNAL_PARM (bit 2).
+const INTERNAL_USE_ONLY: [&str; 7] = [
+    "BARO1_GND_PRESS",
+    "BARO2_GND_PRESS",
+    "BARO3_GND_PRESS",
+    "BARO1_DEVID",
+    "BARO2_DEVID",
+    "BARO3_DEVID",
+    "MIS_TOTAL",
+];
 
 /// One parameter.
 #[derive(Debug, Clone, PartialEq)]
@@ -19,6 +35,11 @@ pub struct Param {
     pub ptype: PckType,
     /// Integers are whole numbers within their type's range; floats are `f32` values widened.
     pub value: f64,
+    /// The firmware default, as the float AP_Param keeps it (not converted to the type: a
+    /// default can lie outside an integer type's range, see SIM_OH_RELAY_MSK).
+    pub default: f64,
+    /// `AP_PARAM_FLAG_INTERNAL_USE_ONLY`: refused over MAVLink.
+    pub internal: bool,
 }
 
 /// The MAVLink type ArduPilot puts in PARAM_VALUE for a storage type.
@@ -31,21 +52,41 @@ pub fn mav_type(t: PckType) -> MavParamType {
     }
 }
 
-/// Store `v` as a parameter of type `t` holds it: integers rounded and clamped to their range
-/// (ArduPilot's PARAM_SET casts the float), floats narrowed to `f32`. NaN becomes 0.
+/// Store `v` as a parameter of type `t` holds it, as `AP_Param::set_float` does: the value is a
+/// float; integers get 0.01 added away from zero (so 6.9999 stays 7), are clamped to their
+/// type's range and then truncated (7.6 becomes 7, -7.6 becomes -7); floats are narrowed to
+/// `f32`. Callers reject NaN and infinities first (ArduPilot ignores such a PARAM_SET); here
+/// NaN gives 0.
 pub fn convert(t: PckType, v: f64) -> f64 {
-    let v = if v.is_finite() {
-        v
-    } else if v.is_nan() {
-        0.0
-    } else {
-        v.signum() * f64::MAX
+    let v = v as f32;
+    let int = |min: f32, max: f32| {
+        let r = if v < 0.0 { -0.01f32 } else { 0.01f32 };
+        ((v + r).clamp(min, max) as f64).trunc()
     };
     match t {
-        PckType::Int8 => v.round().clamp(i8::MIN as f64, i8::MAX as f64),
-        PckType::Int16 => v.round().clamp(i16::MIN as f64, i16::MAX as f64),
-        PckType::Int32 => v.round().clamp(i32::MIN as f64, i32::MAX as f64),
-        PckType::Float => v as f32 as f64,
+        PckType::Int8 => int(i8::MIN as f32, i8::MAX as f32),
+        PckType::Int16 => int(i16::MIN as f32, i16::MAX as f32),
+        // 2147483647 is not a float: the clamp gives 2^31, which saturates to i32::MAX.
+        PckType::Int32 => int(i32::MIN as f32, i32::MAX as f32).min(i32::MAX as f64),
+        PckType::Float => v as f64,
+    }
+}
+
+/// ArduPilot's `is_equal` for floats: closer than `FLT_EPSILON`.
+fn is_equal(a: f32, b: f32) -> bool {
+    (a - b).abs() < f32::EPSILON
+}
+
+/// `default` as `AP_Filesystem_Param::pack_param` stores it in the packed file: a C conversion
+/// of the float to the parameter's integer type (two's-complement wrap, so 65535 in an INT16 is
+/// -1), or the float itself.
+pub fn default_as_stored(t: PckType, default: f64) -> f64 {
+    let i = default as i64;
+    match t {
+        PckType::Int8 => i as i8 as f64,
+        PckType::Int16 => i as i16 as f64,
+        PckType::Int32 => i as i32 as f64,
+        PckType::Float => default as f32 as f64,
     }
 }
 
@@ -66,6 +107,14 @@ impl ParamTable {
                 Some((it.next()?, it.next()?.parse().ok()?))
             })
             .collect();
+        let defaults: BTreeMap<&str, f64> = DEFAULTS
+            .lines()
+            .filter(|l| !l.starts_with('#'))
+            .filter_map(|l| {
+                let mut it = l.split_whitespace();
+                Some((it.next()?, it.next()?.parse().ok()?))
+            })
+            .collect();
         let mut params: Vec<Param> = Vec::with_capacity(values.len());
         for line in TYPES.lines() {
             let mut it = line.split_whitespace();
@@ -78,11 +127,13 @@ impl ParamTable {
                 "INT32" => PckType::Int32,
                 _ => PckType::Float,
             };
-            let value = values.get(name).copied().unwrap_or(0.0);
+            let value = convert(ptype, values.get(name).copied().unwrap_or(0.0));
             params.push(Param {
                 name: name.to_string(),
                 ptype,
-                value: convert(ptype, value),
+                value,
+                default: defaults.get(name).copied().unwrap_or(value),
+                internal: INTERNAL_USE_ONLY.contains(&name),
             });
         }
         if count > 0 {
@@ -95,6 +146,8 @@ impl ParamTable {
                     name: format!("SCR_USER{i}"),
                     ptype: PckType::Float,
                     value: 0.0,
+                    default: 0.0,
+                    internal: false,
                 });
             }
         }
@@ -130,8 +183,11 @@ impl ParamTable {
     }
 
     /// Set by name, converted to the parameter's type. Returns the index, or `None` for an
-    /// unknown name (ArduPilot ignores those).
+    /// unknown name or a value that is NaN or infinite (ArduPilot ignores both).
     pub fn set(&mut self, name: &str, value: f64) -> Option<usize> {
+        if !value.is_finite() {
+            return None;
+        }
         let i = self.index_of(name)?;
         let p = &mut self.params[i];
         p.value = convert(p.ptype, value);
@@ -144,13 +200,21 @@ impl ParamTable {
 
     /// The table as `param.pck` entries (no defaults).
     pub fn to_pck(&self) -> Vec<PckParam> {
+        self.to_pck_with(false)
+    }
+
+    /// The table as `param.pck` entries; `with_defaults`: each parameter whose value differs
+    /// from its default carries the default (`pack_param`: `!is_equal(value, default_val)`,
+    /// compared as floats).
+    pub fn to_pck_with(&self, with_defaults: bool) -> Vec<PckParam> {
         self.params
             .iter()
             .map(|p| PckParam {
                 name: p.name.clone(),
                 ptype: p.ptype,
                 value: p.value,
-                default: None,
+                default: (with_defaults && !is_equal(p.value as f32, p.default as f32))
+                    .then(|| default_as_stored(p.ptype, p.default)),
             })
             .collect()
     }
@@ -226,16 +290,55 @@ mod tests {
     #[test]
     fn set_converts_per_type_and_ignores_unknown() {
         let mut t = ParamTable::copter(0);
+        // AP_Param::set_float: +0.01 away from zero, clamp, truncate.
         let i = t.set("MAV_SYSID", 7.6).unwrap();
-        assert_eq!(t.get(i).unwrap().value, 8.0);
+        assert_eq!(t.get(i).unwrap().value, 7.0);
+        t.set("MAV_SYSID", 6.9999);
+        assert_eq!(t.value("MAV_SYSID"), Some(7.0));
+        t.set("RTL_ALT", -3.995);
+        assert_eq!(t.value("RTL_ALT"), Some(-4.0));
+        t.set("RTL_ALT", 3e10);
+        assert_eq!(t.value("RTL_ALT"), Some(i32::MAX as f64));
         t.set("FRAME_CLASS", 1000.0);
         assert_eq!(t.value("FRAME_CLASS"), Some(127.0));
-        t.set("FRAME_CLASS", f64::NAN);
-        assert_eq!(t.value("FRAME_CLASS"), Some(0.0));
+        t.set("FRAME_CLASS", -1000.0);
+        assert_eq!(t.value("FRAME_CLASS"), Some(-128.0));
+        // NaN and infinities are ignored, the value stays.
+        assert_eq!(t.set("FRAME_CLASS", f64::NAN), None);
+        assert_eq!(t.set("FRAME_CLASS", f64::INFINITY), None);
+        assert_eq!(t.value("FRAME_CLASS"), Some(-128.0));
         t.set("ATC_ACCEL_P_MAX", 0.1);
         assert_eq!(t.value("ATC_ACCEL_P_MAX"), Some(0.1f32 as f64));
         assert_eq!(t.set("NO_SUCH_PARAM", 1.0), None);
         assert_eq!(t.len(), 1354);
+    }
+
+    #[test]
+    fn defaults_and_internal_parameters() {
+        let t = ParamTable::copter(0);
+        let p = |n: &str| t.get(t.index_of(n).unwrap()).unwrap().clone();
+        // At its default: the default is the value.
+        assert_eq!((p("RTL_ALT").value, p("RTL_ALT").default), (1500.0, 1500.0));
+        assert_eq!(p("COMPASS_DEV_ID").default, 0.0);
+        assert_eq!(p("STAT_BOOTCNT").default, 0.0);
+        assert!(p("BARO1_GND_PRESS").internal && p("MIS_TOTAL").internal);
+        assert!(!p("RTL_ALT").internal);
+        let with = t.to_pck_with(true);
+        assert_eq!(with.iter().filter(|p| p.default.is_some()).count(), 30);
+        let relay = with.iter().find(|p| p.name == "SIM_OH_RELAY_MSK").unwrap();
+        assert_eq!((relay.value, relay.default), (-1.0, Some(-1.0)));
+        assert!(t.to_pck().iter().all(|p| p.default.is_none()));
+        assert_eq!(default_as_stored(PckType::Int16, 65535.0), -1.0);
+        // is_equal: within FLT_EPSILON counts as at the default.
+        let mut u = ParamTable::copter(0);
+        u.set("ACRO_Y_EXPO", 1e-9);
+        u.set("ACRO_THR_MID", 1e-3);
+        let d = u.to_pck_with(true);
+        let at = |n: &str| d.iter().find(|p| p.name == n).unwrap().default;
+        assert_eq!(u.value("ACRO_Y_EXPO"), Some(1e-9f32 as f64));
+        assert_eq!(at("ACRO_Y_EXPO"), None);
+        assert_eq!(at("ACRO_THR_MID"), Some(0.0));
+        assert_eq!(default_as_stored(PckType::Int8, 3.0), 3.0);
     }
 
     #[test]

@@ -23,16 +23,30 @@ pub fn statustext(severity: MavSeverity, s: &str) -> MavMessage {
     })
 }
 
-/// PARAM_VALUE for index `i`: the value C-cast to float, with its type, as ArduPilot sends it.
-pub fn param_value(params: &ParamTable, i: usize) -> MavMessage {
+/// PARAM_VALUE for table entry `i`: the value C-cast to float, with its type, as ArduPilot sends
+/// it, carrying `param_index` and `param_count` as given (65535 is ArduPilot's -1: a value sent
+/// because it was set or asked for by name, not as part of the list).
+pub fn param_value_indexed(
+    params: &ParamTable,
+    i: usize,
+    param_index: u16,
+    param_count: u16,
+) -> MavMessage {
     let p = params.get(i).expect("index checked by caller");
     MavMessage::PARAM_VALUE(PARAM_VALUE_DATA {
         param_value: p.value as f32,
-        param_count: params.len().min(u16::MAX as usize) as u16,
-        param_index: i.min(u16::MAX as usize) as u16,
+        param_count,
+        param_index,
         param_id: p.name.as_str().into(),
         param_type: mav_type(p.ptype),
     })
+}
+
+/// `GCS::send_parameter_value` / `GCS_MAVLINK::send_parameter_value`: entry `i` with index -1
+/// and the current parameter count.
+pub fn param_value_notify(params: &ParamTable, i: usize) -> MavMessage {
+    let count = params.len().min(u16::MAX as usize) as u16;
+    param_value_indexed(params, i, u16::MAX, count)
 }
 
 pub fn ftp_message(to: (u8, u8), p: &FtpPacket) -> MavMessage {
@@ -139,22 +153,39 @@ impl SimVehicle {
         })
     }
 
+    /// `GCS_MAVLINK_Copter::capabilities()` | `GCS_MAVLINK::capabilities()`: MISSION_FLOAT,
+    /// MISSION_INT, COMMAND_INT, SET_POSITION_TARGET_LOCAL_NED and _GLOBAL_INT,
+    /// FLIGHT_TERMINATION, SET_ATTITUDE_TARGET, TERRAIN while TERRAIN_ENABLE is set; PARAM_FLOAT,
+    /// COMPASS_CALIBRATION, MAVLINK2 on a MAVLink2 port, MISSION_FENCE and MISSION_RALLY, FTP
+    /// in a build with MAVFTP unless BRD_OPTIONS disables it. The real ArduCopter capture
+    /// (tests/data/copter-flight.vehicle.tlog) announces exactly these: 64495. ArduPilot does not
+    /// set PARAM_ENCODE_C_CAST (its common.xml lacks the flag) nor PARAM_ENCODE_BYTEWISE.
     #[allow(deprecated)]
-    pub(super) fn autopilot_version(&self) -> MavMessage {
+    pub(super) fn capabilities(&self) -> MavProtocolCapability {
         use MavProtocolCapability as C;
-        let caps = C::MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
+        let mut caps = C::MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
             | C::MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
             | C::MAV_PROTOCOL_CAPABILITY_MISSION_INT
             | C::MAV_PROTOCOL_CAPABILITY_COMMAND_INT
-            | C::MAV_PROTOCOL_CAPABILITY_FTP
             | C::MAV_PROTOCOL_CAPABILITY_SET_ATTITUDE_TARGET
             | C::MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
             | C::MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
-            | C::MAV_PROTOCOL_CAPABILITY_TERRAIN
+            | C::MAV_PROTOCOL_CAPABILITY_FLIGHT_TERMINATION
             | C::MAV_PROTOCOL_CAPABILITY_COMPASS_CALIBRATION
             | C::MAV_PROTOCOL_CAPABILITY_MAVLINK2
             | C::MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
             | C::MAV_PROTOCOL_CAPABILITY_MISSION_RALLY;
+        if self.params.value("TERRAIN_ENABLE").unwrap_or(1.0) != 0.0 {
+            caps |= C::MAV_PROTOCOL_CAPABILITY_TERRAIN;
+        }
+        if self.ftp_enabled() {
+            caps |= C::MAV_PROTOCOL_CAPABILITY_FTP;
+        }
+        caps
+    }
+
+    pub(super) fn autopilot_version(&self) -> MavMessage {
+        let caps = self.capabilities();
         MavMessage::AUTOPILOT_VERSION(AUTOPILOT_VERSION_DATA {
             capabilities: caps,
             uid: 0x5349_4D00_0000_0000 | self.sysid as u64,

@@ -532,6 +532,32 @@ fn retransmission_acked_but_not_executed_twice() {
     assert!(g.v().armed());
 }
 
+fn param_values_since(g: &Gcs, from: usize) -> Vec<PARAM_VALUE_DATA> {
+    g.msgs_since(from, |m| match m {
+        MavMessage::PARAM_VALUE(p) => Some(p.clone()),
+        _ => None,
+    })
+}
+
+fn param_set_msg(name: &str, v: f32) -> MavMessage {
+    MavMessage::PARAM_SET(PARAM_SET_DATA {
+        param_value: v,
+        target_system: 1,
+        target_component: 1,
+        param_id: name.into(),
+        param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
+    })
+}
+
+fn param_read_msg(name: &str, index: i16) -> MavMessage {
+    MavMessage::PARAM_REQUEST_READ(PARAM_REQUEST_READ_DATA {
+        param_index: index,
+        target_system: 1,
+        target_component: 1,
+        param_id: name.into(),
+    })
+}
+
 #[test]
 fn params_list_read_set() {
     let mut g = Gcs::new("params=400");
@@ -541,14 +567,7 @@ fn params_list_read_set() {
         target_component: 1,
     }));
     g.run_for(2_000_000);
-    let pv: Vec<PARAM_VALUE_DATA> = g
-        .frames
-        .iter()
-        .filter_map(|f| match &f.message {
-            Some(MavMessage::PARAM_VALUE(p)) => Some(p.clone()),
-            _ => None,
-        })
-        .collect();
+    let pv = param_values_since(&g, 0);
     assert_eq!(pv.len(), 400);
     for (i, p) in pv.iter().enumerate() {
         assert_eq!((p.param_index as usize, p.param_count), (i, 400));
@@ -565,49 +584,113 @@ fn params_list_read_set() {
         2
     );
 
+    // PARAM_REQUEST_READ is answered from the parameter schedule (every 100 ms), with the
+    // index as asked: -1 (65535) by name.
     let read = |g: &mut Gcs, name: &str, index: i16| {
         let n = g.frames.len();
-        g.send(MavMessage::PARAM_REQUEST_READ(PARAM_REQUEST_READ_DATA {
-            param_index: index,
-            target_system: 1,
-            target_component: 1,
-            param_id: name.into(),
-        }));
-        g.run_for(20_000);
-        g.frames[n..].iter().find_map(|f| match &f.message {
-            Some(MavMessage::PARAM_VALUE(p)) => Some(p.clone()),
-            _ => None,
-        })
+        g.send(param_read_msg(name, index));
+        g.run_for(110_000);
+        param_values_since(g, n).first().cloned()
     };
     let p = read(&mut g, "PILOT_THR_FILT", -1).unwrap();
+    assert_eq!(p.param_id.to_str().unwrap(), "PILOT_THR_FILT");
     assert_eq!(
-        (p.param_index, p.param_type),
-        (1, MavParamType::MAV_PARAM_TYPE_REAL32)
+        (p.param_index, p.param_count, p.param_type),
+        (65535, 400, MavParamType::MAV_PARAM_TYPE_REAL32)
     );
     let p = read(&mut g, "", 3).unwrap();
     assert_eq!(p.param_index, 3);
+    let p = read(&mut g, "IGNORED", 2).unwrap();
+    assert_eq!(p.param_index, 2, "an index wins over the name");
     assert!(read(&mut g, "NO_SUCH_PARAM", -1).is_none());
     assert!(read(&mut g, "", 400).is_none());
+    assert!(
+        read(&mut g, "FORMAT_VERSION", -2).is_none(),
+        "only -1 means by name"
+    );
 
+    // PARAM_SET: the stored value comes back with index -1 (65535) and the count.
     let set = |g: &mut Gcs, name: &str, v: f32| {
         let n = g.frames.len();
-        g.send(MavMessage::PARAM_SET(PARAM_SET_DATA {
-            param_value: v,
-            target_system: 1,
-            target_component: 1,
-            param_id: name.into(),
-            param_type: MavParamType::MAV_PARAM_TYPE_REAL32,
-        }));
+        g.send(param_set_msg(name, v));
         g.run_for(20_000);
-        g.frames[n..].iter().find_map(|f| match &f.message {
-            Some(MavMessage::PARAM_VALUE(p)) => Some(p.clone()),
-            _ => None,
-        })
+        param_values_since(g, n)
     };
-    let p = set(&mut g, "FORMAT_VERSION", 7.7).unwrap();
-    assert_eq!((p.param_value, p.param_index), (8.0, 0));
-    assert!(set(&mut g, "NO_SUCH_PARAM", 1.0).is_none());
-    assert_eq!(g.v().param("FORMAT_VERSION"), Some(8.0));
+    let p = set(&mut g, "FORMAT_VERSION", 7.7);
+    assert_eq!(p.len(), 1);
+    // AP_Param::set_float truncates (after adding 0.01): 7.7 is 7 in an INT16.
+    assert_eq!(
+        (p[0].param_value, p[0].param_index, p[0].param_count),
+        (7.0, 65535, 400)
+    );
+    assert_eq!(p[0].param_type, MavParamType::MAV_PARAM_TYPE_INT16);
+    assert_eq!(g.v().param("FORMAT_VERSION"), Some(7.0));
+    // The same value again is still saved and echoed.
+    assert_eq!(set(&mut g, "FORMAT_VERSION", 7.0)[0].param_value, 7.0);
+    // Unknown name, NaN, infinity: ignored, nothing sent.
+    assert!(set(&mut g, "NO_SUCH_PARAM", 1.0).is_empty());
+    assert!(set(&mut g, "FORMAT_VERSION", f32::NAN).is_empty());
+    assert!(set(&mut g, "FORMAT_VERSION", f32::INFINITY).is_empty());
+    assert_eq!(g.v().param("FORMAT_VERSION"), Some(7.0));
+}
+
+/// The parameters ArduPilot flags AP_PARAM_FLAG_INTERNAL_USE_ONLY refuse PARAM_SET
+/// (`allow_set_via_mavlink`): the current value comes back (index -1) and a warning says so;
+/// BRD_OPTIONS bit 2 (ALLOW_SET_INTERNAL_PARM) lets them be set.
+#[test]
+fn internal_parameters_refuse_param_set() {
+    let mut g = Gcs::new("");
+    g.run_until(100_000);
+    let old = g.v().param("BARO1_GND_PRESS").unwrap();
+    let n = g.frames.len();
+    g.send(param_set_msg("BARO1_GND_PRESS", 100_000.0));
+    g.run_for(20_000);
+    let pv = param_values_since(&g, n);
+    assert_eq!(pv.len(), 1);
+    assert_eq!(
+        (pv[0].param_value as f64, pv[0].param_index),
+        (old as f32 as f64, 65535)
+    );
+    assert_eq!(g.v().param("BARO1_GND_PRESS"), Some(old));
+    let events: Vec<u32> = g.frames[n..].iter().map(|f| f.msgid).collect();
+    assert_eq!(events, vec![22, 253], "PARAM_VALUE, then the queued text");
+    assert_eq!(
+        g.texts().last().unwrap(),
+        &(
+            MavSeverity::MAV_SEVERITY_WARNING,
+            "Param write denied (BARO1_GND_PRESS)".to_string()
+        )
+    );
+    g.send(param_set_msg("BRD_OPTIONS", 4.0));
+    g.run_for(20_000);
+    let n = g.frames.len();
+    g.send(param_set_msg("BARO1_GND_PRESS", 100_000.0));
+    g.run_for(20_000);
+    assert_eq!(param_values_since(&g, n)[0].param_value, 100_000.0);
+    assert_eq!(g.v().param("BARO1_GND_PRESS"), Some(100_000.0));
+}
+
+/// PARAM_REQUEST_READ goes through ArduPilot's queues: 20 requests wait at most (more are
+/// dropped), the IO thread moves them into 5 replies, each parameter run (every 100 ms) sends 5.
+#[test]
+fn param_reads_are_queued_and_paced() {
+    let mut g = Gcs::new("");
+    g.run_until(1_005_000);
+    let n = g.frames.len();
+    for i in 0..30 {
+        g.send(param_read_msg("", i));
+    }
+    let mut per_run = Vec::new();
+    for k in 1..=5 {
+        g.run_until(1_000_000 + k * 100_000);
+        per_run.push(param_values_since(&g, n).len());
+    }
+    assert_eq!(per_run, vec![5, 10, 15, 20, 20]);
+    let idx: Vec<u16> = param_values_since(&g, n)
+        .iter()
+        .map(|p| p.param_index)
+        .collect();
+    assert_eq!(idx, (0..20).collect::<Vec<u16>>(), "20 queued, 10 dropped");
 }
 
 #[test]
@@ -839,20 +922,45 @@ fn corruption_shows_as_crc_errors() {
     );
 }
 
+/// PARAM_REQUEST_LIST paced as `queued_param_send` does, every 100 ms: on a 57600 baud radio
+/// (5760 B/s, no flow control) 5760 * 100 / 3333 = 172 bytes a run, 4 PARAM_VALUEs of 37 bytes,
+/// so 1354 parameters take 339 runs; the radio queue never overflows. On the network link the
+/// 8192-byte txspace cap gives 221 a run: 7 runs.
 #[test]
-fn slow_radio_drops_part_of_a_param_burst() {
-    let mut g = Gcs::new("baud=57600");
-    g.run_until(100_000);
-    g.send(MavMessage::PARAM_REQUEST_LIST(PARAM_REQUEST_LIST_DATA {
+fn param_list_paced_by_the_link() {
+    let list = MavMessage::PARAM_REQUEST_LIST(PARAM_REQUEST_LIST_DATA {
         target_system: 1,
         target_component: 1,
-    }));
-    g.run_for(10_000_000);
-    let got = g.frames.iter().filter(|f| f.msgid == 22).count();
+    });
+    let mut g = Gcs::new("baud=57600");
+    g.run_until(100_000);
+    g.send(list.clone());
+    // (+50 ms: the radio takes 6.4 ms a PARAM_VALUE.)
+    g.run_until(250_000);
+    assert_eq!(param_values_since(&g, 0).len(), 4);
+    g.run_until(1_150_000);
+    assert_eq!(param_values_since(&g, 0).len(), 40, "4 a run");
+    g.run_until(100_000 + 338 * 100_000 + 50_000);
+    assert_eq!(param_values_since(&g, 0).len(), 1352);
+    g.run_until(100_000 + 339 * 100_000 + 50_000);
+    let pv = param_values_since(&g, 0);
+    assert_eq!(pv.len(), 1354);
+    assert!(pv
+        .iter()
+        .enumerate()
+        .all(|(i, p)| p.param_index as usize == i));
     let t = g.sim.truth().get(1);
-    assert!(t.queue_overflow > 0 && got < 1354, "{got} {t:?}");
-    // Every generated frame either arrived or was dropped by the queue.
-    assert_eq!(g.frames.len() as u64 + t.dropped, t.generated);
+    assert_eq!((t.queue_overflow, t.dropped), (0, 0), "{t:?}");
+
+    let mut g = Gcs::new("");
+    g.run_until(100_000);
+    g.send(list);
+    let mut per_run = Vec::new();
+    for k in 2..=8 {
+        g.run_until(k * 100_000);
+        per_run.push(param_values_since(&g, 0).len());
+    }
+    assert_eq!(per_run, vec![221, 442, 663, 884, 1105, 1326, 1354]);
 }
 
 #[test]
@@ -875,10 +983,10 @@ fn several_vehicles_have_own_ids_and_seqs() {
 
 /// The real ArduCopter param.pck in the capture decodes with our decoder to the 1,354
 /// parameters of copter-params.parm, and our encoder reproduces the file byte for byte.
-#[test]
-fn real_capture_param_pck_decodes_and_reencodes() {
+/// The FTP packets the real ArduCopter sent in the MAVFTP capture, in order.
+fn capture_ftp_packets() -> Vec<mavftp::FtpPacket> {
     let tlog = include_bytes!("../../assets/sim/testdata/copter-mavftp-params.vehicle.tlog");
-    let mut chunks: std::collections::BTreeMap<u32, Vec<u8>> = Default::default();
+    let mut out = Vec::new();
     let mut parser = FrameParser::new();
     let mut pos = 0;
     while pos + 8 < tlog.len() {
@@ -888,15 +996,28 @@ fn real_capture_param_pck_decodes_and_reencodes() {
         let flen = 12 + len + if signed { 13 } else { 0 };
         for f in parser.parse_all(&tlog[pos..pos + flen]) {
             if let Some(MavMessage::FILE_TRANSFER_PROTOCOL(m)) = f.message {
-                let p = mavftp::FtpPacket::parse(&m.payload);
-                if p.opcode == mavftp::op::ACK && p.req_opcode == mavftp::op::BURST_READ_FILE {
-                    chunks.insert(p.offset, p.data);
-                }
+                out.push(mavftp::FtpPacket::parse(&m.payload));
             }
         }
         pos += flen;
     }
-    let file: Vec<u8> = chunks.values().flatten().copied().collect();
+    out
+}
+
+/// The `@PARAM/param.pck?withdefaults=1` of the capture (read size 239).
+fn capture_param_pck() -> Vec<u8> {
+    let mut chunks: std::collections::BTreeMap<u32, Vec<u8>> = Default::default();
+    for p in capture_ftp_packets() {
+        if p.opcode == mavftp::op::ACK && p.req_opcode == mavftp::op::BURST_READ_FILE {
+            chunks.insert(p.offset, p.data);
+        }
+    }
+    chunks.values().flatten().copied().collect()
+}
+
+#[test]
+fn real_capture_param_pck_decodes_and_reencodes() {
+    let file = capture_param_pck();
     assert_eq!(file.len(), 15024);
     let decoded = param_pck::decode(&file).unwrap();
     assert_eq!(decoded.params.len(), 1354);
@@ -931,6 +1052,98 @@ fn real_capture_param_pck_decodes_and_reencodes() {
     }
     // Re-encoding at the capture's read size (239) gives the same bytes.
     assert_eq!(param_pck::encode(&decoded.params, 1354, 239), file);
+}
+
+/// A GCS's FTP request to vehicle 1 (session 3, from 255:190).
+fn ftp_req(seq: u16, opcode: u8, size: u8, offset: u32, data: &[u8]) -> MavMessage {
+    let p = mavftp::FtpPacket {
+        seq,
+        session: 3,
+        opcode,
+        size,
+        req_opcode: 0,
+        burst_complete: 0,
+        offset,
+        data: data.to_vec(),
+    };
+    MavMessage::FILE_TRANSFER_PROTOCOL(FILE_TRANSFER_PROTOCOL_DATA {
+        target_network: 0,
+        target_system: 1,
+        target_component: 1,
+        payload: p.to_payload(),
+    })
+}
+
+fn ftp_since(g: &Gcs, from: usize) -> Vec<mavftp::FtpPacket> {
+    g.msgs_since(from, |m| match m {
+        MavMessage::FILE_TRANSFER_PROTOCOL(f) => Some(mavftp::FtpPacket::parse(&f.payload)),
+        _ => None,
+    })
+}
+
+/// The simulator's `param.pck?withdefaults=1`, for the capture's parameter values, is the real
+/// ArduCopter's file byte for byte (same padding, same defaults flagged), and the exchange has
+/// the capture's shape: ACK with the 12-bytes-a-parameter estimate and then the banner, a burst
+/// whose short last packet is flagged, a NAK EndOfFile flagged too.
+#[test]
+fn withdefaults_download_is_the_real_file() {
+    let real = capture_param_pck();
+    let decoded = param_pck::decode(&real).unwrap();
+    let mut g = Gcs::new("");
+    for p in &decoded.params {
+        assert!(g.sim.vehicles[0].params.set(&p.name, p.value).is_some());
+    }
+    g.run_until(100_000);
+    let path = b"@PARAM/param.pck?withdefaults=1";
+    let n = g.frames.len();
+    g.send(ftp_req(
+        0,
+        mavftp::op::OPEN_FILE_RO,
+        path.len() as u8,
+        0,
+        path,
+    ));
+    g.run_for(20_000);
+    let ack = &ftp_since(&g, n)[0];
+    assert_eq!(ack.data, 16248u32.to_le_bytes(), "the capture's estimate");
+    let texts: Vec<String> = g.texts().into_iter().map(|t| t.1).collect();
+    assert_eq!(
+        texts[texts.len() - 3..],
+        [
+            telemetry::FIRMWARE_STRING.to_string(),
+            "SIM 0 0 0 (simulated board)".into(),
+            "Frame: QUAD/PLUS".into()
+        ],
+        "the banner after the open"
+    );
+    g.send(ftp_req(1, mavftp::op::BURST_READ_FILE, 239, 0, &[]));
+    g.run_for(1_000_000);
+    let burst = ftp_since(&g, n);
+    let file: Vec<u8> = burst[1..]
+        .iter()
+        .filter(|p| p.opcode == mavftp::op::ACK)
+        .flat_map(|p| p.data.clone())
+        .collect();
+    let first_diff = file.iter().zip(&real).position(|(a, b)| a != b);
+    assert_eq!(
+        (file.len(), first_diff),
+        (real.len(), None),
+        "{:?}",
+        param_pck::decode(&file).map(|f| f
+            .params
+            .iter()
+            .zip(&decoded.params)
+            .filter(|(a, b)| a != b)
+            .map(|(a, b)| format!("{a:?} vs {b:?}"))
+            .collect::<Vec<_>>())
+    );
+    let shape = |ps: &[mavftp::FtpPacket]| -> Vec<(u16, u8, u8, u8, u32)> {
+        ps.iter()
+            .filter(|p| p.req_opcode == mavftp::op::BURST_READ_FILE)
+            .map(|p| (p.seq, p.opcode, p.size, p.burst_complete, p.offset))
+            .collect()
+    };
+    assert_eq!(shape(&burst), shape(&capture_ftp_packets()));
 }
 
 #[test]
@@ -990,6 +1203,225 @@ fn mavftp_download_through_the_sim() {
                 default: None,
             })
             .collect::<Vec<_>>()
+    );
+}
+
+/// FTP replies take the same lossy link as everything else. A GCS fills the holes of a burst
+/// with ReadFile at their offsets, and resends a request whose reply was lost with the same
+/// sequence number: the vehicle answers it again from its last reply.
+#[test]
+fn mavftp_over_a_lossy_link_fills_gaps() {
+    let mut g = Gcs::new("loss=0.3&seed=11");
+    g.run_until(100_000);
+    let path = b"@PARAM/param.pck";
+    let mut seq = 0u16;
+    let ask = |g: &mut Gcs, seq: &mut u16, op: u8, size: u8, ofs: u32, data: &[u8]| {
+        // Until a reply to this request arrives; the same seq each time.
+        for _ in 0..50 {
+            let n = g.frames.len();
+            g.send(ftp_req(*seq, op, size, ofs, data));
+            g.run_for(50_000);
+            if let Some(r) = ftp_since(g, n).into_iter().find(|p| p.seq == *seq + 1) {
+                *seq += 2;
+                return r;
+            }
+        }
+        panic!("no reply to {op}");
+    };
+    let r = ask(&mut g, &mut seq, mavftp::op::OPEN_FILE_RO, 16, 0, path);
+    assert_eq!(r.opcode, mavftp::op::ACK);
+    let n = g.frames.len();
+    g.send(ftp_req(seq, mavftp::op::BURST_READ_FILE, 239, 0, &[]));
+    seq += 2;
+    g.run_for(1_000_000);
+    let mut blocks: std::collections::BTreeMap<u32, Vec<u8>> = ftp_since(&g, n)
+        .into_iter()
+        .filter(|p| p.opcode == mavftp::op::ACK)
+        .map(|p| (p.offset, p.data))
+        .collect();
+    let t = g.sim.truth().get(1);
+    assert!(t.dropped > 10, "{t:?}");
+    let mut ofs = 0;
+    let mut missing = 0;
+    loop {
+        if let Some(b) = blocks.get(&ofs) {
+            if b.len() < 239 {
+                break;
+            }
+            ofs += 239;
+            continue;
+        }
+        missing += 1;
+        let r = ask(&mut g, &mut seq, mavftp::op::READ_FILE, 239, ofs, &[]);
+        if r.opcode == mavftp::op::NAK {
+            assert_eq!(r.data, [mavftp::err::EOF]);
+            break;
+        }
+        assert_eq!(r.offset, ofs);
+        blocks.insert(ofs, r.data);
+    }
+    assert!(missing > 5, "{missing} holes");
+    let file: Vec<u8> = blocks.values().flatten().copied().collect();
+    let d = param_pck::decode(&file).unwrap();
+    assert_eq!(d.params, ParamTable::copter(0).to_pck());
+}
+
+/// `ftp=0`: a build without MAVFTP. FILE_TRANSFER_PROTOCOL gets no answer at all and
+/// AUTOPILOT_VERSION does not announce MAV_PROTOCOL_CAPABILITY_FTP. BRD_OPTIONS DISABLE_FTP
+/// (bit 1) on a build with it: no FTP bit either, and each request is dropped with ArduPilot's
+/// "failed to initialize MAVFTP" warning.
+#[test]
+fn ftp_off_is_silent_and_unannounced() {
+    let caps = |g: &mut Gcs| {
+        assert_eq!(
+            g.command(
+                MavCmd::MAV_CMD_REQUEST_MESSAGE,
+                [148.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                0
+            ),
+            MAV_RESULT_ACCEPTED
+        );
+        g.frames
+            .iter()
+            .rev()
+            .find_map(|f| match &f.message {
+                Some(MavMessage::AUTOPILOT_VERSION(a)) => Some(a.capabilities.bits()),
+                _ => None,
+            })
+            .unwrap()
+    };
+    let mut g = Gcs::new("ftp=0");
+    g.run_until(1_000_000);
+    let n = g.frames.len();
+    g.send(ftp_req(
+        0,
+        mavftp::op::OPEN_FILE_RO,
+        16,
+        0,
+        b"@PARAM/param.pck",
+    ));
+    g.send(ftp_req(2, mavftp::op::NONE, 0, 0, &[]));
+    g.run_for(2_000_000);
+    assert!(ftp_since(&g, n).is_empty());
+    assert!(
+        g.frames[n..].iter().all(|f| f.msgid != 253),
+        "no text either"
+    );
+    assert_eq!(caps(&mut g) & 32, 0);
+    assert_eq!(caps(&mut g), 64495 - 32);
+
+    let mut g = Gcs::new("");
+    g.run_until(1_000_000);
+    assert_eq!(caps(&mut g), 64495, "the real ArduCopter's capabilities");
+    g.send(MavMessage::PARAM_SET(PARAM_SET_DATA {
+        param_value: 2.0,
+        target_system: 1,
+        target_component: 1,
+        param_id: "BRD_OPTIONS".into(),
+        param_type: MavParamType::MAV_PARAM_TYPE_INT32,
+    }));
+    g.run_for(20_000);
+    assert_eq!(caps(&mut g), 64495 - 32);
+    let n = g.frames.len();
+    g.send(ftp_req(
+        0,
+        mavftp::op::OPEN_FILE_RO,
+        16,
+        0,
+        b"@PARAM/param.pck",
+    ));
+    g.run_for(100_000);
+    assert!(ftp_since(&g, n).is_empty());
+    assert_eq!(
+        g.texts().last().unwrap(),
+        &(
+            MavSeverity::MAV_SEVERITY_WARNING,
+            "failed to initialize MAVFTP".to_string()
+        )
+    );
+}
+
+/// AUTOPILOT_VERSION: COMMAND_ACK ACCEPTED first, then the message, for REQUEST_MESSAGE 148 and
+/// for REQUEST_AUTOPILOT_CAPABILITIES with param1 = 1 (any other param1: FAILED, nothing sent).
+/// TERRAIN follows TERRAIN_ENABLE.
+#[test]
+#[allow(deprecated)]
+fn autopilot_version_answers() {
+    let mut g = Gcs::new("");
+    g.run_until(1_000_000);
+    let n = g.frames.len();
+    let cmd = MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES;
+    assert_eq!(
+        g.command(cmd, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], 0),
+        MAV_RESULT_ACCEPTED
+    );
+    let ids: Vec<u32> = g.frames[n..]
+        .iter()
+        .map(|f| f.msgid)
+        .filter(|&m| m == COMMAND_ACK_ID || m == 148)
+        .collect();
+    assert_eq!(ids, vec![COMMAND_ACK_ID, 148]);
+    let av = g
+        .msgs_since(n, |m| match m {
+            MavMessage::AUTOPILOT_VERSION(a) => Some(a.clone()),
+            _ => None,
+        })
+        .remove(0);
+    assert_eq!(av.capabilities.bits(), 64495);
+    // 4.5.7, FIRMWARE_VERSION_TYPE_OFFICIAL.
+    assert_eq!(av.flight_sw_version, 0x0405_07FF);
+    let n = g.frames.len();
+    assert_eq!(
+        g.command(cmd, [0.0; 7], 0),
+        MAV_RESULT_FAILED,
+        "param1 must be 1"
+    );
+    assert!(g.frames[n..].iter().all(|f| f.msgid != 148));
+    g.send(MavMessage::PARAM_SET(PARAM_SET_DATA {
+        param_value: 0.0,
+        target_system: 1,
+        target_component: 1,
+        param_id: "TERRAIN_ENABLE".into(),
+        param_type: MavParamType::MAV_PARAM_TYPE_INT8,
+    }));
+    g.run_for(20_000);
+    let n = g.frames.len();
+    g.command(cmd, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], 0);
+    let caps = g.msgs_since(n, |m| match m {
+        MavMessage::AUTOPILOT_VERSION(a) => Some(a.capabilities.bits()),
+        _ => None,
+    });
+    assert_eq!(caps, vec![64495 - 512]);
+}
+
+/// A baro calibration (PREFLIGHT_CALIBRATION param3 = 1) runs AP_Baro::update_calibration,
+/// which sends each barometer's BAROn_GND_PRESS (index -1) at once, ahead of the ACK, at most
+/// every 10 s, counting from boot.
+#[test]
+fn baro_calibration_notifies_ground_pressures() {
+    let mut g = Gcs::new("");
+    let baro = [0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0];
+    g.run_until(5_000_000);
+    let n = g.frames.len();
+    g.command(MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION, baro, 0);
+    assert!(
+        param_values_since(&g, n).is_empty(),
+        "not in the first 10 s"
+    );
+    g.run_until(10_500_000);
+    let n = g.frames.len();
+    g.command(MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION, baro, 0);
+    let pv = param_values_since(&g, n);
+    let names: Vec<&str> = pv.iter().map(|p| p.param_id.to_str().unwrap()).collect();
+    assert_eq!(names, vec!["BARO1_GND_PRESS", "BARO2_GND_PRESS"]);
+    assert!(pv.iter().all(|p| p.param_index == 65535));
+    assert_eq!(g.frames[n].msgid, 22, "before the ACK");
+    g.run_for(1_000_000);
+    let n = g.frames.len();
+    g.command(MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION, baro, 0);
+    assert!(
+        param_values_since(&g, n).is_empty(),
+        "within 10 s of the last"
     );
 }
 
@@ -1470,11 +1902,12 @@ fn preflight_calibration_blocks_then_accepts() {
         g.run_for(50_000);
         assert!(!g.v().busy());
         let new: Vec<u32> = g.frames[n..].iter().map(|f| f.msgid).collect();
-        assert_eq!(
-            new[..2],
-            [COMMAND_ACK_ID, 22],
-            "ACK, then the waiting PARAM_VALUE"
-        );
+        assert_eq!(new[0], COMMAND_ACK_ID, "the ACK first");
+        // The read waited, then went the usual way: answered at the next parameter run.
+        g.run_for(100_000);
+        let pv = param_values_since(&g, n);
+        assert_eq!(pv.len(), 1, "then the waiting PARAM_VALUE");
+        assert_eq!(pv[0].param_index, 0);
         assert_eq!(g.raw_acks_since(n), vec![(241, 0, 0)]);
         g.run_for(1_000_000);
         assert!(

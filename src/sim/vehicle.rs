@@ -4,7 +4,8 @@
 //!
 //! Everything happens at times handed in; the vehicle never reads a clock.
 
-use super::mavftp::FtpServer;
+use super::mavftp::{FtpOut, FtpServer};
+use super::param_send::{LinkModel, ParamSender, IO_TIMER_PERIOD, PARAM_SEND_INTERVAL};
 use super::params::ParamTable;
 use super::rng::Rng;
 use super::streams::Streams;
@@ -20,11 +21,9 @@ pub const TICK: Micros = 10_000;
 pub const GPS_FIX_AT: Micros = 4 * SECOND;
 /// The EKF starts using GPS (position estimate, home set, arming allowed) this long after boot.
 pub const EKF_GPS_AT: Micros = 5 * SECOND;
-/// PARAM_VALUEs sent per tick during a list download (ArduPilot paces by link space; a fixed
-/// budget of 500/s outruns a 57600 baud radio, as a real burst can).
-pub const PARAMS_PER_TICK: usize = 5;
-/// FTP burst packets per tick.
-pub const FTP_PER_TICK: usize = 2;
+/// BRD_OPTIONS bits (`AP_BoardConfig::board_options`): DISABLE_FTP and ALLOW_SET_INTERNAL_PARM.
+pub const BRD_OPTION_DISABLE_FTP: u32 = 1 << 1;
+pub const BRD_OPTION_ALLOW_SET_INTERNAL_PARM: u32 = 1 << 2;
 /// Takeoff and RTL climb rate, m/s.
 pub const CLIMB_RATE: f64 = 1.5;
 /// RTL horizontal speed, m/s.
@@ -307,14 +306,23 @@ pub struct SimVehicle {
     pub(super) streams: Streams,
     pub(super) next_heartbeat: Micros,
     pub(super) booted: bool,
-    pub(super) param_cursor: Option<usize>,
+    /// The MAVLink port as GCS_MAVLINK sees it (bandwidth, flow control).
+    pub(super) link: LinkModel,
+    /// PARAM_REQUEST_LIST download and PARAM_REQUEST_READ answers.
+    pub(super) param_send: ParamSender,
+    /// When `queued_param_send` (MSG_NEXT_PARAM) runs next.
+    pub(super) next_param_run: Micros,
+    /// When `AP_Baro::update_calibration` last sent the ground pressures (`_last_notify_ms`).
+    pub(super) baro_notified: Micros,
+    /// The firmware has MAVFTP (`ftp=1`).
+    pub(super) ftp_built: bool,
     pub(super) ftp: FtpServer,
-    /// Who the FTP burst replies go to.
-    pub(super) ftp_peer: (u8, u8),
     pub(super) last_command: Option<LastCommand>,
     pub(super) last_tick: Micros,
     pub(super) now: Micros,
     pub(super) out: Vec<Out>,
+    /// What a command handler sends itself, ahead of its COMMAND_ACK.
+    pub(super) immediate: Vec<Out>,
 }
 
 impl SimVehicle {
@@ -371,14 +379,32 @@ impl SimVehicle {
             streams: Streams::default(),
             next_heartbeat: 0,
             booted: false,
-            param_cursor: None,
+            link: LinkModel::new(None),
+            param_send: ParamSender::default(),
+            next_param_run: 0,
+            baro_notified: 0,
+            ftp_built: true,
             ftp: FtpServer::default(),
-            ftp_peer: (255, 0),
             last_command: None,
             last_tick: 0,
             now: 0,
             out: Vec::new(),
+            immediate: Vec::new(),
         }
+    }
+
+    /// The link the vehicle's MAVLink port is on (`baud`) and whether the firmware has MAVFTP.
+    pub(super) fn set_link(&mut self, baud: Option<u32>, ftp: bool) {
+        self.link = LinkModel::new(baud);
+        self.ftp_built = ftp;
+        self.ftp =
+            FtpServer::with_link((!self.link.flow_control).then_some(self.link.bytes_per_second));
+    }
+
+    /// MAVFTP answers: built in, and not switched off by BRD_OPTIONS DISABLE_FTP.
+    pub(super) fn ftp_enabled(&self) -> bool {
+        let options = self.params.value("BRD_OPTIONS").unwrap_or(0.0) as i64 as u32;
+        self.ftp_built && options & BRD_OPTION_DISABLE_FTP == 0
     }
 
     pub fn sysid(&self) -> u8 {
@@ -543,14 +569,30 @@ impl SimVehicle {
                 self.push(m);
             }
         }
-        self.send_param_burst();
-        for _ in 0..FTP_PER_TICK {
-            match self.ftp.next_burst_packet(now) {
-                Some(p) => {
-                    let m = super::telemetry::ftp_message(self.ftp_peer, &p);
+        // The IO thread's param_io_timer, about once a millisecond since the last tick.
+        self.param_send
+            .io_timer(TICK / IO_TIMER_PERIOD, &self.params);
+        if now >= self.next_param_run {
+            let msgs = self.param_send.run(now, &self.params, &self.link);
+            for m in msgs {
+                self.push(m);
+            }
+            self.next_param_run = now - now % PARAM_SEND_INTERVAL + PARAM_SEND_INTERVAL;
+        }
+        let ftp = self.ftp.poll(now, &self.params);
+        self.ftp_out(ftp);
+    }
+
+    /// Send what the FTP worker produced.
+    pub(super) fn ftp_out(&mut self, out: Vec<FtpOut>) {
+        for o in out {
+            match o {
+                FtpOut::Reply { to, packet } => {
+                    let m = super::telemetry::ftp_message(to, &packet);
                     self.push(m);
                 }
-                None => break,
+                FtpOut::Banner => self.banner(),
+                FtpOut::Debug(t) => self.text(MavSeverity::MAV_SEVERITY_DEBUG, &t),
             }
         }
     }
@@ -562,9 +604,8 @@ impl SimVehicle {
         if let Some(b) = &self.blocked {
             return (b.until.div_ceil(TICK) * TICK).max(next_tick);
         }
-        let busy = self.param_cursor.is_some()
+        let busy = self.param_send.io_pending()
             || self.airspeed_cal.is_some()
-            || self.ftp.bursting()
             || (self.armed && !self.landed)
             || (self.armed && self.armed_on_ground_since.is_some())
             || !self.booted;
@@ -573,6 +614,12 @@ impl SimVehicle {
         }
         let mut t = self.next_heartbeat;
         if let Some(d) = self.streams.next_due() {
+            t = t.min(d);
+        }
+        if self.param_send.busy() {
+            t = t.min(self.next_param_run);
+        }
+        if let Some(d) = self.ftp.next_due() {
             t = t.min(d);
         }
         if !self.gps_fix {
@@ -584,22 +631,6 @@ impl SimVehicle {
         // Round up to a tick boundary, never before the next tick.
         let t = t.div_ceil(TICK) * TICK;
         t.max(next_tick)
-    }
-
-    fn send_param_burst(&mut self) {
-        for _ in 0..PARAMS_PER_TICK {
-            let Some(i) = self.param_cursor else { return };
-            if i >= self.params.len() {
-                self.param_cursor = None;
-                return;
-            }
-            let m = super::telemetry::param_value(&self.params, i);
-            self.push(m);
-            self.param_cursor = Some(i + 1);
-        }
-        if self.param_cursor.is_some_and(|i| i >= self.params.len()) {
-            self.param_cursor = None;
-        }
     }
 
     fn land_speed(&self) -> f64 {

@@ -1,10 +1,12 @@
 #!/usr/bin/env python3
 """A pymavlink GCS against `mavterm sim` (started by tests/sim_pymavlink.rs).
 
-Checks, in one session to keep wall time small: heartbeat; full parameter download;
-SET_MESSAGE_INTERVAL(GLOBAL_POSITION_INT, 200 ms) measured at 5 Hz +- 10 %; GUIDED, arm
-(retrying while pre-arm checks refuse), NAV_TAKEOFF to 10 m reached in the expected time.
-Exits non-zero with a message on the first failed check.
+Checks, in one session to keep wall time small: heartbeat; full parameter download; PARAM_SET
+answered as ArduPilot does (PARAM_VALUE with index -1 = 65535 and the stored value) and a read by
+name answered with index -1 too; AUTOPILOT_VERSION (ACK first) with the real ArduCopter's
+capabilities, FTP among them, and an FTP open answered; SET_MESSAGE_INTERVAL(GLOBAL_POSITION_INT,
+200 ms) measured at 5 Hz +- 10 %; GUIDED, arm (retrying while pre-arm checks refuse), NAV_TAKEOFF
+to 10 m reached in the expected time. Exits non-zero with a message on the first failed check.
 """
 import sys
 import time
@@ -67,6 +69,70 @@ if count is None or len(seen) != count:
 if count != 1354 or set(seen) != set(range(count)):
     fail(f"param indices not 0..{count}")
 ok(f"{count} params")
+
+
+def param_value(name, timeout=3.0):
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        p = m.recv_match(type="PARAM_VALUE", blocking=True, timeout=deadline - time.time())
+        if p is not None and p.param_id == name:
+            return p
+    return None
+
+
+# PARAM_SET: ArduPilot saves the value and notifies with PARAM_VALUE, param_index -1 (65535).
+m.mav.param_set_send(1, 1, b"WPNAV_SPEED", 750.0, mav.MAV_PARAM_TYPE_REAL32)
+p = param_value("WPNAV_SPEED")
+if p is None:
+    fail("no PARAM_VALUE after PARAM_SET")
+if (p.param_index, p.param_value, p.param_count) != (65535, 750.0, 1354):
+    fail(f"PARAM_SET echo {p}")
+# An integer parameter is stored as AP_Param::set_float does: 7.7 becomes 7.
+m.mav.param_set_send(1, 1, b"DISARM_DELAY", 7.7, mav.MAV_PARAM_TYPE_REAL32)
+p = param_value("DISARM_DELAY")
+if p is None or (p.param_index, p.param_value, p.param_type) != (65535, 7.0, mav.MAV_PARAM_TYPE_INT8):
+    fail(f"PARAM_SET DISARM_DELAY echo {p}")
+# A read by name is answered with the index asked for: -1.
+m.mav.param_request_read_send(1, 1, b"WPNAV_SPEED", -1)
+p = param_value("WPNAV_SPEED")
+if p is None or (p.param_index, p.param_value) != (65535, 750.0):
+    fail(f"PARAM_REQUEST_READ by name: {p}")
+ok("PARAM_SET echo with index 65535")
+
+# AUTOPILOT_VERSION: COMMAND_ACK first, then the message.
+m.mav.command_long_send(1, 1, mav.MAV_CMD_REQUEST_MESSAGE, 0, 148, 0, 0, 0, 0, 0, 0)
+first = m.recv_match(type=["COMMAND_ACK", "AUTOPILOT_VERSION"], blocking=True, timeout=3)
+if first is None or first.get_type() != "COMMAND_ACK" or first.result != mav.MAV_RESULT_ACCEPTED:
+    fail(f"REQUEST_MESSAGE 148: {first}")
+av = m.recv_match(type="AUTOPILOT_VERSION", blocking=True, timeout=3)
+if av is None:
+    fail("no AUTOPILOT_VERSION")
+# The real ArduCopter 4.x announces exactly these bits (tests/data/copter-flight.vehicle.tlog).
+if av.capabilities != 64495 or not av.capabilities & mav.MAV_PROTOCOL_CAPABILITY_FTP:
+    fail(f"capabilities {av.capabilities}")
+if av.flight_sw_version >> 16 != 0x0405:
+    fail(f"flight_sw_version {av.flight_sw_version:#x}")
+
+# FTP is there: an open of the parameter file is acknowledged (then closed again).
+def ftp(seq, opcode, data=b"", size=None, session=9):
+    payload = bytearray(251)
+    payload[0:2] = seq.to_bytes(2, "little")
+    payload[2] = session
+    payload[3] = opcode
+    payload[4] = len(data) if size is None else size
+    payload[12:12 + len(data)] = data
+    m.mav.file_transfer_protocol_send(0, 1, 1, list(payload))
+
+
+ftp(0, 4, b"@PARAM/param.pck")
+r = m.recv_match(type="FILE_TRANSFER_PROTOCOL", blocking=True, timeout=3)
+if r is None or r.payload[3] != 128 or r.payload[5] != 4:
+    fail(f"FTP open: {r}")
+ftp(2, 1)
+r = m.recv_match(type="FILE_TRANSFER_PROTOCOL", blocking=True, timeout=3)
+if r is None or r.payload[3] != 128 or r.payload[5] != 1:
+    fail(f"FTP terminate: {r}")
+ok("AUTOPILOT_VERSION and FTP")
 
 # GLOBAL_POSITION_INT at 200 ms.
 r = command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, 33, 200000)
