@@ -43,7 +43,7 @@ use crate::wire::param_pck::{self, PckType};
 /// told apart).
 pub const PCK_PATH: &str = "@PARAM/param.pck?withdefaults=1";
 /// PARAM_REQUEST_READs in flight at once while filling gaps.
-pub const READ_WINDOW: usize = 16;
+pub const READ_WINDOW: usize = 12;
 /// Reads of one index before the download gives up on it.
 pub const READ_TRIES: u32 = 10;
 /// PARAM_REQUEST_LIST attempts when nothing at all comes back.
@@ -265,6 +265,44 @@ struct ListDownload {
     reads: BTreeMap<u16, (Micros, u32, u64)>,
     sent: u64,
     tries: BTreeMap<u16, u32>,
+    /// This list pass: when its first new index came, and how many new ones came.
+    pass_start: Option<Micros>,
+    pass_new: usize,
+    /// List passes asked for (the first included).
+    passes: u32,
+    /// Reads: when filling started and how many were answered, for their rate.
+    fill_start: Option<Micros>,
+    fill_answered: usize,
+}
+
+/// List passes at most (the first and two more).
+pub const LIST_PASSES: u32 = 3;
+/// Reads answered per second before any is measured: ArduPilot answers at most 5 per 100 ms.
+const READ_RATE_GUESS: f64 = 50.0;
+
+impl ListDownload {
+    /// Whether asking for the whole list again is faster than reading `missing` one by one:
+    /// a pass takes `count` at the rate the list came; reads come at their own rate (ArduPilot
+    /// caps them at 50/s whatever the link; on a slow radio both share the link).
+    fn relist_is_faster(&self, now: Micros, missing: usize, count: usize) -> bool {
+        if self.passes >= LIST_PASSES || missing * 4 < count / 10 {
+            return false;
+        }
+        let (Some(start), Some(last)) = (self.pass_start, self.last_new) else {
+            return false;
+        };
+        if self.pass_new < 20 || last <= start {
+            return false;
+        }
+        let list_rate = self.pass_new as f64 / ((last - start) as f64 / SECOND as f64);
+        let read_rate = match self.fill_start {
+            Some(f) if self.fill_answered >= 10 && now > f => {
+                self.fill_answered as f64 / ((now - f) as f64 / SECOND as f64)
+            }
+            _ => READ_RATE_GUESS,
+        };
+        count as f64 / list_rate < missing as f64 / read_rate
+    }
 }
 
 #[derive(Debug, Clone)]
@@ -452,6 +490,7 @@ impl ParamMachine {
             Phase::List(ListDownload {
                 list_sent: now,
                 list_tries: 1,
+                passes: 1,
                 ..Default::default()
             })
         };
@@ -550,6 +589,7 @@ impl ParamMachine {
         d.phase = Phase::List(ListDownload {
             list_sent: now,
             list_tries: 1,
+            passes: 1,
             ..Default::default()
         });
         let comp = d.comp;
@@ -731,13 +771,20 @@ impl ParamMachine {
         if let Some(d) = self.download.as_mut().filter(|d| d.comp == from) {
             if let (Phase::List(l), Some(i)) = (&mut d.phase, index) {
                 if let Some((sent, tries, order)) = l.reads.remove(&i) {
+                    // Only a read asked once says which request this answers (Karn): then its
+                    // round trip counts, and the reads sent before it that are still
+                    // unanswered were lost (the vehicle answers in order): asked again now.
                     if tries == 1 {
                         rtt_read = Some(now.saturating_sub(sent));
+                        l.reads.retain(|_, r| r.2 > order);
                     }
-                    // Reads sent before this one and still unanswered were lost: ask again now.
-                    l.reads.retain(|_, r| r.2 > order);
                 }
                 if new_index {
+                    l.pass_start.get_or_insert(now);
+                    l.pass_new += 1;
+                    if l.filling {
+                        l.fill_answered += 1;
+                    }
                     if let Some(last) = l.last_new {
                         let gap = now.saturating_sub(last);
                         l.interval = Some(match l.interval {
@@ -1067,7 +1114,23 @@ impl ParamMachine {
                 l.reads
                     .retain(|_, (sent, tries, _)| now < *sent + (rto << (*tries - 1).min(3)));
                 if !l.filling && now >= l.last_new.unwrap_or(l.list_sent) + gap(l.interval) {
+                    let (missing, count) = self.sets.get(&comp).map_or((0, 0), |s| {
+                        (s.missing().count(), s.count.unwrap_or(0) as usize)
+                    });
+                    if l.relist_is_faster(now, missing, count) {
+                        // Many missing on a fast link: another pass of the list.
+                        l.passes += 1;
+                        l.list_sent = now;
+                        l.last_new = Some(now);
+                        l.pass_start = None;
+                        l.pass_new = 0;
+                        d.stats.requests += 1;
+                        d.stats.retries += 1;
+                        out.push(self.list_request(comp));
+                        return out;
+                    }
                     l.filling = true;
+                    l.fill_start = Some(now);
                 }
                 if l.filling {
                     out.extend(self.fill(now));
