@@ -326,6 +326,11 @@ pub struct SimVehicle {
 }
 
 impl SimVehicle {
+    /// The vehicle's parameter table, as it stands (for tests to compare against).
+    pub fn params(&self) -> &ParamTable {
+        &self.params
+    }
+
     /// Vehicle `index` (0-based) of a fleet, with its own id, home offset and random stream.
     pub fn new(
         sysid: u8,
