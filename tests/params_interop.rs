@@ -71,7 +71,13 @@ fn download_matches(args: &[&str]) -> String {
     let _v = fake(port, dir.path(), args);
     let out = dir.path().join("got.parm");
     let run = Command::new(common::mavterm())
-        .args(["--link", &format!("tcp:127.0.0.1:{port}"), "--headless", "--duration", "40"])
+        .args([
+            "--link",
+            &format!("tcp:127.0.0.1:{port}"),
+            "--headless",
+            "--duration",
+            "40",
+        ])
         .arg("--params-out")
         .arg(&out)
         .output()
@@ -130,7 +136,14 @@ fn px4_bytewise_int32_by_heartbeat() {
 fn autopilot_version_bytewise_bit_overrides_an_ardupilot_heartbeat() {
     // An ArduPilot heartbeat whose AUTOPILOT_VERSION announces PARAM_ENCODE_BYTEWISE (16): the
     // values come bytewise, and mavterm must read them so.
-    download_matches(&["--autopilot", "px4", "--heartbeat", "ardupilot", "--caps", "16"]);
+    download_matches(&[
+        "--autopilot",
+        "px4",
+        "--heartbeat",
+        "ardupilot",
+        "--caps",
+        "16",
+    ]);
 }
 
 #[test]
@@ -148,7 +161,12 @@ fn replay(args: &[&str], script: &str) -> (serde_json::Value, BTreeMap<String, u
     let path = dir.path().join("script.txt");
     std::fs::write(&path, script).unwrap();
     let run = Command::new(common::mavterm())
-        .args(["--link", &format!("tcp:127.0.0.1:{port}"), "--headless", "--input"])
+        .args([
+            "--link",
+            &format!("tcp:127.0.0.1:{port}"),
+            "--headless",
+            "--input",
+        ])
         .arg(&path)
         .args(["--report", "json", "--screens"])
         .arg(dir.path())

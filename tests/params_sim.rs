@@ -20,7 +20,11 @@ fn download(query: &str) -> (VirtualRunner, String) {
         if p.ended() {
             return (r, p.line());
         }
-        assert!(t < 300 * SECOND, "{query}: not done after 300 s: {}", p.line());
+        assert!(
+            t < 300 * SECOND,
+            "{query}: not done after 300 s: {}",
+            p.line()
+        );
     }
 }
 
@@ -38,7 +42,12 @@ fn check(query: &str, method: &str) {
             .get(&p.name)
             .unwrap_or_else(|| panic!("{query}: {} missing", p.name));
         let want_type = mavterm::sim::params::mav_type(p.ptype) as u8;
-        assert_eq!(got.ptype, ParamType::from_code(want_type).unwrap(), "{}", p.name);
+        assert_eq!(
+            got.ptype,
+            ParamType::from_code(want_type).unwrap(),
+            "{}",
+            p.name
+        );
         assert_eq!(got.value, p.value, "{query}: {}", p.name);
     }
 }
@@ -56,7 +65,10 @@ fn mavftp_at_0_20_40_percent_loss() {
 fn parameter_protocol_at_0_20_40_percent_loss() {
     for loss in ["0", "0.2", "0.4"] {
         for seed in 1..=3 {
-            check(&format!("ftp=0&loss={loss}&seed={seed}"), "by parameter protocol");
+            check(
+                &format!("ftp=0&loss={loss}&seed={seed}"),
+                "by parameter protocol",
+            );
         }
     }
 }

@@ -147,6 +147,9 @@ pub struct LinkStatus {
     pub was_up: bool,
     /// Our own frames heard back (a router echoing them).
     pub echoes: u64,
+    /// Frames and bytes we sent on this link.
+    pub sent_frames: u64,
+    pub sent_bytes: u64,
     /// Frames the link or the core's queues dropped because the other side could not keep up.
     pub dropped: u64,
     /// Sources evicted to keep the table within [`MAX_SOURCES`].
@@ -173,6 +176,8 @@ impl LinkStatus {
             sent: VecDeque::with_capacity(SENT_MEMORY),
             was_up: false,
             echoes: 0,
+            sent_frames: 0,
+            sent_bytes: 0,
             dropped: 0,
             evicted_sources: 0,
             parser: ParserStats::default(),
@@ -188,6 +193,8 @@ impl LinkStatus {
     /// Encode `msg` for this link and remember it, to know it if it comes back.
     pub fn encode(&mut self, msg: &crate::dialect::MavMessage) -> Vec<u8> {
         let bytes = self.tx.encode(msg);
+        self.sent_frames += 1;
+        self.sent_bytes += bytes.len() as u64;
         // Unsigned frames: seq at byte 2 (v1) or 4 (v2), the CRC in the last two bytes.
         let seq = if bytes[0] == crate::wire::frame::MAGIC_V1 {
             bytes[2]

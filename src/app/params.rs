@@ -134,7 +134,9 @@ impl App {
         let variant = self
             .target
             .and_then(|k| self.vehicles.get(k))
-            .map_or(Variant::Unknown, |v| Variant::from_mav_type(v.mavtype as u8));
+            .map_or(Variant::Unknown, |v| {
+                Variant::from_mav_type(v.mavtype as u8)
+            });
         meta.get(name, variant)
     }
 
@@ -267,14 +269,14 @@ impl App {
         let meta = self.param_meta(&name);
         let v = match text.trim().parse::<f64>() {
             Ok(v) => v,
-            Err(_) => meta.and_then(|m| m.parse_value(text)).ok_or_else(|| {
-                match meta {
+            Err(_) => meta
+                .and_then(|m| m.parse_value(text))
+                .ok_or_else(|| match meta {
                     Some(m) if !m.values.is_empty() || !m.bits.is_empty() => {
                         format!("`{text}` is not a number nor one of {name}'s value names")
                     }
                     _ => format!("`{text}` is not a number"),
-                }
-            })?,
+                })?,
         };
         p.ptype.check(v)?;
         if meta.is_some_and(|m| m.read_only) {
@@ -283,7 +285,10 @@ impl App {
         let change = vec![(comp, name.clone(), v)];
         if let Some(why) = meta.and_then(|m| m.check_range(v).err()) {
             self.ui.confirm = Some(Confirm {
-                text: format!("{name} = {}: {why}. Send anyway? (y/n)", value::fmt_plain(v)),
+                text: format!(
+                    "{name} = {}: {why}. Send anyway? (y/n)",
+                    value::fmt_plain(v)
+                ),
                 action: Confirmed::Params(change),
                 target: key,
                 key: None,
@@ -317,7 +322,10 @@ impl App {
         }
         Ok(Some(if n == 1 {
             let (_, name, v) = &changes[0];
-            format!("{name} = {}: sent, waiting for the echo", value::fmt_plain(*v))
+            format!(
+                "{name} = {}: sent, waiting for the echo",
+                value::fmt_plain(*v)
+            )
         } else {
             format!("{n} parameters sent, waiting for their echoes")
         }))
@@ -403,7 +411,10 @@ impl App {
             self.notice(
                 SEV_WARNING,
                 None,
-                format!("{shown}: {n} = {} is out of range for its type: not sent", value::fmt_plain(*v)),
+                format!(
+                    "{shown}: {n} = {} is out of range for its type: not sent",
+                    value::fmt_plain(*v)
+                ),
             );
         }
         if ok.is_empty() {

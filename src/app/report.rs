@@ -64,6 +64,8 @@ impl App {
                     "loss_pct": round2(loss_pct(l.totals())),
                     "dropped": l.dropped,
                     "echoes": l.echoes,
+                    "sent_frames": l.sent_frames,
+                    "sent_bytes": l.sent_bytes,
                     "evicted_sources": l.evicted_sources,
                     "sources": sources,
                 })

@@ -273,6 +273,10 @@ struct ListDownload {
     /// Reads: when filling started and how many were answered, for their rate.
     fill_start: Option<Micros>,
     fill_answered: usize,
+    /// The list stream (arrivals that answer no read): when it last brought a new index, and
+    /// the highest index it brought.
+    last_stream: Option<Micros>,
+    stream_front: Option<u16>,
 }
 
 /// List passes at most (the first and two more).
@@ -433,13 +437,20 @@ impl ParamMachine {
                 }
                 _ => 0,
             };
-            return Some((d.comp, shown.min(total.map_or(0, |t| t as usize)), total, Method::Ftp));
+            return Some((
+                d.comp,
+                shown.min(total.map_or(0, |t| t as usize)),
+                total,
+                Method::Ftp,
+            ));
         }
         Some((d.comp, got, count, d.stats.method))
     }
 
     fn ftp_total(&self, f: &FtpRead) -> Option<u16> {
-        f.head().filter(|h| h.len() >= 6).map(|h| u16::from_le_bytes([h[4], h[5]]))
+        f.head()
+            .filter(|h| h.len() >= 6)
+            .map(|h| u16::from_le_bytes([h[4], h[5]]))
     }
 
     fn rto(&self) -> Micros {
@@ -699,9 +710,8 @@ impl ParamMachine {
                 ));
             }
         }
-        let new_index = index.is_some_and(|i| {
-            (i as usize) < set.names.len() && set.names[i as usize].is_none()
-        });
+        let new_index = index
+            .is_some_and(|i| (i as usize) < set.names.len() && set.names[i as usize].is_none());
         let before = set.record(&m.name, index, ptype, m.raw, v, downloading);
         let Some(p) = set.params.get_mut(&m.name) else {
             return out;
@@ -733,11 +743,7 @@ impl ParamMachine {
                 let why = format!("refused: the vehicle kept {}", value::format(v, ptype));
                 out.push(ParamOut::Notice(
                     SEV_ERROR,
-                    format!(
-                        "{} = {} {why}",
-                        m.name,
-                        value::format(e.value, ptype)
-                    ),
+                    format!("{} = {} {why}", m.name, value::format(e.value, ptype)),
                 ));
                 e.state = EditState::Failed(why);
                 self.edits_pending -= 1;
@@ -770,6 +776,11 @@ impl ParamMachine {
         let mut rtt_read = None;
         if let Some(d) = self.download.as_mut().filter(|d| d.comp == from) {
             if let (Phase::List(l), Some(i)) = (&mut d.phase, index) {
+                let answered_read = l.reads.contains_key(&i);
+                if !answered_read && new_index {
+                    l.last_stream = Some(now);
+                    l.stream_front = Some(l.stream_front.map_or(i, |f| f.max(i)));
+                }
                 if let Some((sent, tries, order)) = l.reads.remove(&i) {
                     // Only a read asked once says which request this answers (Karn): then its
                     // round trip counts, and the reads sent before it that are still
@@ -852,8 +863,16 @@ impl ParamMachine {
         };
         let mut out = Vec::new();
         let mut gave_up = false;
+        // What the list has passed and not brought was lost: read at once. What lies ahead of
+        // its front is on its way while the list may still be coming (a slow radio's queue
+        // holds it back now and then; reading ahead would only take the vehicle's budget from
+        // the list): read only once the list has been silent for a while.
+        let streaming = l
+            .last_stream
+            .is_some_and(|t| now < t + ahead_wait(l.interval));
+        let front = l.stream_front.filter(|_| streaming);
         for i in set.missing() {
-            if l.reads.len() >= READ_WINDOW {
+            if l.reads.len() >= READ_WINDOW || front.is_some_and(|f| i > f) {
                 break;
             }
             if l.reads.contains_key(&i) {
@@ -901,7 +920,13 @@ impl ParamMachine {
     }
 
     /// Set `name` of component `comp` to `v`.
-    pub fn set(&mut self, now: Micros, comp: u8, name: &str, v: f64) -> Result<Vec<ParamOut>, String> {
+    pub fn set(
+        &mut self,
+        now: Micros,
+        comp: u8,
+        name: &str,
+        v: f64,
+    ) -> Result<Vec<ParamOut>, String> {
         let set = self
             .sets
             .get_mut(&comp)
@@ -911,7 +936,10 @@ impl ParamMachine {
             .get_mut(name)
             .ok_or_else(|| format!("no parameter {name}"))?;
         p.ptype.check(v)?;
-        if p.edit.as_ref().is_some_and(|e| e.state == EditState::Pending) {
+        if p.edit
+            .as_ref()
+            .is_some_and(|e| e.state == EditState::Pending)
+        {
             self.edits_pending -= 1;
         }
         p.edit = Some(Edit {
@@ -972,7 +1000,8 @@ impl ParamMachine {
             target_system: self.key.0,
             target_component: comp,
             param_id: param_id(name),
-            param_type: MavParamType::from_u8(t.code()).unwrap_or(MavParamType::MAV_PARAM_TYPE_REAL32),
+            param_type: MavParamType::from_u8(t.code())
+                .unwrap_or(MavParamType::MAV_PARAM_TYPE_REAL32),
         })
     }
 
@@ -999,10 +1028,21 @@ impl ParamMachine {
                     }
                 }
                 Phase::List(l) => {
-                    if l.last_new.is_none() && self.sets.get(&d.comp).is_none_or(|s| s.count.is_none()) {
+                    if l.last_new.is_none()
+                        && self.sets.get(&d.comp).is_none_or(|s| s.count.is_none())
+                    {
                         at(l.list_sent + (LIST_WAIT << (l.list_tries - 1).min(3)));
                     } else if !l.filling {
                         at(l.last_new.unwrap_or(l.list_sent) + gap(l.interval));
+                    } else if let (Some(t), Some(front)) = (l.last_stream, l.stream_front) {
+                        // Reads ahead of the list's front wait for its silence.
+                        let ahead = self
+                            .sets
+                            .get(&d.comp)
+                            .is_some_and(|s| s.missing().any(|i| i > front));
+                        if ahead && l.reads.is_empty() {
+                            at(t + ahead_wait(l.interval));
+                        }
                     }
                     for (sent, tries, _) in l.reads.values() {
                         at(sent + (rto << (tries - 1).min(3)));
@@ -1084,8 +1124,8 @@ impl ParamMachine {
                 out.extend(self.on_ftp_out(now, o));
             }
             Phase::List(l) => {
-                let got_any = l.last_new.is_some()
-                    || self.sets.get(&comp).is_some_and(|s| s.count.is_some());
+                let got_any =
+                    l.last_new.is_some() || self.sets.get(&comp).is_some_and(|s| s.count.is_some());
                 if !got_any {
                     if now >= l.list_sent + (LIST_WAIT << (l.list_tries - 1).min(3)) {
                         if l.list_tries >= LIST_TRIES {
@@ -1139,6 +1179,11 @@ impl ParamMachine {
         }
         out
     }
+}
+
+/// How long the list must be silent before the indices ahead of its front are read.
+fn ahead_wait(interval: Option<Micros>) -> Micros {
+    (4 * gap(interval)).max(SECOND)
 }
 
 /// How long without a new index before the list is taken as ended: several times the measured
@@ -1212,7 +1257,10 @@ mod tests {
     #[test]
     fn parse_reads_a_cut_payload() {
         let m = ParamValueMsg::parse(&pv("ABC", 0.0, 9, 5, 0)).unwrap();
-        assert_eq!((m.name.as_str(), m.count, m.index, m.type_code), ("ABC", 5, 0, 9));
+        assert_eq!(
+            (m.name.as_str(), m.count, m.index, m.type_code),
+            ("ABC", 5, 0, 9)
+        );
         assert!(ParamValueMsg::parse(&[]).is_none());
     }
 
@@ -1236,7 +1284,8 @@ mod tests {
                 _ => None,
             })
             .collect();
-        assert_eq!(reads, vec![3, 7, 10, 11]);
+        // The holes the list passed; 10 and 11, ahead of its front, may still be coming.
+        assert_eq!(reads, vec![3, 7]);
         // 7 answered before 3: 3's request or answer was lost, and is asked again at once.
         let out = m.on_param_value(d + 5_000, 1, &pv("P7", 7.0, 9, 12, 7));
         let again: Vec<i16> = sends(&out)
@@ -1247,8 +1296,21 @@ mod tests {
             })
             .collect();
         assert_eq!(again, vec![3]);
-        for i in [10u16, 11, 3] {
-            m.on_param_value(d + 6_000, 1, &pv(&format!("P{i}"), i as f32, 9, 12, i));
+        m.on_param_value(d + 6_000, 1, &pv("P3", 3.0, 9, 12, 3));
+        // Once the list has been silent for a while, what lies ahead of it is read too.
+        let d2 = m.next_deadline().unwrap();
+        assert!(d2 >= t - 20_000 + SECOND, "{d2}");
+        let out = m.poll(d2);
+        let ahead: Vec<i16> = sends(&out)
+            .iter()
+            .filter_map(|s| match s {
+                MavMessage::PARAM_REQUEST_READ(r) => Some(r.param_index),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(ahead, vec![10, 11]);
+        for i in [10u16, 11] {
+            m.on_param_value(d2 + 6_000, 1, &pv(&format!("P{i}"), i as f32, 9, 12, i));
         }
         let set = m.autopilot().unwrap();
         assert!(set.complete());
@@ -1265,9 +1327,9 @@ mod tests {
         assert!(m.last.is_some());
         // The vehicle now says 2: C is gone.
         let out = m.on_param_value(40, 1, &pv("A", 1.0, 9, 2, 0));
-        assert!(out
-            .iter()
-            .any(|o| matches!(o, ParamOut::Notice(_, t) if t.contains("now has 2 parameters (was 3)"))));
+        assert!(out.iter().any(
+            |o| matches!(o, ParamOut::Notice(_, t) if t.contains("now has 2 parameters (was 3)"))
+        ));
         let set = m.autopilot().unwrap();
         assert_eq!(set.progress(), (2, Some(2)));
         assert!(set.get("C").is_none());
@@ -1305,7 +1367,14 @@ mod tests {
         let out = m.on_param_value(200, 1, &pv("P00", 1.0, 2, 20, 65535));
         assert_eq!(sends(&out).len(), 1);
         assert_eq!(
-            m.autopilot().unwrap().get("P00").unwrap().edit.as_ref().unwrap().state,
+            m.autopilot()
+                .unwrap()
+                .get("P00")
+                .unwrap()
+                .edit
+                .as_ref()
+                .unwrap()
+                .state,
             EditState::Confirmed
         );
         // Out of range for INT8: refused before sending.
