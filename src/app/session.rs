@@ -109,7 +109,12 @@ impl Session {
         let mut out = Vec::new();
         // Parameters are kept per component of the system.
         match id {
-            22 => out.extend(self.params.on_param_value(now, from, payload).into_iter().map(pmap)),
+            22 => out.extend(
+                self.params
+                    .on_param_value(now, from, payload)
+                    .into_iter()
+                    .map(pmap),
+            ),
             // FILE_TRANSFER_PROTOCOL: target_network, target_system, target_component, then
             // the FTP payload.
             110 if payload.len() > 3 => out.extend(
@@ -122,7 +127,12 @@ impl Session {
                 let mut caps = [0u8; 8];
                 caps.copy_from_slice(&payload[..8]);
                 let caps = u64::from_le_bytes(caps);
-                out.extend(self.params.on_autopilot_version(now, caps).into_iter().map(pmap));
+                out.extend(
+                    self.params
+                        .on_autopilot_version(now, caps)
+                        .into_iter()
+                        .map(pmap),
+                );
             }
             _ => {}
         }

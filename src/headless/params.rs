@@ -52,9 +52,7 @@ pub fn progress(app: &App) -> Progress {
                         .map_or(count, |p| count.saturating_sub(p.progress().0)),
                 ),
                 method: st.method,
-                secs: st
-                    .finished
-                    .map_or(0.0, |f| (f - st.started) as f64 / 1e6),
+                secs: st.finished.map_or(0.0, |f| (f - st.started) as f64 / 1e6),
                 requests: st.requests,
                 retries: st.retries,
                 fallback: st.fallback.clone(),
@@ -157,9 +155,14 @@ impl crate::driver::real_time::Frontend for StopWhenDone {
         if line != self.last {
             // Progress every tenth of the set, not every parameter.
             let step = match (&p, &self.last) {
-                (Progress::Running { got, count: Some(c), .. }, _) => {
-                    (*got * 10 / (*c as usize).max(1)).to_string()
-                }
+                (
+                    Progress::Running {
+                        got,
+                        count: Some(c),
+                        ..
+                    },
+                    _,
+                ) => (*got * 10 / (*c as usize).max(1)).to_string(),
                 _ => line.clone(),
             };
             if step != self.last {

@@ -181,7 +181,11 @@ fn looks_qgc(line: &str) -> bool {
 /// Reads a parameter file in either format. Never fails as a whole; see the module docs.
 pub fn parse(text: &str) -> ParamFile {
     let format = detect(text);
-    let mut out = ParamFile { format, params: Vec::new(), errors: Vec::new() };
+    let mut out = ParamFile {
+        format,
+        params: Vec::new(),
+        errors: Vec::new(),
+    };
     // (component, name) -> line of first appearance.
     let mut seen: HashMap<(Option<u8>, String), usize> = HashMap::new();
     for (i, raw) in text.lines().enumerate() {
@@ -190,7 +194,11 @@ pub fn parse(text: &str) -> ParamFile {
             Format::Parm => parse_parm_line(raw),
             Format::Qgc => parse_qgc_line(raw),
         };
-        let err = |why: String| LineError { line, text: raw.to_string(), why };
+        let err = |why: String| LineError {
+            line,
+            text: raw.to_string(),
+            why,
+        };
         match parsed {
             Ok(None) => {}
             Ok(Some(mut p)) => {
@@ -257,7 +265,8 @@ fn parse_qgc_line(raw: &str) -> Result<Option<FileParam>, String> {
         ));
     }
     let id = |s: &str, what: &str| {
-        s.parse::<u8>().map_err(|_| format!("{what} id {s:?} is not a number from 0 to 255"))
+        s.parse::<u8>()
+            .map_err(|_| format!("{what} id {s:?} is not a number from 0 to 255"))
     };
     let system = id(fields[0], "vehicle")?;
     let component = id(fields[1], "component")?;
@@ -268,7 +277,12 @@ fn parse_qgc_line(raw: &str) -> Result<Option<FileParam>, String> {
         .parse::<u8>()
         .ok()
         .and_then(ParamType::from_code)
-        .ok_or_else(|| format!("unknown parameter type {:?} (MAV_PARAM_TYPE 1 to 10)", fields[4]))?;
+        .ok_or_else(|| {
+            format!(
+                "unknown parameter type {:?} (MAV_PARAM_TYPE 1 to 10)",
+                fields[4]
+            )
+        })?;
     ptype.check(value)?;
     Ok(Some(FileParam {
         name: name.to_string(),
@@ -285,8 +299,13 @@ pub fn check_name(name: &str) -> Result<(), String> {
     if name.is_empty() {
         return Err("empty parameter name".into());
     }
-    if let Some(c) = name.chars().find(|c| !(c.is_ascii_alphanumeric() || *c == '_')) {
-        return Err(format!("{name:?}: {c:?} cannot be in a parameter name (A-Z, a-z, 0-9, _)"));
+    if let Some(c) = name
+        .chars()
+        .find(|c| !(c.is_ascii_alphanumeric() || *c == '_'))
+    {
+        return Err(format!(
+            "{name:?}: {c:?} cannot be in a parameter name (A-Z, a-z, 0-9, _)"
+        ));
     }
     if name.len() > MAX_NAME {
         return Err(format!(
@@ -319,12 +338,19 @@ pub fn write(format: Format, params: &[Saved], header: &Header) -> String {
         Format::Parm => {
             sorted.sort_by(|a, b| a.name.cmp(b.name).then(a.component.cmp(&b.component)));
             for p in sorted {
-                out.push_str(&format!("{:<16} {}\n", p.name, value::format(p.value, p.ptype)));
+                out.push_str(&format!(
+                    "{:<16} {}\n",
+                    p.name,
+                    value::format(p.value, p.ptype)
+                ));
             }
         }
         Format::Qgc => {
             sorted.sort_by(|a, b| a.component.cmp(&b.component).then(a.name.cmp(b.name)));
-            out.push_str(&format!("# Onboard parameters for Vehicle {}\n#\n", header.sysid));
+            out.push_str(&format!(
+                "# Onboard parameters for Vehicle {}\n#\n",
+                header.sysid
+            ));
             for (label, v) in [
                 ("Stack", &header.stack),
                 ("Vehicle", &header.vehicle),
@@ -421,9 +447,14 @@ pub fn diff(vehicle: &[Saved], file: &ParamFile) -> Diff {
             }
         }
     }
-    d.only_vehicle =
-        vehicle.iter().zip(&matched).filter(|(_, m)| !**m).map(|(p, _)| p.name.to_string()).collect();
-    d.changed.sort_by(|a, b| a.name.cmp(&b.name).then(a.component.cmp(&b.component)));
+    d.only_vehicle = vehicle
+        .iter()
+        .zip(&matched)
+        .filter(|(_, m)| !**m)
+        .map(|(p, _)| p.name.to_string())
+        .collect();
+    d.changed
+        .sort_by(|a, b| a.name.cmp(&b.name).then(a.component.cmp(&b.component)));
     d.only_vehicle.sort();
     d.only_file.sort();
     d
@@ -435,7 +466,12 @@ mod tests {
     use ParamType::*;
 
     fn saved(name: &str, value: f64, ptype: ParamType) -> Saved<'_> {
-        Saved { name, value, ptype, component: 1 }
+        Saved {
+            name,
+            value,
+            ptype,
+            component: 1,
+        }
     }
 
     #[test]
@@ -449,8 +485,11 @@ mod tests {
         let f = parse(text);
         assert_eq!(f.format, Format::Parm);
         assert!(f.errors.is_empty(), "{:?}", f.errors);
-        let got: Vec<(&str, f64, usize)> =
-            f.params.iter().map(|p| (p.name.as_str(), p.value, p.line)).collect();
+        let got: Vec<(&str, f64, usize)> = f
+            .params
+            .iter()
+            .map(|p| (p.name.as_str(), p.value, p.line))
+            .collect();
         assert_eq!(
             got,
             vec![
@@ -460,12 +499,16 @@ mod tests {
                 ("LOG_BITMASK", 1023.0, 6),
             ]
         );
-        assert!(f.params.iter().all(|p| p.ptype.is_none() && p.component.is_none()));
+        assert!(f
+            .params
+            .iter()
+            .all(|p| p.ptype.is_none() && p.component.is_none()));
     }
 
     #[test]
     fn qgc_lines_as_qgc_writes_them() {
-        let text = "# Onboard parameters for Vehicle 1\n#\n# Vehicle-Id Component-Id Name Value Type\n\
+        let text =
+            "# Onboard parameters for Vehicle 1\n#\n# Vehicle-Id Component-Id Name Value Type\n\
                     1\t1\tACRO_BAL_PITCH\t1.000000000000000000\t9\n\
                     1\t1\tANGLE_MAX\t3000\t4\n";
         let f = parse(text);
@@ -517,7 +560,9 @@ mod tests {
         let lines: Vec<usize> = f.errors.iter().map(|e| e.line).collect();
         assert_eq!(lines, vec![2, 3, 4, 5, 6, 7, 8, 9]);
         assert_eq!(f.errors[0].text, "LONELY");
-        assert!(f.errors[7].to_string().starts_with("line 9: GOOD_ONE appears again"));
+        assert!(f.errors[7]
+            .to_string()
+            .starts_with("line 9: GOOD_ONE appears again"));
     }
 
     #[test]
@@ -532,8 +577,11 @@ mod tests {
                     1\t2\tOK\t2\t6\n";
         let f = parse(text);
         assert_eq!(f.format, Format::Qgc);
-        let kept: Vec<(&str, Option<u8>)> =
-            f.params.iter().map(|p| (p.name.as_str(), p.component)).collect();
+        let kept: Vec<(&str, Option<u8>)> = f
+            .params
+            .iter()
+            .map(|p| (p.name.as_str(), p.component))
+            .collect();
         assert_eq!(kept, vec![("OK", Some(1)), ("OK", Some(2))]);
         let lines: Vec<usize> = f.errors.iter().map(|e| e.line).collect();
         assert_eq!(lines, vec![2, 3, 4, 5, 6, 7]);
@@ -573,7 +621,12 @@ mod tests {
     #[test]
     fn qgc_is_written_with_header_by_component_then_name() {
         let params = [
-            Saved { name: "MNT1_TYPE", value: 1.0, ptype: Int8, component: 154 },
+            Saved {
+                name: "MNT1_TYPE",
+                value: 1.0,
+                ptype: Int8,
+                component: 154,
+            },
             saved("ZED", 0.5, Real32),
             saved("ANGLE_MAX", 3000.0, Int16),
         ];
@@ -609,13 +662,24 @@ mod tests {
             saved("E_BIG", 3.4e38f32 as f64, Real32),
         ];
         for format in [Format::Parm, Format::Qgc] {
-            let f = parse(&write(format, &params, &Header { sysid: 1, ..Header::default() }));
+            let f = parse(&write(
+                format,
+                &params,
+                &Header {
+                    sysid: 1,
+                    ..Header::default()
+                },
+            ));
             assert_eq!(f.format, format);
             assert!(f.errors.is_empty(), "{format:?}: {:?}", f.errors);
             assert_eq!(f.params.len(), params.len());
             for (p, fp) in params.iter().zip(&f.params) {
                 assert_eq!(p.name, fp.name);
-                assert!(value::same(p.value, fp.value, p.ptype), "{format:?} {}", p.name);
+                assert!(
+                    value::same(p.value, fp.value, p.ptype),
+                    "{format:?} {}",
+                    p.name
+                );
                 if format == Format::Qgc {
                     assert_eq!(fp.ptype, Some(p.ptype));
                     assert_eq!(fp.component, Some(1));

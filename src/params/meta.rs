@@ -112,7 +112,10 @@ pub struct ParamMeta {
 impl ParamMeta {
     /// The name of value `v` in the enumeration.
     pub fn value_name(&self, v: f64) -> Option<&str> {
-        self.values.iter().find(|(c, _)| *c == v).map(|(_, n)| n.as_str())
+        self.values
+            .iter()
+            .find(|(c, _)| *c == v)
+            .map(|(_, n)| n.as_str())
     }
 
     /// The names of the bits set in `v`, in the order the metadata lists them.
@@ -139,21 +142,32 @@ impl ParamMeta {
         if let Ok(v) = t.parse::<f64>() {
             return v.is_finite().then_some(v);
         }
-        if let Some((c, _)) = self.values.iter().find(|(_, n)| n.trim().eq_ignore_ascii_case(t)) {
+        if let Some((c, _)) = self
+            .values
+            .iter()
+            .find(|(_, n)| n.trim().eq_ignore_ascii_case(t))
+        {
             return Some(*c);
         }
         if self.bits.is_empty() {
             return None;
         }
         let bit = |name: &str| {
-            self.bits.iter().find(|(_, n)| n.trim().eq_ignore_ascii_case(name)).map(|(b, _)| *b)
+            self.bits
+                .iter()
+                .find(|(_, n)| n.trim().eq_ignore_ascii_case(name))
+                .map(|(b, _)| *b)
         };
         if let Some(b) = bit(t) {
             return (b < 64).then(|| (1u64 << b) as f64);
         }
         let mut mask = 0u64;
         let mut any = false;
-        for part in t.split(['+', ',', '|']).map(str::trim).filter(|p| !p.is_empty()) {
+        for part in t
+            .split(['+', ',', '|'])
+            .map(str::trim)
+            .filter(|p| !p.is_empty())
+        {
             let b = bit(part)?;
             if b >= 64 {
                 return None;
@@ -168,7 +182,13 @@ impl ParamMeta {
     pub fn check_range(&self, v: f64) -> Result<(), String> {
         match self.range {
             Some((lo, hi)) if !(v >= lo && v <= hi) => {
-                let side = |x: f64| if x.is_finite() { fmt_plain(x) } else { "…".into() };
+                let side = |x: f64| {
+                    if x.is_finite() {
+                        fmt_plain(x)
+                    } else {
+                        "…".into()
+                    }
+                };
                 Err(format!(
                     "{} is outside {}'s range {} to {}",
                     fmt_plain(v),
@@ -267,7 +287,11 @@ pub struct MetaError {
 
 impl fmt::Display for MetaError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "line {}, column {}: {}", self.line, self.column, self.message)
+        write!(
+            f,
+            "line {}, column {}: {}",
+            self.line, self.column, self.message
+        )
     }
 }
 
@@ -278,12 +302,22 @@ impl MetaSet {
     pub fn parse(xml: &str) -> Result<MetaSet, MetaError> {
         let doc = Document::parse(xml).map_err(|e| {
             let p = e.pos();
-            MetaError { line: p.row, column: p.col, message: e.to_string() }
+            MetaError {
+                line: p.row,
+                column: p.col,
+                message: e.to_string(),
+            }
         })?;
         let root = doc.root_element();
         let mut set = match root.tag_name().name() {
-            "paramfile" => MetaSet { format: MetaFormat::ArduPilot, by_name: HashMap::new() },
-            "parameters" => MetaSet { format: MetaFormat::Px4, by_name: HashMap::new() },
+            "paramfile" => MetaSet {
+                format: MetaFormat::ArduPilot,
+                by_name: HashMap::new(),
+            },
+            "parameters" => MetaSet {
+                format: MetaFormat::Px4,
+                by_name: HashMap::new(),
+            },
             other => {
                 let p = doc.text_pos_at(root.range().start);
                 return Err(MetaError {
@@ -344,7 +378,11 @@ impl MetaSet {
 
     /// Every candidate for `name`, in file order.
     pub fn all(&self, name: &str) -> impl Iterator<Item = &ParamMeta> {
-        self.by_name.get(name).into_iter().flatten().map(|c| &c.meta)
+        self.by_name
+            .get(name)
+            .into_iter()
+            .flatten()
+            .map(|c| &c.meta)
     }
 
     /// Every parameter name (in no particular order).
@@ -369,7 +407,11 @@ impl MetaSet {
                 for p in block.children().filter(|n| n.has_tag_name("param")) {
                     if let Some((meta, flavor)) = ardupilot_param(p, &group) {
                         let vehicle = in_vehicles.then(|| group.clone());
-                        in_block.push(Candidate { meta, vehicle, flavor });
+                        in_block.push(Candidate {
+                            meta,
+                            vehicle,
+                            flavor,
+                        });
                     }
                 }
                 assign_flavors(&mut in_block);
@@ -385,7 +427,11 @@ impl MetaSet {
             let gname = group.attribute("name").unwrap_or("");
             for p in group.children().filter(|n| n.has_tag_name("parameter")) {
                 if let Some(meta) = px4_param(p, gname) {
-                    self.push(Candidate { meta, vehicle: None, flavor: Flavor::Any });
+                    self.push(Candidate {
+                        meta,
+                        vehicle: None,
+                        flavor: Flavor::Any,
+                    });
                 }
             }
         }
@@ -401,8 +447,11 @@ fn assign_flavors(block: &mut [Candidate]) {
     }
     let dups: Vec<Vec<usize>> = seen.into_values().filter(|v| v.len() > 1).collect();
     for ix in dups {
-        let unmarked: Vec<usize> =
-            ix.iter().copied().filter(|&i| block[i].flavor == Flavor::Any).collect();
+        let unmarked: Vec<usize> = ix
+            .iter()
+            .copied()
+            .filter(|&i| block[i].flavor == Flavor::Any)
+            .collect();
         let marked_heli = ix.iter().any(|&i| block[i].flavor == Flavor::Heli);
         let marked_multi = ix.iter().any(|&i| block[i].flavor == Flavor::Multi);
         let mut order = unmarked.into_iter();
@@ -424,7 +473,9 @@ fn text_of(n: Node) -> String {
 }
 
 fn non_empty(s: Option<&str>) -> Option<String> {
-    s.map(str::trim).filter(|s| !s.is_empty()).map(str::to_string)
+    s.map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(str::to_string)
 }
 
 fn number(s: &str) -> Option<f64> {
@@ -463,7 +514,11 @@ fn ardupilot_param(p: Node, group: &str) -> Option<(ParamMeta, Flavor)> {
     let mut m = ParamMeta {
         name: name.to_string(),
         human_name: non_empty(p.attribute("humanName")),
-        description: p.attribute("documentation").unwrap_or("").trim().to_string(),
+        description: p
+            .attribute("documentation")
+            .unwrap_or("")
+            .trim()
+            .to_string(),
         user: non_empty(p.attribute("user")),
         group: group.to_string(),
         ..ParamMeta::default()
@@ -586,7 +641,10 @@ fn px4_param(p: Node, group: &str) -> Option<ParamMeta> {
         }
     }
     if min.is_some() || max.is_some() {
-        m.range = Some((min.unwrap_or(f64::NEG_INFINITY), max.unwrap_or(f64::INFINITY)));
+        m.range = Some((
+            min.unwrap_or(f64::NEG_INFINITY),
+            max.unwrap_or(f64::INFINITY),
+        ));
     }
     Some(m)
 }
@@ -631,11 +689,20 @@ mod tests {
         let m = meta_with(&[], &[]);
         assert!(m.check_range(0.0).is_ok());
         assert!(m.check_range(10.0).is_ok());
-        assert_eq!(m.check_range(11.0).unwrap_err(), "11 is outside X's range 0 to 10");
+        assert_eq!(
+            m.check_range(11.0).unwrap_err(),
+            "11 is outside X's range 0 to 10"
+        );
         assert!(m.check_range(f64::NAN).is_err());
-        let open = ParamMeta { range: Some((1.0, f64::INFINITY)), ..m.clone() };
+        let open = ParamMeta {
+            range: Some((1.0, f64::INFINITY)),
+            ..m.clone()
+        };
         assert!(open.check_range(1e30).is_ok());
-        assert_eq!(open.check_range(0.5).unwrap_err(), "0.5 is outside X's range 1 to …");
+        assert_eq!(
+            open.check_range(0.5).unwrap_err(),
+            "0.5 is outside X's range 1 to …"
+        );
         let none = ParamMeta { range: None, ..m };
         assert!(none.check_range(-1e9).is_ok());
     }
@@ -682,7 +749,8 @@ mod tests {
     #[test]
     fn many_parameters_parse_in_linear_time() {
         // 20,000 parameters, one block, every name twice: quadratic code would show here.
-        let mut xml = String::from("<paramfile><vehicles></vehicles><libraries><parameters name=\"L_\">");
+        let mut xml =
+            String::from("<paramfile><vehicles></vehicles><libraries><parameters name=\"L_\">");
         for round in 0..2 {
             for i in 0..10_000 {
                 xml.push_str(&format!(
@@ -696,6 +764,12 @@ mod tests {
         let m = set.get("P42", Variant::Helicopter).unwrap();
         assert_eq!(m.human_name.as_deref(), Some("h1"));
         assert_eq!(m.range, Some((0.0, 42.0)));
-        assert_eq!(set.get("P42", Variant::Multicopter).unwrap().human_name.as_deref(), Some("h0"));
+        assert_eq!(
+            set.get("P42", Variant::Multicopter)
+                .unwrap()
+                .human_name
+                .as_deref(),
+            Some("h0")
+        );
     }
 }

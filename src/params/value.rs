@@ -194,7 +194,10 @@ mod tests {
         // PX4 sends INT32 1 as the float with bit pattern 0x00000001 (a denormal).
         let f = f32::from_bits(1);
         assert_eq!(decode(f, ParamType::Int32, Encoding::Bytewise), 1.0);
-        assert_eq!(encode(1.0, ParamType::Int32, Encoding::Bytewise).to_bits(), 1);
+        assert_eq!(
+            encode(1.0, ParamType::Int32, Encoding::Bytewise).to_bits(),
+            1
+        );
         let f = f32::from_bits((-7i32) as u32);
         assert_eq!(decode(f, ParamType::Int32, Encoding::Bytewise), -7.0);
         // C cast: the float is the number.

@@ -610,7 +610,10 @@ mod tests {
                 }
             }
             if out.is_empty() {
-                now = r.next_deadline().expect("a deadline while not done").max(now);
+                now = r
+                    .next_deadline()
+                    .expect("a deadline while not done")
+                    .max(now);
                 out = r.poll(now);
             }
         }

@@ -31,7 +31,9 @@ use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavAutopilot, MavMessage, MavParamType};
 use crate::params::value::{self, Encoding, ParamType};
 use crate::proto::param_ftp::{FtpOut, FtpRead};
-use crate::proto::severity::{ERROR as SEV_ERROR, INFO as SEV_INFO, NOTICE as SEV_NOTICE, WARNING as SEV_WARNING};
+use crate::proto::severity::{
+    ERROR as SEV_ERROR, INFO as SEV_INFO, NOTICE as SEV_NOTICE, WARNING as SEV_WARNING,
+};
 use crate::proto::vehicles::VehicleKey;
 use crate::wire::mavftp::{FtpPacket, PAYLOAD_LEN};
 use crate::wire::param_pck::{self, PckType};
@@ -392,13 +394,20 @@ impl ParamMachine {
                 }
                 _ => 0,
             };
-            return Some((d.comp, shown.min(total.map_or(0, |t| t as usize)), total, Method::Ftp));
+            return Some((
+                d.comp,
+                shown.min(total.map_or(0, |t| t as usize)),
+                total,
+                Method::Ftp,
+            ));
         }
         Some((d.comp, got, count, d.stats.method))
     }
 
     fn ftp_total(&self, f: &FtpRead) -> Option<u16> {
-        f.head().filter(|h| h.len() >= 6).map(|h| u16::from_le_bytes([h[4], h[5]]))
+        f.head()
+            .filter(|h| h.len() >= 6)
+            .map(|h| u16::from_le_bytes([h[4], h[5]]))
     }
 
     fn rto(&self) -> Micros {
@@ -656,9 +665,8 @@ impl ParamMachine {
                 ));
             }
         }
-        let new_index = index.is_some_and(|i| {
-            (i as usize) < set.names.len() && set.names[i as usize].is_none()
-        });
+        let new_index = index
+            .is_some_and(|i| (i as usize) < set.names.len() && set.names[i as usize].is_none());
         let before = set.record(&m.name, index, ptype, m.raw, v, downloading);
         let Some(p) = set.params.get_mut(&m.name) else {
             return out;
@@ -690,11 +698,7 @@ impl ParamMachine {
                 let why = format!("refused: the vehicle kept {}", value::format(v, ptype));
                 out.push(ParamOut::Notice(
                     SEV_ERROR,
-                    format!(
-                        "{} = {} {why}",
-                        m.name,
-                        value::format(e.value, ptype)
-                    ),
+                    format!("{} = {} {why}", m.name, value::format(e.value, ptype)),
                 ));
                 e.state = EditState::Failed(why);
                 self.edits_pending -= 1;
@@ -850,7 +854,13 @@ impl ParamMachine {
     }
 
     /// Set `name` of component `comp` to `v`.
-    pub fn set(&mut self, now: Micros, comp: u8, name: &str, v: f64) -> Result<Vec<ParamOut>, String> {
+    pub fn set(
+        &mut self,
+        now: Micros,
+        comp: u8,
+        name: &str,
+        v: f64,
+    ) -> Result<Vec<ParamOut>, String> {
         let set = self
             .sets
             .get_mut(&comp)
@@ -860,7 +870,10 @@ impl ParamMachine {
             .get_mut(name)
             .ok_or_else(|| format!("no parameter {name}"))?;
         p.ptype.check(v)?;
-        if p.edit.as_ref().is_some_and(|e| e.state == EditState::Pending) {
+        if p.edit
+            .as_ref()
+            .is_some_and(|e| e.state == EditState::Pending)
+        {
             self.edits_pending -= 1;
         }
         p.edit = Some(Edit {
@@ -921,7 +934,8 @@ impl ParamMachine {
             target_system: self.key.0,
             target_component: comp,
             param_id: param_id(name),
-            param_type: MavParamType::from_u8(t.code()).unwrap_or(MavParamType::MAV_PARAM_TYPE_REAL32),
+            param_type: MavParamType::from_u8(t.code())
+                .unwrap_or(MavParamType::MAV_PARAM_TYPE_REAL32),
         })
     }
 
@@ -948,7 +962,9 @@ impl ParamMachine {
                     }
                 }
                 Phase::List(l) => {
-                    if l.last_new.is_none() && self.sets.get(&d.comp).is_none_or(|s| s.count.is_none()) {
+                    if l.last_new.is_none()
+                        && self.sets.get(&d.comp).is_none_or(|s| s.count.is_none())
+                    {
                         at(l.list_sent + (LIST_WAIT << (l.list_tries - 1).min(3)));
                     } else if !l.filling {
                         at(l.last_new.unwrap_or(l.list_sent) + gap(l.interval));
@@ -1033,8 +1049,8 @@ impl ParamMachine {
                 out.extend(self.on_ftp_out(now, o));
             }
             Phase::List(l) => {
-                let got_any = l.last_new.is_some()
-                    || self.sets.get(&comp).is_some_and(|s| s.count.is_some());
+                let got_any =
+                    l.last_new.is_some() || self.sets.get(&comp).is_some_and(|s| s.count.is_some());
                 if !got_any {
                     if now >= l.list_sent + (LIST_WAIT << (l.list_tries - 1).min(3)) {
                         if l.list_tries >= LIST_TRIES {
