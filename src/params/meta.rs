@@ -360,8 +360,9 @@ impl MetaSet {
             }
             s += match (c.flavor, hint) {
                 (Flavor::Any, _) => 0,
-                (Flavor::Heli, Variant::Helicopter) | (Flavor::Multi, _) => 1,
+                (Flavor::Heli, Variant::Helicopter) => 1,
                 (Flavor::Multi, Variant::Helicopter) | (Flavor::Heli, _) => -1,
+                (Flavor::Multi, _) => 1,
             };
             s
         };
