@@ -20,11 +20,11 @@
 //! # Git Revision: 1a2b3c4d
 //! #
 //! # Vehicle-Id Component-Id Name Value Type
-//! 1	1	ACRO_BAL_PITCH	1.000000000000000000	9
-//! 1	1	ANGLE_MAX	3000	4
+//! 1    1    ACRO_BAL_PITCH    1.000000000000000000    9
+//! 1    1    ANGLE_MAX    3000    4
 //! ```
 //!
-//! Data lines are tab-separated `vehicle-id component-id name value type`, `type` the
+//! Data lines (tabs shown above as spaces) are tab-separated `vehicle-id component-id name value type`, `type` the
 //! MAV_PARAM_TYPE code, in component order then name order (QMap keys). The value is
 //! `Fact::rawValueStringFullPrecision()`: reals as `QString::arg(v, 0, 'f', 18)` (the `float`
 //! widened to `double`, 18 decimals: 0.3 is `0.300000011920928955`), integers as
@@ -658,7 +658,7 @@ mod tests {
             saved("A_REAL", 0.1f32 as f64, Real32),
             saved("B_INT", -32768.0, Int16),
             saved("C_U32", 4294967295.0, Uint32),
-            saved("D_SMALL", 1.17549435e-38f32 as f64, Real32),
+            saved("D_SMALL", f32::MIN_POSITIVE as f64, Real32),
             saved("E_BIG", 3.4e38f32 as f64, Real32),
         ];
         for format in [Format::Parm, Format::Qgc] {

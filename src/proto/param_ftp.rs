@@ -236,7 +236,7 @@ impl FtpRead {
     }
 
     fn store(&mut self, offset: u32, data: &[u8]) {
-        if offset % BLOCK as u32 != 0 || offset >= MAX_FILE {
+        if !offset.is_multiple_of(BLOCK as u32) || offset >= MAX_FILE {
             return; // not a block we asked for
         }
         self.stats.bytes += data.len() as u64;
@@ -327,7 +327,7 @@ impl FtpRead {
                         .iter()
                         .next_back()
                         .map_or(0, |(o, b)| o + b.len() as u32);
-                    let end = if p.offset % BLOCK as u32 == 0 && p.offset >= at {
+                    let end = if p.offset.is_multiple_of(BLOCK as u32) && p.offset >= at {
                         p.offset
                     } else {
                         at
