@@ -111,6 +111,17 @@ fn the_list_after_the_download() {
     assert!(s.contains(&last) && s.contains("1354/1354"), "{s}");
     common::keys(&mut r, &["pageup", "home"]);
     assert_eq!(r.app.ui.params.sel, 0);
+    // The key help of this screen explains the marks.
+    common::keys(&mut r, &["?", "end"]);
+    let s = common::screen(&r, 80, 40);
+    assert!(
+        s.contains("marks: * changed since the download  ≠ differs"),
+        "{s}"
+    );
+    assert!(
+        s.contains("/                       filter parameters by name"),
+        "{s}"
+    );
 }
 
 #[test]

@@ -33,6 +33,12 @@ pub fn help_rows(app: &App) -> Vec<(String, &'static str)> {
         .collect()
 }
 
+/// The Parameters screen's marks, below its keys.
+const PARAM_MARKS: [&str; 2] = [
+    "marks: * changed since the download  ≠ differs from the loaded file",
+    "       … edit sent  ✓ confirmed by the vehicle  ✗ failed (why: in the detail pane)",
+];
+
 /// Widest key or command kept on one line with its description.
 const KEY_COLUMN_MAX: usize = 32;
 
@@ -84,6 +90,11 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         ])]
     };
     let mut lines: Vec<Line> = rows.iter().flat_map(|(k, d)| line(k, d)).collect();
+    if app.ui.screen == "parameters" {
+        for l in PARAM_MARKS {
+            lines.push(Line::styled(ellipsize(l, inner_w), theme.dim()));
+        }
+    }
     lines.push(Line::styled("commands (: opens the prompt)", theme.dim()));
     lines.extend(commands.iter().flat_map(|(k, d)| line(k, d)));
     let footer = Line::styled("any other key closes this help", theme.dim());

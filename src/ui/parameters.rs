@@ -384,7 +384,17 @@ fn detail(
             }
         }
     }
-    let description = meta.map_or(String::new(), |m| m.description.clone());
+    // A description that only repeats the human name is left out.
+    let description = meta.map_or(String::new(), |m| {
+        let same = m.human_name.as_deref().is_some_and(|h| {
+            h.trim().trim_end_matches('.') == m.description.trim().trim_end_matches('.')
+        });
+        if same {
+            String::new()
+        } else {
+            m.description.clone()
+        }
+    });
     let desc = wrap(&description, width);
     let choices = flow(choices, width);
     let desc_min = desc.len().min((remaining / 3).max(1));
