@@ -205,6 +205,14 @@ pub enum Action {
     CancelCommand,
     /// The command palette: any MAV_CMD, searched, its parameters filled in, previewed, sent.
     Palette,
+    /// Parameters screen: type a filter (names containing it; `ATC_` = names starting with it).
+    ParamFilter,
+    /// Parameters screen: edit the selected parameter's value in place.
+    ParamEdit,
+    /// Parameters screen: download the parameters again (`param fetch`).
+    ParamFetch,
+    /// Parameters screen: show only the parameters that differ from the loaded file.
+    ParamOnlyDiff,
 }
 
 impl Action {
@@ -320,6 +328,26 @@ impl Action {
             Action::Palette,
             "palette",
             "command palette: any MAV_CMD, with its parameters",
+        ),
+        (
+            Action::ParamFilter,
+            "param_filter",
+            "filter parameters by name (ATC_ = the ATC_ group; enter keeps, esc clears)",
+        ),
+        (
+            Action::ParamEdit,
+            "param_edit",
+            "edit the selected parameter (enter sends, esc cancels, tab value names)",
+        ),
+        (
+            Action::ParamFetch,
+            "param_fetch",
+            "download the parameters again (param fetch)",
+        ),
+        (
+            Action::ParamOnlyDiff,
+            "param_only_diff",
+            "show only parameters that differ from the loaded file (≠)",
         ),
     ];
 

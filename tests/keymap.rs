@@ -316,9 +316,18 @@ fn default_sections_and_keys() {
             assert_eq!(at(&key.to_string()), Some(Action::Screen(n)), "{screen}");
         }
     }
-    // Overview-only actions are free elsewhere.
-    for key in ["tab", "backtab", "enter", "space"] {
+    // Overview-only actions are free elsewhere; the parameters screen has its own.
+    for key in ["tab", "backtab", "space"] {
         assert_eq!(params(key), None, "{key}");
+    }
+    for (key, a) in [
+        ("/", Action::ParamFilter),
+        ("enter", Action::ParamEdit),
+        ("f", Action::ParamFetch),
+        ("d", Action::ParamOnlyDiff),
+    ] {
+        assert_eq!(params(key), Some(a), "{key}");
+        assert_ne!(ov(key), Some(a), "{key}");
     }
     assert_eq!(params("q"), Some(Action::Quit));
     // The text line.
@@ -444,6 +453,10 @@ fn keys_for_and_bindings_list_what_applies_in_file_order() {
         ("rtl", "R"),
         ("mode", "M"),
         ("palette", "ctrl-p"),
+        ("param_filter", "/"),
+        ("param_edit", "enter"),
+        ("param_fetch", "f"),
+        ("param_only_diff", "d"),
     ]);
     assert_eq!(
         names(km.bindings(Mode::Normal, "parameters")),

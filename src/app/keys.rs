@@ -29,6 +29,10 @@ impl App {
             self.on_palette_key(key, action, fx);
             return;
         }
+        if self.ui.params.editing.is_some() && self.ui.mode == Mode::Edit {
+            self.on_param_edit_key(key, action, fx);
+            return;
+        }
         match self.ui.mode {
             Mode::Normal => {
                 self.ui.message = None;
@@ -359,6 +363,10 @@ impl App {
             }
             Action::ModeMenu => self.open_prompt_with("mode ", true),
             Action::Palette => self.open_palette(),
+            Action::ParamFilter
+            | Action::ParamEdit
+            | Action::ParamFetch
+            | Action::ParamOnlyDiff => self.on_param_action(action, fx),
             // Far enough to clamp at either end of any list.
             Action::Top => self.move_selection(-(1 << 30)),
             Action::Bottom => self.move_selection(1 << 30),
@@ -384,6 +392,11 @@ impl App {
                 return 0;
             }
             (v as isize + step).clamp(0, len as isize - 1) as usize
+        }
+        if self.ui.screen == "parameters" {
+            let n = self.param_rows().len();
+            self.ui.params.sel = clamp(self.ui.params.sel, step, n);
+            return;
         }
         if self.ui.screen == "commands" {
             let n = self

@@ -332,7 +332,10 @@ impl App {
                     ),
                 },
                 SessionOut::SendOn(link, msg) => self.send(link, msg, fx),
-                SessionOut::Notice(sev, text) => self.notice(sev, Some(key), text),
+                SessionOut::Notice(sev, text) => {
+                    self.param_outcome(sev, &text);
+                    self.notice(sev, Some(key), text)
+                }
             }
         }
     }

@@ -11,6 +11,7 @@ use std::path::PathBuf;
 use super::flight::{Confirm, Confirmed};
 use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
 use super::{App, Effect};
+use crate::keymap::{Action, Key, KeyCode, Mode};
 use crate::params::file::{self, Format, Header, ParamFile, Saved};
 use crate::params::meta::{ParamMeta, Variant};
 use crate::params::value;
@@ -68,6 +69,33 @@ pub struct ParamView {
     pub editing: Option<ParamEdit>,
     /// Show only the parameters that differ from the loaded file.
     pub only_diff: bool,
+    /// The parameter last sent from the screen: its echo's outcome replaces the status message.
+    pub awaiting: Option<String>,
+}
+
+/// Whether `name` passes the Parameters screen's filter: a case-insensitive substring, except
+/// that a filter ending in `_` (`ATC_`) is a group prefix: the names starting with it.
+pub fn filter_matches(filter: &str, name: &str) -> bool {
+    if filter.is_empty() {
+        return true;
+    }
+    let (f, n) = (filter.to_ascii_uppercase(), name.to_ascii_uppercase());
+    if f.ends_with('_') {
+        n.starts_with(&f)
+    } else {
+        n.contains(&f)
+    }
+}
+
+/// The enumeration value after `current` (a value name or a number, matched case-insensitively)
+/// in `values`, round the end; the first when `current` is none of them.
+pub fn next_value_name<'a>(values: &'a [(f64, String)], current: &str) -> Option<&'a str> {
+    let t = current.trim();
+    let at = values.iter().position(|(c, n)| {
+        n.trim().eq_ignore_ascii_case(t) || t.parse::<f64>().is_ok_and(|v| v == *c)
+    });
+    let next = at.map_or(0, |i| (i + 1) % values.len());
+    values.get(next).map(|(_, n)| n.as_str())
 }
 
 /// Usage of `param`.
@@ -145,11 +173,11 @@ impl App {
         let Some(set) = self.param_set() else {
             return Vec::new();
         };
-        let f = self.ui.params.filter.to_ascii_uppercase();
+        let filter = self.ui.params.filter.trim();
         let loaded = self.param_file.as_ref();
         set.params
             .iter()
-            .filter(|(n, _)| f.is_empty() || n.to_ascii_uppercase().contains(&f))
+            .filter(|(n, _)| filter_matches(filter, n))
             .filter(|(n, p)| {
                 !self.ui.params.only_diff
                     || loaded
@@ -451,5 +479,177 @@ impl App {
             target: key,
             key: None,
         });
+    }
+}
+
+/// The Parameters screen's keys.
+impl App {
+    /// The name of the selected row (the selection clamped to the rows there are).
+    pub fn param_selected(&self) -> Option<String> {
+        let rows = self.param_rows();
+        let last = rows.len().checked_sub(1)?;
+        rows.into_iter().nth(self.ui.params.sel.min(last))
+    }
+
+    /// `param_filter`, `param_edit`, `param_fetch`, `param_only_diff` (normal mode).
+    pub(super) fn on_param_action(&mut self, action: Action, fx: &mut Vec<Effect>) {
+        let outcome: Result<Option<String>, String> = match action {
+            Action::ParamFilter => {
+                self.ui.edit.set(&self.ui.params.filter.clone());
+                self.ui.params.editing = Some(ParamEdit::Filter);
+                self.ui.mode = Mode::Edit;
+                Ok(None)
+            }
+            Action::ParamEdit => self.start_param_edit(),
+            Action::ParamFetch => self.run_param(ParamCmd::Fetch, fx),
+            Action::ParamOnlyDiff => match &self.param_file {
+                None if !self.ui.params.only_diff => Err(
+                    "no file loaded to compare with: `:param diff FILE` or `:param load FILE`"
+                        .into(),
+                ),
+                _ => {
+                    let keep = self.param_selected();
+                    self.ui.params.only_diff = !self.ui.params.only_diff;
+                    self.reselect(keep);
+                    Ok(Some(if self.ui.params.only_diff {
+                        match self.param_rows().len() {
+                            1 => "1 parameter differs from the file".to_string(),
+                            n => format!("{n} parameters differ from the file"),
+                        }
+                    } else {
+                        "showing every parameter".into()
+                    }))
+                }
+            },
+            _ => Ok(None),
+        };
+        self.ui.message = match outcome {
+            Ok(t) => t.map(|t| (SEV_INFO, t)),
+            Err(e) => Some((SEV_ERROR, e)),
+        };
+    }
+
+    /// Select `name` if it is among the rows, else keep the selection within them.
+    fn reselect(&mut self, name: Option<String>) {
+        let rows = self.param_rows();
+        self.ui.params.sel = name
+            .and_then(|n| rows.iter().position(|r| *r == n))
+            .unwrap_or(self.ui.params.sel)
+            .min(rows.len().saturating_sub(1));
+    }
+
+    /// Open the edit line on the selected parameter, holding its value.
+    fn start_param_edit(&mut self) -> Result<Option<String>, String> {
+        let (key, comp) = self.param_target()?;
+        let name = self
+            .param_selected()
+            .ok_or_else(|| format!("no parameters of {}:{comp} to edit", key.0))?;
+        let p = self
+            .param_set()
+            .and_then(|s| s.params.get(&name))
+            .ok_or("no such parameter")?;
+        if self.param_meta(&name).is_some_and(|m| m.read_only) {
+            return Err(format!("{name} is read-only"));
+        }
+        self.ui.edit.set(&p.text());
+        self.ui.params.editing = Some(ParamEdit::Value(comp, name));
+        self.ui.mode = Mode::Edit;
+        Ok(None)
+    }
+
+    /// A key while the filter or a value is typed on the Parameters screen.
+    pub(super) fn on_param_edit_key(
+        &mut self,
+        key: Key,
+        action: Option<Action>,
+        fx: &mut Vec<Effect>,
+    ) {
+        self.ui.message = None;
+        let Some(editing) = self.ui.params.editing.clone() else {
+            return;
+        };
+        let filter = editing == ParamEdit::Filter;
+        match action {
+            Some(Action::Submit) => {
+                self.ui.mode = Mode::Normal;
+                self.ui.params.editing = None;
+                if let ParamEdit::Value(comp, name) = editing {
+                    let text = std::mem::take(&mut self.ui.edit.text);
+                    self.ui.edit.cursor = 0;
+                    let outcome = match self.param_target() {
+                        Ok((key, _)) => self.set_param(key, comp, &name, &text, fx),
+                        Err(e) => Err(e),
+                    }
+                    .map_err(|e| match e.contains(&name) {
+                        true => e,
+                        false => format!("{name}: {e}"),
+                    });
+                    if outcome.is_ok() {
+                        self.ui.params.awaiting = Some(name);
+                    }
+                    self.ui.message = match outcome {
+                        Ok(t) => t.map(|t| (SEV_INFO, t)),
+                        Err(e) => Some((SEV_ERROR, e)),
+                    };
+                }
+                return;
+            }
+            Some(Action::Cancel) => {
+                self.ui.mode = Mode::Normal;
+                self.ui.params.editing = None;
+                if filter {
+                    // The parameter found stays selected in the whole list.
+                    let keep = self.param_selected();
+                    self.ui.params.filter.clear();
+                    self.reselect(keep);
+                } else {
+                    self.ui.message = Some((SEV_INFO, "edit cancelled: nothing sent".into()));
+                }
+                return;
+            }
+            // While filtering, up/down move through what the filter leaves.
+            Some(Action::HistoryPrev) if filter => self.move_param_sel(-1),
+            Some(Action::HistoryNext) if filter => self.move_param_sel(1),
+            Some(Action::Complete) => {
+                if let ParamEdit::Value(_, name) = &editing {
+                    let next = self
+                        .param_meta(name)
+                        .and_then(|m| next_value_name(&m.values, &self.ui.edit.text))
+                        .map(str::to_string);
+                    if let Some(n) = next {
+                        self.ui.edit.set(&n);
+                    }
+                }
+            }
+            Some(a) => {
+                self.ui.edit.edit(a);
+            }
+            None => {
+                if let (KeyCode::Char(c), false, false) = (key.code, key.ctrl, key.alt) {
+                    self.ui.edit.insert(c);
+                }
+            }
+        }
+        if filter && self.ui.params.filter != self.ui.edit.text {
+            self.ui.params.filter = self.ui.edit.text.clone();
+            self.ui.params.sel = 0;
+        }
+    }
+
+    /// A notice of the parameter machine: the outcome of the edit sent from the screen (`NAME =
+    /// V confirmed`, refused, unanswered) shows in the status bar.
+    pub(super) fn param_outcome(&mut self, sev: u8, text: &str) {
+        let Some(name) = &self.ui.params.awaiting else {
+            return;
+        };
+        if text.starts_with(&format!("{name} = ")) {
+            self.ui.message = Some((sev, text.to_string()));
+            self.ui.params.awaiting = None;
+        }
+    }
+
+    fn move_param_sel(&mut self, step: isize) {
+        let n = self.param_rows().len() as isize;
+        self.ui.params.sel = (self.ui.params.sel as isize + step).clamp(0, (n - 1).max(0)) as usize;
     }
 }

@@ -19,6 +19,10 @@ pub const SCREENS: &[Screen] = &[
         title: "Overview",
     },
     Screen {
+        name: "parameters",
+        title: "Parameters",
+    },
+    Screen {
         name: "commands",
         title: "Commands",
     },

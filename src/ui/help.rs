@@ -33,16 +33,28 @@ pub fn help_rows(app: &App) -> Vec<(String, &'static str)> {
         .collect()
 }
 
+/// The Parameters screen's marks, below its keys.
+const PARAM_MARKS: [&str; 2] = [
+    "marks: * changed since the download  ≠ differs from the loaded file",
+    "       … edit sent  ✓ confirmed by the vehicle  ✗ failed (why: in the detail pane)",
+];
+
+/// Widest key or command kept on one line with its description.
+const KEY_COLUMN_MAX: usize = 32;
+
 pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let rows = help_rows(app);
     let commands: Vec<(String, &str)> = COMMANDS
         .iter()
         .map(|(name, args, what)| (format!(":{name} {args}").trim_end().to_string(), *what))
         .collect();
+    // A key column as wide as the keys and most commands; a longer command (`:param ...`) has
+    // its description on the line below.
     let key_w = rows
         .iter()
         .chain(&commands)
         .map(|r| r.0.chars().count())
+        .filter(|n| *n <= KEY_COLUMN_MAX)
         .max()
         .unwrap_or(0);
     let desc_w = rows
@@ -51,20 +63,40 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         .map(|r| r.1.chars().count())
         .max()
         .unwrap_or(0);
-    let want_w = (key_w + desc_w + 2 + 2) as u16; // gap + borders
+    let long_w = rows
+        .iter()
+        .chain(&commands)
+        .map(|r| r.0.chars().count())
+        .max()
+        .unwrap_or(0);
+    let want_w = (key_w + desc_w + 2).max(long_w) as u16 + 2; // gap, borders
     let w = want_w.min(area.width);
     let inner_w = (w as usize).saturating_sub(2);
     let line = |keys: &str, desc: &str| {
         let desc_room = inner_w.saturating_sub(key_w + 2);
-        Line::from(vec![
+        if keys.chars().count() > key_w {
+            return vec![
+                Line::styled(ellipsize(keys, inner_w), theme.header()),
+                Line::from(vec![
+                    Span::raw(" ".repeat(key_w + 2)),
+                    Span::raw(ellipsize(desc, desc_room)),
+                ]),
+            ];
+        }
+        vec![Line::from(vec![
             Span::styled(format!("{keys:<key_w$}"), theme.header()),
             Span::raw("  "),
             Span::raw(ellipsize(desc, desc_room)),
-        ])
+        ])]
     };
-    let mut lines: Vec<Line> = rows.iter().map(|(k, d)| line(k, d)).collect();
+    let mut lines: Vec<Line> = rows.iter().flat_map(|(k, d)| line(k, d)).collect();
+    if app.ui.screen == "parameters" {
+        for l in PARAM_MARKS {
+            lines.push(Line::styled(ellipsize(l, inner_w), theme.dim()));
+        }
+    }
     lines.push(Line::styled("commands (: opens the prompt)", theme.dim()));
-    lines.extend(commands.iter().map(|(k, d)| line(k, d)));
+    lines.extend(commands.iter().flat_map(|(k, d)| line(k, d)));
     let footer = Line::styled("any other key closes this help", theme.dim());
     let h = (lines.len() as u16 + 3).min(area.height);
     let body_rows = (h as usize).saturating_sub(3);

@@ -15,6 +15,7 @@ pub mod links;
 pub mod messages;
 pub mod overview;
 pub mod palette;
+pub mod parameters;
 pub mod screens;
 pub mod status;
 pub mod theme;

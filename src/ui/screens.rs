@@ -4,7 +4,7 @@
 use ratatui::layout::Rect;
 use ratatui::Frame;
 
-use super::{commands, overview, Theme};
+use super::{commands, overview, parameters, Theme};
 use crate::app::App;
 
 /// Draws a screen into the area above the status bar.
@@ -13,6 +13,7 @@ pub type RenderFn = fn(&App, &mut Frame, Rect, &Theme);
 /// (screen name, renderer).
 pub const REGISTRY: &[(&str, RenderFn)] = &[
     ("overview", overview::render),
+    ("parameters", parameters::render),
     ("commands", commands::render),
 ];
 

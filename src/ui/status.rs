@@ -8,6 +8,7 @@ use ratatui::Frame;
 
 use super::{ellipsize, Theme};
 use crate::app::input::TextLine;
+use crate::app::params::ParamEdit;
 use crate::app::App;
 use crate::keymap::{Action, Mode};
 
@@ -16,6 +17,9 @@ use crate::keymap::{Action, Mode};
 const HINTS: &[(Action, &str)] = &[
     (Action::Quit, "quit"),
     (Action::Help, "help"),
+    (Action::ParamFilter, "filter"),
+    (Action::ParamEdit, "edit"),
+    (Action::ParamFetch, "fetch"),
     (Action::FocusNext, "focus"),
     (Action::NextVehicle, "target"),
     (Action::ToggleExpand, "expand"),
@@ -39,13 +43,14 @@ pub fn target_text(app: &App) -> String {
     }
 }
 
-/// `q quit  ? help  tab focus ...` from the keymap in use, as many as fit in `width`.
+/// `q quit  ? help  tab focus ...` from the keymap in use on the screen shown, as many as fit
+/// in `width`.
 pub fn hints_text(app: &App, width: usize) -> String {
     let mut out = String::new();
     for (a, word) in HINTS {
         let Some(k) = app
             .keymap
-            .keys_for(Mode::Normal, "overview", *a)
+            .keys_for(Mode::Normal, app.ui.screen, *a)
             .into_iter()
             .next()
         else {
@@ -71,7 +76,30 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         }
         // The palette shows what is typed in its popup.
         Mode::Edit if app.ui.palette.is_none() => {
-            return text_line(frame, area, "= ", &app.ui.edit, None, theme)
+            return match &app.ui.params.editing {
+                Some(ParamEdit::Filter) => {
+                    let hint = edit_hint(
+                        app,
+                        &[(Action::Submit, "keeps"), (Action::Cancel, "clears")],
+                    );
+                    text_line(frame, area, "/", &app.ui.edit, Some(&hint), theme)
+                }
+                // Typed in its row on the Parameters screen: here, what the keys do.
+                Some(ParamEdit::Value(_, name)) => {
+                    let mut keys = vec![(Action::Submit, "sends"), (Action::Cancel, "cancels")];
+                    if app.param_meta(name).is_some_and(|m| !m.values.is_empty()) {
+                        keys.push((Action::Complete, "next value name"));
+                    }
+                    let was = app
+                        .param_set()
+                        .and_then(|s| s.params.get(name))
+                        .map_or(String::new(), |p| format!(" (now {})", p.text()));
+                    let text = format!("editing {name}{was}: {}", edit_hint(app, &keys));
+                    let line = Line::styled(ellipsize(&text, area.width as usize), theme.header());
+                    frame.render_widget(Paragraph::new(line), area);
+                }
+                None => text_line(frame, area, "= ", &app.ui.edit, None, theme),
+            };
         }
         _ => {}
     }
@@ -82,9 +110,28 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         Some(_) => theme.good(),
         None => theme.dim(),
     };
-    let target = target_text(app);
-    let used = clock.len() + 2 + target.chars().count() + 4;
-    let room = (area.width as usize).saturating_sub(used);
+    // A parameter download of the target shows on every screen.
+    let progress = app
+        .target
+        .and_then(|k| app.sessions.get(&k))
+        .and_then(|s| s.params.downloading())
+        .map(|(_, got, count, _)| {
+            let of = count.map_or("?".into(), |c| c.to_string());
+            format!("  params {got}/{of}")
+        })
+        .unwrap_or_default();
+    let mut target = target_text(app) + &progress;
+    let room_for = |target: &str| {
+        (area.width as usize).saturating_sub(clock.len() + 2 + target.chars().count() + 4)
+    };
+    let mut room = room_for(&target);
+    // A message that does not fit gets the room of the target's mode and state.
+    if let (Some((_, text)), Some(key)) = (&app.ui.message, app.target) {
+        if text.chars().count() > room {
+            target = format!("{}:{}{progress}", key.0, key.1);
+            room = room_for(&target);
+        }
+    }
     // The last command's outcome stands where the hints are, until the next key.
     let tail = match &app.ui.message {
         Some((sev, text)) => Span::styled(ellipsize(text, room), theme.severity(*sev)),
@@ -101,6 +148,22 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         tail,
     ]);
     frame.render_widget(Paragraph::new(line), area);
+}
+
+/// `enter sends  esc cancels` from the `[edit]` keys in use.
+fn edit_hint(app: &App, actions: &[(Action, &str)]) -> String {
+    actions
+        .iter()
+        .filter_map(|(a, word)| {
+            let k = app
+                .keymap
+                .keys_for(Mode::Edit, app.ui.screen, *a)
+                .into_iter()
+                .next()?;
+            Some(format!("{k} {word}"))
+        })
+        .collect::<Vec<_>>()
+        .join("  ")
 }
 
 /// `PREFIX text` with the cursor placed in it; the start scrolls out of view on a long line.
