@@ -18,7 +18,8 @@ use mavterm::sim::Sim;
 const SECOND: u64 = 1_000_000;
 
 fn meta() -> Arc<MetaSet> {
-    let xml = std::fs::read_to_string(common::test_path("data/params/screen.apm.pdef.xml")).unwrap();
+    let xml =
+        std::fs::read_to_string(common::test_path("data/params/screen.apm.pdef.xml")).unwrap();
     Arc::new(MetaSet::parse(&xml).unwrap())
 }
 

@@ -238,7 +238,7 @@ impl FtpRead {
     }
 
     fn store(&mut self, offset: u32, data: &[u8]) {
-        if offset % BLOCK as u32 != 0 || offset >= MAX_FILE {
+        if !offset.is_multiple_of(BLOCK as u32) || offset >= MAX_FILE {
             return; // not a block we asked for
         }
         self.stats.bytes += data.len() as u64;
