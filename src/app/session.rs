@@ -138,6 +138,13 @@ impl Session {
             }
             _ => {}
         }
+        // The COMMAND_ACK of our AUTOPILOT_VERSION request: a first round trip.
+        if let Some(a) = ack.filter(|a| {
+            from == self.key.1 && a.command == crate::dialect::MavCmd::MAV_CMD_REQUEST_MESSAGE as u16
+        }) {
+            let _ = a;
+            self.params.on_version_answer(now);
+        }
         if from != self.key.1 {
             // Another component of this system (a camera, a gimbal): the answers to commands
             // sent to it through this session's queue.

@@ -137,6 +137,19 @@ impl FtpRead {
         (got, self.end.or(self.announced))
     }
 
+    /// A round trip measured by other traffic to the vehicle: used until one of ours is, and an
+    /// open waiting on the blind first timeout is retried after it instead.
+    pub fn rtt_hint(&mut self, rtt: Micros) {
+        if self.srtt.is_some() {
+            return;
+        }
+        self.srtt = Some((rtt, rtt / 2));
+        if self.phase == Phase::Opening {
+            let at = self.pending_since + self.rto();
+            self.deadline = Some(self.deadline.map_or(at, |d| d.min(at)));
+        }
+    }
+
     /// How many times to try opening the file.
     pub fn set_open_tries(&mut self, n: u32) {
         self.max_open_tries = n;
@@ -410,11 +423,15 @@ impl FtpRead {
             }
             self.reads.insert(o, (now, tries));
             out.push(self.packet(op::READ_FILE, BLOCK as u8, o, Vec::new()));
+            if tries > 1 {
+                // Asked again: asked twice, so that one more loss does not cost a timeout.
+                out.push(self.packet(op::READ_FILE, BLOCK as u8, o, Vec::new()));
+            }
         }
         self.deadline = self
             .reads
             .values()
-            .map(|(t, n)| t + (self.rto() << (n - 1).min(3)))
+            .map(|(t, n)| t + backoff(self.rto(), *n))
             .min();
         out
     }
@@ -465,7 +482,7 @@ impl FtpRead {
                 let due: Vec<u32> = self
                     .reads
                     .iter()
-                    .filter(|(_, (t, n))| now >= t + (rto << (n - 1).min(3)))
+                    .filter(|(_, (t, n))| now >= t + backoff(rto, *n))
                     .map(|(o, _)| *o)
                     .collect();
                 for o in due {
@@ -476,6 +493,13 @@ impl FtpRead {
             Phase::Finished => Vec::new(),
         }
     }
+}
+
+/// The wait for the `tries`-th read of a block: the timeout twice, then doubling (loss on a
+/// link is mostly chance, so the first retry does not wait longer; a congested one is still
+/// backed off).
+fn backoff(rto: Micros, tries: u32) -> Micros {
+    rto << tries.saturating_sub(2).min(3)
 }
 
 pub fn nak_name(code: u8) -> &'static str {

@@ -373,6 +373,8 @@ pub struct ParamMachine {
     /// REQUEST_MESSAGE(AUTOPILOT_VERSION) sent, and when to ask again if it does not come.
     version_asked: u32,
     version_retry: Option<Micros>,
+    /// When the first request for AUTOPILOT_VERSION went, for a first round trip.
+    version_sent: Option<Micros>,
     /// Smoothed round trip of reads and edits (RFC 6298).
     srtt: Option<(Micros, Micros)>,
     /// Pending edit deadlines come from `Edit::sent_at`.
@@ -409,6 +411,7 @@ impl ParamMachine {
             auto: auto_fetch,
             version_asked: 0,
             version_retry: None,
+            version_sent: None,
             srtt: None,
             edits_pending: 0,
         }
@@ -474,6 +477,7 @@ impl ParamMachine {
         if self.version_asked == 0 {
             self.version_asked = 1;
             self.version_retry = Some(now + SECOND);
+            self.version_sent = Some(now);
             out.push(ParamOut::Send(request_autopilot_version(self.key)));
         }
         let mut stats = DownloadStats {
@@ -614,7 +618,31 @@ impl ParamMachine {
     }
 
     /// AUTOPILOT_VERSION's capability bits (the first 8 bytes of its payload).
+    /// An answer to our first AUTOPILOT_VERSION request (its COMMAND_ACK or the message) came:
+    /// the first round trip, before any parameter traffic was answered. MAVFTP's open is retried
+    /// after a few of them rather than after a blind second.
+    pub fn on_version_answer(&mut self, now: Micros) {
+        let Some(sent) = self.version_sent.take() else {
+            return;
+        };
+        if self.version_asked != 1 {
+            return; // asked again: which request this answers is unknown (Karn)
+        }
+        let rtt = now.saturating_sub(sent);
+        if self.srtt.is_none() {
+            self.sample_rtt(rtt);
+        }
+        if let Some(Download {
+            phase: Phase::Ftp(f),
+            ..
+        }) = self.download.as_mut()
+        {
+            f.rtt_hint(rtt);
+        }
+    }
+
     pub fn on_autopilot_version(&mut self, now: Micros, caps: u64) -> Vec<ParamOut> {
+        self.on_version_answer(now);
         let enc = if caps & CAP_PARAM_ENCODE_C_CAST != 0 {
             Some(Encoding::CCast)
         } else if caps & CAP_PARAM_ENCODE_BYTEWISE != 0 {
