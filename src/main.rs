@@ -175,6 +175,7 @@ fn params_out(
             eprintln!("wrote {}", out.display());
             Ok(())
         }
+        (Progress::Ended { count: 0, .. }, _) => bail!("no parameter came from the vehicle"),
         (Progress::Ended { missing, count, .. }, text) => {
             if let Some(text) = text {
                 let partial = out.with_extension("partial");

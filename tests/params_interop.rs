@@ -230,3 +230,31 @@ fn param_set_never_answered_fails_after_three_resends() {
     assert_eq!(e["state"], "failed", "{e}");
     assert_eq!(sets["AP_I16_001"], 4);
 }
+
+#[test]
+fn params_out_exits_non_zero_with_the_missing_count() {
+    // Every PARAM_VALUE lost: the set never completes, and the exit says so.
+    let dir = tempfile::tempdir().unwrap();
+    let port = common::free_tcp_port();
+    let _v = fake(port, dir.path(), &["--caps", "8192", "--loss", "1.0"]);
+    let out = dir.path().join("got.parm");
+    let run = Command::new(common::mavterm())
+        .args([
+            "--link",
+            &format!("tcp:127.0.0.1:{port}"),
+            "--headless",
+            "--duration",
+            "15",
+        ])
+        .arg("--params-out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success(), "{stderr}");
+    assert!(!out.exists());
+    assert!(
+        stderr.contains("no answer") || stderr.contains("missing"),
+        "{stderr}"
+    );
+}

@@ -140,7 +140,8 @@ impl Session {
         }
         // The COMMAND_ACK of our AUTOPILOT_VERSION request: a first round trip.
         if let Some(a) = ack.filter(|a| {
-            from == self.key.1 && a.command == crate::dialect::MavCmd::MAV_CMD_REQUEST_MESSAGE as u16
+            from == self.key.1
+                && a.command == crate::dialect::MavCmd::MAV_CMD_REQUEST_MESSAGE as u16
         }) {
             let _ = a;
             self.params.on_version_answer(now);

@@ -92,6 +92,12 @@ impl Progress {
                     .as_ref()
                     .map(|f| format!(", MAVFTP left: {f}"))
                     .unwrap_or_default();
+                if *count == 0 {
+                    return format!(
+                        "no parameter came in {secs:.2} s by {} ({requests} requests, {retries} retries{fb})",
+                        method.name()
+                    );
+                }
                 format!(
                     "parameters {}/{count} in {secs:.2} s by {} ({requests} requests, {retries} retries{fb})",
                     count.saturating_sub(*missing),
