@@ -46,6 +46,10 @@ pub struct AppConfig {
     pub request_streams: bool,
     /// Download an autopilot's parameters when first heard.
     pub fetch_params: bool,
+    /// Telemetry rates to ask autopilots for (config file `[streams]`).
+    pub streams: crate::proto::rates::StreamRates,
+    /// Default take-off altitude in metres above home (`takeoff` without a number, `T`).
+    pub takeoff_alt: f64,
     /// Parameter metadata (`--param-meta`), shared read-only.
     pub param_meta: Option<std::sync::Arc<crate::params::meta::MetaSet>>,
 }
@@ -60,6 +64,8 @@ impl Default for AppConfig {
             epoch: DateTime::<Utc>::UNIX_EPOCH,
             request_streams: true,
             fetch_params: true,
+            streams: crate::proto::rates::StreamRates::default(),
+            takeoff_alt: 10.0,
             param_meta: None,
         }
     }

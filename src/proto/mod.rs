@@ -8,6 +8,7 @@ pub mod mav_cmds;
 pub mod modes;
 pub mod param_ftp;
 pub mod params;
+pub mod rates;
 pub mod sequence;
 pub mod statustext;
 pub mod streams;
