@@ -9,6 +9,7 @@ pub mod modes;
 pub mod param_ftp;
 pub mod params;
 pub mod rates;
+pub mod rtt;
 pub mod sequence;
 pub mod statustext;
 pub mod streams;

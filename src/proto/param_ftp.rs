@@ -96,7 +96,7 @@ pub struct FtpRead {
     pending_since: Micros,
     last_rx: Micros,
     /// Smoothed round trip and its variation (RFC 6298), once measured.
-    srtt: Option<(Micros, Micros)>,
+    rtt: crate::proto::rtt::Rtt,
     /// Smoothed time between burst packets.
     interval: Option<Micros>,
     deadline: Option<Micros>,
@@ -121,7 +121,7 @@ impl FtpRead {
             max_open_tries: OPEN_TRIES,
             pending_since: now,
             last_rx: now,
-            srtt: None,
+            rtt: Default::default(),
             interval: None,
             deadline: None,
             bursts: 0,
@@ -140,10 +140,10 @@ impl FtpRead {
     /// A round trip measured by other traffic to the vehicle: used until one of ours is, and an
     /// open waiting on the blind first timeout is retried after it instead.
     pub fn rtt_hint(&mut self, rtt: Micros) {
-        if self.srtt.is_some() {
+        if self.rtt.is_measured() {
             return;
         }
-        self.srtt = Some((rtt, rtt / 2));
+        self.rtt.sample(rtt);
         if self.phase == Phase::Opening {
             let at = self.pending_since + self.rto();
             self.deadline = Some(self.deadline.map_or(at, |d| d.min(at)));
@@ -170,20 +170,11 @@ impl FtpRead {
 
     /// The round-trip timeout.
     fn rto(&self) -> Micros {
-        match self.srtt {
-            None => INITIAL_RTO,
-            Some((s, v)) => (s + 4 * v).clamp(MIN_RTO, MAX_RTO),
-        }
+        self.rtt.rto(INITIAL_RTO, MIN_RTO, MAX_RTO)
     }
 
     fn sample_rtt(&mut self, rtt: Micros) {
-        self.srtt = Some(match self.srtt {
-            None => (rtt, rtt / 2),
-            Some((s, v)) => {
-                let d = s.abs_diff(rtt);
-                ((7 * s + rtt) / 8, (3 * v + d) / 4)
-            }
-        });
+        self.rtt.sample(rtt);
     }
 
     fn packet(&mut self, opcode: u8, size: u8, offset: u32, data: Vec<u8>) -> FtpOut {

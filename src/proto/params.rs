@@ -376,7 +376,7 @@ pub struct ParamMachine {
     /// When the first request for AUTOPILOT_VERSION went, for a first round trip.
     version_sent: Option<Micros>,
     /// Smoothed round trip of reads and edits (RFC 6298).
-    srtt: Option<(Micros, Micros)>,
+    rtt: crate::proto::rtt::Rtt,
     /// Pending edit deadlines come from `Edit::sent_at`.
     edits_pending: usize,
 }
@@ -412,7 +412,7 @@ impl ParamMachine {
             version_asked: 0,
             version_retry: None,
             version_sent: None,
-            srtt: None,
+            rtt: Default::default(),
             edits_pending: 0,
         }
     }
@@ -457,17 +457,11 @@ impl ParamMachine {
     }
 
     fn rto(&self) -> Micros {
-        match self.srtt {
-            None => INITIAL_RTO,
-            Some((s, v)) => (s + 4 * v).clamp(MIN_RTO, MAX_RTO),
-        }
+        self.rtt.rto(INITIAL_RTO, MIN_RTO, MAX_RTO)
     }
 
     fn sample_rtt(&mut self, rtt: Micros) {
-        self.srtt = Some(match self.srtt {
-            None => (rtt, rtt / 2),
-            Some((s, v)) => ((7 * s + rtt) / 8, (3 * v + s.abs_diff(rtt)) / 4),
-        });
+        self.rtt.sample(rtt);
     }
 
     /// Start (or start over) downloading component `comp`'s parameters.
@@ -629,7 +623,7 @@ impl ParamMachine {
             return; // asked again: which request this answers is unknown (Karn)
         }
         let rtt = now.saturating_sub(sent);
-        if self.srtt.is_none() {
+        if !self.rtt.is_measured() {
             self.sample_rtt(rtt);
         }
         if let Some(Download {
