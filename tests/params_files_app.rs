@@ -164,3 +164,54 @@ fn a_missing_file_is_an_error_not_a_crash() {
         .iter()
         .any(|n| n.text.starts_with("could not read /nonexistent/dir/x.parm")));
 }
+
+#[test]
+fn param_comp_switches_the_component_and_fetch_asks_it_by_the_list() {
+    use mavterm::app::{App, Effect, Event};
+    use mavterm::dialect::MavMessage;
+    use mavterm::keymap::Key;
+    let mut a = App::new(AppConfig {
+        links: vec!["test".into()],
+        request_streams: false,
+        fetch_params: false,
+        ..AppConfig::default()
+    });
+    let frames =
+        mavterm::wire::parser::FrameParser::new().parse_all(&common::copter_heartbeat(1, 0, 0));
+    a.update(
+        0,
+        Event::Frames {
+            link: 0,
+            frames,
+            stats: Default::default(),
+        },
+    );
+    let mut fx: Vec<Effect> = Vec::new();
+    for line in ["param comp 154", "param fetch"] {
+        fx.extend(a.update(1, Event::Key(Key::ch(':'))));
+        for c in line.chars() {
+            fx.extend(a.update(1, Event::Key(Key::ch(c))));
+        }
+        fx.extend(a.update(1, Event::Key("enter".parse().unwrap())));
+    }
+    let lists: Vec<(u8, u8)> = fx
+        .iter()
+        .filter_map(|e| match e {
+            Effect::Send {
+                msg: MavMessage::PARAM_REQUEST_LIST(m),
+                ..
+            } => Some((m.target_system, m.target_component)),
+            _ => None,
+        })
+        .collect();
+    // A camera (154) serves no param.pck: the parameter protocol, to it.
+    assert_eq!(lists, vec![(1, 154)]);
+    assert!(!fx.iter().any(|e| matches!(
+        e,
+        Effect::Send {
+            msg: MavMessage::FILE_TRANSFER_PROTOCOL(_),
+            ..
+        }
+    )));
+    assert_eq!(a.ui.params.comp, Some(154));
+}

@@ -22,6 +22,8 @@ use crate::proto::vehicles::VehicleKey;
 #[derive(Debug, Clone, PartialEq)]
 pub enum ParamCmd {
     Fetch,
+    /// Work on this component of the target's system (`None`: its autopilot).
+    Component(Option<u8>),
     Set(String, String),
     Save(String),
     Load(String),
@@ -99,8 +101,7 @@ pub fn next_value_name<'a>(values: &'a [(f64, String)], current: &str) -> Option
 }
 
 /// Usage of `param`.
-pub const USAGE: &str =
-    "usage: param fetch | param set NAME VALUE | param save FILE | param load FILE | param diff FILE";
+pub const USAGE: &str = "usage: param fetch | param set NAME VALUE | param save FILE | param load FILE | param diff FILE | param comp COMPID";
 
 /// Parse the words after `param`.
 pub fn parse(rest: &str) -> Result<ParamCmd, String> {
@@ -116,6 +117,14 @@ pub fn parse(rest: &str) -> Result<ParamCmd, String> {
     };
     match sub {
         "fetch" if arg.is_empty() => Ok(ParamCmd::Fetch),
+        "comp" if arg.is_empty() || arg == "auto" => Ok(ParamCmd::Component(None)),
+        "comp" => arg
+            .parse::<u8>()
+            .map(|c| ParamCmd::Component(Some(c)))
+            .map_err(|_| {
+                "usage: param comp COMPID (a component of the target's system), or param comp auto"
+                    .into()
+            }),
         "set" => {
             let mut w = arg.split_whitespace();
             match (w.next(), w.next(), w.next()) {
@@ -195,6 +204,20 @@ impl App {
     ) -> Result<Option<String>, String> {
         let (key, comp) = self.param_target()?;
         match cmd {
+            ParamCmd::Component(c) => {
+                self.ui.params.comp = c.filter(|c| *c != key.1);
+                self.ui.params.sel = 0;
+                let c = c.unwrap_or(key.1);
+                let have = self.sessions[&key].params.sets.contains_key(&c);
+                Ok(Some(if have {
+                    format!("parameters of {}:{c}", key.0)
+                } else {
+                    format!(
+                        "parameters of {}:{c}: none yet (param fetch asks for them)",
+                        key.0
+                    )
+                }))
+            }
             ParamCmd::Fetch => {
                 let now = self.now;
                 let s = self.sessions.get_mut(&key).ok_or("no session")?;
