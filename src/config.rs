@@ -106,10 +106,11 @@ pub fn seconds_to_micros(s: f64) -> Micros {
 /// Why a config file was refused. Every message names the file.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
-    #[error("config {path}: {source}")]
+    /// The file could not be read (a `--config FILE` that is not there, too).
+    #[error("config {path}: {error}")]
     Io {
         path: PathBuf,
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// Not valid TOML, or unknown keys or bad values: every problem found, in file order.
     #[error("{0}")]
@@ -152,9 +153,9 @@ pub fn load_user(explicit: Option<&Path>) -> Result<FileConfig, ConfigError> {
 
 /// Read and check the config file at `path`.
 pub fn read(path: &Path) -> Result<FileConfig, ConfigError> {
-    let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+    let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Io {
         path: path.to_path_buf(),
-        source,
+        error,
     })?;
     load(path, &text)
 }
