@@ -4,6 +4,8 @@ use std::path::PathBuf;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
+use crate::app::AppConfig;
+use crate::config::{seconds_to_micros, FileConfig};
 use crate::link::LinkSpec;
 
 /// A terminal ground-control station for MAVLink vehicles.
@@ -13,24 +15,31 @@ pub struct Cli {
     #[command(subcommand)]
     pub command: Option<Command>,
 
-    /// A link to open (repeatable). Default: `sim://`, the embedded simulated vehicle.
+    /// Settings file (default: `config.toml` in mavterm's config directory,
+    /// ~/.config/mavterm/, when there is one). Flags given here win over it.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+
+    /// A link to open (repeatable). Default: the config file's `links`, else `sim://`, the
+    /// embedded simulated vehicle.
     /// Forms: udpin:ADDR:PORT, udpout:HOST:PORT, tcp:HOST:PORT, tcpin:ADDR:PORT,
     /// serial:PATH[:BAUD], PATH,BAUD, udp://[HOST]:PORT, udpout://HOST:PORT, tcp://HOST:PORT,
     /// serial://PATH[:BAUD], sim://[?options], tlog:PATH.
     #[arg(long = "link", value_name = "SPEC", value_parser = parse_spec)]
     pub links: Vec<LinkSpec>,
 
-    /// Our MAVLink system id.
-    #[arg(long, default_value_t = 255)]
-    pub sysid: u8,
+    /// Our MAVLink system id [default: the config file's `sysid`, else 255].
+    #[arg(long, value_parser = clap::value_parser!(u8).range(1..))]
+    pub sysid: Option<u8>,
 
-    /// Our MAVLink component id.
-    #[arg(long, default_value_t = 190)]
-    pub compid: u8,
+    /// Our MAVLink component id [default: the config file's `compid`, else 190].
+    #[arg(long, value_parser = clap::value_parser!(u8).range(1..))]
+    pub compid: Option<u8>,
 
-    /// Seconds without a heartbeat before a vehicle is shown lost.
-    #[arg(long, default_value_t = 5.0, value_name = "SECONDS", value_parser = parse_duration)]
-    pub lost_timeout: f64,
+    /// Seconds without a heartbeat before a vehicle is shown lost [default: the config file's
+    /// `lost_timeout`, else 5].
+    #[arg(long, value_name = "SECONDS", value_parser = parse_duration)]
+    pub lost_timeout: Option<f64>,
 
     /// Run without a terminal.
     #[arg(long)]
@@ -98,6 +107,39 @@ pub enum Command {
         #[arg(long, default_value = "")]
         options: String,
     },
+}
+
+impl Cli {
+    /// The core's settings: each flag given explicitly, else the config `file`'s value, else the
+    /// built-in default. (`param_meta` is left for the caller to load.)
+    pub fn app_config(&self, file: &FileConfig) -> AppConfig {
+        let mut cfg = AppConfig::default();
+        file.apply(&mut cfg);
+        if let Some(v) = self.sysid {
+            cfg.sysid = v;
+        }
+        if let Some(v) = self.compid {
+            cfg.compid = v;
+        }
+        if let Some(s) = self.lost_timeout {
+            cfg.lost_timeout = seconds_to_micros(s.max(0.1));
+        }
+        cfg
+    }
+
+    /// The links to open: `--link`s if any, else the config file's `links` if any, else
+    /// `sim://`.
+    pub fn links(&self, file: &FileConfig) -> Vec<LinkSpec> {
+        if !self.links.is_empty() {
+            return self.links.clone();
+        }
+        match &file.links {
+            Some(links) if !links.is_empty() => links.clone(),
+            _ => vec![LinkSpec::Sim {
+                query: String::new(),
+            }],
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]

@@ -538,21 +538,21 @@ impl fmt::Display for InvalidKeymap {
 }
 
 /// Byte offsets to line and column, in O(log lines) each after one pass over the text.
-struct LineIndex<'a> {
+pub(crate) struct LineIndex<'a> {
     text: &'a str,
     /// Byte offset where each line starts.
     starts: Vec<usize>,
 }
 
 impl<'a> LineIndex<'a> {
-    fn new(text: &'a str) -> Self {
+    pub(crate) fn new(text: &'a str) -> Self {
         let mut starts = vec![0];
         starts.extend(text.match_indices('\n').map(|(i, _)| i + 1));
         LineIndex { text, starts }
     }
 
     /// 1-based line and column (in characters) of byte `offset`.
-    fn line_col(&self, offset: usize) -> (usize, usize) {
+    pub(crate) fn line_col(&self, offset: usize) -> (usize, usize) {
         let offset = offset.min(self.text.len());
         let line = self.starts.partition_point(|&s| s <= offset); // >= 1: starts[0] == 0
         let start = self.starts[line - 1];
@@ -891,8 +891,8 @@ impl Keymap {
     }
 
     /// The keymap to run with: `explicit` (`--keymap FILE`, must exist) or else the user's
-    /// `$XDG_CONFIG_HOME/mavterm/keymap.toml` / `~/.config/mavterm/keymap.toml` if present,
-    /// layered on the default.
+    /// `keymap.toml` in mavterm's config directory ([`crate::config::dir`]) if present, layered
+    /// on the default.
     pub fn load_user(explicit: Option<&Path>) -> Result<Keymap, KeymapError> {
         if let Some(p) = explicit {
             return Keymap::load(p);
@@ -903,13 +903,10 @@ impl Keymap {
         }
     }
 
-    /// Where the user's keymap lives by default.
+    /// Where the user's keymap lives by default: `~/.config/mavterm/keymap.toml` (or under
+    /// `$XDG_CONFIG_HOME`).
     pub fn user_path() -> Option<PathBuf> {
-        let base = std::env::var_os("XDG_CONFIG_HOME")
-            .filter(|v| !v.is_empty())
-            .map(PathBuf::from)
-            .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".config")))?;
-        Some(base.join("mavterm").join("keymap.toml"))
+        Some(crate::config::dir()?.join("keymap.toml"))
     }
 
     /// `self` with `over` on top, section by section: each action `over` lists in a section

@@ -8,6 +8,7 @@ use clap::Parser;
 use mavterm::app::AppConfig;
 use mavterm::cli::{Cli, Command, ReportFormat};
 use mavterm::clock::SECOND;
+use mavterm::config::FileConfig;
 use mavterm::driver::real_time::{RealTime, RealTimeRunner};
 use mavterm::driver::virtual_time::{all_virtual, Driver, VirtualRunner};
 use mavterm::headless::replay::{run_script, ReplayOptions};
@@ -35,13 +36,11 @@ fn init_logging(path: Option<&std::path::Path>) -> Result<()> {
     Ok(())
 }
 
-fn app_config(cli: &Cli) -> Result<AppConfig> {
+/// The core's settings: flags given, then the config file, then the defaults.
+fn app_config(cli: &Cli, file: &FileConfig) -> Result<AppConfig> {
     Ok(AppConfig {
-        sysid: cli.sysid,
-        compid: cli.compid,
-        lost_timeout: (cli.lost_timeout.max(0.1) * SECOND as f64) as u64,
         param_meta: load_param_meta(cli)?,
-        ..AppConfig::default()
+        ..cli.app_config(file)
     })
 }
 
@@ -49,7 +48,7 @@ fn app_config(cli: &Cli) -> Result<AppConfig> {
 fn load_param_meta(cli: &Cli) -> Result<Option<std::sync::Arc<mavterm::params::meta::MetaSet>>> {
     let path = match &cli.param_meta {
         Some(p) => p.clone(),
-        None => match Keymap::user_path().and_then(|p| Some(p.parent()?.join("param-meta.xml"))) {
+        None => match mavterm::config::dir().map(|d| d.join("param-meta.xml")) {
             Some(p) if p.is_file() => p,
             _ => return Ok(None),
         },
@@ -64,12 +63,6 @@ fn load_param_meta(cli: &Cli) -> Result<Option<std::sync::Arc<mavterm::params::m
 fn main() -> Result<()> {
     let cli = Cli::parse();
     init_logging(cli.log.as_deref())?;
-    let mut links = cli.links.clone();
-    if links.is_empty() {
-        links.push(LinkSpec::Sim {
-            query: String::new(),
-        });
-    }
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
@@ -99,27 +92,30 @@ fn main() -> Result<()> {
         });
     }
 
+    let file = mavterm::config::load_user(cli.config.as_deref())?;
+    let links = cli.links(&file);
+    let cfg = app_config(&cli, &file)?;
     let keymap = Keymap::load_user(cli.keymap.as_deref())?;
 
     if cli.headless {
         if let Some(out) = &cli.params_out {
-            return params_out(&cli, out, &links, rt.handle());
+            return params_out(&cli, cfg, out, &links, rt.handle());
         }
         if let Some(input) = &cli.input {
-            return replay(&cli, input, &links, keymap, rt.handle());
+            return replay(&cli, cfg, input, &links, keymap, rt.handle());
         }
         let Some(ReportFormat::Json) = cli.report else {
             bail!("--headless needs --report json or --input FILE");
         };
         let secs = cli.duration.unwrap_or(10.0).max(0.0);
         let app = if all_virtual(&links) {
-            let mut r = VirtualRunner::from_specs(&links, app_config(&cli)?)?;
+            let mut r = VirtualRunner::from_specs(&links, cfg)?;
             r.advance_to((secs * SECOND as f64) as u64);
             r.app
         } else {
             rt.block_on(mavterm::driver::real_time::run_for(
                 &links,
-                app_config(&cli)?,
+                cfg,
                 Duration::from_secs_f64(secs),
             ))
         };
@@ -129,12 +125,13 @@ fn main() -> Result<()> {
     if cli.input.is_some() || cli.report.is_some() {
         bail!("--input and --report need --headless");
     }
-    rt.block_on(terminal(&cli, &links, keymap))
+    rt.block_on(terminal(&cli, cfg, &links, keymap))
 }
 
 /// `--headless --params-out FILE`: the first autopilot's parameters, progress on stderr.
 fn params_out(
     cli: &Cli,
+    cfg: AppConfig,
     out: &std::path::Path,
     links: &[LinkSpec],
     rt: &tokio::runtime::Handle,
@@ -150,7 +147,7 @@ fn params_out(
         }
     };
     let app = if all_virtual(links) {
-        let mut r = VirtualRunner::from_specs(links, app_config(cli)?)?;
+        let mut r = VirtualRunner::from_specs(links, cfg)?;
         let mut t = 0;
         while t < limit && !progress(&r.app).ended() {
             t += SECOND / 4;
@@ -159,7 +156,7 @@ fn params_out(
         }
         r.app
     } else {
-        let mut runner = RealTimeRunner::start(rt.clone(), links, app_config(cli)?);
+        let mut runner = RealTimeRunner::start(rt.clone(), links, cfg);
         let start = runner.inner.now();
         let mut front = mavterm::headless::params::StopWhenDone::default();
         let _ = rt.block_on(runner.inner.run(Some(start + limit), &mut front));
@@ -201,6 +198,7 @@ fn params_out(
 /// otherwise the script's times are real seconds on real links.
 fn replay(
     cli: &Cli,
+    cfg: AppConfig,
     input: &std::path::Path,
     links: &[LinkSpec],
     keymap: Keymap,
@@ -217,12 +215,12 @@ fn replay(
     };
     let stdout = std::io::stdout();
     let (outcome, report) = if all_virtual(links) {
-        let mut runner = VirtualRunner::from_specs(links, app_config(cli)?)?;
+        let mut runner = VirtualRunner::from_specs(links, cfg)?;
         runner.app.keymap = keymap;
         let outcome = run_script(&script, &mut runner, &opts, &mut stdout.lock())?;
         (outcome, runner.app.report())
     } else {
-        let mut runner = RealTimeRunner::start(rt.clone(), links, app_config(cli)?);
+        let mut runner = RealTimeRunner::start(rt.clone(), links, cfg);
         runner.app_mut().keymap = keymap;
         let outcome = run_script(&script, &mut runner, &opts, &mut stdout.lock())?;
         (outcome, runner.app().report())
@@ -240,8 +238,8 @@ fn replay(
 }
 
 /// The terminal front end over real links (and `sim://` in real time).
-async fn terminal(cli: &Cli, links: &[LinkSpec], keymap: Keymap) -> Result<()> {
-    let mut rt = RealTime::start(links, app_config(cli)?);
+async fn terminal(cli: &Cli, cfg: AppConfig, links: &[LinkSpec], keymap: Keymap) -> Result<()> {
+    let mut rt = RealTime::start(links, cfg);
     rt.app.keymap = keymap;
     let opts = TuiOptions {
         fps: cli.fps,

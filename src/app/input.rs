@@ -316,8 +316,9 @@ pub fn parse_param(s: &str) -> Result<f64, String> {
 
 use super::flight::FlightAction;
 
-/// Parse a prompt line; the error says what is wrong and what would be right.
-pub fn parse_command(line: &str) -> Result<Command, String> {
+/// Parse a prompt line; the error says what is wrong and what would be right. `takeoff_alt` is
+/// the altitude of a `takeoff` without one ([`super::AppConfig::takeoff_alt`]).
+pub fn parse_command(line: &str, takeoff_alt: f64) -> Result<Command, String> {
     let line = line.trim();
     let (word, rest) = line.split_once(char::is_whitespace).unwrap_or((line, ""));
     let rest = rest.trim();
@@ -364,7 +365,7 @@ pub fn parse_command(line: &str) -> Result<Command, String> {
         },
         "takeoff" => {
             let alt = if rest.is_empty() {
-                10.0
+                takeoff_alt
             } else {
                 rest.parse::<f64>()
                     .ok()
@@ -476,36 +477,37 @@ mod tests {
 
     #[test]
     fn commands_parse_with_clear_errors() {
-        assert_eq!(parse_command(" quit "), Ok(Command::Quit));
-        assert_eq!(parse_command("target 1"), Ok(Command::Target(1, None)));
-        assert_eq!(parse_command("target 2:1"), Ok(Command::Target(2, Some(1))));
+        let parse = |line| parse_command(line, 10.0);
+        assert_eq!(parse(" quit "), Ok(Command::Quit));
+        assert_eq!(parse("target 1"), Ok(Command::Target(1, None)));
+        assert_eq!(parse("target 2:1"), Ok(Command::Target(2, Some(1))));
         assert_eq!(
-            parse_command("link udpin:0.0.0.0:14550"),
+            parse("link udpin:0.0.0.0:14550"),
             Ok(Command::Link("udpin:0.0.0.0:14550".into()))
         );
-        assert_eq!(parse_command("route auto"), Ok(Command::Route(None)));
-        assert_eq!(parse_command("route 2"), Ok(Command::Route(Some(2))));
-        assert!(parse_command("target 300").unwrap_err().contains("usage"));
-        assert!(parse_command("quit now")
-            .unwrap_err()
-            .contains("no arguments"));
-        let e = parse_command("jump").unwrap_err();
+        assert_eq!(parse("route auto"), Ok(Command::Route(None)));
+        assert_eq!(parse("route 2"), Ok(Command::Route(Some(2))));
+        assert!(parse("target 300").unwrap_err().contains("usage"));
+        assert!(parse("quit now").unwrap_err().contains("no arguments"));
+        let e = parse("jump").unwrap_err();
         assert!(
             e.contains("unknown command `jump`") && e.contains("target"),
             "{e}"
         );
         assert_eq!(
-            parse_command("takeoff"),
+            parse("takeoff"),
             Ok(Command::Flight(FlightAction::Takeoff(10.0)))
         );
-        assert!(parse_command("takeoff high")
-            .unwrap_err()
-            .contains("METRES"));
         assert_eq!(
-            parse_command("disarm force"),
+            parse_command("takeoff", 15.0),
+            Ok(Command::Flight(FlightAction::Takeoff(15.0)))
+        );
+        assert!(parse("takeoff high").unwrap_err().contains("METRES"));
+        assert_eq!(
+            parse("disarm force"),
             Ok(Command::Flight(FlightAction::Disarm { force: true }))
         );
-        match parse_command("long NAV_TAKEOFF 0 - 0 nan 0 0 12.5") {
+        match parse("long NAV_TAKEOFF 0 - 0 nan 0 0 12.5") {
             Ok(Command::Flight(FlightAction::Command { command, params })) => {
                 assert_eq!(command, 22);
                 assert_eq!(params[6], 12.5);
@@ -513,9 +515,7 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
-        assert!(parse_command("long 400 x")
-            .unwrap_err()
-            .contains("not a number"));
+        assert!(parse("long 400 x").unwrap_err().contains("not a number"));
         assert_eq!(parse_mav_cmd("takeoff"), Ok(22));
         assert_eq!(parse_mav_cmd("mav_cmd_component_arm_disarm"), Ok(400));
         assert_eq!(parse_mav_cmd("511"), Ok(511));

@@ -166,7 +166,7 @@ impl App {
 
     /// Run a prompt line; its outcome is shown in the status bar.
     fn run_line(&mut self, line: &str, fx: &mut Vec<Effect>) {
-        let outcome = match parse_command(line) {
+        let outcome = match parse_command(line, self.cfg.takeoff_alt) {
             Err(e) => Err(e),
             Ok(cmd) => self.run_command(cmd, fx),
         };
@@ -349,7 +349,10 @@ impl App {
                     Err(e) => Some((SEV_ERROR, e)),
                 };
             }
-            Action::Takeoff => self.open_prompt_with("takeoff 10", false),
+            Action::Takeoff => {
+                let line = format!("takeoff {}", self.cfg.takeoff_alt);
+                self.open_prompt_with(&line, false)
+            }
             Action::Reissue | Action::CancelCommand => {
                 let outcome = if action == Action::Reissue {
                     self.reissue_selected(fx)
