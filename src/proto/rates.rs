@@ -33,9 +33,17 @@ impl Default for StreamRates {
     /// take SET_MESSAGE_INTERVAL only, the messages the screens use.
     fn default() -> Self {
         Self {
-            groups: [(1, 2.0), (2, 2.0), (3, 2.0), (6, 3.0), (10, 10.0), (11, 10.0), (12, 3.0)]
-                .into_iter()
-                .collect(),
+            groups: [
+                (1, 2.0),
+                (2, 2.0),
+                (3, 2.0),
+                (6, 3.0),
+                (10, 10.0),
+                (11, 10.0),
+                (12, 3.0),
+            ]
+            .into_iter()
+            .collect(),
             messages: [
                 (1, 1.0),   // SYS_STATUS
                 (2, 0.5),   // SYSTEM_TIME
