@@ -589,6 +589,9 @@ impl App {
             Some(Action::Submit) => {
                 self.ui.mode = Mode::Normal;
                 self.ui.inspector.editing = None;
+                if filter {
+                    self.ui.inspector.sel = self.inspector_selected();
+                }
                 if let InspectEdit::Rate(k) = editing {
                     let text = std::mem::take(&mut self.ui.edit.text);
                     self.ui.edit.cursor = 0;
@@ -604,6 +607,8 @@ impl App {
                 self.ui.mode = Mode::Normal;
                 self.ui.inspector.editing = None;
                 if filter {
+                    // The message found stays selected in the whole list.
+                    self.ui.inspector.sel = self.inspector_selected();
                     self.ui.inspector.filter.clear();
                 } else {
                     self.ui.message = Some((SEV_INFO, "rate not changed: nothing sent".into()));
@@ -656,7 +661,7 @@ impl App {
             crate::proto::ack::command_name(command)
         );
         self.ui.inspector.awaiting = Some((prefix, label.clone()));
-        Ok(Some(format!("{label}: asked, waiting for the ACK")))
+        Ok(Some(format!("{label}: sent")))
     }
 
     /// The rate last asked of `k`'s source from here (its interval param2) and where the

@@ -70,7 +70,8 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let rows = app.inspector_rows();
     let sel = app.inspector_index(&rows);
     let selected = rows.get(sel).copied();
-    // Side by side when wide; else the fields below the list, half the height (11 rows of 23).
+    // Side by side when wide; else the fields below the list, two fifths of the height (9 rows
+    // of 23: 7 lines of fields, in columns).
     let (list_area, detail_area) = if area.width >= 2 * SIDE_LIST_W && area.height >= 6 {
         let list_w = SIDE_LIST_W.max(area.width * 2 / 5);
         (
@@ -86,7 +87,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         )
     } else {
         let detail_h = if area.height >= 10 {
-            area.height / 2
+            (area.height * 2 / 5).max(5)
         } else {
             0
         };
@@ -270,7 +271,7 @@ fn render_list(
         }
         if show_count {
             spans.push(Span::styled(
-                format!(" {}", super::fmt::count(e.count, COUNT_W)),
+                format!(" {}", rpad(&super::fmt::count(e.count, COUNT_W), COUNT_W)),
                 base,
             ));
         }
@@ -290,31 +291,136 @@ fn render_list(
     }
 }
 
-/// `name = value` lines of the fields, names padded to one width, in columns when every line
-/// fits half the width: (lines, column width, columns).
-fn field_grid(fields: &[(String, String)], width: usize) -> (Vec<String>, usize, usize) {
+/// The fields as lines of `width`: `name = value`, names padded to one width, in columns
+/// (down, then across) when every field fits half the width; else one a line, a long value
+/// (flags, arrays) wrapped after its `|` or `,` onto lines under its start.
+fn field_lines(fields: &[(String, String)], width: usize) -> Vec<String> {
     let name_w = fields
         .iter()
         .map(|(n, _)| n.chars().count())
         .max()
         .unwrap_or(0);
-    let items: Vec<String> = fields
-        .iter()
-        .map(|(n, v)| {
-            if n.is_empty() {
-                v.clone()
-            } else {
-                format!("{} = {v}", pad(n, name_w))
-            }
-        })
-        .collect();
-    let col_w = items.iter().map(|s| s.chars().count()).max().unwrap_or(0);
-    let cols = if col_w == 0 || col_w * 2 + 2 > width {
-        1
-    } else {
-        ((width + 2) / (col_w + 2)).max(1)
+    let item = |n: &str, v: &str| {
+        if n.is_empty() {
+            v.to_string()
+        } else {
+            format!("{} = {v}", pad(n, name_w))
+        }
     };
-    (items, col_w, cols)
+    let col_w = fields
+        .iter()
+        .map(|(n, v)| item(n, v).chars().count())
+        .max()
+        .unwrap_or(0);
+    if col_w > 0 && col_w * 2 + 2 <= width {
+        let cols = ((width + 2) / (col_w + 2)).max(1);
+        let rows = fields.len().div_ceil(cols);
+        return (0..rows)
+            .map(|r| {
+                let mut line = String::new();
+                for c in 0..cols {
+                    if let Some((n, v)) = fields.get(c * rows + r) {
+                        if c > 0 {
+                            line.push_str("  ");
+                        }
+                        line.push_str(&pad(&item(n, v), col_w));
+                    }
+                }
+                line.trim_end().to_string()
+            })
+            .collect();
+    }
+    let indent = if name_w + 3 <= width / 2 {
+        name_w + 3
+    } else {
+        2
+    };
+    let mut out = Vec::new();
+    for (n, v) in fields {
+        let first = item(n, "");
+        let first_room = width.saturating_sub(first.chars().count()).max(1);
+        let rest_room = width.saturating_sub(indent).max(1);
+        for (i, piece) in wrap_value(v, first_room, rest_room).into_iter().enumerate() {
+            if i == 0 {
+                out.push(format!("{first}{piece}"));
+            } else {
+                out.push(format!("{}{piece}", " ".repeat(indent)));
+            }
+        }
+    }
+    out
+}
+
+/// `text` in lines of `width`, broken between words (a word longer than a line is cut).
+fn wrap_words(text: &str, width: usize) -> Vec<String> {
+    let width = width.max(1);
+    let mut lines = Vec::new();
+    let mut cur = String::new();
+    for word in text.split_whitespace() {
+        let n = cur.chars().count();
+        if n > 0 && n + 1 + word.chars().count() > width {
+            lines.push(std::mem::take(&mut cur));
+        }
+        if !cur.is_empty() {
+            cur.push(' ');
+        }
+        cur.push_str(word);
+        while cur.chars().count() > width {
+            lines.push(cur.chars().take(width).collect());
+            cur = cur.chars().skip(width).collect();
+        }
+    }
+    if !cur.is_empty() {
+        lines.push(cur);
+    }
+    lines
+}
+
+/// `value` in lines of `first` characters, then `rest`: broken after a ` | ` or `, ` where it
+/// can, else cut.
+fn wrap_value(value: &str, first: usize, rest: usize) -> Vec<String> {
+    let mut tokens: Vec<String> = Vec::new();
+    let mut cur = String::new();
+    let chars: Vec<char> = value.chars().collect();
+    let mut i = 0;
+    while i < chars.len() {
+        cur.push(chars[i]);
+        let at_sep = (chars[i] == '|' || chars[i] == ',') && chars.get(i + 1) == Some(&' ');
+        if at_sep {
+            cur.push(' ');
+            i += 1;
+            tokens.push(std::mem::take(&mut cur));
+        }
+        i += 1;
+    }
+    if !cur.is_empty() {
+        tokens.push(cur);
+    }
+    let mut lines: Vec<String> = Vec::new();
+    let mut line = String::new();
+    for t in tokens {
+        let room = if lines.is_empty() { first } else { rest };
+        if !line.is_empty() && line.chars().count() + t.trim_end().chars().count() > room {
+            lines.push(std::mem::take(&mut line).trim_end().to_string());
+        }
+        line.push_str(&t);
+        // A token longer than a whole line is cut into lines.
+        loop {
+            let room = if lines.is_empty() { first } else { rest };
+            if line.trim_end().chars().count() <= room {
+                break;
+            }
+            let head: String = line.chars().take(room).collect();
+            let tail: String = line.chars().skip(room).collect();
+            lines.push(head);
+            line = tail;
+        }
+    }
+    let last = line.trim_end();
+    if !last.is_empty() || lines.is_empty() {
+        lines.push(last.to_string());
+    }
+    lines
 }
 
 fn render_detail(app: &App, frame: &mut Frame, area: Rect, theme: &Theme, sel: Option<MsgKey>) {
@@ -379,44 +485,32 @@ fn render_detail(app: &App, frame: &mut Frame, area: Rect, theme: &Theme, sel: O
     let body_h = h.saturating_sub(1);
     match e.decode(k.2) {
         Ok(msg) => {
-            let fields = fields(&msg);
-            let (items, col_w, cols) = field_grid(&fields, w);
-            let grid_rows = items.len().div_ceil(cols);
-            let max_scroll = grid_rows.saturating_sub(body_h);
+            let body = field_lines(&fields(&msg), w);
+            let max_scroll = body.len().saturating_sub(body_h);
             let scroll = v.detail_scroll.min(max_scroll);
-            for r in scroll..(scroll + body_h).min(grid_rows) {
-                let mut text = String::new();
-                for c in 0..cols {
-                    // Column-major: down the first column, then the next.
-                    if let Some(item) = items.get(c * grid_rows + r) {
-                        if c > 0 {
-                            text.push_str("  ");
-                        }
-                        text.push_str(&pad(item, if cols > 1 { col_w } else { 0 }));
-                    }
-                }
-                lines.push(Line::raw(ellipsize(text.trim_end(), w)));
+            for l in body.iter().skip(scroll).take(body_h) {
+                lines.push(Line::raw(ellipsize(l, w)));
             }
             if max_scroll > 0 {
                 block = block.title_bottom(
                     Line::from(format!(
                         " {}-{}/{} ",
                         scroll + 1,
-                        (scroll + body_h).min(grid_rows),
-                        grid_rows
+                        (scroll + body_h).min(body.len()),
+                        body.len()
                     ))
                     .right_aligned(),
                 );
             }
         }
         Err(why) => {
-            lines.push(Line::styled(
-                ellipsize(&format!("not decoded: {why}"), w),
-                theme.alert(),
-            ));
+            let why = wrap_words(&format!("not decoded: {why}; the payload as sent:"), w);
+            for l in why.into_iter().take(body_h.saturating_sub(1).max(1)) {
+                lines.push(Line::styled(l, theme.alert()));
+            }
             let per_line = if w >= 4 + 16 * 3 { 16 } else { 8 };
             let hex = hex_lines(e.payload(), per_line);
-            let room = body_h.saturating_sub(1);
+            let room = h.saturating_sub(lines.len());
             let scroll = v.detail_scroll.min(hex.len().saturating_sub(room));
             for l in hex.iter().skip(scroll).take(room) {
                 lines.push(Line::styled(ellipsize(l, w), theme.dim()));
@@ -431,9 +525,6 @@ fn render_detail(app: &App, frame: &mut Frame, area: Rect, theme: &Theme, sel: O
 /// The status bar while a rate is typed: what for, what it is now, the keys.
 pub fn rate_prompt(app: &App, k: MsgKey) -> String {
     let name = app.inspector.get(k).map_or("message", |e| e.name);
-    let now = app.inspector.get(k).map_or(String::new(), |e| {
-        format!(", now {} Hz", hz_text(e.rate(app.now)))
-    });
     let keys: Vec<String> = [(Action::Submit, "sends"), (Action::Cancel, "cancels")]
         .iter()
         .filter_map(|(a, word)| {
@@ -446,7 +537,7 @@ pub fn rate_prompt(app: &App, k: MsgKey) -> String {
         })
         .collect();
     format!(
-        "{name} from {}:{} in Hz (0 default, -1 off{now}): {}",
+        "{name} ({}:{}) Hz, 0 default, -1 off: {}",
         k.0,
         k.1,
         keys.join("  ")
