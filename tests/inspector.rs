@@ -200,6 +200,15 @@ fn the_selected_message_shows_its_fields_as_the_sim_sent_them() {
     );
     assert!(s.contains("MAV_MODE_FLAG_CUSTOM_MODE_ENABLED"), "{s}");
     insta::assert_snapshot!("inspector_heartbeat_80x24", s);
+    // enter: the keys scroll the fields (8 lines, 6 shown), not the list; esc gives them back.
+    let hb = r.app.inspector_selected();
+    common::keys(&mut r, &["enter", "down", "down", "down"]);
+    assert_eq!(r.app.inspector_selected(), hb);
+    let s = screen(&r);
+    assert!(s.contains(" 3-8/8 ") && !s.contains("custom_mode"), "{s}");
+    assert!(s.contains("mavlink_version = 3"), "{s}");
+    common::keys(&mut r, &["esc", "down"]);
+    assert_ne!(r.app.inspector_selected(), hb);
     // The filter: no match says so; esc clears it.
     common::keys(&mut r, &["/"]);
     common::typed(&mut r, "nothing_like_it");

@@ -335,7 +335,8 @@ impl App {
                 self.ui.mode = Mode::Prompt;
             }
             Action::Screen(i) => self.show_screen(i as usize),
-            Action::Cancel => {}
+            // On the Inspector, esc gives the keys back to the list.
+            Action::Cancel => self.ui.inspector.detail_focus = false,
             Action::Arm | Action::Disarm | Action::Land | Action::Rtl => {
                 let what = match action {
                     Action::Arm => FlightAction::Arm,
