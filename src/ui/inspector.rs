@@ -26,6 +26,8 @@ const SRC_W: usize = 7;
 const RATE_W: usize = 9;
 const COUNT_W: usize = 8;
 const AGE_W: usize = 6;
+/// Narrowest the name gets before the age and count columns go.
+const NAME_MIN: usize = 12;
 
 /// Narrowest the list is beside the fields.
 const SIDE_LIST_W: u16 = 64;
@@ -195,11 +197,11 @@ fn render_list(
         return;
     }
     // Columns: the name takes what the numbers leave; narrow, the age then the count go.
-    let (show_count, show_age) = match w {
-        _ if w >= SRC_W + 1 + 12 + RATE_W + 1 + COUNT_W + 1 + AGE_W + 1 => (true, true),
-        _ if w >= SRC_W + 1 + 12 + RATE_W + 1 + COUNT_W + 1 => (true, false),
-        _ => (false, false),
-    };
+    let base_w = SRC_W + 1 + NAME_MIN + RATE_W;
+    let (show_count, show_age) = (
+        w >= base_w + (1 + COUNT_W),
+        w >= base_w + (1 + COUNT_W) + (1 + AGE_W),
+    );
     let fixed = SRC_W
         + 1
         + RATE_W
