@@ -58,12 +58,12 @@ impl Hasher for KeyHasher {
     #[inline]
     fn write(&mut self, bytes: &[u8]) {
         for &b in bytes {
-            self.write_u64(self.0 ^ b as u64);
+            self.write_u64(b as u64);
         }
     }
     #[inline]
     fn write_u64(&mut self, x: u64) {
-        let h = (x ^ self.0).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let h = (x ^ self.0.rotate_left(5)).wrapping_mul(0x9E37_79B9_7F4A_7C15);
         self.0 = h ^ (h >> 32);
     }
 }
