@@ -213,6 +213,12 @@ pub enum Action {
     ParamFetch,
     /// Parameters screen: show only the parameters that differ from the loaded file.
     ParamOnlyDiff,
+    /// Inspector: ask the selected message's source for a rate (MAV_CMD_SET_MESSAGE_INTERVAL).
+    InspectorRate,
+    /// Inspector: type a filter on message names.
+    InspectorFilter,
+    /// Inspector: the keys scroll the selected message's fields, or the list again.
+    InspectorDetail,
 }
 
 impl Action {
@@ -348,6 +354,21 @@ impl Action {
             Action::ParamOnlyDiff,
             "param_only_diff",
             "show only parameters that differ from the loaded file (≠)",
+        ),
+        (
+            Action::InspectorRate,
+            "inspector_rate",
+            "ask for the selected message at a rate: Hz, 0 = default, -1 = off",
+        ),
+        (
+            Action::InspectorFilter,
+            "inspector_filter",
+            "filter messages by name (enter keeps, esc clears)",
+        ),
+        (
+            Action::InspectorDetail,
+            "inspector_detail",
+            "the keys scroll the fields / the list",
         ),
     ];
 

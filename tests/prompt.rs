@@ -148,9 +148,9 @@ fn help_lists_the_keys_and_the_commands_and_q_closes_it() {
 #[test]
 fn screen_keys_switch_only_to_screens_that_exist() {
     let mut r = runner("sysid=1");
-    common::keys(&mut r, &["4"]);
+    common::keys(&mut r, &["5"]);
     assert_eq!(r.app.ui.screen, "overview");
-    assert!(status_line(&r).contains("no inspector screen"));
+    assert!(status_line(&r).contains("no mission screen"));
     common::keys(&mut r, &["2"]);
     assert_eq!(r.app.ui.screen, "parameters");
     common::keys(&mut r, &["1"]);

@@ -101,7 +101,7 @@ impl App {
 
     /// The session commands to `key` go through: its own (an autopilot), else that of an
     /// autopilot of the same system (a camera or gimbal is reached through its vehicle).
-    fn session_for(&self, key: VehicleKey) -> Option<VehicleKey> {
+    pub(super) fn session_for(&self, key: VehicleKey) -> Option<VehicleKey> {
         if self.sessions.contains_key(&key) {
             return Some(key);
         }

@@ -33,6 +33,10 @@ impl App {
             self.on_param_edit_key(key, action, fx);
             return;
         }
+        if self.ui.inspector.editing.is_some() && self.ui.mode == Mode::Edit {
+            self.on_inspector_edit_key(key, action, fx);
+            return;
+        }
         match self.ui.mode {
             Mode::Normal => {
                 self.ui.message = None;
@@ -331,7 +335,8 @@ impl App {
                 self.ui.mode = Mode::Prompt;
             }
             Action::Screen(i) => self.show_screen(i as usize),
-            Action::Cancel => {}
+            // On the Inspector, esc gives the keys back to the list.
+            Action::Cancel => self.ui.inspector.detail_focus = false,
             Action::Arm | Action::Disarm | Action::Land | Action::Rtl => {
                 let what = match action {
                     Action::Arm => FlightAction::Arm,
@@ -370,6 +375,9 @@ impl App {
             | Action::ParamEdit
             | Action::ParamFetch
             | Action::ParamOnlyDiff => self.on_param_action(action, fx),
+            Action::InspectorRate | Action::InspectorFilter | Action::InspectorDetail => {
+                self.on_inspector_action(action)
+            }
             // Far enough to clamp at either end of any list.
             Action::Top => self.move_selection(-(1 << 30)),
             Action::Bottom => self.move_selection(1 << 30),
@@ -399,6 +407,10 @@ impl App {
         if self.ui.screen == "parameters" {
             let n = self.param_rows().len();
             self.ui.params.sel = clamp(self.ui.params.sel, step, n);
+            return;
+        }
+        if self.ui.screen == "inspector" {
+            self.move_inspector(step);
             return;
         }
         if self.ui.screen == "commands" {

@@ -5,6 +5,7 @@
 
 mod flight;
 pub mod input;
+pub mod inspector;
 mod keys;
 pub mod links;
 pub mod notices;
@@ -185,6 +186,8 @@ pub struct UiState {
     pub palette: Option<palette::Palette>,
     /// The Parameters screen.
     pub params: params::ParamView,
+    /// The MAVLink Inspector.
+    pub inspector: inspector::InspectorView,
 }
 
 impl Default for UiState {
@@ -204,6 +207,7 @@ impl Default for UiState {
             cmd_sel: 0,
             palette: None,
             params: params::ParamView::default(),
+            inspector: inspector::InspectorView::default(),
         }
     }
 }
@@ -224,6 +228,8 @@ pub struct App {
     pub sessions: BTreeMap<VehicleKey, Session>,
     /// The parameter file last loaded or compared.
     pub param_file: Option<params::LoadedFile>,
+    /// Every message heard, per source: the Inspector's.
+    pub inspector: inspector::MessageStore,
     statustext: StatusTextJoiner,
     next_heartbeat: Micros,
     dirty: bool,
@@ -250,6 +256,7 @@ impl App {
             keymap: Keymap::default(),
             sessions: BTreeMap::new(),
             param_file: None,
+            inspector: inspector::MessageStore::default(),
             statustext: StatusTextJoiner::default(),
             next_heartbeat: 0,
             dirty: true,
@@ -340,6 +347,7 @@ impl App {
                 SessionOut::SendOn(link, msg) => self.send(link, msg, fx),
                 SessionOut::Notice(sev, text) => {
                     self.param_outcome(sev, &text);
+                    self.inspector_outcome(sev, &text);
                     self.notice(sev, Some(key), text)
                 }
             }
@@ -550,6 +558,9 @@ impl App {
         }
         if repeat {
             return;
+        }
+        if !copy {
+            self.inspector.record(now, frame);
         }
         let fallback;
         let msg = match &frame.message {

@@ -26,6 +26,10 @@ pub const SCREENS: &[Screen] = &[
         name: "commands",
         title: "Commands",
     },
+    Screen {
+        name: "inspector",
+        title: "MAVLink Inspector",
+    },
 ];
 
 /// The screen called `name`, if this build has it.

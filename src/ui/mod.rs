@@ -11,6 +11,7 @@ pub mod confirm;
 pub mod flight;
 pub mod fmt;
 pub mod help;
+pub mod inspector;
 pub mod links;
 pub mod messages;
 pub mod overview;

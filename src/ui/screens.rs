@@ -4,7 +4,7 @@
 use ratatui::layout::Rect;
 use ratatui::Frame;
 
-use super::{commands, overview, parameters, Theme};
+use super::{commands, inspector, overview, parameters, Theme};
 use crate::app::App;
 
 /// Draws a screen into the area above the status bar.
@@ -15,6 +15,7 @@ pub const REGISTRY: &[(&str, RenderFn)] = &[
     ("overview", overview::render),
     ("parameters", parameters::render),
     ("commands", commands::render),
+    ("inspector", inspector::render),
 ];
 
 /// Draw the screen the core says is shown.

@@ -8,6 +8,7 @@ use ratatui::Frame;
 
 use super::{ellipsize, Theme};
 use crate::app::input::TextLine;
+use crate::app::inspector::InspectEdit;
 use crate::app::params::ParamEdit;
 use crate::app::App;
 use crate::keymap::{Action, Mode};
@@ -18,7 +19,10 @@ const HINTS: &[(Action, &str)] = &[
     (Action::Quit, "quit"),
     (Action::Help, "help"),
     (Action::ParamFilter, "filter"),
+    (Action::InspectorFilter, "filter"),
     (Action::ParamEdit, "edit"),
+    (Action::InspectorRate, "rate"),
+    (Action::InspectorDetail, "fields"),
     (Action::ParamFetch, "fetch"),
     (Action::FocusNext, "focus"),
     (Action::NextVehicle, "target"),
@@ -75,6 +79,22 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             return text_line(frame, area, ":", &app.ui.prompt.line, hint, theme);
         }
         // The palette shows what is typed in its popup.
+        Mode::Edit if app.ui.palette.is_none() && app.ui.inspector.editing.is_some() => {
+            return match &app.ui.inspector.editing {
+                Some(InspectEdit::Rate(k)) => {
+                    let text = super::inspector::rate_prompt(app, *k);
+                    let line = Line::styled(ellipsize(&text, area.width as usize), theme.header());
+                    frame.render_widget(Paragraph::new(line), area);
+                }
+                _ => {
+                    let hint = edit_hint(
+                        app,
+                        &[(Action::Submit, "keeps"), (Action::Cancel, "clears")],
+                    );
+                    text_line(frame, area, "/", &app.ui.edit, Some(&hint), theme)
+                }
+            };
+        }
         Mode::Edit if app.ui.palette.is_none() => {
             return match &app.ui.params.editing {
                 Some(ParamEdit::Filter) => {
