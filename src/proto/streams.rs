@@ -36,10 +36,11 @@
 //!   `SERIALn_OPTIONS` bit 12 "don't allow GCS to override streamrates", or an `SRn_` rate the
 //!   operator cannot change) is asked message by message with SET_MESSAGE_INTERVAL, its main
 //!   messages at the group's rate;
-//! - a message asked by SET_MESSAGE_INTERVAL that is refused (ArduPilot answers DENIED for an id
-//!   it has no `ap_message` for, `GCS_MAVLINK::set_message_interval`; older firmware
-//!   UNSUPPORTED), unanswered, or accepted but never sent, is asked by the ArduPilot group that
-//!   holds it, unless the autopilot is PX4, which has no groups.
+//! - a message asked by SET_MESSAGE_INTERVAL that is refused (ArduPilot answers FAILED, with
+//!   "No ap_message for mavlink id (N)", for an id it cannot schedule,
+//!   `GCS_MAVLINK::set_message_interval`; other versions and autopilots DENIED or UNSUPPORTED),
+//!   unanswered, or accepted but never sent, is asked by the ArduPilot group that holds it,
+//!   unless the autopilot is PX4, which has no groups.
 //! - When both fail the operator is told and that stream is left alone until something changes.
 //!
 //! A refusal (DENIED, UNSUPPORTED, FAILED, ...) is always shown. Every requested message's rate as
