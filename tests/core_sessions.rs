@@ -234,10 +234,9 @@ fn px4_is_asked_with_set_message_interval_only_one_at_a_time() {
     let mut a = app(1);
     let mut fx = feed(&mut a, 0, 0, &heartbeat(7, 0, PX4));
     let mut ids = Vec::new();
-    let mut seq = 1u8;
     // Each ACK lets the next one go; never two waiting.
-    for i in 0..20u64 {
-        let t = 50_000 * (i + 1);
+    for seq in 1..20u8 {
+        let t = 50_000 * seq as Micros;
         let reqs = decoded(&fx);
         assert!(reqs.len() <= 1, "one at a time: {reqs:?}");
         let Some((_, v)) = reqs.first() else { break };
@@ -250,20 +249,27 @@ fn px4_is_asked_with_set_message_interval_only_one_at_a_time() {
         let interval = v["param2"].as_f64().unwrap();
         ids.push((id, (1e6 / interval * 100.0).round() / 100.0));
         fx = feed(&mut a, t, 0, &interval_ack(7, seq, 0));
-        seq += 1;
     }
     // The defaults for SET_MESSAGE_INTERVAL, in id order.
     assert_eq!(
         ids,
-        vec![(1, 1.0), (2, 0.5), (24, 1.0), (30, 4.0), (33, 4.0), (74, 4.0), (147, 1.0)]
+        vec![
+            (1, 1.0),
+            (2, 0.5),
+            (24, 1.0),
+            (30, 4.0),
+            (33, 4.0),
+            (74, 4.0),
+            (147, 1.0)
+        ]
     );
     assert!(!a.notices.iter().any(|n| n.severity <= 4), "all accepted");
 }
 
 #[test]
 fn the_operators_set_message_interval_and_ours_keep_their_own_acks() {
-    use mavterm::proto::commands::{CommandSpec, State};
     use mavterm::dialect::MavCmd;
+    use mavterm::proto::commands::{CommandSpec, State};
     let mut a = app(1);
     let fx = feed(&mut a, 0, 0, &heartbeat(7, 0, PX4));
     assert_eq!(decoded(&fx).len(), 1, "ours waits for its ACK");
@@ -283,7 +289,10 @@ fn the_operators_set_message_interval_and_ours_keep_their_own_acks() {
     let s = &a.sessions[&(7, 1)];
     assert_eq!(s.commands.get(id).unwrap().state, State::Waiting);
     let fx = feed(&mut a, 60_000, 0, &interval_ack(7, 2, 0));
-    assert_eq!(a.sessions[&(7, 1)].commands.get(id).unwrap().state, State::Done(0));
+    assert_eq!(
+        a.sessions[&(7, 1)].commands.get(id).unwrap().state,
+        State::Done(0)
+    );
     let reqs = decoded(&fx);
     assert_eq!(reqs.len(), 1, "{reqs:?}");
     assert_eq!(reqs[0].1["param1"], 2.0, "ours goes on with SYSTEM_TIME");
@@ -398,7 +407,10 @@ fn a_group_that_never_comes_is_asked_by_set_message_interval_then_given_up() {
     let mut seq = 0;
     let fx = fly(&mut a, 0, 12 * SECOND, &mut seq, false);
     let reqs = decoded(&fx);
-    let names: Vec<&str> = reqs.iter().map(|(_, v)| v["name"].as_str().unwrap()).collect();
+    let names: Vec<&str> = reqs
+        .iter()
+        .map(|(_, v)| v["name"].as_str().unwrap())
+        .collect();
     // REQUEST_DATA_STREAM twice, then SET_MESSAGE_INTERVAL ATTITUDE, sent three times without
     // an answer.
     assert_eq!(
@@ -415,7 +427,9 @@ fn a_group_that_never_comes_is_asked_by_set_message_interval_then_given_up() {
     assert!(reqs[2..].iter().all(|(_, v)| v["param1"] == 30.0));
     let texts: Vec<&str> = a.notices.iter().map(|n| n.text.as_str()).collect();
     assert!(
-        texts.iter().any(|t| t.contains("no ATTITUDE from 1:1 on link 0")),
+        texts
+            .iter()
+            .any(|t| t.contains("no ATTITUDE from 1:1 on link 0")),
         "{texts:?}"
     );
     let fx = fly(&mut a, 12 * SECOND, 60 * SECOND, &mut seq, false);

@@ -19,7 +19,8 @@ use mavterm::proto::streams::{ItemState, LinkStreamState, Method};
 use serde_json::Value;
 
 /// QGroundControl's ArduPilot rates, mavterm's defaults: (group, Hz).
-const DEFAULT_GROUPS: [(u64, u64); 7] = [(1, 2), (2, 2), (3, 2), (6, 3), (10, 10), (11, 10), (12, 3)];
+const DEFAULT_GROUPS: [(u64, u64); 7] =
+    [(1, 2), (2, 2), (3, 2), (6, 3), (10, 10), (11, 10), (12, 3)];
 
 /// Start the stand-in on `ports` with `args`; returns it once it listens.
 fn stand_in(ports: &[u16], dir: &Path, args: &[&str]) -> ChildGuard {
@@ -153,11 +154,18 @@ fn ardupilot_is_asked_for_each_group_on_each_of_two_links() {
 fn px4_gets_set_message_interval_only_and_one_at_a_time() {
     let dir = tempfile::tempdir().unwrap();
     let port = common::free_tcp_port();
-    let _v = stand_in(&[port], dir.path(), &["--autopilot", "px4", "--ack-delay", "0.3"]);
+    let _v = stand_in(
+        &[port],
+        dir.path(),
+        &["--autopilot", "px4", "--ack-delay", "0.3"],
+    );
     let report = mavterm(&[tcp(port)], 16);
     let (_, reqs, overlaps) = record(dir.path(), port);
     assert!(groups(&reqs).is_empty(), "{reqs:?}");
-    assert_eq!(overlaps, 0, "a second SET_MESSAGE_INTERVAL before the ACK: {reqs:?}");
+    assert_eq!(
+        overlaps, 0,
+        "a second SET_MESSAGE_INTERVAL before the ACK: {reqs:?}"
+    );
     let want: Vec<(u64, f64)> = StreamRates::default()
         .messages
         .into_iter()
@@ -246,7 +254,10 @@ fn a_high_latency_link_carries_nothing_but_our_heartbeat() {
     assert_eq!(received, vec![0], "only HEARTBEAT: {reqs:?}");
     assert!(reqs.is_empty());
     assert_eq!(streams(&report, 0)["state"], "high-latency");
-    assert_eq!(report["links"][0]["spec"], format!("tcp:127.0.0.1:{port}?hl=1"));
+    assert_eq!(
+        report["links"][0]["spec"],
+        format!("tcp:127.0.0.1:{port}?hl=1")
+    );
 }
 
 /// The embedded ArduCopter on a virtual clock: what is asked after connecting arrives at the
@@ -282,7 +293,9 @@ fn sim_streams_arrive_at_the_rates_asked() {
 fn sim_streams_at_configured_rates_and_extra_messages() {
     let spec: LinkSpec = "sim://".parse().unwrap();
     let rates = StreamRates {
-        groups: [(2, 1.0), (6, 5.0), (10, 4.0), (12, 0.5)].into_iter().collect(),
+        groups: [(2, 1.0), (6, 5.0), (10, 4.0), (12, 0.5)]
+            .into_iter()
+            .collect(),
         ardupilot_messages: [(245, 2.0), (193, 5.0)].into_iter().collect(),
         ..StreamRates::default()
     };

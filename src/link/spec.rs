@@ -315,7 +315,10 @@ fn options<'a>(input: &str, rest: &'a str) -> Result<(&'a str, bool), SpecError>
     let mut hl = false;
     for opt in query.split('&').filter(|o| !o.is_empty()) {
         let (k, v) = opt.split_once('=').unwrap_or((opt, "1"));
-        hl = match (k.to_ascii_lowercase().as_str(), v.to_ascii_lowercase().as_str()) {
+        hl = match (
+            k.to_ascii_lowercase().as_str(),
+            v.to_ascii_lowercase().as_str(),
+        ) {
             ("hl", "1" | "true" | "yes") => true,
             ("hl", "0" | "false" | "no") => false,
             _ => {
@@ -679,10 +682,7 @@ mod tests {
         let by_id = "/dev/serial/by-id/usb-X,Y-if00";
         assert_eq!(p(&format!("{by_id}:115200")), serial_at(by_id, 115200));
         assert_eq!(p(by_id), serial_default(by_id));
-        assert_eq!(
-            p(&format!("serial:{by_id}")),
-            serial_default(by_id)
-        );
+        assert_eq!(p(&format!("serial:{by_id}")), serial_default(by_id));
         assert_eq!(p(&format!("{by_id},230400")), serial_at(by_id, 230400));
         let by_path = "/dev/serial/by-path/pci-0000:00:14.0-usb-0:2:1.0-port0";
         assert_eq!(p(by_path), serial_default(by_path));
@@ -802,7 +802,10 @@ mod tests {
             ("tcp:host:5760?hl=1", "tcp:host:5760?hl=1"),
             ("tcp://host:5760?hl=true", "tcp:host:5760?hl=1"),
             ("tcpin:0.0.0.0:5760?hl", "tcpin:0.0.0.0:5760?hl=1"),
-            ("serial:/dev/ttyUSB0:57600?hl=1", "serial:/dev/ttyUSB0:57600?hl=1"),
+            (
+                "serial:/dev/ttyUSB0:57600?hl=1",
+                "serial:/dev/ttyUSB0:57600?hl=1",
+            ),
             ("serial:/dev/ttyUSB0?hl=1", "serial:/dev/ttyUSB0?hl=1"),
             ("/dev/ttyUSB0,57600?hl=1", "serial:/dev/ttyUSB0:57600?hl=1"),
             ("COM3:115200?hl=1", "serial:COM3:115200?hl=1"),
@@ -814,7 +817,12 @@ mod tests {
             // Display round-trips.
             assert_eq!(p(shown), l, "{shown}");
         }
-        for spec in ["tcp:h:1", "tcp:h:1?hl=0", "tcp:h:1?", "serial:/dev/x:9600?hl=false"] {
+        for spec in [
+            "tcp:h:1",
+            "tcp:h:1?hl=0",
+            "tcp:h:1?",
+            "serial:/dev/x:9600?hl=false",
+        ] {
             assert!(!p(spec).high_latency(), "{spec}");
         }
         assert_eq!(p("tcp:h:1?hl=0").to_string(), "tcp:h:1");

@@ -862,15 +862,20 @@ impl StreamMachine {
     }
 
     fn ack_wait(&self) -> Micros {
-        self.srtt
-            .map_or(FIRST_ACK_WAIT, |r| (4 * r).clamp(MIN_ACK_WAIT, MAX_ACK_WAIT))
+        self.srtt.map_or(FIRST_ACK_WAIT, |r| {
+            (4 * r).clamp(MIN_ACK_WAIT, MAX_ACK_WAIT)
+        })
     }
 
     /// What to ask on a link of kind `profile`: the requests, and the messages to watch.
     fn plan(&self, profile: LinkProfile) -> (Vec<Item>, (f64, Option<f64>)) {
         let ardupilot = self.ardupilot();
         let by_interval: Vec<(u32, f32)> = if ardupilot {
-            self.rates.ardupilot_messages.iter().map(|(m, h)| (*m, *h)).collect()
+            self.rates
+                .ardupilot_messages
+                .iter()
+                .map(|(m, h)| (*m, *h))
+                .collect()
         } else {
             self.rates.messages.iter().map(|(m, h)| (*m, *h)).collect()
         };
@@ -1089,8 +1094,7 @@ impl StreamMachine {
                     .any(|w| w.meter.count >= need);
                 let asks = it.asks;
                 if came {
-                    self.links.get_mut(&link).expect("present").items[i].state =
-                        ItemState::Flowing;
+                    self.links.get_mut(&link).expect("present").items[i].state = ItemState::Flowing;
                 } else if asks < ASKS {
                     self.ask(link, i);
                 } else {
@@ -1234,8 +1238,7 @@ impl StreamMachine {
         }
         self.links.values().any(|s| {
             s.due
-                || s
-                    .items
+                || s.items
                     .iter()
                     .any(|i| i.state == ItemState::Queued && i.method != Method::Interval)
         }) || (self.pending.is_none() && self.links.values().any(|s| !s.queue.is_empty()))
@@ -1278,7 +1281,6 @@ fn hz_text(hz: f64) -> String {
         format!("{hz:.2}")
     }
 }
-
 
 #[cfg(test)]
 mod tests {
@@ -1424,14 +1426,18 @@ mod tests {
                 self.now += 10_000;
                 let now = self.now;
                 if !self.silent {
-                    if now % SECOND == 0 {
+                    if now.is_multiple_of(SECOND) {
                         let h = hb(self.autopilot);
                         for &(l, p) in &self.links.clone() {
                             self.m.on_message(now, l, p, 0, Some(&h));
                         }
                     }
-                    let due: Vec<(Micros, u8)> =
-                        self.acks_due.iter().copied().filter(|a| a.0 <= now).collect();
+                    let due: Vec<(Micros, u8)> = self
+                        .acks_due
+                        .iter()
+                        .copied()
+                        .filter(|a| a.0 <= now)
+                        .collect();
                     self.acks_due.retain(|a| a.0 > now);
                     for (_, a) in due {
                         self.waiting = false;
@@ -1504,7 +1510,10 @@ mod tests {
         );
         // Groups first, then one interval at a time, in id order.
         let firsts: Vec<(Micros, Req)> = r.asked.iter().copied().take(7).collect();
-        assert!(matches!(firsts[6].1, Req::Interval(0, 242, _)), "{firsts:?}");
+        assert!(
+            matches!(firsts[6].1, Req::Interval(0, 242, _)),
+            "{firsts:?}"
+        );
         r.run(3 * SECOND);
         let iv = r.intervals_asked();
         assert_eq!(iv.len(), 2, "{iv:?}");
@@ -1541,7 +1550,10 @@ mod tests {
         // What a screen shows: asked and measured, per message.
         for (id, hz) in r.m.requested(0).collect::<Vec<_>>() {
             let got = r.m.measured(r.now, 0, id).unwrap();
-            assert!((got - hz as f64).abs() / (hz as f64) < 0.1, "{id}: {got} vs {hz}");
+            assert!(
+                (got - hz as f64).abs() / (hz as f64) < 0.1,
+                "{id}: {got} vs {hz}"
+            );
         }
     }
 
@@ -1559,7 +1571,11 @@ mod tests {
         // PX4 has no groups to fall back to: given up, said so, never REQUEST_DATA_STREAM.
         r.run(60 * SECOND);
         assert!(r.groups_asked(0).is_empty());
-        assert!(r.notice("no SYS_STATUS from 1:1 on link 0"), "{:?}", r.notices);
+        assert!(
+            r.notice("no SYS_STATUS from 1:1 on link 0"),
+            "{:?}",
+            r.notices
+        );
         assert_eq!(r.m.link_state(0), Some(LinkStreamState::Failed));
         let before = r.asked.len();
         r.run(120 * SECOND);
@@ -1605,15 +1621,16 @@ mod tests {
         want.sort_by_key(|x| x.0);
         assert_eq!(got, want);
         assert_eq!(r.overlaps, 0);
-        assert!(r.notice("ATTITUDE not arriving by REQUEST_DATA_STREAM EXTRA1; asking by SET_MESSAGE_INTERVAL"));
+        assert!(r.notice(
+            "ATTITUDE not arriving by REQUEST_DATA_STREAM EXTRA1; asking by SET_MESSAGE_INTERVAL"
+        ));
         r.run(40 * SECOND);
         assert_eq!(r.m.link_state(0), Some(LinkStreamState::Flowing));
-        let att = r
-            .m
-            .report(r.now, 0)
-            .into_iter()
-            .find(|s| s.msgid == 30)
-            .unwrap();
+        let att =
+            r.m.report(r.now, 0)
+                .into_iter()
+                .find(|s| s.msgid == 30)
+                .unwrap();
         assert_eq!(att.method, Method::Interval);
         assert_eq!(att.requested_hz, 10.0);
         assert!((att.measured_hz - 10.0).abs() < 0.5, "{att:?}");
@@ -1665,7 +1682,9 @@ mod tests {
         assert!(r.groups_asked(0).is_empty());
         r.run(9 * SECOND);
         assert_eq!(r.groups_asked(0), vec![(11, 4)]);
-        assert!(r.notice("VFR_HUD not arriving by SET_MESSAGE_INTERVAL; asking by REQUEST_DATA_STREAM EXTRA2"));
+        assert!(r.notice(
+            "VFR_HUD not arriving by SET_MESSAGE_INTERVAL; asking by REQUEST_DATA_STREAM EXTRA2"
+        ));
         r.run(20 * SECOND);
         assert_eq!(r.m.link_state(0), Some(LinkStreamState::Flowing));
     }
@@ -1790,7 +1809,15 @@ mod tests {
         // MAVLink 2 frames with every extension field: what ArduCopter sends in one round.
         assert_eq!(
             per_group,
-            vec![(1, 169), (2, 225), (3, 103), (6, 80), (10, 76), (11, 32), (12, 212)]
+            vec![
+                (1, 169),
+                (2, 225),
+                (3, 103),
+                (6, 80),
+                (10, 76),
+                (11, 32),
+                (12, 212)
+            ]
         );
         let frames: u32 = groups
             .iter()
@@ -1799,7 +1826,10 @@ mod tests {
         assert_eq!(frames, 77);
         // Unknown speed (network, USB, a serial spec without a baud): as configured.
         let f = fit_to_link(&groups, &[], None);
-        assert_eq!(f.groups, vec![(1, 2), (2, 2), (3, 2), (6, 3), (10, 10), (11, 10), (12, 3)]);
+        assert_eq!(
+            f.groups,
+            vec![(1, 2), (2, 2), (3, 2), (6, 3), (10, 10), (11, 10), (12, 3)]
+        );
         assert_eq!(f.bytes_per_second.round(), 2950.0);
         assert_eq!(f.budget, None);
         // 115200 baud: 5760 bytes/s for telemetry, enough.
@@ -1808,11 +1838,17 @@ mod tests {
         assert_eq!(f.budget, Some(5760.0));
         // 57600 baud: 2880 bytes/s, 70 short: EXTRA1 goes to 9 Hz.
         let f = fit_to_link(&groups, &[], Some(57_600));
-        assert_eq!(f.groups, vec![(1, 2), (2, 2), (3, 2), (6, 3), (10, 9), (11, 10), (12, 3)]);
+        assert_eq!(
+            f.groups,
+            vec![(1, 2), (2, 2), (3, 2), (6, 3), (10, 9), (11, 10), (12, 3)]
+        );
         assert_eq!(f.bytes_per_second, 2874.0);
         // 19200 baud: 960 bytes/s.
         let f = fit_to_link(&groups, &[], Some(19_200));
-        assert_eq!(f.groups, vec![(1, 1), (2, 1), (3, 1), (6, 1), (10, 1), (11, 2), (12, 1)]);
+        assert_eq!(
+            f.groups,
+            vec![(1, 1), (2, 1), (3, 1), (6, 1), (10, 1), (11, 2), (12, 1)]
+        );
         assert_eq!(f.bytes_per_second, 929.0);
         // Messages by interval scale in proportion.
         let px4: Vec<(u32, f32)> = defaults().messages.into_iter().collect();

@@ -33,7 +33,10 @@ fn host_port(host: &str, port: u16) -> String {
 /// Serve the simulated vehicle(s) on `listen` until the future is dropped or Ctrl-C.
 pub async fn serve(listen: &LinkSpec, cfg: SimConfig) -> Result<(), SimError> {
     match listen {
-        LinkSpec::TcpClient { host, port, .. } | LinkSpec::TcpServer { addr: host, port, .. } => {
+        LinkSpec::TcpClient { host, port, .. }
+        | LinkSpec::TcpServer {
+            addr: host, port, ..
+        } => {
             let listener = TcpListener::bind(host_port(host, *port)).await?;
             serve_tcp(listener, cfg).await
         }
