@@ -392,7 +392,7 @@ impl FromStr for LinkSpec {
             return transport(input, s);
         }
         let (s, hl) = options(input, s)?;
-        Ok(with_hl(transport(input, s)?, hl))
+        Ok(with_hl(transport(input, s.trim_end())?, hl))
     }
 }
 
