@@ -717,7 +717,7 @@ impl StreamMachine {
         id: u32,
         heartbeat: Option<&dialect::HEARTBEAT_DATA>,
     ) {
-        let entry = self.links.entry(link).or_insert(LinkStreams {
+        let entry = self.links.entry(link).or_insert_with(|| LinkStreams {
             profile,
             due: !profile.hl,
             last_heartbeat: now,
