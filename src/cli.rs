@@ -24,7 +24,10 @@ pub struct Cli {
     /// embedded simulated vehicle.
     /// Forms: udpin:ADDR:PORT, udpout:HOST:PORT, tcp:HOST:PORT, tcpin:ADDR:PORT,
     /// serial:PATH[:BAUD], PATH,BAUD, udp://[HOST]:PORT, udpout://HOST:PORT, tcp://HOST:PORT,
-    /// serial://PATH[:BAUD], sim://[?options], tlog:PATH.
+    /// serial://PATH[:BAUD], sim://[?options], tlog:PATH. Network and serial links take `?hl=1`
+    /// for a high-latency or low-bandwidth link: nothing automatic is sent on it (no stream
+    /// requests, no parameter download). A serial baud given explicitly fits the telemetry rates
+    /// asked to the link.
     #[arg(long = "link", value_name = "SPEC", value_parser = parse_spec)]
     pub links: Vec<LinkSpec>,
 

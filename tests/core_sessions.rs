@@ -1,6 +1,7 @@
 //! What the core sends, and to whom: the GCS heartbeat on every link, stream requests per
-//! autopilot and per link (checked, retried, asked again after a reboot but not after a fade),
-//! routing over two links, frames that are not ours or not for us. Vehicle frames are packed by
+//! autopilot and per link (each ArduPilot group at its rate, SET_MESSAGE_INTERVAL one at a time,
+//! checked, retried, asked again after a reboot but not after a fade, nothing on a high-latency
+//! link), routing over two links, frames that are not ours or not for us. Vehicle frames are packed by
 //! pymavlink and everything the core sends is read back by pymavlink: the expected values are
 //! pymavlink's and the spec's, not our encoder's.
 
@@ -12,6 +13,7 @@ use mavterm::app::links::LinkState;
 use mavterm::app::{App, AppConfig, Effect, Event};
 use mavterm::clock::{Micros, SECOND};
 use mavterm::link::{FrameParser, LinkId, ParserStats};
+use mavterm::proto::rates::StreamRates;
 use serde_json::{json, Value};
 
 /// MAV_AUTOPILOT values (common.xml).
@@ -23,6 +25,21 @@ fn app(links: usize) -> App {
         links: (0..links).map(|i| format!("test{i}")).collect(),
         // Streams and commands only: the parameter download is tested on its own.
         fetch_params: false,
+        ..AppConfig::default()
+    })
+}
+
+/// ArduPilot asked for EXTRA1 (ATTITUDE) only, at 10 Hz, and others ATTITUDE at 10 Hz: the
+/// flying tests send ATTITUDE, and one request per ask is easy to count.
+fn attitude_only(links: usize) -> App {
+    App::new(AppConfig {
+        links: (0..links).map(|i| format!("test{i}")).collect(),
+        fetch_params: false,
+        streams: StreamRates {
+            groups: [(10, 10.0)].into_iter().collect(),
+            messages: [(30, 10.0)].into_iter().collect(),
+            ardupilot_messages: Default::default(),
+        },
         ..AppConfig::default()
     })
 }
@@ -166,7 +183,7 @@ fn gcs_heartbeat_once_a_second_on_every_link() {
 }
 
 #[test]
-fn ardupilot_is_asked_for_streams_on_every_link_it_is_heard_on() {
+fn ardupilot_is_asked_for_each_group_at_its_rate_on_every_link_it_is_heard_on() {
     let mut a = app(3);
     let mut fx = Vec::new();
     // Heard on links 0 and 1 (the same frames, as through two radios), never on link 2.
@@ -176,16 +193,26 @@ fn ardupilot_is_asked_for_streams_on_every_link_it_is_heard_on() {
         fx.extend(feed(&mut a, t + 20_000, 1, &heartbeat(1, i, ARDUPILOT)));
     }
     let reqs = decoded(&fx);
-    let mut links: Vec<LinkId> = reqs.iter().map(|(l, _)| *l).collect();
-    links.sort();
-    assert_eq!(links, vec![0, 1], "{reqs:?}");
-    for (_, v) in &reqs {
-        assert_eq!(v["name"], "REQUEST_DATA_STREAM");
-        assert_eq!(v["target_system"], 1);
-        assert_eq!(v["target_component"], 1);
-        assert_eq!(v["req_stream_id"], 0); // MAV_DATA_STREAM_ALL
-        assert_eq!(v["req_message_rate"], 4);
-        assert_eq!(v["start_stop"], 1);
+    // The defaults (QGroundControl's): RAW_SENSORS 2, EXTENDED_STATUS 2, RC_CHANNELS 2,
+    // POSITION 3, EXTRA1 10, EXTRA2 10, EXTRA3 3 Hz.
+    let want = vec![(1, 2), (2, 2), (3, 2), (6, 3), (10, 10), (11, 10), (12, 3)];
+    for link in 0..3 {
+        let mut got = Vec::new();
+        for (_, v) in reqs.iter().filter(|(l, _)| *l == link) {
+            assert_eq!(v["name"], "REQUEST_DATA_STREAM", "{v}");
+            assert_eq!(v["target_system"], 1);
+            assert_eq!(v["target_component"], 1);
+            assert_eq!(v["start_stop"], 1);
+            got.push((
+                v["req_stream_id"].as_u64().unwrap(),
+                v["req_message_rate"].as_u64().unwrap(),
+            ));
+        }
+        if link == 2 {
+            assert!(got.is_empty(), "never heard on link 2: {got:?}");
+        } else {
+            assert_eq!(got, want, "link {link}");
+        }
     }
     // One vehicle, heard on both links; its heartbeats are not counted twice.
     let v = a.vehicles.get((1, 1)).unwrap();
@@ -193,28 +220,122 @@ fn ardupilot_is_asked_for_streams_on_every_link_it_is_heard_on() {
     assert_eq!(a.sessions.len(), 1);
 }
 
+/// A COMMAND_ACK of SET_MESSAGE_INTERVAL from `sysid`:1 with `result`.
+fn interval_ack(sysid: u8, seq: u8, result: u64) -> Vec<u8> {
+    packed(
+        json!({"sysid": sysid, "compid": 1, "seq": seq, "msg": "COMMAND_ACK", "fields": {
+        "command": 511, "result": result, "progress": 0, "result_param2": 0,
+        "target_system": 255, "target_component": 190}}),
+    )
+}
+
 #[test]
-fn px4_is_asked_with_set_message_interval_only() {
+fn px4_is_asked_with_set_message_interval_only_one_at_a_time() {
     let mut a = app(1);
-    let fx = feed(&mut a, 0, 0, &heartbeat(7, 0, PX4));
-    let reqs = decoded(&fx);
-    assert!(!reqs.is_empty());
+    let mut fx = feed(&mut a, 0, 0, &heartbeat(7, 0, PX4));
     let mut ids = Vec::new();
-    for (_, v) in &reqs {
+    // Each ACK lets the next one go; never two waiting.
+    for seq in 1..20u8 {
+        let t = 50_000 * seq as Micros;
+        let reqs = decoded(&fx);
+        assert!(reqs.len() <= 1, "one at a time: {reqs:?}");
+        let Some((_, v)) = reqs.first() else { break };
         assert_eq!(v["name"], "COMMAND_LONG", "{v}");
         assert_eq!(v["command"], 511); // MAV_CMD_SET_MESSAGE_INTERVAL
         assert_eq!(v["target_system"], 7);
         assert_eq!(v["target_component"], 1);
         assert_eq!(v["confirmation"], 0);
-        let id = v["param1"].as_f64().unwrap();
+        let id = v["param1"].as_f64().unwrap() as u32;
         let interval = v["param2"].as_f64().unwrap();
-        assert!(interval > 0.0 && interval <= 2_000_000.0, "{v}");
-        ids.push(id as u32);
+        ids.push((id, (1e6 / interval * 100.0).round() / 100.0));
+        fx = feed(&mut a, t, 0, &interval_ack(7, seq, 0));
     }
-    // The flight telemetry: SYS_STATUS, GPS_RAW_INT, ATTITUDE, GLOBAL_POSITION_INT, VFR_HUD.
-    for id in [1, 24, 30, 33, 74] {
-        assert!(ids.contains(&id), "{ids:?}");
+    // The defaults for SET_MESSAGE_INTERVAL, in id order.
+    assert_eq!(
+        ids,
+        vec![
+            (1, 1.0),
+            (2, 0.5),
+            (24, 1.0),
+            (30, 4.0),
+            (33, 4.0),
+            (74, 4.0),
+            (147, 1.0)
+        ]
+    );
+    assert!(!a.notices.iter().any(|n| n.severity <= 4), "all accepted");
+}
+
+#[test]
+fn the_operators_set_message_interval_and_ours_keep_their_own_acks() {
+    use mavterm::dialect::MavCmd;
+    use mavterm::proto::commands::{CommandSpec, State};
+    let mut a = app(1);
+    let fx = feed(&mut a, 0, 0, &heartbeat(7, 0, PX4));
+    assert_eq!(decoded(&fx).len(), 1, "ours waits for its ACK");
+    // The operator's own, while ours waits: it goes (the queue knows nothing of ours)...
+    let spec = CommandSpec::long(
+        (7, 1),
+        MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+        [33.0, 200_000.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    );
+    let s = a.sessions.get_mut(&(7, 1)).unwrap();
+    let (id, out) = s.submit(1_000, spec).unwrap();
+    assert_eq!(out.len(), 1);
+    // ... the first ACK is ours (sent first) and the next one goes out only after the
+    // operator's is answered.
+    let fx = feed(&mut a, 50_000, 0, &interval_ack(7, 1, 0));
+    assert!(decoded(&fx).is_empty(), "held while the operator's waits");
+    let s = &a.sessions[&(7, 1)];
+    assert_eq!(s.commands.get(id).unwrap().state, State::Waiting);
+    let fx = feed(&mut a, 60_000, 0, &interval_ack(7, 2, 0));
+    assert_eq!(
+        a.sessions[&(7, 1)].commands.get(id).unwrap().state,
+        State::Done(0)
+    );
+    let reqs = decoded(&fx);
+    assert_eq!(reqs.len(), 1, "{reqs:?}");
+    assert_eq!(reqs[0].1["param1"], 2.0, "ours goes on with SYSTEM_TIME");
+}
+
+#[test]
+fn a_high_latency_link_carries_nothing_but_our_heartbeat() {
+    let mut a = App::new(AppConfig {
+        links: vec!["tcp:127.0.0.1:5760?hl=1".into(), "test1".into()],
+        ..AppConfig::default() // parameters fetched too
+    });
+    let mut fx = Vec::new();
+    for i in 0..20u8 {
+        let t = i as Micros * SECOND;
+        fx.extend(run_timers(&mut a, t));
+        fx.extend(feed(&mut a, t, 0, &heartbeat(1, i, ARDUPILOT)));
     }
+    let s = sends(&fx);
+    let d = common::pymavlink_decode(&s.iter().map(|(_, f)| f.clone()).collect::<Vec<_>>());
+    assert!(!d.is_empty());
+    for v in &d {
+        assert_eq!(v["name"], "HEARTBEAT", "only our heartbeat: {v}");
+    }
+    // Heard on a normal link too: everything automatic goes there, and only there.
+    let mut fx = Vec::new();
+    for i in 20..30u8 {
+        let t = i as Micros * SECOND;
+        fx.extend(run_timers(&mut a, t));
+        fx.extend(feed(&mut a, t, 0, &heartbeat(1, i, ARDUPILOT)));
+        fx.extend(feed(&mut a, t + 1000, 1, &heartbeat(1, i, ARDUPILOT)));
+    }
+    let s = sends(&fx);
+    let d = common::pymavlink_decode(&s.iter().map(|(_, f)| f.clone()).collect::<Vec<_>>());
+    let mut names = std::collections::BTreeSet::new();
+    for ((link, _), v) in s.iter().zip(&d) {
+        if *link == 0 {
+            assert_eq!(v["name"], "HEARTBEAT", "{v}");
+        } else {
+            names.insert(v["name"].as_str().unwrap().to_string());
+        }
+    }
+    assert!(names.contains("REQUEST_DATA_STREAM"), "{names:?}");
+    assert!(names.contains("COMMAND_LONG"), "{names:?}"); // HOME_POSITION, AUTOPILOT_VERSION
 }
 
 #[test]
@@ -266,21 +387,58 @@ fn fly(a: &mut App, from: Micros, to: Micros, seq: &mut u8, telemetry: bool) -> 
 }
 
 #[test]
-fn streams_are_retried_until_telemetry_comes_then_left_alone() {
-    let mut a = app(1);
+fn streams_are_asked_again_until_telemetry_comes_then_left_alone() {
+    let mut a = attitude_only(1);
     let mut seq = 0;
-    // Heartbeats only for 10 s: asked at 0, checked 3 s later and asked again, then 6 s later.
-    let fx = fly(&mut a, 0, 10 * SECOND, &mut seq, false);
-    let n = count_stream_requests(&fx);
-    assert_eq!(n, 3, "asked at 0 s, 3 s and 9 s");
+    // Heartbeats only: asked at 0 and again when checked 3 s later.
+    let fx = fly(&mut a, 0, 4 * SECOND, &mut seq, false);
+    assert_eq!(count_stream_requests(&fx), 2, "asked at 0 s and 3 s");
     // Telemetry arrives: no more requests.
-    let fx = fly(&mut a, 10 * SECOND, 60 * SECOND, &mut seq, true);
+    let fx = fly(&mut a, 4 * SECOND, 60 * SECOND, &mut seq, true);
     assert_eq!(count_stream_requests(&fx), 0);
+    let s = &a.sessions[&(1, 1)].streams;
+    let measured = s.measured(a.now, 0, 30).unwrap();
+    assert!((measured - 10.0).abs() < 0.5, "{measured}");
+}
+
+#[test]
+fn a_group_that_never_comes_is_asked_by_set_message_interval_then_given_up() {
+    let mut a = attitude_only(1);
+    let mut seq = 0;
+    let fx = fly(&mut a, 0, 12 * SECOND, &mut seq, false);
+    let reqs = decoded(&fx);
+    let names: Vec<&str> = reqs
+        .iter()
+        .map(|(_, v)| v["name"].as_str().unwrap())
+        .collect();
+    // REQUEST_DATA_STREAM twice, then SET_MESSAGE_INTERVAL ATTITUDE, sent three times without
+    // an answer.
+    assert_eq!(
+        names,
+        vec![
+            "REQUEST_DATA_STREAM",
+            "REQUEST_DATA_STREAM",
+            "COMMAND_LONG",
+            "COMMAND_LONG",
+            "COMMAND_LONG"
+        ],
+        "{reqs:?}"
+    );
+    assert!(reqs[2..].iter().all(|(_, v)| v["param1"] == 30.0));
+    let texts: Vec<&str> = a.notices.iter().map(|n| n.text.as_str()).collect();
+    assert!(
+        texts
+            .iter()
+            .any(|t| t.contains("no ATTITUDE from 1:1 on link 0")),
+        "{texts:?}"
+    );
+    let fx = fly(&mut a, 12 * SECOND, 60 * SECOND, &mut seq, false);
+    assert_eq!(count_stream_requests(&fx), 0, "left alone");
 }
 
 #[test]
 fn streams_are_asked_again_after_a_reboot_but_not_after_a_fade() {
-    let mut a = app(1);
+    let mut a = attitude_only(1);
     let mut seq = 0;
     let fx = fly(&mut a, 0, 10 * SECOND, &mut seq, true);
     assert_eq!(count_stream_requests(&fx), 1);
@@ -456,7 +614,7 @@ fn frames_of_unknown_ids_make_no_source_and_no_loss() {
 
 #[test]
 fn a_link_that_reconnects_counts_afresh_and_asks_for_streams_again() {
-    let mut a = app(1);
+    let mut a = attitude_only(1);
     let up = |a: &mut App, t| {
         a.update(
             t,
@@ -492,7 +650,16 @@ fn a_link_that_reconnects_counts_afresh_and_asks_for_streams_again() {
 
 #[test]
 fn telemetry_our_dialect_cannot_decode_still_shows_streams_flow() {
-    let mut a = app(1);
+    // EXTENDED_STATUS only, whose GPS_RAW_INT is checked.
+    let mut a = App::new(AppConfig {
+        links: vec!["test0".into()],
+        fetch_params: false,
+        streams: StreamRates {
+            groups: [(2, 10.0)].into_iter().collect(),
+            ..StreamRates::default()
+        },
+        ..AppConfig::default()
+    });
     // GPS_RAW_INT with a fix type newer than the dialect (200): the crate refuses the payload.
     let gps: Vec<Vec<u8>> = common::pymavlink_encode(
         &(0..=255u8)

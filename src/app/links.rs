@@ -9,6 +9,7 @@ use crate::clock::{Micros, SECOND};
 pub use crate::link::LinkState;
 use crate::link::ParserStats;
 use crate::proto::loss::SeqTracker;
+use crate::proto::streams::LinkProfile;
 use crate::proto::telemetry::History;
 use crate::wire::tx::LinkTx;
 
@@ -138,6 +139,8 @@ pub const MAX_SOURCES: usize = 256;
 #[derive(Debug, Clone)]
 pub struct LinkStatus {
     pub spec: String,
+    /// What the spec says of the link for automatic traffic: high-latency, a known baud.
+    pub profile: LinkProfile,
     pub state: LinkState,
     /// Our sending side: sequence numbers and the version the far end speaks.
     pub tx: LinkTx,
@@ -169,7 +172,15 @@ pub struct LinkStatus {
 
 impl LinkStatus {
     pub fn new(spec: String, sysid: u8, compid: u8) -> Self {
+        let profile = spec
+            .parse::<crate::link::LinkSpec>()
+            .map(|l| LinkProfile {
+                hl: l.high_latency(),
+                baud: l.explicit_baud(),
+            })
+            .unwrap_or_default();
         Self {
+            profile,
             spec,
             state: LinkState::Connecting,
             tx: LinkTx::new(sysid, compid),

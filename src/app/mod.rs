@@ -344,7 +344,21 @@ impl App {
                         format!("no link to {}:{}: not sent", key.0, key.1),
                     ),
                 },
-                SessionOut::SendOn(link, msg) => self.send(link, msg, fx),
+                // Nothing automatic on high-latency links, nor when only those reach the vehicle.
+                SessionOut::SendAuto(msg) => {
+                    let link = self
+                        .sessions
+                        .get(&key)
+                        .and_then(|s| s.route_auto(|l| self.link_up(l)));
+                    if let Some(link) = link {
+                        self.send(link, msg, fx);
+                    }
+                }
+                SessionOut::SendOn(link, msg) => {
+                    if !self.links.get(link).is_some_and(|l| l.profile.hl) {
+                        self.send(link, msg, fx)
+                    }
+                }
                 SessionOut::Notice(sev, text) => {
                     self.param_outcome(sev, &text);
                     self.inspector_outcome(sev, &text);
@@ -585,6 +599,7 @@ impl App {
                         hb.autopilot,
                         self.cfg.request_streams,
                         self.cfg.fetch_params,
+                        self.cfg.streams.clone(),
                     );
                     self.sessions.insert(key, s);
                 }
@@ -628,9 +643,10 @@ impl App {
         // `on_message` touches, so this is the same as doing each in turn. Few sessions are
         // looked through faster than a range is found.
         let id = (key.1, frame.msgid);
+        let profile = self.links[link].profile;
         let mut outs = Vec::new();
         let mut handle = |k: &VehicleKey, s: &mut Session| {
-            let out = s.on_message(now, link, id, msg, ack.as_ref(), frame.payload());
+            let out = s.on_message(now, link, profile, id, msg, ack.as_ref(), frame.payload());
             if !out.is_empty() {
                 outs.push((*k, out));
             }

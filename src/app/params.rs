@@ -222,7 +222,7 @@ impl App {
                 let now = self.now;
                 let s = self.sessions.get_mut(&key).ok_or("no session")?;
                 let out = s.params.fetch(now, comp);
-                let out = out.into_iter().map(super::session::pmap).collect();
+                let out = out.into_iter().map(|o| s.pmap(o)).collect();
                 self.session_out(key, out, fx);
                 Ok(Some(format!("fetching the parameters of {}:{comp}", key.0)))
             }
@@ -363,7 +363,7 @@ impl App {
         let s = self.sessions.get_mut(&key).ok_or("vehicle gone")?;
         for (comp, name, v) in &changes {
             match s.params.set(now, *comp, name, *v) {
-                Ok(o) => out.extend(o.into_iter().map(super::session::pmap)),
+                Ok(o) => out.extend(o.into_iter().map(|o| s.pmap(o))),
                 Err(e) => errors.push(format!("{name}: {e}")),
             }
         }

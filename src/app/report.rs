@@ -6,6 +6,12 @@
 //! added, never renamed. Bounded tables and queues say what they let go: `links[].dropped` (frames
 //! a queue dropped), `links[].echoes` (our own frames heard back), `links[].evicted_sources`, and
 //! `vehicles_evicted` at the top. A tlog link's skipped bytes are in `links[].garbage_bytes`.
+//!
+//! `streams[]`, per session (`sysid`, `compid`, `autopilot`), per link heard: `link`, `state`
+//! (`due`, `asking`, `flowing`, `failed`, `high-latency`), `requests` (frames sent),
+//! `expected_bytes_per_second`, `budget_bytes_per_second` (a serial link with a known baud),
+//! and `messages[].{id,name,requested_hz,measured_hz,method,state}` (method:
+//! `REQUEST_DATA_STREAM <GROUP>` or `SET_MESSAGE_INTERVAL`).
 
 use serde_json::{json, Value};
 
@@ -155,10 +161,53 @@ impl App {
                 })
             })
             .collect();
+        // Telemetry asked of each autopilot, per link: asked and measured rates.
+        let streams: Vec<Value> = self
+            .sessions
+            .iter()
+            .map(|(key, s)| {
+                let links: Vec<Value> = s
+                    .streams
+                    .link_states()
+                    .map(|(link, state)| {
+                        let messages: Vec<Value> = s
+                            .streams
+                            .report(now, link)
+                            .into_iter()
+                            .map(|m| {
+                                json!({
+                                    "id": m.msgid,
+                                    "name": crate::proto::streams::msg_name(m.msgid),
+                                    "requested_hz": round2(m.requested_hz as f64),
+                                    "measured_hz": round2(m.measured_hz),
+                                    "method": m.method.name(),
+                                    "state": m.state.name(),
+                                })
+                            })
+                            .collect();
+                        let (bytes, budget) = s.streams.load(link).unwrap_or((0.0, None));
+                        json!({
+                            "link": link,
+                            "state": state.name(),
+                            "requests": s.streams.requests_sent(link),
+                            "expected_bytes_per_second": round2(bytes),
+                            "budget_bytes_per_second": budget,
+                            "messages": messages,
+                        })
+                    })
+                    .collect();
+                json!({
+                    "sysid": key.0,
+                    "compid": key.1,
+                    "links": links,
+                })
+            })
+            .collect();
         json!({
             "links": links,
             "vehicles": vehicles,
             "params": params,
+            "streams": streams,
             "vehicles_evicted": self.vehicles.evicted,
         })
     }

@@ -12,13 +12,14 @@
 use std::collections::BTreeMap;
 
 use crate::clock::Micros;
-use crate::dialect::{MavAutopilot, MavMessage};
+use crate::dialect::{MavAutopilot, MavCmd, MavMessage};
 use crate::link::LinkId;
 use crate::proto::ack::CommandAck;
 use crate::proto::commands::{CmdOut, CommandQueue, CommandSpec, State};
 use crate::proto::params::{ParamMachine, ParamOut};
+use crate::proto::rates::StreamRates;
 use crate::proto::sequence::{SeqOut, Sequence};
-use crate::proto::streams::{StreamMachine, StreamOut};
+use crate::proto::streams::{LinkProfile, StreamMachine, StreamOut};
 use crate::proto::telemetry::FlightTelemetry;
 use crate::proto::vehicles::VehicleKey;
 
@@ -29,6 +30,10 @@ pub enum SessionOut {
     /// Send to the vehicle on its route (the link it was heard on most recently, or the one the
     /// operator pinned).
     Send(MavMessage),
+    /// Sent by mavterm on its own (a HOME_POSITION request, a parameter download it started):
+    /// on the vehicle's route among the links that are not high-latency, or not at all
+    /// ([`Session::route_auto`]).
+    SendAuto(MavMessage),
     /// Send on this link (stream rates are per link).
     SendOn(LinkId, MavMessage),
     /// Tell the operator (severity, text).
@@ -41,8 +46,8 @@ pub struct Session {
     pub key: VehicleKey,
     /// The link the operator chose for this vehicle (`link` at the prompt), if any.
     pub pinned: Option<LinkId>,
-    /// When anything of this system was last heard on each link.
-    heard: BTreeMap<LinkId, Micros>,
+    /// When anything of this system was last heard on each link, and what the link is.
+    heard: BTreeMap<LinkId, (Micros, LinkProfile)>,
     pub streams: StreamMachine,
     pub commands: CommandQueue,
     /// A mode change waiting for the heartbeat, or a take-off working through its steps.
@@ -59,12 +64,13 @@ impl Session {
         autopilot: MavAutopilot,
         request_streams: bool,
         fetch_params: bool,
+        rates: StreamRates,
     ) -> Self {
         Self {
             key,
             pinned: None,
             heard: BTreeMap::new(),
-            streams: StreamMachine::new(key, autopilot, request_streams),
+            streams: StreamMachine::new(key, autopilot, request_streams, rates),
             commands: CommandQueue::default(),
             sequence: None,
             flight: FlightTelemetry::new(key, request_streams),
@@ -72,20 +78,41 @@ impl Session {
         }
     }
 
+    /// The link this system was heard on most recently among those `up_only` or not, and
+    /// high-latency ones too when `hl`.
+    fn newest(&self, is_up: &impl Fn(LinkId) -> bool, up_only: bool, hl: bool) -> Option<LinkId> {
+        self.heard
+            .iter()
+            .filter(|(l, (_, p))| (!up_only || is_up(**l)) && (hl || !p.hl))
+            .max_by_key(|(l, (t, _))| (*t, std::cmp::Reverse(**l)))
+            .map(|(l, _)| *l)
+    }
+
     /// Where to send: the pinned link if it is up, else the link this system was heard on most
-    /// recently among those up, else the most recent of any.
+    /// recently among those up (a link that is not high-latency first), else the most recent of
+    /// any.
     pub fn route(&self, is_up: impl Fn(LinkId) -> bool) -> Option<LinkId> {
         if let Some(p) = self.pinned.filter(|&p| is_up(p)) {
             return Some(p);
         }
-        let newest = |up_only: bool| {
-            self.heard
-                .iter()
-                .filter(|(l, _)| !up_only || is_up(**l))
-                .max_by_key(|(l, t)| (**t, std::cmp::Reverse(**l)))
-                .map(|(l, _)| *l)
-        };
-        newest(true).or_else(|| newest(false))
+        self.newest(&is_up, true, false)
+            .or_else(|| self.newest(&is_up, true, true))
+            .or_else(|| self.newest(&is_up, false, false))
+            .or_else(|| self.newest(&is_up, false, true))
+    }
+
+    /// Where what mavterm sends on its own goes: as [`Session::route`], among the links that are
+    /// not high-latency only. `None` when the system is heard on high-latency links only.
+    pub fn route_auto(&self, is_up: impl Fn(LinkId) -> bool) -> Option<LinkId> {
+        if let Some(p) = self.pinned.filter(|&p| is_up(p) && !self.is_hl(p)) {
+            return Some(p);
+        }
+        self.newest(&is_up, true, false)
+            .or_else(|| self.newest(&is_up, false, false))
+    }
+
+    fn is_hl(&self, link: LinkId) -> bool {
+        self.heard.get(&link).is_some_and(|(_, p)| p.hl)
     }
 
     /// Links this system has been heard on.
@@ -93,19 +120,26 @@ impl Session {
         self.heard.keys().copied()
     }
 
-    /// A frame of this system, for us or broadcast, heard on `link`: its source component, its
-    /// message id, and the message when the dialect could read it (or read it by hand), and its
-    /// payload as sent (for fields of messages the dialect could not read).
+    /// A frame of this system, for us or broadcast, heard on `link` (of kind `profile`): its
+    /// source component, its message id, and the message when the dialect could read it (or
+    /// read it by hand), and its payload as sent (for fields of messages the dialect could not
+    /// read).
+    #[allow(clippy::too_many_arguments)]
     pub fn on_message(
         &mut self,
         now: Micros,
         link: LinkId,
+        profile: LinkProfile,
         (from, id): (u8, u32),
         msg: Option<&MavMessage>,
         ack: Option<&CommandAck>,
         payload: &[u8],
     ) -> Vec<SessionOut> {
-        self.heard.insert(link, now);
+        if self.heard.insert(link, (now, profile)).is_none() {
+            // Nothing starts on its own while the system is heard on high-latency links only.
+            let held = self.heard.values().all(|(_, p)| p.hl);
+            self.params.hold_auto(held);
+        }
         let mut out = Vec::new();
         // Parameters are kept per component of the system.
         match id {
@@ -113,7 +147,7 @@ impl Session {
                 self.params
                     .on_param_value(now, from, payload)
                     .into_iter()
-                    .map(pmap),
+                    .map(|o| self.pmap(o)),
             ),
             // FILE_TRANSFER_PROTOCOL: target_network, target_system, target_component, then
             // the FTP payload.
@@ -121,7 +155,7 @@ impl Session {
                 self.params
                     .on_ftp(now, from, &payload[3..])
                     .into_iter()
-                    .map(pmap),
+                    .map(|o| self.pmap(o)),
             ),
             // AUTOPILOT_VERSION: capabilities u64 first (MAVLink 2 may have cut its zeros).
             148 if from == self.key.1 => {
@@ -133,7 +167,7 @@ impl Session {
                     self.params
                         .on_autopilot_version(now, caps)
                         .into_iter()
-                        .map(pmap),
+                        .map(|o| self.pmap(o)),
                 );
             }
             _ => {}
@@ -159,17 +193,19 @@ impl Session {
             Some(MavMessage::HEARTBEAT(hb)) => Some(hb),
             _ => None,
         };
-        self.streams.on_message(now, link, id, hb);
+        self.streams.on_message(now, link, profile, id, hb);
         self.flight.on_message(now, id, msg, payload);
         if let Some(a) = ack {
-            out.extend(
-                self.streams
-                    .on_ack(a.command, a.result)
-                    .into_iter()
-                    .map(map),
-            );
-            let done = self.commands.on_ack(now, (self.key.0, from), a);
-            out.extend(self.drive(now, done));
+            // A SET_MESSAGE_INTERVAL's ACK is the stream machine's while one of its own waits
+            // (it went before any of the operator's: the machine sends none while one of those
+            // is open), else the command queue's.
+            match self.streams.on_ack(now, a.command, a.result) {
+                Some(o) => out.extend(o.into_iter().map(map)),
+                None => {
+                    let done = self.commands.on_ack(now, (self.key.0, from), a);
+                    out.extend(self.drive(now, done));
+                }
+            }
         }
         if let (Some(hb), Some(seq)) = (hb, self.sequence.as_mut()) {
             let armed = hb
@@ -296,6 +332,10 @@ impl Session {
 
     /// Whatever is due at `now`.
     pub fn poll(&mut self, now: Micros) -> Vec<SessionOut> {
+        let interval = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
+        let operators = self.commands.is_open(self.key, interval)
+            || self.commands.is_open((self.key.0, 0), interval);
+        self.streams.hold_intervals(operators);
         let mut out: Vec<SessionOut> = self.streams.poll(now).into_iter().map(map).collect();
         let done = self.commands.poll(now);
         out.extend(self.drive(now, done));
@@ -305,9 +345,21 @@ impl Session {
             .map(|s| s.poll(now))
             .unwrap_or_default();
         out.extend(self.seq_out(now, r));
-        out.extend(self.flight.poll(now).into_iter().map(SessionOut::Send));
-        out.extend(self.params.poll(now).into_iter().map(pmap));
+        out.extend(self.flight.poll(now).into_iter().map(SessionOut::SendAuto));
+        let p = self.params.poll(now);
+        out.extend(p.into_iter().map(|o| self.pmap(o)));
         out
+    }
+
+    /// Parameter machine output: what belongs to a download it started on its own is automatic
+    /// traffic; an edit (PARAM_SET) is always the operator's.
+    pub(crate) fn pmap(&self, o: ParamOut) -> SessionOut {
+        match o {
+            ParamOut::Send(m @ MavMessage::PARAM_SET(_)) => SessionOut::Send(m),
+            ParamOut::Send(m) if self.params.auto_download() => SessionOut::SendAuto(m),
+            ParamOut::Send(m) => SessionOut::Send(m),
+            ParamOut::Notice(s, t) => SessionOut::Notice(s, t),
+        }
     }
 
     /// True when a poll now would do something (a machine has work that is not on a timer).
@@ -334,12 +386,5 @@ fn map(o: StreamOut) -> SessionOut {
     match o {
         StreamOut::SendOn(l, m) => SessionOut::SendOn(l, m),
         StreamOut::Notice(s, t) => SessionOut::Notice(s, t),
-    }
-}
-
-pub(crate) fn pmap(o: ParamOut) -> SessionOut {
-    match o {
-        ParamOut::Send(m) => SessionOut::Send(m),
-        ParamOut::Notice(s, t) => SessionOut::Notice(s, t),
     }
 }

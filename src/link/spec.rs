@@ -19,6 +19,14 @@
 //! - IPv6 addresses go in brackets (`udpin:[::]:14550`); unbracketed ones are refused with the
 //!   bracketed form as a hint, since `udpin:::14550` cannot be told apart from a host `:`.
 //! - `tlog:` needs a path.
+//! - Network and serial links take options after `?`: `hl=1` marks a high-latency or
+//!   low-bandwidth link (a satellite modem, a long-range radio), on which mavterm sends nothing
+//!   on its own but its heartbeat: no stream requests, no parameter download, no mission
+//!   traffic (`udpin:0.0.0.0:14550?hl=1`, `serial:/dev/ttyUSB0:57600?hl=1`). `sim://` keeps its
+//!   own options after `?`, and a `tlog:` path keeps its `?`.
+//! - A serial spec remembers whether its baud was given: only a baud the operator wrote says how
+//!   fast the link is (a USB port ignores it, a radio's UART does not), so only then are telemetry
+//!   rates fitted to it.
 
 use std::fmt;
 use std::net::Ipv6Addr;
@@ -31,21 +39,26 @@ pub const DEFAULT_BAUD: u32 = 57_600;
 pub const ACCEPTED_FORMS: &str =
     "accepted forms: udpin:ADDR:PORT, udpout:HOST:PORT, tcp:HOST:PORT, \
 tcpin:ADDR:PORT, serial:PATH[:BAUD], PATH,BAUD, udp://[HOST]:PORT, udpout://HOST:PORT, \
-tcp://HOST:PORT, serial://PATH[:BAUD], sim://[?vehicles=N&...], tlog:PATH";
+tcp://HOST:PORT, serial://PATH[:BAUD], sim://[?vehicles=N&...], tlog:PATH; \
+network and serial links take ?hl=1 (high latency: nothing sent but the heartbeat)";
 
 /// A link as the operator asked for it.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum LinkSpec {
     /// Listen for UDP; replies go to every peer heard, most recent first.
-    UdpIn { addr: String, port: u16 },
+    UdpIn { addr: String, port: u16, hl: bool },
     /// Send UDP to a fixed peer (and take what comes back).
-    UdpOut { host: String, port: u16 },
+    UdpOut { host: String, port: u16, hl: bool },
     /// TCP client.
-    TcpClient { host: String, port: u16 },
+    TcpClient { host: String, port: u16, hl: bool },
     /// TCP server accepting several clients.
-    TcpServer { addr: String, port: u16 },
-    /// Serial port.
-    Serial { path: String, baud: u32 },
+    TcpServer { addr: String, port: u16, hl: bool },
+    /// Serial port; `baud` is `None` when the spec named none ([`DEFAULT_BAUD`] is used).
+    Serial {
+        path: String,
+        baud: Option<u32>,
+        hl: bool,
+    },
     /// The embedded simulated vehicle(s); `query` is the text after `?`.
     Sim { query: String },
     /// Replay of a tlog file.
@@ -82,12 +95,39 @@ pub enum SpecError {
     BadHost { input: String, host: String },
     #[error("link spec `{input}`: missing file path after `tlog:`, e.g. tlog:flight.tlog")]
     MissingTlogPath { input: String },
+    #[error("link spec `{input}`: option `{option}` is not known (link options: hl=1)")]
+    BadOption { input: String, option: String },
 }
 
 impl LinkSpec {
     /// True for links that carry datagrams (frames never span two reads).
     pub fn is_datagram(&self) -> bool {
         matches!(self, LinkSpec::UdpIn { .. } | LinkSpec::UdpOut { .. })
+    }
+
+    /// True for a link marked `?hl=1`: high latency or low bandwidth, nothing automatic on it.
+    pub fn high_latency(&self) -> bool {
+        match self {
+            LinkSpec::UdpIn { hl, .. }
+            | LinkSpec::UdpOut { hl, .. }
+            | LinkSpec::TcpClient { hl, .. }
+            | LinkSpec::TcpServer { hl, .. }
+            | LinkSpec::Serial { hl, .. } => *hl,
+            LinkSpec::Sim { .. } | LinkSpec::Tlog { .. } => false,
+        }
+    }
+
+    /// The baud rate a serial spec names, if it names one.
+    pub fn explicit_baud(&self) -> Option<u32> {
+        match self {
+            LinkSpec::Serial { baud, .. } => *baud,
+            _ => None,
+        }
+    }
+
+    /// The baud rate to open a serial port at.
+    pub fn baud(&self) -> u32 {
+        self.explicit_baud().unwrap_or(DEFAULT_BAUD)
     }
 }
 
@@ -101,20 +141,27 @@ impl fmt::Display for LinkSpec {
             }
         }
         match self {
-            LinkSpec::UdpIn { addr, port } => write!(f, "udpin:{}:{port}", hp(addr)),
-            LinkSpec::UdpOut { host, port } => write!(f, "udpout:{}:{port}", hp(host)),
-            LinkSpec::TcpClient { host, port } => write!(f, "tcp:{}:{port}", hp(host)),
-            LinkSpec::TcpServer { addr, port } => write!(f, "tcpin:{}:{port}", hp(addr)),
-            // A path that starts with `//` would read as the URL form: spell that out.
-            LinkSpec::Serial { path, baud } if path.starts_with("//") => {
-                write!(f, "serial://{path}:{baud}")
+            LinkSpec::UdpIn { addr, port, .. } => write!(f, "udpin:{}:{port}", hp(addr))?,
+            LinkSpec::UdpOut { host, port, .. } => write!(f, "udpout:{}:{port}", hp(host))?,
+            LinkSpec::TcpClient { host, port, .. } => write!(f, "tcp:{}:{port}", hp(host))?,
+            LinkSpec::TcpServer { addr, port, .. } => write!(f, "tcpin:{}:{port}", hp(addr))?,
+            LinkSpec::Serial { path, baud, .. } => {
+                // A path that starts with `//` would read as the URL form: spell that out.
+                let sep = if path.starts_with("//") { "//" } else { "" };
+                write!(f, "serial:{sep}{path}")?;
+                if let Some(b) = baud {
+                    write!(f, ":{b}")?;
+                }
             }
-            LinkSpec::Serial { path, baud } => write!(f, "serial:{path}:{baud}"),
-            LinkSpec::Sim { query } if query.is_empty() => write!(f, "sim://"),
-            LinkSpec::Sim { query } => write!(f, "sim://?{query}"),
-            LinkSpec::Tlog { path } if path.starts_with("//") => write!(f, "tlog://{path}"),
-            LinkSpec::Tlog { path } => write!(f, "tlog:{path}"),
+            LinkSpec::Sim { query } if query.is_empty() => write!(f, "sim://")?,
+            LinkSpec::Sim { query } => write!(f, "sim://?{query}")?,
+            LinkSpec::Tlog { path } if path.starts_with("//") => write!(f, "tlog://{path}")?,
+            LinkSpec::Tlog { path } => write!(f, "tlog:{path}")?,
         }
+        if self.high_latency() {
+            write!(f, "?hl=1")?;
+        }
+        Ok(())
     }
 }
 
@@ -225,7 +272,7 @@ fn serial(input: &str, rest: &str) -> Result<LinkSpec, SpecError> {
         baud: b.into(),
     };
     let mut path = rest;
-    let mut baud = DEFAULT_BAUD;
+    let mut baud = None;
     for sep in [':', ','] {
         let Some((p, b)) = rest.rsplit_once(sep) else {
             continue;
@@ -237,7 +284,7 @@ fn serial(input: &str, rest: &str) -> Result<LinkSpec, SpecError> {
             match b.parse::<u32>() {
                 Ok(v) if v > 0 => {
                     path = p;
-                    baud = v;
+                    baud = Some(v);
                     break;
                 }
                 _ => return Err(bad_baud(b)),
@@ -255,7 +302,46 @@ fn serial(input: &str, rest: &str) -> Result<LinkSpec, SpecError> {
     Ok(LinkSpec::Serial {
         path: path.into(),
         baud,
+        hl: false,
     })
+}
+
+/// `REST?OPTIONS` split: the options read (`hl=1`), the rest returned. Options are
+/// `key=value` pairs joined by `&`; `hl` takes 1/0/true/false (`hl` alone is `hl=1`).
+fn options<'a>(input: &str, rest: &'a str) -> Result<(&'a str, bool), SpecError> {
+    let Some((before, query)) = rest.split_once('?') else {
+        return Ok((rest, false));
+    };
+    let mut hl = false;
+    for opt in query.split('&').filter(|o| !o.is_empty()) {
+        let (k, v) = opt.split_once('=').unwrap_or((opt, "1"));
+        hl = match (
+            k.to_ascii_lowercase().as_str(),
+            v.to_ascii_lowercase().as_str(),
+        ) {
+            ("hl", "1" | "true" | "yes") => true,
+            ("hl", "0" | "false" | "no") => false,
+            _ => {
+                return Err(SpecError::BadOption {
+                    input: input.into(),
+                    option: opt.into(),
+                })
+            }
+        };
+    }
+    Ok((before, hl))
+}
+
+/// The same spec marked high-latency when `hl`.
+fn with_hl(spec: LinkSpec, hl: bool) -> LinkSpec {
+    match spec {
+        LinkSpec::UdpIn { addr, port, .. } => LinkSpec::UdpIn { addr, port, hl },
+        LinkSpec::UdpOut { host, port, .. } => LinkSpec::UdpOut { host, port, hl },
+        LinkSpec::TcpClient { host, port, .. } => LinkSpec::TcpClient { host, port, hl },
+        LinkSpec::TcpServer { addr, port, .. } => LinkSpec::TcpServer { addr, port, hl },
+        LinkSpec::Serial { path, baud, .. } => LinkSpec::Serial { path, baud, hl },
+        other => other,
+    }
 }
 
 /// `SCHEME` and what follows `SCHEME:`, if `s` starts with a URI scheme (a letter, then
@@ -297,60 +383,75 @@ impl FromStr for LinkSpec {
         if s.is_empty() {
             return Err(SpecError::Empty);
         }
-        if let Some((scheme, after)) = scheme_of(s) {
-            // `scheme://rest` (MAVSDK) or `scheme:rest` (MAVProxy).
-            let rest = after.strip_prefix("//").unwrap_or(after);
-            let prefix = &s[..s.len() - rest.len()];
-            let url = rest.len() != after.len();
-            match (scheme.to_ascii_lowercase().as_str(), url) {
-                ("udpin" | "udp", _) => {
-                    let (addr, port) = host_port(input, prefix, rest, true)?;
-                    return Ok(LinkSpec::UdpIn { addr, port });
-                }
-                ("udpout", _) => {
-                    let (host, port) = host_port(input, prefix, rest, false)?;
-                    return Ok(LinkSpec::UdpOut { host, port });
-                }
-                ("tcp", _) => {
-                    let (host, port) = host_port(input, prefix, rest, false)?;
-                    return Ok(LinkSpec::TcpClient { host, port });
-                }
-                ("tcpin", _) => {
-                    let (addr, port) = host_port(input, prefix, rest, true)?;
-                    return Ok(LinkSpec::TcpServer { addr, port });
-                }
-                ("serial", _) => return serial(input, rest),
-                ("sim", true) => {
-                    return Ok(LinkSpec::Sim {
-                        query: rest.trim_start_matches('?').to_string(),
-                    })
-                }
-                ("tlog", _) | ("file", true) => {
-                    if rest.is_empty() {
-                        return Err(SpecError::MissingTlogPath {
-                            input: input.into(),
-                        });
-                    }
-                    return Ok(LinkSpec::Tlog { path: rest.into() });
-                }
-                _ if is_com_port(s) => return serial(input, s),
-                _ => {
-                    return Err(SpecError::UnknownScheme {
+        // `sim://` has options of its own after `?`, and a tlog path may hold one.
+        let own_query = scheme_of(s).is_some_and(|(scheme, after)| {
+            let scheme = scheme.to_ascii_lowercase();
+            scheme == "tlog" || (after.starts_with("//") && matches!(&*scheme, "sim" | "file"))
+        });
+        if own_query {
+            return transport(input, s);
+        }
+        let (s, hl) = options(input, s)?;
+        Ok(with_hl(transport(input, s.trim_end())?, hl))
+    }
+}
+
+/// A spec without link options.
+fn transport(input: &str, s: &str) -> Result<LinkSpec, SpecError> {
+    if let Some((scheme, after)) = scheme_of(s) {
+        // `scheme://rest` (MAVSDK) or `scheme:rest` (MAVProxy).
+        let rest = after.strip_prefix("//").unwrap_or(after);
+        let prefix = &s[..s.len() - rest.len()];
+        let url = rest.len() != after.len();
+        let hl = false;
+        match (scheme.to_ascii_lowercase().as_str(), url) {
+            ("udpin" | "udp", _) => {
+                let (addr, port) = host_port(input, prefix, rest, true)?;
+                return Ok(LinkSpec::UdpIn { addr, port, hl });
+            }
+            ("udpout", _) => {
+                let (host, port) = host_port(input, prefix, rest, false)?;
+                return Ok(LinkSpec::UdpOut { host, port, hl });
+            }
+            ("tcp", _) => {
+                let (host, port) = host_port(input, prefix, rest, false)?;
+                return Ok(LinkSpec::TcpClient { host, port, hl });
+            }
+            ("tcpin", _) => {
+                let (addr, port) = host_port(input, prefix, rest, true)?;
+                return Ok(LinkSpec::TcpServer { addr, port, hl });
+            }
+            ("serial", _) => return serial(input, rest),
+            ("sim", true) => {
+                return Ok(LinkSpec::Sim {
+                    query: rest.trim_start_matches('?').to_string(),
+                })
+            }
+            ("tlog", _) | ("file", true) => {
+                if rest.is_empty() {
+                    return Err(SpecError::MissingTlogPath {
                         input: input.into(),
-                        scheme: scheme.into(),
-                    })
+                    });
                 }
+                return Ok(LinkSpec::Tlog { path: rest.into() });
+            }
+            _ if is_com_port(s) => return serial(input, s),
+            _ => {
+                return Err(SpecError::UnknownScheme {
+                    input: input.into(),
+                    scheme: scheme.into(),
+                })
             }
         }
-        // Scheme-less: a device path, MAVProxy's `PATH` or `PATH,BAUD`.
-        if s.starts_with('/') || is_com_port(s) || has_comma_baud(s) {
-            return serial(input, s);
-        }
-        Err(SpecError::UnknownScheme {
-            input: input.into(),
-            scheme: s.into(),
-        })
     }
+    // Scheme-less: a device path, MAVProxy's `PATH` or `PATH,BAUD`.
+    if s.starts_with('/') || is_com_port(s) || has_comma_baud(s) {
+        return serial(input, s);
+    }
+    Err(SpecError::UnknownScheme {
+        input: input.into(),
+        scheme: s.into(),
+    })
 }
 
 #[cfg(test)]
@@ -367,56 +468,64 @@ mod tests {
             p("udpin:0.0.0.0:14550"),
             LinkSpec::UdpIn {
                 addr: "0.0.0.0".into(),
-                port: 14550
+                port: 14550,
+                hl: false,
             }
         );
         assert_eq!(
             p("udpout:10.0.0.2:14550"),
             LinkSpec::UdpOut {
                 host: "10.0.0.2".into(),
-                port: 14550
+                port: 14550,
+                hl: false,
             }
         );
         assert_eq!(
             p("tcp:127.0.0.1:5760"),
             LinkSpec::TcpClient {
                 host: "127.0.0.1".into(),
-                port: 5760
+                port: 5760,
+                hl: false,
             }
         );
         assert_eq!(
             p("tcpin:0.0.0.0:5760"),
             LinkSpec::TcpServer {
                 addr: "0.0.0.0".into(),
-                port: 5760
+                port: 5760,
+                hl: false,
             }
         );
         assert_eq!(
             p("serial:/dev/ttyUSB0"),
             LinkSpec::Serial {
                 path: "/dev/ttyUSB0".into(),
-                baud: 57600
+                baud: None,
+                hl: false,
             }
         );
         assert_eq!(
             p("serial:/dev/ttyACM0:115200"),
             LinkSpec::Serial {
                 path: "/dev/ttyACM0".into(),
-                baud: 115200
+                baud: Some(115200),
+                hl: false,
             }
         );
         assert_eq!(
             p("/dev/ttyUSB0,921600"),
             LinkSpec::Serial {
                 path: "/dev/ttyUSB0".into(),
-                baud: 921600
+                baud: Some(921600),
+                hl: false,
             }
         );
         assert_eq!(
             p("/dev/ttyS1"),
             LinkSpec::Serial {
                 path: "/dev/ttyS1".into(),
-                baud: 57600
+                baud: None,
+                hl: false,
             }
         );
     }
@@ -427,42 +536,48 @@ mod tests {
             p("udp://:14540"),
             LinkSpec::UdpIn {
                 addr: "0.0.0.0".into(),
-                port: 14540
+                port: 14540,
+                hl: false,
             }
         );
         assert_eq!(
             p("udp://127.0.0.1:14540"),
             LinkSpec::UdpIn {
                 addr: "127.0.0.1".into(),
-                port: 14540
+                port: 14540,
+                hl: false,
             }
         );
         assert_eq!(
             p("udpout://192.168.1.5:14550"),
             LinkSpec::UdpOut {
                 host: "192.168.1.5".into(),
-                port: 14550
+                port: 14550,
+                hl: false,
             }
         );
         assert_eq!(
             p("tcp://localhost:5760"),
             LinkSpec::TcpClient {
                 host: "localhost".into(),
-                port: 5760
+                port: 5760,
+                hl: false,
             }
         );
         assert_eq!(
             p("serial:///dev/ttyAMA0:57600"),
             LinkSpec::Serial {
                 path: "/dev/ttyAMA0".into(),
-                baud: 57600
+                baud: Some(57600),
+                hl: false,
             }
         );
         assert_eq!(
             p("udpin:[::1]:14550"),
             LinkSpec::UdpIn {
                 addr: "::1".into(),
-                port: 14550
+                port: 14550,
+                hl: false,
             }
         );
         assert_eq!(
@@ -517,7 +632,17 @@ mod tests {
     fn serial_at(path: &str, baud: u32) -> LinkSpec {
         LinkSpec::Serial {
             path: path.into(),
-            baud,
+            baud: Some(baud),
+            hl: false,
+        }
+    }
+
+    /// A serial spec that names no baud.
+    fn serial_default(path: &str) -> LinkSpec {
+        LinkSpec::Serial {
+            path: path.into(),
+            baud: None,
+            hl: false,
         }
     }
 
@@ -543,7 +668,7 @@ mod tests {
         assert_eq!(p("ttyUSB0,19200"), serial_at("ttyUSB0", 19200));
         assert_eq!(p("COM3,115200"), serial_at("COM3", 115200));
         assert_eq!(p("COM3:115200"), serial_at("COM3", 115200));
-        assert_eq!(p("com12"), serial_at("com12", DEFAULT_BAUD));
+        assert_eq!(p("com12"), serial_default("com12"));
         // Other schemes do not take a comma baud.
         let e = "udpin:0.0.0.0:14550,57600".parse::<LinkSpec>().unwrap_err();
         assert!(
@@ -556,14 +681,11 @@ mod tests {
     fn device_names_with_commas_and_colons_stay_whole() {
         let by_id = "/dev/serial/by-id/usb-X,Y-if00";
         assert_eq!(p(&format!("{by_id}:115200")), serial_at(by_id, 115200));
-        assert_eq!(p(by_id), serial_at(by_id, DEFAULT_BAUD));
-        assert_eq!(
-            p(&format!("serial:{by_id}")),
-            serial_at(by_id, DEFAULT_BAUD)
-        );
+        assert_eq!(p(by_id), serial_default(by_id));
+        assert_eq!(p(&format!("serial:{by_id}")), serial_default(by_id));
         assert_eq!(p(&format!("{by_id},230400")), serial_at(by_id, 230400));
         let by_path = "/dev/serial/by-path/pci-0000:00:14.0-usb-0:2:1.0-port0";
-        assert_eq!(p(by_path), serial_at(by_path, DEFAULT_BAUD));
+        assert_eq!(p(by_path), serial_default(by_path));
         assert_eq!(p(&format!("{by_path}:460800")), serial_at(by_path, 460800));
         // A plain word where the baud goes is a mistyped baud, not a path.
         for (spec, baud) in [
@@ -603,7 +725,8 @@ mod tests {
             p("udpin:[::]:14550"),
             LinkSpec::UdpIn {
                 addr: "::".into(),
-                port: 14550
+                port: 14550,
+                hl: false,
             }
         );
         assert_eq!(p("udpin:[::]:14550").to_string(), "udpin:[::]:14550");
@@ -611,7 +734,8 @@ mod tests {
             p("tcp:[fe80::1%eth0]:5760"),
             LinkSpec::TcpClient {
                 host: "fe80::1%eth0".into(),
-                port: 5760
+                port: 5760,
+                hl: false,
             }
         );
         // A colon in something that is no IPv6 address is a bad host.
@@ -668,5 +792,93 @@ mod tests {
                 other => panic!("{spec}: {other:?}"),
             }
         }
+    }
+    #[test]
+    fn high_latency_option_on_every_transport() {
+        for (spec, shown) in [
+            ("udpin:0.0.0.0:14550?hl=1", "udpin:0.0.0.0:14550?hl=1"),
+            ("udp://:14550?hl=1", "udpin:0.0.0.0:14550?hl=1"),
+            ("udpout:10.0.0.2:14550?hl=1", "udpout:10.0.0.2:14550?hl=1"),
+            ("tcp:host:5760?hl=1", "tcp:host:5760?hl=1"),
+            ("tcp://host:5760?hl=true", "tcp:host:5760?hl=1"),
+            ("tcpin:0.0.0.0:5760?hl", "tcpin:0.0.0.0:5760?hl=1"),
+            (
+                "serial:/dev/ttyUSB0:57600?hl=1",
+                "serial:/dev/ttyUSB0:57600?hl=1",
+            ),
+            ("serial:/dev/ttyUSB0?hl=1", "serial:/dev/ttyUSB0?hl=1"),
+            ("/dev/ttyUSB0,57600?hl=1", "serial:/dev/ttyUSB0:57600?hl=1"),
+            ("COM3:115200?hl=1", "serial:COM3:115200?hl=1"),
+            ("udpin:[::]:14550?hl=1", "udpin:[::]:14550?hl=1"),
+        ] {
+            let l = p(spec);
+            assert!(l.high_latency(), "{spec}");
+            assert_eq!(l.to_string(), shown, "{spec}");
+            // Display round-trips.
+            assert_eq!(p(shown), l, "{shown}");
+        }
+        for spec in [
+            "tcp:h:1",
+            "tcp:h:1?hl=0",
+            "tcp:h:1?",
+            "serial:/dev/x:9600?hl=false",
+        ] {
+            assert!(!p(spec).high_latency(), "{spec}");
+        }
+        assert_eq!(p("tcp:h:1?hl=0").to_string(), "tcp:h:1");
+        assert_eq!(
+            p("udpin:0.0.0.0:14550?hl=1"),
+            LinkSpec::UdpIn {
+                addr: "0.0.0.0".into(),
+                port: 14550,
+                hl: true
+            }
+        );
+        // sim:// and tlog: keep what follows `?` as theirs.
+        assert_eq!(
+            p("sim://?hl=1"),
+            LinkSpec::Sim {
+                query: "hl=1".into()
+            }
+        );
+        assert_eq!(p("tlog:a?hl=1.tlog"), tlog("a?hl=1.tlog"));
+        assert!(!p("sim://?hl=1").high_latency());
+        // Unknown options and values are refused, naming them.
+        for (spec, opt) in [
+            ("tcp:h:1?foo=1", "foo=1"),
+            ("tcp:h:1?hl=2", "hl=2"),
+            ("serial:/dev/x?baud=9600", "baud=9600"),
+        ] {
+            match spec.parse::<LinkSpec>() {
+                Err(e @ SpecError::BadOption { .. }) => {
+                    assert!(e.to_string().contains(&format!("`{opt}`")), "{e}")
+                }
+                other => panic!("{spec}: {other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn a_serial_spec_knows_whether_its_baud_was_given() {
+        for (spec, baud) in [
+            ("serial:/dev/ttyUSB0", None),
+            ("/dev/ttyUSB0", None),
+            ("COM3", None),
+            ("serial:/dev/ttyUSB0:57600", Some(57600)),
+            ("/dev/ttyUSB0,57600", Some(57600)),
+            ("serial:/dev/ttyUSB0:115200?hl=1", Some(115200)),
+            ("tcp:h:1", None),
+        ] {
+            let l = p(spec);
+            assert_eq!(l.explicit_baud(), baud, "{spec}");
+            assert_eq!(l.baud(), baud.unwrap_or(DEFAULT_BAUD), "{spec}");
+            assert_eq!(p(&l.to_string()), l, "{spec} round-trips");
+        }
+        // The default is not written back as if it had been given.
+        assert_eq!(p("serial:/dev/ttyUSB0").to_string(), "serial:/dev/ttyUSB0");
+        assert_eq!(
+            p("serial:/dev/ttyUSB0:57600").to_string(),
+            "serial:/dev/ttyUSB0:57600"
+        );
     }
 }

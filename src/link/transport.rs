@@ -283,11 +283,11 @@ enum Opened {
 /// Open the transport a spec names; the error is the "down" reason.
 async fn open(spec: &LinkSpec) -> Result<Opened, String> {
     match spec {
-        LinkSpec::UdpIn { addr, port } => UdpSocket::bind((addr.as_str(), *port))
+        LinkSpec::UdpIn { addr, port, .. } => UdpSocket::bind((addr.as_str(), *port))
             .await
             .map(|s| Opened::Udp(s, None))
             .map_err(|e| format!("bind {addr}:{port}: {e}")),
-        LinkSpec::UdpOut { host, port } => {
+        LinkSpec::UdpOut { host, port, .. } => {
             let target = tokio::net::lookup_host((host.as_str(), *port))
                 .await
                 .map_err(|e| format!("resolve {host}: {e}"))?
@@ -303,20 +303,20 @@ async fn open(spec: &LinkSpec) -> Result<Opened, String> {
                 .map(|s| Opened::Udp(s, Some(target)))
                 .map_err(|e| format!("bind: {e}"))
         }
-        LinkSpec::TcpClient { host, port } => {
+        LinkSpec::TcpClient { host, port, .. } => {
             let s = TcpStream::connect((host.as_str(), *port))
                 .await
                 .map_err(|e| format!("connect {host}:{port}: {e}"))?;
             let _ = s.set_nodelay(true);
             Ok(Opened::Tcp(s))
         }
-        LinkSpec::TcpServer { addr, port } => TcpListener::bind((addr.as_str(), *port))
+        LinkSpec::TcpServer { addr, port, .. } => TcpListener::bind((addr.as_str(), *port))
             .await
             .map(Opened::Listener)
             .map_err(|e| format!("listen {addr}:{port}: {e}")),
-        LinkSpec::Serial { path, baud } => {
+        LinkSpec::Serial { path, .. } => {
             // Opening a tty can block (a USB adapter being reset): off the async workers.
-            let (p, b) = (path.clone(), *baud);
+            let (p, b) = (path.clone(), spec.baud());
             tokio::task::spawn_blocking(move || {
                 tokio_serial::SerialStream::open(&tokio_serial::new(&p, b))
                     .map_err(|e| format!("{p}: {e}"))

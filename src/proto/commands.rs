@@ -228,6 +228,13 @@ impl CommandQueue {
         self.entries.iter().find(|e| e.id == id)
     }
 
+    /// True while `command` to `target` waits for its answer.
+    pub fn is_open(&self, target: (u8, u8), command: u16) -> bool {
+        self.entries
+            .iter()
+            .any(|e| e.open() && e.spec.target == target && e.spec.command == command)
+    }
+
     /// The wait for an ACK: four round trips, within [`MIN_TIMEOUT`]..[`MAX_TIMEOUT`]; the
     /// longest until one is measured.
     pub fn timeout(&self) -> Micros {

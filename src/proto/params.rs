@@ -370,6 +370,12 @@ pub struct ParamMachine {
     pub last: Option<DownloadStats>,
     /// Fetch on the first poll (the first heartbeat).
     auto: bool,
+    /// The first fetch waits: the vehicle is heard on no link that may carry automatic traffic
+    /// (only on high-latency ones).
+    auto_held: bool,
+    /// The running (or last) download was started by the machine, not by the operator: its
+    /// traffic is automatic.
+    auto_started: bool,
     /// REQUEST_MESSAGE(AUTOPILOT_VERSION) sent, and when to ask again if it does not come.
     version_asked: u32,
     version_retry: Option<Micros>,
@@ -409,6 +415,8 @@ impl ParamMachine {
             download: None,
             last: None,
             auto: auto_fetch,
+            auto_held: false,
+            auto_started: false,
             version_asked: 0,
             version_retry: None,
             version_sent: None,
@@ -464,9 +472,22 @@ impl ParamMachine {
         self.rtt.sample(rtt);
     }
 
+    /// Hold (or release) the download that starts on its own: held while the vehicle is heard
+    /// only on high-latency links.
+    pub fn hold_auto(&mut self, held: bool) {
+        self.auto_held = held;
+    }
+
+    /// True while the download the machine started on its own runs (its traffic is automatic:
+    /// never on a high-latency link).
+    pub fn auto_download(&self) -> bool {
+        self.auto_started && self.download.is_some()
+    }
+
     /// Start (or start over) downloading component `comp`'s parameters.
     pub fn fetch(&mut self, now: Micros, comp: u8) -> Vec<ParamOut> {
         self.auto = false;
+        self.auto_started = false;
         let mut out = Vec::new();
         if self.version_asked == 0 {
             self.version_asked = 1;
@@ -1029,11 +1050,11 @@ impl ParamMachine {
 
     /// True when a poll now would start the first download.
     pub fn due(&self) -> bool {
-        self.auto
+        self.auto && !self.auto_held
     }
 
     pub fn next_deadline(&self) -> Option<Micros> {
-        if self.auto {
+        if self.auto && !self.auto_held {
             return Some(0);
         }
         let rto = self.rto();
@@ -1090,8 +1111,9 @@ impl ParamMachine {
 
     pub fn poll(&mut self, now: Micros) -> Vec<ParamOut> {
         let mut out = Vec::new();
-        if self.auto {
+        if self.auto && !self.auto_held {
             out.extend(self.fetch(now, self.key.1));
+            self.auto_started = true;
         }
         let rto = self.rto();
         if self.version_retry.is_some_and(|v| now >= v) {

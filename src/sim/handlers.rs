@@ -296,9 +296,13 @@ impl SimVehicle {
             MavCmd::MAV_CMD_NAV_LOITER_UNLIM => ok(self.set_mode(mode::LOITER)),
             MavCmd::MAV_CMD_DO_REPOSITION => self.reposition(cmd),
             MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION => self.preflight_calibration(cmd),
+            // GCS_MAVLINK::set_message_interval: FAILED for an id with no ap_message, which
+            // set_mavlink_message_id_interval tells the GCS of in a STATUSTEXT.
             MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => {
                 let msgid = p[0];
                 if !(0.0..=16_777_215.0).contains(&msgid) || !streams::streamable(msgid as u32) {
+                    let text = format!("No ap_message for mavlink id ({})", msgid as u32);
+                    self.text(MavSeverity::MAV_SEVERITY_INFO, &text);
                     return MAV_RESULT_FAILED;
                 }
                 let interval = p[1];

@@ -33,15 +33,18 @@ fn host_port(host: &str, port: u16) -> String {
 /// Serve the simulated vehicle(s) on `listen` until the future is dropped or Ctrl-C.
 pub async fn serve(listen: &LinkSpec, cfg: SimConfig) -> Result<(), SimError> {
     match listen {
-        LinkSpec::TcpClient { host, port } | LinkSpec::TcpServer { addr: host, port } => {
+        LinkSpec::TcpClient { host, port, .. }
+        | LinkSpec::TcpServer {
+            addr: host, port, ..
+        } => {
             let listener = TcpListener::bind(host_port(host, *port)).await?;
             serve_tcp(listener, cfg).await
         }
-        LinkSpec::UdpIn { addr, port } => {
+        LinkSpec::UdpIn { addr, port, .. } => {
             let sock = UdpSocket::bind(host_port(addr, *port)).await?;
             serve_udp(sock, None, cfg).await
         }
-        LinkSpec::UdpOut { host, port } => {
+        LinkSpec::UdpOut { host, port, .. } => {
             let peer = tokio::net::lookup_host(host_port(host, *port))
                 .await?
                 .next()

@@ -28,6 +28,7 @@ pub mod id {
     pub const AUTOPILOT_VERSION: u32 = 148;
     pub const MEMINFO: u32 = 152;
     pub const AHRS: u32 = 163;
+    pub const AHRS2: u32 = 178;
     pub const EKF_STATUS_REPORT: u32 = 193;
     pub const VIBRATION: u32 = 241;
     pub const HOME_POSITION: u32 = 242;
@@ -35,7 +36,8 @@ pub mod id {
 }
 
 /// ArduCopter's MAV_DATA_STREAM groups (GCS_Mavlink.cpp `STREAM_*` tables), restricted to the
-/// messages the simulator implements.
+/// messages the simulator implements (one IMU and one barometer; no SIMSTATE, which only SITL
+/// sends; no PID_TUNING, off with the default GCS_PID_MASK).
 pub fn stream_group(stream_id: u8) -> &'static [u32] {
     use id::*;
     match stream_id {
@@ -50,7 +52,7 @@ pub fn stream_group(stream_id: u8) -> &'static [u32] {
         ],
         3 => &[SERVO_OUTPUT_RAW, RC_CHANNELS],
         6 => &[GLOBAL_POSITION_INT, LOCAL_POSITION_NED],
-        10 => &[ATTITUDE],
+        10 => &[ATTITUDE, AHRS2],
         11 => &[VFR_HUD],
         12 => &[
             AHRS,

@@ -439,6 +439,22 @@ impl SimVehicle {
                 rssi: 255,
                 ..Default::default()
             }),
+            // GCS_MAVLINK::send_ahrs2: the secondary (DCM) attitude and position.
+            id::AHRS2 => MavMessage::AHRS2(AHRS2_DATA {
+                roll: self.rng.jitter(0.003) as f32,
+                pitch: self.rng.jitter(0.003) as f32,
+                yaw: {
+                    let y = heading.to_radians();
+                    (if y > std::f64::consts::PI {
+                        y - 2.0 * std::f64::consts::PI
+                    } else {
+                        y
+                    }) as f32
+                },
+                altitude: loc_alt as f32,
+                lat: deg_e7(lat),
+                lng: deg_e7(lon),
+            }),
             id::AHRS => MavMessage::AHRS(AHRS_DATA {
                 accel_weight: 0.0,
                 renorm_val: 0.0,

@@ -717,6 +717,41 @@ fn state_file_persists_param_set() {
     assert_eq!(g2.v().param("RTL_ALT"), Some(2500.0));
 }
 
+/// Each group at its own rate, as a GCS asks them one by one (QGroundControl's rates): every
+/// message ArduCopter puts in a group comes at that group's rate, and asking one group leaves the
+/// others as they are.
+#[test]
+#[allow(deprecated)]
+fn stream_groups_each_at_their_own_rate() {
+    let mut g = Gcs::new("");
+    g.run_until(100_000);
+    let rates: [(u8, u16); 7] = [(1, 2), (2, 2), (3, 2), (6, 3), (10, 10), (11, 10), (12, 3)];
+    for (group, hz) in rates {
+        g.send(MavMessage::REQUEST_DATA_STREAM(REQUEST_DATA_STREAM_DATA {
+            req_message_rate: hz,
+            target_system: 1,
+            target_component: 1,
+            req_stream_id: num_traits::FromPrimitive::from_u8(group).unwrap(),
+            start_stop: 1,
+        }));
+    }
+    g.run_for(1_000_000);
+    let n = g.frames.len();
+    g.run_for(20_000_000);
+    let count = |id: u32| g.frames[n..].iter().filter(|f| f.msgid == id).count() as f64;
+    for (group, hz) in rates {
+        for &id in super::streams::stream_group(group) {
+            let got = count(id) / 20.0;
+            assert!(
+                (got - hz as f64).abs() <= 0.05 * hz as f64,
+                "group {group} message {id}: {got} Hz, asked {hz}"
+            );
+        }
+    }
+    // EXTRA1 holds ATTITUDE and AHRS2, as ArduCopter's STREAM_EXTRA1_msgs.
+    assert_eq!(super::streams::stream_group(10), &[30, 178]);
+}
+
 #[test]
 fn streams_and_message_interval() {
     let mut g = Gcs::new("");
