@@ -477,6 +477,9 @@ fn render_detail(app: &App, frame: &mut Frame, area: Rect, theme: &Theme, sel: O
             format!("  asked {}: {outcome}", interval_text(us)),
             style,
         ));
+    } else if let Some(hz) = auto_requested(app, k) {
+        // The rate the stream machine asked of this autopilot on the link it is reached by.
+        summary.push(Span::raw(format!("  requested {hz} Hz")));
     }
     let summary_text: String = summary.iter().map(|s| s.content.as_ref()).collect();
     if summary_text.chars().count() > w {
@@ -544,4 +547,16 @@ pub fn rate_prompt(app: &App, k: MsgKey) -> String {
         k.1,
         keys.join("  ")
     )
+}
+
+/// The rate mavterm asked automatically for message `k.2` of autopilot `k.0:k.1`, on the link
+/// its commands go by.
+fn auto_requested(app: &App, k: (u8, u8, u32)) -> Option<f32> {
+    let key = (k.0, k.1);
+    let s = app.sessions.get(&key)?;
+    let link = app.route(key)?;
+    s.streams
+        .requested(link)
+        .find(|(id, _)| *id == k.2)
+        .map(|(_, hz)| hz)
 }
