@@ -3,7 +3,7 @@
 //! lists them all with their defaults.
 //!
 //! Precedence: a command-line flag given explicitly beats the file, which beats the built-in
-//! defaults (see [`crate::cli::Cli::app_config`]). Unknown keys and bad values are refused, every
+//! defaults (see `Cli::app_config` at the edge). Unknown keys and bad values are refused, every
 //! one of them with its file, line and column.
 
 use std::collections::BTreeMap;
@@ -29,17 +29,9 @@ pub const MAX_RATE_HZ: f32 = 50.0;
 /// The highest take-off altitude, in metres above home (as `takeoff METRES` at the prompt).
 pub const MAX_TAKEOFF_ALT: f64 = 10_000.0;
 
-/// mavterm's config directory: `mavterm` in the user's XDG config directory
-/// (`$XDG_CONFIG_HOME`, else `~/.config`; on Windows the roaming AppData folder). `None` when
-/// there is no home directory.
+/// mavterm's config directory (see [`crate::paths::config_dir`]).
 pub fn dir() -> Option<PathBuf> {
-    use etcetera::BaseStrategy;
-    Some(
-        etcetera::choose_base_strategy()
-            .ok()?
-            .config_dir()
-            .join("mavterm"),
-    )
+    crate::paths::config_dir()
 }
 
 /// Where the config file is read from when no `--config` is given.

@@ -912,7 +912,7 @@ impl Keymap {
     }
 
     /// The keymap to run with: `explicit` (`--keymap FILE`, must exist) or else the user's
-    /// `keymap.toml` in mavterm's config directory ([`crate::config::dir`]) if present, layered
+    /// `keymap.toml` in mavterm's config directory ([`crate::paths::config_dir`]) if present, layered
     /// on the default.
     pub fn load_user(explicit: Option<&Path>) -> Result<Keymap, KeymapError> {
         if let Some(p) = explicit {
@@ -927,7 +927,7 @@ impl Keymap {
     /// Where the user's keymap lives by default: `~/.config/mavterm/keymap.toml` (or under
     /// `$XDG_CONFIG_HOME`).
     pub fn user_path() -> Option<PathBuf> {
-        Some(crate::config::dir()?.join("keymap.toml"))
+        Some(crate::paths::config_dir()?.join("keymap.toml"))
     }
 
     /// `self` with `over` on top, section by section: each action `over` lists in a section

@@ -14,6 +14,7 @@ pub mod headless;
 pub mod keymap;
 pub mod link;
 pub mod params;
+pub mod paths;
 pub mod proto;
 pub mod sim;
 pub mod tui;
