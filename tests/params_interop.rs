@@ -6,32 +6,18 @@
 mod common;
 
 use std::collections::BTreeMap;
-use std::io::BufRead;
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::Command;
 
 use common::ChildGuard;
 
 /// Start the stand-in with `args`; returns it once it listens.
 fn fake(port: u16, dir: &Path, args: &[&str]) -> ChildGuard {
-    let mut child = Command::new(common::python())
-        .arg(common::test_path("py/fake_param_vehicle.py"))
-        .args(["--port", &port.to_string()])
-        .arg("--table-out")
-        .arg(dir.join("table.json"))
-        .arg("--log-out")
-        .arg(dir.join("sets.json"))
-        .args(args)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .unwrap();
-    let mut line = String::new();
-    std::io::BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut line)
-        .unwrap();
-    assert_eq!(line.trim(), "listening", "stand-in did not start");
-    ChildGuard(child)
+    let mut a: Vec<std::ffi::OsString> = vec!["--port".into(), port.to_string().into()];
+    a.extend(["--table-out".into(), dir.join("table.json").into()]);
+    a.extend(["--log-out".into(), dir.join("sets.json").into()]);
+    a.extend(args.iter().map(|s| s.into()));
+    common::stand_in("fake_param_vehicle.py", &a)
 }
 
 /// The stand-in's table: name -> (value, MAV_PARAM_TYPE).

@@ -5,9 +5,8 @@
 
 mod common;
 
-use std::io::BufRead;
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::Command;
 
 use common::ChildGuard;
 use mavterm::app::AppConfig;
@@ -24,26 +23,14 @@ const DEFAULT_GROUPS: [(u64, u64); 7] =
 
 /// Start the stand-in on `ports` with `args`; returns it once it listens.
 fn stand_in(ports: &[u16], dir: &Path, args: &[&str]) -> ChildGuard {
-    let mut cmd = Command::new(common::python());
-    cmd.arg(common::test_path("py/fake_stream_vehicle.py"));
+    let mut a: Vec<std::ffi::OsString> = Vec::new();
     for p in ports {
-        cmd.args(["--port", &p.to_string()]);
+        a.extend(["--port".into(), p.to_string().into()]);
     }
-    let mut child = cmd
-        .arg("--log-out")
-        .arg(dir.join("log.json"))
-        .args(["--duration", "60"])
-        .args(args)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .unwrap();
-    let mut line = String::new();
-    std::io::BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut line)
-        .unwrap();
-    assert_eq!(line.trim(), "listening", "stand-in did not start");
-    ChildGuard(child)
+    a.extend(["--log-out".into(), dir.join("log.json").into()]);
+    a.extend(["--duration".into(), "60".into()]);
+    a.extend(args.iter().map(|s| s.into()));
+    common::stand_in("fake_stream_vehicle.py", &a)
 }
 
 /// Run mavterm on `links` for `secs` seconds; its JSON report.

@@ -75,6 +75,21 @@ pub fn duration(secs: u64) -> String {
     }
 }
 
+/// A selected row's highlight carried to the edge: `spans` padded with `style` to `width`.
+pub fn pad_row(
+    spans: &mut Vec<ratatui::text::Span<'static>>,
+    width: usize,
+    style: ratatui::style::Style,
+) {
+    let so_far: usize = spans.iter().map(|s| s.content.chars().count()).sum();
+    if so_far < width {
+        spans.push(ratatui::text::Span::styled(
+            " ".repeat(width - so_far),
+            style,
+        ));
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -281,9 +281,8 @@ fn render_list(
             let age = age_text(app.now.saturating_sub(e.last));
             spans.push(Span::styled(format!(" {}", rpad(&age, AGE_W)), base));
         }
-        let so_far: usize = spans.iter().map(|s| s.content.chars().count()).sum();
-        if selected && so_far < w {
-            spans.push(Span::styled(" ".repeat(w - so_far), base));
+        if selected {
+            super::fmt::pad_row(&mut spans, w, base);
         }
         lines.push(Line::from(spans));
     }

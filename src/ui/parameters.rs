@@ -676,10 +676,8 @@ fn render_list(
                 theme.dim().patch(base),
             ));
         }
-        // Pad the highlight to the edge.
-        let so_far: usize = spans.iter().map(|s| s.content.chars().count()).sum();
-        if selected && so_far < w {
-            spans.push(Span::styled(" ".repeat(w - so_far), base));
+        if selected {
+            super::fmt::pad_row(&mut spans, w, base);
         }
         lines.push(Line::from(spans));
     }

@@ -252,3 +252,22 @@ pub fn shown_altitude(screen: &str) -> Option<f64> {
     let end = rest.find(" m rel")?;
     rest[..end].trim().parse().ok()
 }
+
+/// Start a pymavlink stand-in `script` (under tests/py) with `args`; returns it once it prints
+/// `listening` on stdout.
+pub fn stand_in(script: &str, args: &[std::ffi::OsString]) -> ChildGuard {
+    use std::io::BufRead;
+    let mut child = std::process::Command::new(python())
+        .arg(test_path(&format!("py/{script}")))
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::inherit())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    assert_eq!(line.trim(), "listening", "{script} did not start");
+    ChildGuard(child)
+}
