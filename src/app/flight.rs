@@ -54,6 +54,8 @@ pub enum Confirmed {
     Flight(FlightAction),
     /// Parameter writes: (component, name, value).
     Params(Vec<(u8, String, f64)>),
+    /// `signing setup` or `signing off`.
+    Signing(super::signing::SigningAction),
 }
 
 /// Commands that need a confirmation whatever sends them.
@@ -73,7 +75,7 @@ fn dangerous_command(command: u16) -> bool {
 
 impl App {
     /// The target, if it can be commanded now.
-    fn commandable(&self) -> Result<VehicleKey, String> {
+    pub(super) fn commandable(&self) -> Result<VehicleKey, String> {
         let key = self.target.ok_or("no target vehicle: none heard yet")?;
         self.commandable_at(key)
     }
@@ -213,6 +215,7 @@ impl App {
             let outcome = match c.action {
                 Confirmed::Flight(a) => self.carry_out(c.target, a, fx),
                 Confirmed::Params(p) => self.write_params(c.target, p, fx),
+                Confirmed::Signing(a) => self.carry_out_signing(c.target, a, fx),
             };
             self.ui.message = match outcome {
                 Ok(Some(t)) => Some((SEV_INFO, t)),

@@ -236,6 +236,11 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
         "LINK|auto",
         "send to the target on this link, or the most recent",
     ),
+    (
+        "signing",
+        "[setup|off]",
+        "signing state; send our key to the target, or turn it off (USB)",
+    ),
     ("target", "SYSID[:COMPID]", "make this autopilot the target"),
 ];
 
@@ -254,6 +259,8 @@ pub enum Command {
     Flight(super::flight::FlightAction),
     /// Parameters of the target.
     Param(super::params::ParamCmd),
+    /// MAVLink 2 signing: state, or set up / turn off on the target.
+    Signing(super::signing::SigningCmd),
 }
 
 /// A MAV_CMD by name (`NAV_TAKEOFF`, `mav_cmd_nav_takeoff`, `takeoff` when only one matches
@@ -380,6 +387,18 @@ pub fn parse_command(line: &str, takeoff_alt: f64) -> Result<Command, String> {
         "rtl" => no_args(Command::Flight(FlightAction::Rtl)),
         "reboot" => no_args(Command::Flight(FlightAction::Reboot)),
         "param" => super::params::parse(rest).map(Command::Param),
+        "signing" => {
+            use super::signing::SigningCmd;
+            match rest {
+                "" | "status" => Ok(Command::Signing(SigningCmd::Status)),
+                "setup" => Ok(Command::Signing(SigningCmd::Setup)),
+                "off" | "remove" => Ok(Command::Signing(SigningCmd::Off)),
+                _ => Err(
+                    "usage: signing, signing setup (send our key to the target), or signing off"
+                        .into(),
+                ),
+            }
+        }
         "mode" if rest.is_empty() || rest.contains(' ') => {
             Err("usage: mode NAME, e.g. mode guided (tab lists the modes)".into())
         }

@@ -156,6 +156,8 @@ impl App {
             }
         }
         out.push("disarm force".into());
+        out.push("signing setup".into());
+        out.push("signing off".into());
         out.push("route auto".into());
         for i in 0..self.links.len() {
             out.push(format!("route {i}"));
@@ -216,6 +218,7 @@ impl App {
             }
             Command::Flight(action) => self.flight(action, None, fx),
             Command::Param(cmd) => self.run_param(cmd, fx),
+            Command::Signing(cmd) => self.run_signing(cmd, fx),
             Command::Route(link) => {
                 let key = self.target.ok_or("no target vehicle")?;
                 if let Some(l) = link.filter(|&l| l >= self.links.len()) {

@@ -31,6 +31,8 @@ pub struct SourceStats {
     /// The last frames of this source handled from this link: the same frame arriving on another
     /// link soon after is a copy (redundant radios), whose content was handled already.
     pub(crate) recent: RecentFrames,
+    /// Signed, unsigned, bad-signature, replayed and rejected frames.
+    pub signing: super::signing::SigningCounts,
 }
 
 /// Frames remembered per source and link to know their copies on other links.
@@ -166,20 +168,32 @@ pub struct LinkStatus {
     pub notified_down: Option<String>,
     /// Loss (percent, all sources) of each second of the last minute.
     pub loss_history: History,
+    /// Marked `?secure=1`: SETUP_SIGNING may go on it, and unsigned frames are taken.
+    pub secure: bool,
+    /// Secure, or in-process (`sim://`, `tlog:`): no frame is rejected for its signing.
+    pub trusted: bool,
+    /// Incoming signing streams and their last timestamps.
+    pub signing_streams: crate::wire::signing::Streams,
     /// The second the loss history was last sampled in, and the totals then.
     loss_mark: (u64, (u64, u64)),
 }
 
 impl LinkStatus {
     pub fn new(spec: String, sysid: u8, compid: u8) -> Self {
-        let profile = spec
-            .parse::<crate::link::LinkSpec>()
+        let parsed = spec.parse::<crate::link::LinkSpec>().ok();
+        let profile = parsed
+            .as_ref()
             .map(|l| LinkProfile {
                 hl: l.high_latency(),
                 baud: l.explicit_baud(),
             })
             .unwrap_or_default();
+        let secure = parsed.as_ref().is_some_and(|l| l.secure());
+        let trusted = secure || parsed.as_ref().is_some_and(|l| l.in_process());
         Self {
+            secure,
+            trusted,
+            signing_streams: Default::default(),
             profile,
             spec,
             state: LinkState::Connecting,
@@ -201,18 +215,27 @@ impl LinkStatus {
         }
     }
 
-    /// Encode `msg` for this link and remember it, to know it if it comes back.
-    pub fn encode(&mut self, msg: &crate::dialect::MavMessage) -> Vec<u8> {
-        let bytes = self.tx.encode(msg);
+    /// Encode `msg` for this link (signed when `sign` is given) and remember it, to know it if
+    /// it comes back.
+    pub fn encode(
+        &mut self,
+        msg: &crate::dialect::MavMessage,
+        sign: Option<crate::wire::tx::Sign>,
+    ) -> Vec<u8> {
+        use crate::wire::frame::{IFLAG_SIGNED, MAGIC_V1, SIGNATURE_LEN};
+        let bytes = match sign {
+            Some(s) => self.tx.encode_signed(msg, s),
+            None => self.tx.encode(msg),
+        };
         self.sent_frames += 1;
         self.sent_bytes += bytes.len() as u64;
-        // Unsigned frames: seq at byte 2 (v1) or 4 (v2), the CRC in the last two bytes.
-        let seq = if bytes[0] == crate::wire::frame::MAGIC_V1 {
-            bytes[2]
+        // Seq at byte 2 (v1) or 4 (v2); the CRC in the two bytes before any signature.
+        let (seq, signed) = if bytes[0] == MAGIC_V1 {
+            (bytes[2], false)
         } else {
-            bytes[4]
+            (bytes[4], bytes[2] & IFLAG_SIGNED != 0)
         };
-        let n = bytes.len();
+        let n = bytes.len() - if signed { SIGNATURE_LEN } else { 0 };
         let crc = u16::from_le_bytes([bytes[n - 2], bytes[n - 1]]);
         if self.sent.len() == SENT_MEMORY {
             self.sent.pop_front();

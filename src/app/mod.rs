@@ -14,6 +14,7 @@ pub mod params;
 pub mod report;
 pub mod screen;
 pub mod session;
+pub mod signing;
 
 use std::collections::BTreeMap;
 
@@ -53,6 +54,8 @@ pub struct AppConfig {
     pub takeoff_alt: f64,
     /// Parameter metadata (`--param-meta`), shared read-only.
     pub param_meta: Option<std::sync::Arc<crate::params::meta::MetaSet>>,
+    /// MAVLink 2 signing (`--signing-key`); `None`: we do not sign, and take every frame.
+    pub signing: Option<signing::SigningConfig>,
 }
 
 impl Default for AppConfig {
@@ -68,6 +71,7 @@ impl Default for AppConfig {
             streams: crate::proto::rates::StreamRates::default(),
             takeoff_alt: 10.0,
             param_meta: None,
+            signing: None,
         }
     }
 }
@@ -230,6 +234,8 @@ pub struct App {
     pub param_file: Option<params::LoadedFile>,
     /// Every message heard, per source: the Inspector's.
     pub inspector: inspector::MessageStore,
+    /// Our signing key, timestamp clock and what `signing setup` waits for.
+    pub signing: signing::SigningState,
     statustext: StatusTextJoiner,
     next_heartbeat: Micros,
     dirty: bool,
@@ -245,6 +251,7 @@ impl App {
             .map(|s| LinkStatus::new(s.clone(), cfg.sysid, cfg.compid))
             .collect();
         let vehicles = Registry::new((cfg.sysid, cfg.compid), cfg.lost_timeout);
+        let signing = signing::SigningState::new(cfg.signing.as_ref());
         Self {
             cfg,
             now: 0,
@@ -257,6 +264,7 @@ impl App {
             sessions: BTreeMap::new(),
             param_file: None,
             inspector: inspector::MessageStore::default(),
+            signing,
             statustext: StatusTextJoiner::default(),
             next_heartbeat: 0,
             dirty: true,
@@ -298,16 +306,22 @@ impl App {
         };
         at(self.vehicles.next_deadline());
         at(self.statustext.next_deadline());
+        at(self.signing_deadline());
         for s in self.sessions.values() {
             at(s.next_deadline());
         }
         t
     }
 
-    /// Queue `msg` on `link`, encoded with that link's sequence number.
+    /// Queue `msg` on `link`, encoded with that link's sequence number (and signed, when we
+    /// sign).
     fn send(&mut self, link: LinkId, msg: MavMessage, fx: &mut Vec<Effect>) {
+        let wall = match self.signing.key {
+            Some(_) => self.signing_wall(),
+            None => 0,
+        };
         if let Some(l) = self.links.get_mut(link) {
-            let frame = l.encode(&msg);
+            let frame = l.encode(&msg, self.signing.next_sign(link, wall));
             fx.push(Effect::Send { link, frame, msg });
         }
     }
@@ -423,6 +437,9 @@ impl App {
             Event::LinkState { link, state } => self.on_link_state(link, state),
             Event::Key(key) => self.on_key(key, &mut fx),
             Event::Resize => self.dirty = true,
+            Event::FileWritten { path, error } if self.signing.is_state_file(&path) => {
+                self.signing_file_written(error)
+            }
             Event::FileWritten { path, error } => match error {
                 None => self.notice(SEV_INFO, None, format!("saved {}", path.display())),
                 Some(e) => self.notice(
@@ -464,6 +481,7 @@ impl App {
         for t in self.statustext.poll(self.now) {
             self.notice(t.severity, Some(t.source), t.text);
         }
+        self.signing_time(fx);
     }
 
     fn on_link_state(&mut self, link: LinkId, state: LinkState) {
@@ -542,6 +560,12 @@ impl App {
             self.links[link].echoes += 1;
             return;
         }
+        // Signing decides before anything reads the frame: a rejected one is only counted.
+        let checked = self.check_signing(link, frame);
+        if !checked.accepted {
+            self.signing_rejected(link, frame, checked);
+            return;
+        }
         // The same frame on a second link (redundant radios): counted on this link below, and
         // it tells us the vehicle is heard here, but its content was handled when it first came.
         // With one link there is no other link for it to have come on.
@@ -553,8 +577,9 @@ impl App {
                         .get(&key)
                         .is_some_and(|s| s.recent.has(frame.seq, frame.msgid, crc, now))
             });
-        let (outcome, repeat) = {
+        let (outcome, repeat, first) = {
             let src = self.links[link].source(key);
+            let first = src.signing.count(checked);
             src.frames += 1;
             src.last_heard = now;
             let same = src.same_as_before(frame.seq, crc, now);
@@ -564,8 +589,11 @@ impl App {
             if !copy && !repeat {
                 src.recent.push(frame.seq, frame.msgid, crc, now);
             }
-            (outcome, repeat)
+            (outcome, repeat, first)
         };
+        if first || self.signing.watch.is_some() {
+            self.signing_accepted(link, key, checked, first);
+        }
         if outcome == SeqOutcome::Restart && self.vehicles.get(key).is_some() {
             let ev = self.vehicles.on_sequence_restart(key, now);
             self.on_vehicle_events(ev, fx);

@@ -22,8 +22,10 @@
 //! - Network and serial links take options after `?`: `hl=1` marks a high-latency or
 //!   low-bandwidth link (a satellite modem, a long-range radio), on which mavterm sends nothing
 //!   on its own but its heartbeat: no stream requests, no parameter download, no mission
-//!   traffic (`udpin:0.0.0.0:14550?hl=1`, `serial:/dev/ttyUSB0:57600?hl=1`). `sim://` keeps its
-//!   own options after `?`, and a `tlog:` path keeps its `?`.
+//!   traffic (`udpin:0.0.0.0:14550?hl=1`, `serial:/dev/ttyUSB0:57600?hl=1`); `secure=1` marks a
+//!   link nobody else can reach (a USB cable, a wire): MAVLink signing keys go only on such a
+//!   link, and unsigned frames are accepted on it (`serial:/dev/ttyACM0?secure=1`). Options join
+//!   with `&`. `sim://` keeps its own options after `?`, and a `tlog:` path keeps its `?`.
 //! - A serial spec remembers whether its baud was given: only a baud the operator wrote says how
 //!   fast the link is (a USB port ignores it, a radio's UART does not), so only then are telemetry
 //!   rates fitted to it.
@@ -40,24 +42,46 @@ pub const ACCEPTED_FORMS: &str =
     "accepted forms: udpin:ADDR:PORT, udpout:HOST:PORT, tcp:HOST:PORT, \
 tcpin:ADDR:PORT, serial:PATH[:BAUD], PATH,BAUD, udp://[HOST]:PORT, udpout://HOST:PORT, \
 tcp://HOST:PORT, serial://PATH[:BAUD], sim://[?vehicles=N&...], tlog:PATH; \
-network and serial links take ?hl=1 (high latency: nothing sent but the heartbeat)";
+network and serial links take ?hl=1 (high latency: nothing sent but the heartbeat) and \
+?secure=1 (a USB cable or a wire: signing keys may go on it)";
 
 /// A link as the operator asked for it.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum LinkSpec {
     /// Listen for UDP; replies go to every peer heard, most recent first.
-    UdpIn { addr: String, port: u16, hl: bool },
+    UdpIn {
+        addr: String,
+        port: u16,
+        hl: bool,
+        secure: bool,
+    },
     /// Send UDP to a fixed peer (and take what comes back).
-    UdpOut { host: String, port: u16, hl: bool },
+    UdpOut {
+        host: String,
+        port: u16,
+        hl: bool,
+        secure: bool,
+    },
     /// TCP client.
-    TcpClient { host: String, port: u16, hl: bool },
+    TcpClient {
+        host: String,
+        port: u16,
+        hl: bool,
+        secure: bool,
+    },
     /// TCP server accepting several clients.
-    TcpServer { addr: String, port: u16, hl: bool },
+    TcpServer {
+        addr: String,
+        port: u16,
+        hl: bool,
+        secure: bool,
+    },
     /// Serial port; `baud` is `None` when the spec named none ([`DEFAULT_BAUD`] is used).
     Serial {
         path: String,
         baud: Option<u32>,
         hl: bool,
+        secure: bool,
     },
     /// The embedded simulated vehicle(s); `query` is the text after `?`.
     Sim { query: String },
@@ -95,7 +119,9 @@ pub enum SpecError {
     BadHost { input: String, host: String },
     #[error("link spec `{input}`: missing file path after `tlog:`, e.g. tlog:flight.tlog")]
     MissingTlogPath { input: String },
-    #[error("link spec `{input}`: option `{option}` is not known (link options: hl=1)")]
+    #[error(
+        "link spec `{input}`: option `{option}` is not known (link options: hl=1, secure=1)"
+    )]
     BadOption { input: String, option: String },
 }
 
@@ -115,6 +141,25 @@ impl LinkSpec {
             | LinkSpec::Serial { hl, .. } => *hl,
             LinkSpec::Sim { .. } | LinkSpec::Tlog { .. } => false,
         }
+    }
+
+    /// True for a link marked `?secure=1`: a wire nobody else can reach (USB, a cable). Signing
+    /// keys (SETUP_SIGNING) go only on such a link, and unsigned frames are accepted on it.
+    pub fn secure(&self) -> bool {
+        match self {
+            LinkSpec::UdpIn { secure, .. }
+            | LinkSpec::UdpOut { secure, .. }
+            | LinkSpec::TcpClient { secure, .. }
+            | LinkSpec::TcpServer { secure, .. }
+            | LinkSpec::Serial { secure, .. } => *secure,
+            LinkSpec::Sim { .. } | LinkSpec::Tlog { .. } => false,
+        }
+    }
+
+    /// True for links that run in-process (`sim://`, `tlog:`): nothing from outside reaches
+    /// them, so their frames are trusted like a secure link's.
+    pub fn in_process(&self) -> bool {
+        matches!(self, LinkSpec::Sim { .. } | LinkSpec::Tlog { .. })
     }
 
     /// The baud rate a serial spec names, if it names one.
@@ -158,8 +203,11 @@ impl fmt::Display for LinkSpec {
             LinkSpec::Tlog { path } if path.starts_with("//") => write!(f, "tlog://{path}")?,
             LinkSpec::Tlog { path } => write!(f, "tlog:{path}")?,
         }
-        if self.high_latency() {
-            write!(f, "?hl=1")?;
+        match (self.high_latency(), self.secure()) {
+            (true, true) => write!(f, "?hl=1&secure=1")?,
+            (true, false) => write!(f, "?hl=1")?,
+            (false, true) => write!(f, "?secure=1")?,
+            (false, false) => {}
         }
         Ok(())
     }
@@ -303,43 +351,79 @@ fn serial(input: &str, rest: &str) -> Result<LinkSpec, SpecError> {
         path: path.into(),
         baud,
         hl: false,
+        secure: false,
     })
 }
 
-/// `REST?OPTIONS` split: the options read (`hl=1`), the rest returned. Options are
-/// `key=value` pairs joined by `&`; `hl` takes 1/0/true/false (`hl` alone is `hl=1`).
-fn options<'a>(input: &str, rest: &'a str) -> Result<(&'a str, bool), SpecError> {
+/// The link options a spec may end with.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+struct LinkOptions {
+    hl: bool,
+    secure: bool,
+}
+
+/// `REST?OPTIONS` split: the options read (`hl=1`, `secure=1`), the rest returned. Options are
+/// `key=value` pairs joined by `&`; each takes 1/0/true/false/yes/no (alone, it is `=1`).
+fn options<'a>(input: &str, rest: &'a str) -> Result<(&'a str, LinkOptions), SpecError> {
     let Some((before, query)) = rest.split_once('?') else {
-        return Ok((rest, false));
+        return Ok((rest, LinkOptions::default()));
     };
-    let mut hl = false;
+    let mut o = LinkOptions::default();
     for opt in query.split('&').filter(|o| !o.is_empty()) {
         let (k, v) = opt.split_once('=').unwrap_or((opt, "1"));
-        hl = match (
-            k.to_ascii_lowercase().as_str(),
-            v.to_ascii_lowercase().as_str(),
-        ) {
-            ("hl", "1" | "true" | "yes") => true,
-            ("hl", "0" | "false" | "no") => false,
+        let on = match v.to_ascii_lowercase().as_str() {
+            "1" | "true" | "yes" => Some(true),
+            "0" | "false" | "no" => Some(false),
+            _ => None,
+        };
+        match (k.to_ascii_lowercase().as_str(), on) {
+            ("hl", Some(on)) => o.hl = on,
+            ("secure", Some(on)) => o.secure = on,
             _ => {
                 return Err(SpecError::BadOption {
                     input: input.into(),
                     option: opt.into(),
                 })
             }
-        };
+        }
     }
-    Ok((before, hl))
+    Ok((before, o))
 }
 
-/// The same spec marked high-latency when `hl`.
-fn with_hl(spec: LinkSpec, hl: bool) -> LinkSpec {
+/// The same spec with the options `o`.
+fn with_options(spec: LinkSpec, o: LinkOptions) -> LinkSpec {
+    let LinkOptions { hl, secure } = o;
     match spec {
-        LinkSpec::UdpIn { addr, port, .. } => LinkSpec::UdpIn { addr, port, hl },
-        LinkSpec::UdpOut { host, port, .. } => LinkSpec::UdpOut { host, port, hl },
-        LinkSpec::TcpClient { host, port, .. } => LinkSpec::TcpClient { host, port, hl },
-        LinkSpec::TcpServer { addr, port, .. } => LinkSpec::TcpServer { addr, port, hl },
-        LinkSpec::Serial { path, baud, .. } => LinkSpec::Serial { path, baud, hl },
+        LinkSpec::UdpIn { addr, port, .. } => LinkSpec::UdpIn {
+            addr,
+            port,
+            hl,
+            secure,
+        },
+        LinkSpec::UdpOut { host, port, .. } => LinkSpec::UdpOut {
+            host,
+            port,
+            hl,
+            secure,
+        },
+        LinkSpec::TcpClient { host, port, .. } => LinkSpec::TcpClient {
+            host,
+            port,
+            hl,
+            secure,
+        },
+        LinkSpec::TcpServer { addr, port, .. } => LinkSpec::TcpServer {
+            addr,
+            port,
+            hl,
+            secure,
+        },
+        LinkSpec::Serial { path, baud, .. } => LinkSpec::Serial {
+            path,
+            baud,
+            hl,
+            secure,
+        },
         other => other,
     }
 }
@@ -391,8 +475,8 @@ impl FromStr for LinkSpec {
         if own_query {
             return transport(input, s);
         }
-        let (s, hl) = options(input, s)?;
-        Ok(with_hl(transport(input, s.trim_end())?, hl))
+        let (s, opts) = options(input, s)?;
+        Ok(with_options(transport(input, s.trim_end())?, opts))
     }
 }
 
@@ -403,23 +487,43 @@ fn transport(input: &str, s: &str) -> Result<LinkSpec, SpecError> {
         let rest = after.strip_prefix("//").unwrap_or(after);
         let prefix = &s[..s.len() - rest.len()];
         let url = rest.len() != after.len();
-        let hl = false;
+        let (hl, secure) = (false, false);
         match (scheme.to_ascii_lowercase().as_str(), url) {
             ("udpin" | "udp", _) => {
                 let (addr, port) = host_port(input, prefix, rest, true)?;
-                return Ok(LinkSpec::UdpIn { addr, port, hl });
+                return Ok(LinkSpec::UdpIn {
+                    addr,
+                    port,
+                    hl,
+                    secure,
+                });
             }
             ("udpout", _) => {
                 let (host, port) = host_port(input, prefix, rest, false)?;
-                return Ok(LinkSpec::UdpOut { host, port, hl });
+                return Ok(LinkSpec::UdpOut {
+                    host,
+                    port,
+                    hl,
+                    secure,
+                });
             }
             ("tcp", _) => {
                 let (host, port) = host_port(input, prefix, rest, false)?;
-                return Ok(LinkSpec::TcpClient { host, port, hl });
+                return Ok(LinkSpec::TcpClient {
+                    host,
+                    port,
+                    hl,
+                    secure,
+                });
             }
             ("tcpin", _) => {
                 let (addr, port) = host_port(input, prefix, rest, true)?;
-                return Ok(LinkSpec::TcpServer { addr, port, hl });
+                return Ok(LinkSpec::TcpServer {
+                    addr,
+                    port,
+                    hl,
+                    secure,
+                });
             }
             ("serial", _) => return serial(input, rest),
             ("sim", true) => {
@@ -470,6 +574,7 @@ mod tests {
                 addr: "0.0.0.0".into(),
                 port: 14550,
                 hl: false,
+                secure: false,
             }
         );
         assert_eq!(
@@ -478,6 +583,7 @@ mod tests {
                 host: "10.0.0.2".into(),
                 port: 14550,
                 hl: false,
+                secure: false,
             }
         );
         assert_eq!(
@@ -486,6 +592,7 @@ mod tests {
                 host: "127.0.0.1".into(),
                 port: 5760,
                 hl: false,
+                secure: false,
             }
         );
         assert_eq!(
@@ -494,6 +601,7 @@ mod tests {
                 addr: "0.0.0.0".into(),
                 port: 5760,
                 hl: false,
+                secure: false,
             }
         );
         assert_eq!(
@@ -502,6 +610,7 @@ mod tests {
                 path: "/dev/ttyUSB0".into(),
                 baud: None,
                 hl: false,
+                secure: false,
             }
         );
         assert_eq!(
@@ -510,6 +619,7 @@ mod tests {
                 path: "/dev/ttyACM0".into(),
                 baud: Some(115200),
                 hl: false,
+                secure: false,
             }
         );
         assert_eq!(
@@ -518,6 +628,7 @@ mod tests {
                 path: "/dev/ttyUSB0".into(),
                 baud: Some(921600),
                 hl: false,
+                secure: false,
             }
         );
         assert_eq!(
@@ -526,6 +637,7 @@ mod tests {
                 path: "/dev/ttyS1".into(),
                 baud: None,
                 hl: false,
+                secure: false,
             }
         );
     }
@@ -538,6 +650,7 @@ mod tests {
                 addr: "0.0.0.0".into(),
                 port: 14540,
                 hl: false,
+                secure: false,
             }
         );
         assert_eq!(
@@ -546,6 +659,7 @@ mod tests {
                 addr: "127.0.0.1".into(),
                 port: 14540,
                 hl: false,
+                secure: false,
             }
         );
         assert_eq!(
@@ -554,6 +668,7 @@ mod tests {
                 host: "192.168.1.5".into(),
                 port: 14550,
                 hl: false,
+                secure: false,
             }
         );
         assert_eq!(
@@ -562,6 +677,7 @@ mod tests {
                 host: "localhost".into(),
                 port: 5760,
                 hl: false,
+                secure: false,
             }
         );
         assert_eq!(
@@ -570,6 +686,7 @@ mod tests {
                 path: "/dev/ttyAMA0".into(),
                 baud: Some(57600),
                 hl: false,
+                secure: false,
             }
         );
         assert_eq!(
@@ -578,6 +695,7 @@ mod tests {
                 addr: "::1".into(),
                 port: 14550,
                 hl: false,
+                secure: false,
             }
         );
         assert_eq!(
@@ -634,6 +752,7 @@ mod tests {
             path: path.into(),
             baud: Some(baud),
             hl: false,
+            secure: false,
         }
     }
 
@@ -643,6 +762,7 @@ mod tests {
             path: path.into(),
             baud: None,
             hl: false,
+            secure: false,
         }
     }
 
@@ -727,6 +847,7 @@ mod tests {
                 addr: "::".into(),
                 port: 14550,
                 hl: false,
+                secure: false,
             }
         );
         assert_eq!(p("udpin:[::]:14550").to_string(), "udpin:[::]:14550");
@@ -736,6 +857,7 @@ mod tests {
                 host: "fe80::1%eth0".into(),
                 port: 5760,
                 hl: false,
+                secure: false,
             }
         );
         // A colon in something that is no IPv6 address is a bad host.
@@ -831,7 +953,8 @@ mod tests {
             LinkSpec::UdpIn {
                 addr: "0.0.0.0".into(),
                 port: 14550,
-                hl: true
+                hl: true,
+                secure: false,
             }
         );
         // sim:// and tlog: keep what follows `?` as theirs.
@@ -855,6 +978,33 @@ mod tests {
                 }
                 other => panic!("{spec}: {other:?}"),
             }
+        }
+    }
+
+    #[test]
+    fn secure_option_marks_a_wire() {
+        for (spec, shown, hl) in [
+            ("serial:/dev/ttyACM0?secure=1", "serial:/dev/ttyACM0?secure=1", false),
+            ("/dev/ttyACM0,115200?secure", "serial:/dev/ttyACM0:115200?secure=1", false),
+            ("tcp:10.0.0.2:5760?secure=yes&hl=1", "tcp:10.0.0.2:5760?hl=1&secure=1", true),
+            ("udpin:0.0.0.0:14550?secure=true", "udpin:0.0.0.0:14550?secure=1", false),
+        ] {
+            let l = p(spec);
+            assert!(l.secure(), "{spec}");
+            assert_eq!(l.high_latency(), hl, "{spec}");
+            assert_eq!(l.to_string(), shown, "{spec}");
+            assert_eq!(p(shown), l, "{shown} round-trips");
+        }
+        for spec in ["tcp:h:1", "tcp:h:1?secure=0", "serial:/dev/x?hl=1", "sim://?secure=1"] {
+            assert!(!p(spec).secure(), "{spec}");
+        }
+        assert!(p("sim://").in_process() && p("tlog:a.tlog").in_process());
+        assert!(!p("tcp:h:1?secure=1").in_process());
+        match "tcp:h:1?secure=2".parse::<LinkSpec>() {
+            Err(e @ SpecError::BadOption { .. }) => {
+                assert!(e.to_string().contains("secure=1"), "{e}")
+            }
+            other => panic!("{other:?}"),
         }
     }
 

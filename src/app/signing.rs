@@ -1,0 +1,588 @@
+//! MAVLink 2 signing in the core: what we sign, what we accept, and the `signing` command.
+//!
+//! Policy (the MAVLink guide's rules; the codec is [`crate::wire::signing`]):
+//! - Without a key, every frame is taken; signed ones are counted as *unchecked*, and a source
+//!   that signs is warned about once: its autopilot will ignore our unsigned commands.
+//! - With a key, every frame we send is signed (MAVLink 2; link id = the link's number, one
+//!   timestamp clock for all links that never goes backwards, kept across runs by the edge).
+//!   Incoming signed frames are checked: a bad signature, a timestamp not after the last of its
+//!   stream (link id, sysid, compid) or a new stream more than a minute behind ours is rejected.
+//!   Unsigned frames are rejected, except RADIO_STATUS and RADIO (SiK radios cannot sign, as
+//!   ArduPilot and MAVProxy accept them) and, with `--signing-allow-unsigned-heartbeat`,
+//!   HEARTBEAT.
+//! - On a trusted link (`?secure=1`: a USB cable or a wire, as ArduPilot trusts its USB port; and
+//!   the in-process `sim://` and `tlog:`) nothing is rejected, but everything is still checked
+//!   and counted, so the operator sees whether a vehicle signs with our key.
+//! - A rejected frame is counted on its source (link, sysid:compid) and read no further: it is
+//!   not a heartbeat, not telemetry, and not in the loss statistics (its sequence number is not
+//!   one we trust).
+//!
+//! `signing setup` sends our key to the target in SETUP_SIGNING (after a confirmation, and only
+//! on a `?secure=1` link: the key travels in clear); `signing off` sends the all-zero key with
+//! timestamp 0, as MAVProxy's `signing remove`, and stops our own signing. SETUP_SIGNING has no
+//! ACK: what the vehicle's frames do next tells, and is told.
+
+use std::path::PathBuf;
+
+use super::flight::{Confirm, Confirmed};
+use super::notices::{SEV_ERROR, SEV_NOTICE, SEV_WARNING};
+use super::{App, Effect};
+use crate::clock::{Micros, SECOND};
+use crate::dialect::{self, MavMessage};
+use crate::link::{Frame, LinkId};
+use crate::proto::vehicles::VehicleKey;
+use crate::wire::signing::{self as codec, Clock, SecretKey, Verdict, ONE_MINUTE};
+use crate::wire::tx::Sign;
+
+/// RADIO_STATUS: SiK radios send it unsigned.
+pub const MSG_RADIO_STATUS: u32 = 109;
+/// RADIO (ardupilotmega): the older form, accepted unsigned as ArduPilot and MAVProxy do.
+pub const MSG_RADIO: u32 = 166;
+/// How long after `signing setup`/`signing off` the vehicle's frames are watched for the change.
+pub const WATCH: Micros = 5 * SECOND;
+
+/// Signing settings the core starts with: made at the edge from `--signing-key` and the state
+/// file.
+#[derive(Debug, Clone)]
+pub struct SigningConfig {
+    pub key: SecretKey,
+    /// Accept unsigned HEARTBEATs (components that cannot sign stay listed).
+    pub allow_unsigned_heartbeat: bool,
+    /// Where the timestamp is kept between runs; `None`: not kept.
+    pub state_path: Option<PathBuf>,
+    /// The timestamp the last run kept: ours start after it.
+    pub saved_timestamp: u64,
+}
+
+/// How a frame stood with signing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SigKind {
+    /// Signed, checked and good.
+    Signed,
+    /// Signed, not checked (we have no key).
+    Unchecked,
+    Unsigned,
+    BadSignature,
+    /// A timestamp not after the last of its stream.
+    Replayed,
+    /// A new stream more than a minute behind our timestamp.
+    TooOld,
+}
+
+/// A frame's signing verdict: what it was, and whether it is used.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Checked {
+    pub kind: SigKind,
+    pub accepted: bool,
+}
+
+/// Signing counts of one source on one link.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SigningCounts {
+    /// Signed frames checked and good.
+    pub signed: u64,
+    /// Signed frames taken unchecked (no key).
+    pub unchecked: u64,
+    pub unsigned: u64,
+    pub bad_signature: u64,
+    pub replayed: u64,
+    /// New streams more than a minute old (counted with the replays on screen).
+    pub too_old: u64,
+    /// Frames rejected (of any kind above).
+    pub rejected: u64,
+}
+
+impl SigningCounts {
+    /// Count a frame; true when it is the first of its kind from this source (to tell of once).
+    pub fn count(&mut self, c: Checked) -> bool {
+        let n = match c.kind {
+            SigKind::Signed => &mut self.signed,
+            SigKind::Unchecked => &mut self.unchecked,
+            SigKind::Unsigned => &mut self.unsigned,
+            SigKind::BadSignature => &mut self.bad_signature,
+            SigKind::Replayed => &mut self.replayed,
+            SigKind::TooOld => &mut self.too_old,
+        };
+        *n += 1;
+        if !c.accepted {
+            self.rejected += 1;
+        }
+        *n == 1
+    }
+
+    /// True when there is something about signing to show for this source.
+    pub fn any_signing(&self) -> bool {
+        self.signed + self.unchecked + self.bad_signature + self.replayed + self.too_old > 0
+            || self.rejected > 0
+    }
+}
+
+/// What was sent to a vehicle and is being watched for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WatchFor {
+    /// `signing setup`: its first frame signed with our key.
+    Setup,
+    /// `signing off`: its frames no longer signed.
+    Off,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Watch {
+    pub vehicle: VehicleKey,
+    pub what: WatchFor,
+    pub until: Micros,
+    /// The vehicle's last frame was signed.
+    pub signed: bool,
+}
+
+/// The `signing` prompt command.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SigningCmd {
+    Status,
+    Setup,
+    Off,
+}
+
+/// What a confirmed `signing` command does, and on which link.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SigningAction {
+    Setup { link: LinkId },
+    Off { link: LinkId },
+}
+
+/// The core's signing state.
+#[derive(Debug, Clone, Default)]
+pub struct SigningState {
+    /// The key in use: `None` without `--signing-key`, or after `signing off`.
+    pub key: Option<SecretKey>,
+    /// The key given at start (what `signing setup` sends), kept after `signing off`.
+    configured: Option<SecretKey>,
+    pub allow_unsigned_heartbeat: bool,
+    /// Our outgoing timestamp.
+    pub clock: Clock,
+    state_path: Option<PathBuf>,
+    /// The timestamp the run started after.
+    loaded: u64,
+    /// The timestamp last written to the state file: a reservation, ahead of the clock, so a
+    /// crash between writes never lets the next run reuse a timestamp.
+    reserved: u64,
+    save_failure_told: bool,
+    pub watch: Option<Watch>,
+}
+
+impl SigningState {
+    pub fn new(cfg: Option<&SigningConfig>) -> Self {
+        let Some(cfg) = cfg else {
+            return Self::default();
+        };
+        Self {
+            key: Some(cfg.key.clone()),
+            configured: Some(cfg.key.clone()),
+            allow_unsigned_heartbeat: cfg.allow_unsigned_heartbeat,
+            clock: Clock::after(cfg.saved_timestamp),
+            state_path: cfg.state_path.clone(),
+            loaded: cfg.saved_timestamp,
+            reserved: cfg.saved_timestamp,
+            save_failure_told: false,
+            watch: None,
+        }
+    }
+
+    /// The signature for the next frame on `link`, when we sign.
+    pub fn next_sign(&mut self, link: LinkId, wall: u64) -> Option<Sign<'_>> {
+        let Self { key, clock, .. } = self;
+        let key = key.as_ref()?;
+        Some(Sign {
+            key,
+            link_id: link_id(link),
+            timestamp: clock.next(wall),
+        })
+    }
+
+    /// The state file write due now, if any: when the clock comes within half a minute of what
+    /// was last reserved, a minute more is reserved.
+    fn save_due(&mut self) -> Option<Effect> {
+        let path = self.state_path.as_ref()?;
+        let last = self.clock.last();
+        if last <= self.loaded || last + ONE_MINUTE / 2 <= self.reserved {
+            return None;
+        }
+        self.reserved = last + ONE_MINUTE;
+        Some(Effect::WriteFile {
+            path: path.clone(),
+            contents: codec::encode_state(self.reserved),
+        })
+    }
+
+    /// The state file and what to write in it when the run ends: the last timestamp used.
+    pub fn final_state(&self) -> Option<(PathBuf, Vec<u8>)> {
+        let path = self.state_path.as_ref()?;
+        (self.clock.last() > self.loaded)
+            .then(|| (path.clone(), codec::encode_state(self.clock.last())))
+    }
+
+    /// True for the state file (its writes are not told of).
+    pub fn is_state_file(&self, path: &std::path::Path) -> bool {
+        self.state_path.as_deref() == Some(path)
+    }
+}
+
+/// The link id we sign with on link `link`: its number (links past 255 share the last ids).
+pub fn link_id(link: LinkId) -> u8 {
+    link.min(255) as u8
+}
+
+/// Unsigned messages taken even with a key (SiK radios cannot sign).
+fn unsigned_allowed(msgid: u32, heartbeat_too: bool) -> bool {
+    msgid == MSG_RADIO_STATUS || msgid == MSG_RADIO || (heartbeat_too && msgid == 0)
+}
+
+impl App {
+    /// The signing timestamp of the wall clock now.
+    pub(super) fn signing_wall(&self) -> u64 {
+        codec::timestamp_from_unix_micros(
+            self.cfg
+                .epoch
+                .timestamp_micros()
+                .saturating_add(self.now as i64),
+        )
+    }
+
+    /// A frame from `link` against the signing policy (nothing counted yet).
+    pub(super) fn check_signing(&mut self, link: LinkId, frame: &Frame) -> Checked {
+        let signed = frame.is_signed();
+        if self.signing.key.is_none() {
+            let kind = if signed {
+                SigKind::Unchecked
+            } else {
+                SigKind::Unsigned
+            };
+            return Checked {
+                kind,
+                accepted: true,
+            };
+        }
+        let trusted = self.links[link].trusted;
+        if !signed {
+            let ok = unsigned_allowed(frame.msgid, self.signing.allow_unsigned_heartbeat);
+            return Checked {
+                kind: SigKind::Unsigned,
+                accepted: trusted || ok,
+            };
+        }
+        let current = self.signing.clock.current(self.signing_wall());
+        let Self {
+            signing, links, ..
+        } = self;
+        let Some(key) = signing.key.as_ref() else {
+            unreachable!("checked above")
+        };
+        let verdict =
+            links[link]
+                .signing_streams
+                .check(key, &frame.raw, frame.sysid, frame.compid, current);
+        let kind = match verdict {
+            Verdict::Good(ts) => {
+                signing.clock.observe(ts);
+                SigKind::Signed
+            }
+            Verdict::BadSignature => SigKind::BadSignature,
+            Verdict::Replayed => SigKind::Replayed,
+            Verdict::TooOld => SigKind::TooOld,
+        };
+        Checked {
+            kind,
+            accepted: kind == SigKind::Signed || trusted,
+        }
+    }
+
+    /// A rejected frame: counted on its source, told of once per kind.
+    #[cold]
+    pub(super) fn signing_rejected(&mut self, link: LinkId, frame: &Frame, c: Checked) {
+        let key = (frame.sysid, frame.compid);
+        let first = self.links[link].source(key).signing.count(c);
+        self.dirty = true;
+        if first {
+            self.tell_signing(link, key, c);
+        }
+    }
+
+    /// After an accepted frame was counted (`first`: the first of its kind from its source on
+    /// this link): what there is to tell, and the watch after `signing setup`/`off`.
+    pub(super) fn signing_accepted(&mut self, link: LinkId, key: VehicleKey, c: Checked, first: bool) {
+        if let Some(w) = self.signing.watch.as_mut().filter(|w| w.vehicle == key) {
+            w.signed = matches!(c.kind, SigKind::Signed | SigKind::Unchecked);
+            if w.what == WatchFor::Setup && c.kind == SigKind::Signed {
+                self.signing.watch = None;
+                self.notice(
+                    SEV_NOTICE,
+                    Some(key),
+                    format!("{}:{} signs with our key: signing is on", key.0, key.1),
+                );
+                return;
+            }
+            if w.what == WatchFor::Off {
+                // Frames still on their way are signed: judged when the watch ends.
+                return;
+            }
+        }
+        if first && c.kind != SigKind::Signed && c.kind != SigKind::Unsigned {
+            self.tell_signing(link, key, c);
+        }
+    }
+
+    /// The notice for the first frame of a kind from a source.
+    fn tell_signing(&mut self, link: LinkId, key: VehicleKey, c: Checked) {
+        let who = format!("{}:{}", key.0, key.1);
+        let fate = if c.accepted {
+            "taken: the link is trusted"
+        } else {
+            "rejected"
+        };
+        let (sev, text) = match c.kind {
+            SigKind::Signed => return,
+            SigKind::Unsigned => (
+                SEV_WARNING,
+                format!(
+                    "{who} sends unsigned frames on link {link}: {fate} (we sign; `signing \
+                     setup` gives it our key over a ?secure=1 link)"
+                ),
+            ),
+            // A recording or our own sim is not commanded.
+            SigKind::Unchecked if !self.links[link].secure && self.links[link].trusted => return,
+            SigKind::Unchecked => (
+                SEV_WARNING,
+                format!(
+                    "{who} signs its frames and we have no key: it will ignore our commands \
+                     (start with --signing-key)"
+                ),
+            ),
+            SigKind::BadSignature => (
+                SEV_ERROR,
+                format!(
+                    "{who}: frames with a bad signature on link {link} (another key, or changed \
+                     on the way): {fate}"
+                ),
+            ),
+            SigKind::Replayed | SigKind::TooOld => (
+                SEV_ERROR,
+                format!(
+                    "{who}: replayed frames on link {link} (signing timestamps not newer than \
+                     before): {fate}"
+                ),
+            ),
+        };
+        self.notice(sev, Some(key), text);
+    }
+
+    /// Timers of signing: the end of a watch, the state file's reservation.
+    pub(super) fn signing_time(&mut self, fx: &mut Vec<Effect>) {
+        if let Some(w) = self.signing.watch.filter(|w| self.now >= w.until) {
+            self.signing.watch = None;
+            let who = format!("{}:{}", w.vehicle.0, w.vehicle.1);
+            let secs = WATCH / SECOND;
+            match (w.what, w.signed) {
+                (WatchFor::Setup, _) => self.notice(
+                    SEV_WARNING,
+                    Some(w.vehicle),
+                    format!(
+                        "{who} sent no frame signed with our key in {secs} s since SETUP_SIGNING: \
+                         it may not have taken the key"
+                    ),
+                ),
+                (WatchFor::Off, true) => self.notice(
+                    SEV_WARNING,
+                    Some(w.vehicle),
+                    format!("{who} still signs {secs} s after `signing off`: it kept its key"),
+                ),
+                (WatchFor::Off, false) => self.notice(
+                    SEV_NOTICE,
+                    Some(w.vehicle),
+                    format!("{who} no longer signs: signing is off"),
+                ),
+            }
+        }
+        if let Some(e) = self.signing.save_due() {
+            fx.push(e);
+        }
+    }
+
+    /// When the signing watch ends, if one runs.
+    pub(super) fn signing_deadline(&self) -> Option<Micros> {
+        self.signing.watch.map(|w| w.until)
+    }
+
+    /// A state file write came back: silent when it worked, told once when it did not.
+    pub(super) fn signing_file_written(&mut self, error: Option<String>) {
+        if let Some(e) = error {
+            if !std::mem::replace(&mut self.signing.save_failure_told, true) {
+                self.notice(
+                    SEV_WARNING,
+                    None,
+                    format!(
+                        "could not keep the signing timestamp: {e} (signing goes on; after a \
+                         restart the clock alone sets it)"
+                    ),
+                );
+            }
+        }
+    }
+
+    /// `signing`, `signing setup`, `signing off`.
+    pub(super) fn run_signing(
+        &mut self,
+        cmd: SigningCmd,
+        _fx: &mut Vec<Effect>,
+    ) -> Result<Option<String>, String> {
+        match cmd {
+            SigningCmd::Status => Ok(Some(self.signing_status())),
+            SigningCmd::Setup => {
+                let key = self.signing.configured.clone().ok_or(
+                    "signing setup: no signing key (start mavterm with --signing-key)".to_string(),
+                )?;
+                let target = self.commandable()?;
+                let link = self.secure_link_to(target, "signing setup")?;
+                self.ui.confirm = Some(Confirm {
+                    text: format!(
+                        "SEND SIGNING KEY {} to {} over link {link} ({})? It will then require \
+                         signed frames. y = yes, any other key = no",
+                        key.id(),
+                        self.who(target),
+                        self.links[link].spec
+                    ),
+                    action: Confirmed::Signing(SigningAction::Setup { link }),
+                    target,
+                    key: None,
+                });
+                Ok(None)
+            }
+            SigningCmd::Off => {
+                let target = self.commandable()?;
+                let link = self.secure_link_to(target, "signing off")?;
+                self.ui.confirm = Some(Confirm {
+                    text: format!(
+                        "TURN SIGNING OFF on {} over link {link} ({})? Anyone on its links could \
+                         then command it. y = yes, any other key = no",
+                        self.who(target),
+                        self.links[link].spec
+                    ),
+                    action: Confirmed::Signing(SigningAction::Off { link }),
+                    target,
+                    key: None,
+                });
+                Ok(None)
+            }
+        }
+    }
+
+    /// `1:1 (ArduPilot QUADROTOR)`.
+    fn who(&self, key: VehicleKey) -> String {
+        match self.vehicles.get(key) {
+            Some(v) => format!(
+                "{}:{} ({} {})",
+                key.0,
+                key.1,
+                v.autopilot_name(),
+                v.type_name()
+            ),
+            None => format!("{}:{}", key.0, key.1),
+        }
+    }
+
+    /// The link marked `?secure=1`, up, on which `target` is heard.
+    fn secure_link_to(&self, target: VehicleKey, what: &str) -> Result<LinkId, String> {
+        let heard = self
+            .vehicles
+            .get(target)
+            .map(|v| v.links.clone())
+            .unwrap_or_default();
+        heard
+            .into_iter()
+            .find(|&l| self.links.get(l).is_some_and(|s| s.secure) && self.link_up(l))
+            .ok_or_else(|| {
+                format!(
+                    "{what}: {}:{} is not heard on a link marked ?secure=1 (a USB cable): \
+                     refused, SETUP_SIGNING would carry the key in clear",
+                    target.0, target.1
+                )
+            })
+    }
+
+    /// Send what a confirmed `signing` command means.
+    pub(super) fn carry_out_signing(
+        &mut self,
+        target: VehicleKey,
+        action: SigningAction,
+        fx: &mut Vec<Effect>,
+    ) -> Result<Option<String>, String> {
+        let (SigningAction::Setup { link } | SigningAction::Off { link }) = action;
+        if !(self.links.get(link).is_some_and(|l| l.secure) && self.link_up(link)) {
+            return Err(format!("link {link} is no longer up: nothing sent"));
+        }
+        let who = format!("{}:{}", target.0, target.1);
+        let (secret, initial_timestamp, what, text) = match action {
+            SigningAction::Setup { .. } => {
+                let key = self.signing.configured.clone().ok_or("no signing key")?;
+                let ts = self.signing.clock.current(self.signing_wall());
+                let text = format!(
+                    "signing setup: key {} sent to {who} on link {link}; it will require signed \
+                     frames (no ACK: watching its frames)",
+                    key.id()
+                );
+                // Ours is on from now: the vehicle answers signed.
+                self.signing.key = Some(key.clone());
+                (*key.as_bytes(), ts, WatchFor::Setup, text)
+            }
+            SigningAction::Off { .. } => (
+                [0u8; 32],
+                0,
+                WatchFor::Off,
+                format!(
+                    "signing off: sent to {who} on link {link}; we no longer sign nor check \
+                     signatures (no ACK: watching its frames)"
+                ),
+            ),
+        };
+        let msg = MavMessage::SETUP_SIGNING(dialect::SETUP_SIGNING_DATA {
+            initial_timestamp,
+            target_system: target.0,
+            target_component: target.1,
+            secret_key: secret,
+        });
+        self.send(link, msg, fx);
+        if what == WatchFor::Off {
+            // Sent signed with the key it held; from now on nothing is.
+            self.signing.key = None;
+        }
+        self.signing.watch = Some(Watch {
+            vehicle: target,
+            what,
+            until: self.now + WATCH,
+            signed: what == WatchFor::Off,
+        });
+        self.notice(SEV_NOTICE, Some(target), text.clone());
+        Ok(Some(text))
+    }
+
+    /// What `signing` alone says.
+    fn signing_status(&self) -> String {
+        match &self.signing.key {
+            Some(k) => format!(
+                "signing on (key {}): we sign on every link, link id = link number; unsigned \
+                 frames rejected but RADIO_STATUS{}, and on ?secure=1 links",
+                k.id(),
+                if self.signing.allow_unsigned_heartbeat {
+                    ", HEARTBEAT"
+                } else {
+                    ""
+                }
+            ),
+            None if self.signing.configured.is_some() => {
+                "signing off (`signing off` sent): `signing setup` turns it on again".into()
+            }
+            None => "signing off: no key (start with --signing-key); signed frames are taken \
+                     unchecked"
+                .into(),
+        }
+    }
+}
