@@ -27,7 +27,8 @@ pub struct Cli {
     /// serial://PATH[:BAUD], sim://[?options], tlog:PATH. Network and serial links take `?hl=1`
     /// for a high-latency or low-bandwidth link: nothing automatic is sent on it (no stream
     /// requests, no parameter download). A serial baud given explicitly fits the telemetry rates
-    /// asked to the link.
+    /// asked to the link. `?secure=1` marks a USB cable or a wire: `signing setup` sends the
+    /// signing key only on such a link, and unsigned frames are taken on it.
     #[arg(long = "link", value_name = "SPEC", value_parser = parse_spec)]
     pub links: Vec<LinkSpec>,
 
@@ -94,6 +95,17 @@ pub struct Cli {
     /// Write the log (tracing) to FILE.
     #[arg(long, value_name = "FILE")]
     pub log: Option<PathBuf>,
+
+    /// Sign with MAVLink 2 signing and reject what is not signed with this key: a PASSPHRASE
+    /// (hashed with SHA-256, as MAVProxy and Mission Planner do), hex:64HEX, or file:PATH (a
+    /// file only you can read, holding either). [default: the config file's `signing_key`]
+    #[arg(long, value_name = "KEY")]
+    pub signing_key: Option<String>,
+
+    /// With a signing key, take unsigned HEARTBEATs too (components that cannot sign stay
+    /// listed). RADIO_STATUS from SiK radios is always taken.
+    #[arg(long)]
+    pub signing_allow_unsigned_heartbeat: bool,
 }
 
 #[derive(Debug, Subcommand)]

@@ -56,6 +56,10 @@ pub struct FileConfig {
     pub stream_groups: BTreeMap<u8, f32>,
     /// `[streams.messages]`: message id → Hz; `None` when the section is absent.
     pub stream_messages: Option<BTreeMap<u32, f32>>,
+    /// `signing_key`: `file:PATH` only (a secret does not belong in a config file).
+    pub signing_key: Option<String>,
+    /// `signing_allow_unsigned_heartbeat`.
+    pub signing_allow_unsigned_heartbeat: Option<bool>,
 }
 
 impl FileConfig {
@@ -221,7 +225,8 @@ impl Found {
     }
 }
 
-const KEYS: &str = "sysid, compid, lost_timeout, takeoff_alt, links, [streams]";
+const KEYS: &str = "sysid, compid, lost_timeout, takeoff_alt, links, signing_key, \
+                    signing_allow_unsigned_heartbeat, [streams]";
 
 /// Check a config file's `text`; `path` names it in errors. Every key is optional; unknown keys
 /// and bad values are refused, all of them at once, each with its line and column.
@@ -277,6 +282,26 @@ pub fn load(path: &Path, text: &str) -> Result<FileConfig, ConfigError> {
                 )
             }
             "links" => cfg.links = links(value, &mut found),
+            // Refused without showing the value: it may be a secret.
+            "signing_key" => match value.get_ref().as_str() {
+                Some(s) if s.len() > 5 && s.starts_with("file:") => {
+                    cfg.signing_key = Some(s.to_string())
+                }
+                _ => found.add(
+                    value.span().start,
+                    "signing_key: expected \"file:PATH\", a key file only you can read (a \
+                     passphrase or hex key does not belong in the config file)"
+                        .into(),
+                ),
+            },
+            "signing_allow_unsigned_heartbeat" => {
+                cfg.signing_allow_unsigned_heartbeat = found.check(
+                    "signing_allow_unsigned_heartbeat",
+                    value,
+                    "true or false",
+                    |v| v.as_bool(),
+                )
+            }
             "streams" => streams(value, &mut found, &mut cfg),
             other => found.add(
                 key.span().start,
@@ -453,6 +478,27 @@ mod tests {
             "streams.position: expected a rate in Hz from 0 to 50, found 300"
         );
         assert!(p[3].2.starts_with("unknown key \"streams.ATTITUDE\""));
+    }
+
+    #[test]
+    fn signing_key_only_as_a_file() {
+        let f = load(
+            Path::new("c.toml"),
+            "signing_key = \"file:~/.config/mavterm/signing.key\"\n\
+             signing_allow_unsigned_heartbeat = true\n",
+        )
+        .unwrap();
+        assert_eq!(
+            f.signing_key.as_deref(),
+            Some("file:~/.config/mavterm/signing.key")
+        );
+        assert_eq!(f.signing_allow_unsigned_heartbeat, Some(true));
+        let p = problems("signing_key = \"my passphrase\"\n");
+        assert_eq!((p[0].0, p[0].1), (1, 15), "{p:?}");
+        assert!(p[0].2.contains("file:PATH"), "{p:?}");
+        assert!(!p[0].2.contains("passphrase\""), "the value is not shown: {p:?}");
+        let p = problems("signing_allow_unsigned_heartbeat = 1\n");
+        assert!(p[0].2.contains("true or false"), "{p:?}");
     }
 
     #[test]

@@ -16,6 +16,7 @@ pub mod link;
 pub mod params;
 pub mod paths;
 pub mod proto;
+pub mod signing_store;
 pub mod sim;
 pub mod tui;
 pub mod ui;

@@ -36,12 +36,47 @@ fn init_logging(path: Option<&std::path::Path>) -> Result<()> {
     Ok(())
 }
 
-/// The core's settings: flags given, then the config file, then the defaults.
-fn app_config(cli: &Cli, file: &FileConfig) -> Result<AppConfig> {
+/// The core's settings: flags given, then the config file, then the defaults. `wall_clock`:
+/// the run is on the wall clock (real links, or the terminal), so the signing timestamp is kept
+/// across runs; a virtual run neither reads nor writes it.
+fn app_config(cli: &Cli, file: &FileConfig, wall_clock: bool) -> Result<AppConfig> {
     Ok(AppConfig {
         param_meta: load_param_meta(cli)?,
+        signing: load_signing(cli, file, wall_clock)?,
         ..cli.app_config(file)
     })
+}
+
+/// `--signing-key` (else the config file's `signing_key`): the key, and the timestamp kept.
+fn load_signing(
+    cli: &Cli,
+    file: &FileConfig,
+    wall_clock: bool,
+) -> Result<Option<mavterm::app::signing::SigningConfig>> {
+    let Some(spec) = cli.signing_key.as_deref().or(file.signing_key.as_deref()) else {
+        return Ok(None);
+    };
+    let allow_hb =
+        cli.signing_allow_unsigned_heartbeat || file.signing_allow_unsigned_heartbeat == Some(true);
+    let state = if wall_clock {
+        let path = mavterm::signing_store::state_path();
+        if path.is_none() {
+            eprintln!(
+                "mavterm: no home directory: the signing timestamp is not kept between runs"
+            );
+        }
+        path
+    } else {
+        None
+    };
+    Ok(Some(mavterm::signing_store::signing_config(
+        spec, allow_hb, state,
+    )?))
+}
+
+/// Keep the last signing timestamp for the next run (when signing).
+fn save_signing(app: &mavterm::app::App) -> Result<()> {
+    mavterm::signing_store::save_final(app).context("keeping the signing timestamp")
 }
 
 /// `--param-meta FILE`, or `param-meta.xml` in the config directory when it is there.
@@ -94,7 +129,7 @@ fn main() -> Result<()> {
 
     let file = mavterm::config::load_user(cli.config.as_deref())?;
     let links = cli.links(&file);
-    let cfg = app_config(&cli, &file)?;
+    let cfg = app_config(&cli, &file, !cli.headless || !all_virtual(&links))?;
     let keymap = Keymap::load_user(cli.keymap.as_deref())?;
 
     if cli.headless {
@@ -119,6 +154,7 @@ fn main() -> Result<()> {
                 Duration::from_secs_f64(secs),
             ))
         };
+        save_signing(&app)?;
         println!("{}", serde_json::to_string(&app.report())?);
         return Ok(());
     }
@@ -162,6 +198,7 @@ fn params_out(
         let _ = rt.block_on(runner.inner.run(Some(start + limit), &mut front));
         runner.inner.app
     };
+    save_signing(&app)?;
     let p = progress(&app);
     show(&p);
     let text = file_text(&app, out);
@@ -222,8 +259,9 @@ fn replay(
     } else {
         let mut runner = RealTimeRunner::start(rt.clone(), links, cfg);
         runner.app_mut().keymap = keymap;
-        let outcome = run_script(&script, &mut runner, &opts, &mut stdout.lock())?;
-        (outcome, runner.app().report())
+        let outcome = run_script(&script, &mut runner, &opts, &mut stdout.lock());
+        save_signing(runner.app())?;
+        (outcome?, runner.app().report())
     };
     if let Some(ReportFormat::Json) = cli.report {
         println!("{}", serde_json::to_string(&report)?);
@@ -246,6 +284,6 @@ async fn terminal(cli: &Cli, cfg: AppConfig, links: &[LinkSpec], keymap: Keymap)
         record: cli.record.clone(),
         theme: Theme::from_env(),
     };
-    run_terminal(rt, opts).await?;
-    Ok(())
+    let app = run_terminal(rt, opts).await?;
+    save_signing(&app)
 }

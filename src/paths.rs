@@ -1,5 +1,6 @@
 //! Where mavterm's own files live: its config directory, shared by the config file, the keymap
-//! and the parameter metadata (a leaf: no other module of mavterm is needed here).
+//! and the parameter metadata, and its data directory, for state kept between runs (a leaf: no
+//! other module of mavterm is needed here).
 
 use std::path::PathBuf;
 
@@ -14,4 +15,28 @@ pub fn config_dir() -> Option<PathBuf> {
             .config_dir()
             .join("mavterm"),
     )
+}
+
+/// mavterm's data directory: `mavterm` in the user's XDG data directory (`$XDG_DATA_HOME`, else
+/// `~/.local/share`; on Windows the roaming AppData folder), for state kept between runs (the
+/// MAVLink signing timestamp). `None` when there is no home directory.
+pub fn data_dir() -> Option<PathBuf> {
+    use etcetera::BaseStrategy;
+    Some(
+        etcetera::choose_base_strategy()
+            .ok()?
+            .data_dir()
+            .join("mavterm"),
+    )
+}
+
+/// `~/REST` with the home directory put in; anything else as given.
+pub fn expand_home(path: &str) -> PathBuf {
+    match path.strip_prefix("~/") {
+        Some(rest) => match etcetera::home_dir() {
+            Ok(home) => home.join(rest),
+            Err(_) => PathBuf::from(path),
+        },
+        None => PathBuf::from(path),
+    }
 }

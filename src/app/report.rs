@@ -12,6 +12,11 @@
 //! `expected_bytes_per_second`, `budget_bytes_per_second` (a serial link with a known baud),
 //! and `messages[].{id,name,requested_hz,measured_hz,method,state}` (method:
 //! `REQUEST_DATA_STREAM <GROUP>` or `SET_MESSAGE_INTERVAL`).
+//!
+//! MAVLink signing: `signing.{key,key_id,timestamp}` at the top (whether we sign, the key's
+//! short id, never the key; our last timestamp), `links[].{secure,signing_streams,
+//! signing_streams_evicted}`, and `links[].sources[].signing.{signed,unchecked,unsigned,
+//! bad_signature,replayed,too_old,rejected}`.
 
 use serde_json::{json, Value};
 
@@ -45,6 +50,15 @@ impl App {
                             "frames": s.frames,
                             "loss_pct": round2(s.seq.loss_pct()),
                             "loss_pct_10s": round2(s.seq.window_loss_pct(now)),
+                            "signing": {
+                                "signed": s.signing.signed,
+                                "unchecked": s.signing.unchecked,
+                                "unsigned": s.signing.unsigned,
+                                "bad_signature": s.signing.bad_signature,
+                                "replayed": s.signing.replayed,
+                                "too_old": s.signing.too_old,
+                                "rejected": s.signing.rejected,
+                            },
                         })
                     })
                     .collect();
@@ -73,6 +87,9 @@ impl App {
                     "sent_frames": l.sent_frames,
                     "sent_bytes": l.sent_bytes,
                     "evicted_sources": l.evicted_sources,
+                    "secure": l.secure,
+                    "signing_streams": l.signing_streams.len(),
+                    "signing_streams_evicted": l.signing_streams.evicted,
                     "sources": sources,
                 })
             })
@@ -209,6 +226,11 @@ impl App {
             "params": params,
             "streams": streams,
             "vehicles_evicted": self.vehicles.evicted,
+            "signing": {
+                "key": self.signing.key.is_some(),
+                "key_id": self.signing.key.as_ref().map(|k| k.id()),
+                "timestamp": self.signing.clock.last(),
+            },
         })
     }
 }

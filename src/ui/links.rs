@@ -1,15 +1,50 @@
 //! The links pane: one row per link (state, rates, loss over the 10 s window and since start,
-//! CRC errors, sequence counters); an expanded link adds one row per source sysid:compid.
+//! CRC errors, sequence counters); an expanded link adds one row per source sysid:compid, and
+//! under it a line of MAVLink signing counts (signed, unsigned, bad signature, replayed,
+//! rejected) when we sign or the source does.
 
 use ratatui::layout::{Constraint, Rect};
 use ratatui::style::Style;
-use ratatui::text::Span;
-use ratatui::widgets::{Cell, Row, Table, TableState};
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Cell, Paragraph, Row, Table, TableState};
 use ratatui::Frame;
 
 use super::{ellipsize, fmt, pane_block, selected_style, Theme};
 use crate::app::links::{loss_pct, LinkState, LinkStatus};
+use crate::app::signing::SigningCounts;
 use crate::app::{App, Pane};
+
+/// The signing line under a source row: `signed 120 · unsigned 5 · bad sig 3 · replayed 1 ·
+/// rejected 9` with a key; without one, signed frames are unchecked.
+fn signing_line<'a>(c: &SigningCounts, key: bool, theme: &Theme) -> Line<'a> {
+    let dim = theme.dim();
+    let n = |label: &'static str, v: u64, bad: bool| -> Vec<Span<'a>> {
+        let style = if bad && v > 0 { theme.alert() } else { dim };
+        vec![
+            Span::styled(format!("{label} "), dim),
+            Span::styled(v.to_string(), style),
+        ]
+    };
+    let sep = || Span::styled(" · ", dim);
+    let mut spans = vec![Span::styled("     signing: ", dim)];
+    if key {
+        spans.extend(n("signed", c.signed, false));
+        spans.push(sep());
+        spans.extend(n("unsigned", c.unsigned, false));
+        spans.push(sep());
+        spans.extend(n("bad sig", c.bad_signature, true));
+        spans.push(sep());
+        spans.extend(n("replayed", c.replayed + c.too_old, true));
+        spans.push(sep());
+        spans.extend(n("rejected", c.rejected, true));
+    } else {
+        spans.extend(n("signed", c.unchecked + c.signed, false));
+        spans.push(Span::styled(" unchecked (no key)", theme.alert()));
+        spans.push(sep());
+        spans.extend(n("unsigned", c.unsigned, false));
+    }
+    Line::from(spans)
+}
 
 /// A frame or byte rate in `width` columns: one decimal below 100 unless whole, abbreviated
 /// (`12.3M`) rather than cut when too wide.
@@ -124,7 +159,13 @@ fn link_row<'a>(
 }
 
 pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
-    let block = pane_block(app, Pane::Links, format!(" ({})", app.links.len()), theme);
+    let key = app.signing.key.is_some();
+    let title = if key {
+        format!(" ({}) · signing on", app.links.len())
+    } else {
+        format!(" ({})", app.links.len())
+    };
+    let block = pane_block(app, Pane::Links, title, theme);
     let inner = block.inner(area);
     frame.render_widget(block, area);
     let cols = columns(inner.width >= 120);
@@ -144,6 +185,8 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
 
     let now = app.now;
     let mut rows = Vec::new();
+    // Lines drawn over the table after it: (row index, line), for text wider than a column.
+    let mut overlays = Vec::new();
     // Table row index of each link, for the selection highlight.
     let mut sel_row = 0;
     for (i, l) in app.links.iter().enumerate() {
@@ -173,6 +216,10 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
                 q.reordered,
             ));
             rows.push(Row::new(cells).style(theme.dim()));
+            if key || s.signing.any_signing() {
+                overlays.push((rows.len(), signing_line(&s.signing, key, theme)));
+                rows.push(Row::new(vec![Cell::from("")]));
+            }
         }
     }
     if app.links.is_empty() {
@@ -187,4 +234,21 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         .row_highlight_style(selected_style(app, Pane::Links, theme));
     let mut state = TableState::default().with_selected((!app.links.is_empty()).then_some(sel_row));
     frame.render_stateful_widget(table, inner, &mut state);
+    // Every row is one line high, under a one-line header.
+    let first = state.offset();
+    for (row, line) in overlays {
+        let Some(y) = row
+            .checked_sub(first)
+            .and_then(|r| u16::try_from(r + 1).ok())
+            .filter(|&dy| dy < inner.height)
+        else {
+            continue;
+        };
+        let at = Rect {
+            y: inner.y + y,
+            height: 1,
+            ..inner
+        };
+        frame.render_widget(Paragraph::new(line), at);
+    }
 }
