@@ -2,7 +2,7 @@
 //!
 //! Policy (the MAVLink guide's rules; the codec is [`crate::wire::signing`]):
 //! - Without a key, every frame is taken; signed ones are counted as *unchecked*, and a source
-//!   that signs is warned about once: its autopilot will ignore our unsigned commands.
+//!   that signs is warned about once: its autopilot ignores our unsigned commands.
 //! - With a key, every frame we send is signed (MAVLink 2; link id = the link's number, one
 //!   timestamp clock for all links that never goes backwards, kept across runs by the edge).
 //!   Incoming signed frames are checked: a bad signature, a timestamp not after the last of its
@@ -353,8 +353,8 @@ impl App {
             SigKind::Unchecked => (
                 SEV_WARNING,
                 format!(
-                    "{who} signs its frames and we have no key: it will ignore our commands \
-                     (start with --signing-key)"
+                    "{who} signs but we have no key: it ignores our commands (start with \
+                     --signing-key)"
                 ),
             ),
             SigKind::BadSignature => (
@@ -364,11 +364,18 @@ impl App {
                      on the way): {fate}"
                 ),
             ),
-            SigKind::Replayed | SigKind::TooOld => (
+            SigKind::Replayed => (
                 SEV_ERROR,
                 format!(
                     "{who}: replayed frames on link {link} (signing timestamps not newer than \
                      before): {fate}"
+                ),
+            ),
+            SigKind::TooOld => (
+                SEV_ERROR,
+                format!(
+                    "{who}: signed frames over a minute behind our clock on link {link} (an old \
+                     recording played back?): {fate}"
                 ),
             ),
         };
@@ -523,7 +530,8 @@ impl App {
         let (secret, initial_timestamp, what, text) = match action {
             SigningAction::Setup { .. } => {
                 let key = self.signing.configured.clone().ok_or("no signing key")?;
-                let ts = self.signing.clock.current(self.signing_wall());
+                // A timestamp of its own: the frame carrying it is signed after it.
+                let ts = self.signing.clock.next(self.signing_wall());
                 let text = format!(
                     "signing setup: key {} sent to {who} on link {link}; it will require signed \
                      frames (no ACK: watching its frames)",

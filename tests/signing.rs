@@ -1,0 +1,653 @@
+//! MAVLink 2 signing in the core, with pymavlink as the reference both ways: what mavterm signs
+//! verifies in pymavlink with the same key (and fails with another); what pymavlink signs is
+//! taken; tampered bytes, a wrong key, replayed and stale timestamps and unsigned frames are
+//! rejected and counted; the timestamp never goes back across restarts; `signing setup` and
+//! `signing off` send the SETUP_SIGNING MAVProxy sends, only after a confirmation and only on a
+//! `?secure=1` link; the Links pane shows the counts per source.
+
+mod common;
+
+use chrono::{DateTime, Utc};
+use serde_json::{json, Value};
+
+use mavterm::app::links::LinkState;
+use mavterm::app::signing::SigningConfig;
+use mavterm::app::{App, AppConfig, Effect, Event};
+use mavterm::clock::{Micros, SECOND};
+use mavterm::keymap::Key;
+use mavterm::wire::signing::SecretKey;
+use mavterm::wire::FrameParser;
+
+const PASS: &str = "mavterm signing test";
+const OTHER: &str = "another key";
+/// 2024-05-01 12:00:00 UTC, in Unix seconds: the wall clock at core time 0.
+const EPOCH_UNIX: i64 = 1_714_564_800;
+/// 2015-01-01 00:00:00 UTC, the signing timestamp's epoch (MAVLink guide).
+const SIGNING_EPOCH_UNIX: i64 = 1_420_070_400;
+
+fn epoch(unix: i64) -> DateTime<Utc> {
+    DateTime::from_timestamp(unix, 0).unwrap()
+}
+
+/// The signing timestamp of the wall clock at core time `t`, from the guide: 10 µs units since
+/// 2015-01-01.
+fn spec_ts(t: Micros) -> u64 {
+    (((EPOCH_UNIX - SIGNING_EPOCH_UNIX) * 1_000_000) as u64 + t) / 10
+}
+
+fn signing(pass: &str, allow_hb: bool) -> SigningConfig {
+    SigningConfig {
+        key: SecretKey::from_passphrase(pass),
+        allow_unsigned_heartbeat: allow_hb,
+        state_path: None,
+        saved_timestamp: 0,
+    }
+}
+
+fn app_with(links: &[&str], signing: Option<SigningConfig>, epoch_unix: i64) -> App {
+    let mut a = App::new(AppConfig {
+        links: links.iter().map(|s| s.to_string()).collect(),
+        epoch: epoch(epoch_unix),
+        request_streams: false,
+        fetch_params: false,
+        signing,
+        ..AppConfig::default()
+    });
+    for i in 0..links.len() {
+        a.update(
+            0,
+            Event::LinkState {
+                link: i,
+                state: LinkState::Up,
+            },
+        );
+    }
+    a
+}
+
+fn app(links: &[&str], key: Option<&str>, allow_hb: bool) -> App {
+    app_with(links, key.map(|k| signing(k, allow_hb)), EPOCH_UNIX)
+}
+
+/// Frames as a link delivers them; what the core does in answer.
+fn feed(a: &mut App, t: Micros, link: usize, bytes: &[u8]) -> Vec<Effect> {
+    let mut p = FrameParser::new();
+    let frames = p.parse_all(bytes);
+    assert_eq!(frames.len(), 1, "one whole frame");
+    let stats = *p.stats();
+    a.update(
+        t,
+        Event::Frames {
+            link,
+            frames,
+            stats,
+        },
+    )
+}
+
+/// (link, bytes) of every frame sent.
+fn sends(fx: &[Effect]) -> Vec<(usize, Vec<u8>)> {
+    fx.iter()
+        .filter_map(|e| match e {
+            Effect::Send { link, frame, .. } => Some((*link, frame.clone())),
+            _ => None,
+        })
+        .collect()
+}
+
+fn keys(a: &mut App, t: Micros, names: &[&str]) -> Vec<Effect> {
+    let mut fx = Vec::new();
+    for n in names {
+        fx.extend(a.update(t, Event::Key(n.parse::<Key>().unwrap())));
+    }
+    fx
+}
+
+/// Type a prompt command and run it.
+fn command(a: &mut App, t: Micros, line: &str) -> Vec<Effect> {
+    let mut fx = keys(a, t, &[":"]);
+    for c in line.chars() {
+        fx.extend(a.update(t, Event::Key(Key::ch(c))));
+    }
+    fx.extend(keys(a, t, &["enter"]));
+    fx
+}
+
+/// Run `tests/py/signing.py`.
+fn py(args: &[&str], input: &[String]) -> Vec<String> {
+    use std::io::Write;
+    let mut child = std::process::Command::new(common::python())
+        .arg(common::test_path("py/signing.py"))
+        .args(args)
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    {
+        let mut stdin = child.stdin.take().unwrap();
+        for l in input {
+            writeln!(stdin, "{l}").unwrap();
+        }
+    }
+    let out = child.wait_with_output().unwrap();
+    assert!(
+        out.status.success(),
+        "signing.py {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .map(str::to_string)
+        .collect()
+}
+
+fn hex(b: &[u8]) -> String {
+    b.iter().map(|x| format!("{x:02x}")).collect()
+}
+
+/// The key MAVProxy makes of a passphrase (hashlib.sha256 of its UTF-8 bytes), as hex.
+fn mavproxy_key(pass: &str) -> String {
+    py(&["passphrase", pass], &[]).remove(0)
+}
+
+/// pymavlink's reading of each frame with key `key` (hex, or "none"), and its counters.
+fn verify(key: &str, frames: &[Vec<u8>]) -> (Vec<Value>, Value) {
+    let lines: Vec<String> = frames.iter().map(|f| hex(f)).collect();
+    let mut out: Vec<Value> = py(&["verify", key], &lines)
+        .iter()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let summary = out.pop().unwrap()["summary"].clone();
+    (out, summary)
+}
+
+/// Frames signed by pymavlink with key `key`, link id `link_id`, first timestamp `ts`.
+fn sign(key: &str, link_id: u8, ts: u64, requests: &[Value]) -> Vec<Vec<u8>> {
+    let lines: Vec<String> = requests.iter().map(|r| r.to_string()).collect();
+    py(&["sign", key, &link_id.to_string(), &ts.to_string()], &lines)
+        .iter()
+        .map(|h| {
+            (0..h.len())
+                .step_by(2)
+                .map(|i| u8::from_str_radix(&h[i..i + 2], 16).unwrap())
+                .collect()
+        })
+        .collect()
+}
+
+/// An ArduCopter HEARTBEAT request for pymavlink, from `sysid`:1.
+fn copter_hb(sysid: u8, seq: u8, custom_mode: u32) -> Value {
+    json!({
+        "sysid": sysid, "compid": 1, "seq": seq, "msg": "HEARTBEAT",
+        "fields": {"type": 2, "autopilot": 3, "base_mode": 1, "custom_mode": custom_mode,
+                   "system_status": 3, "mavlink_version": 3}
+    })
+}
+
+fn counts(a: &App, link: usize, key: (u8, u8)) -> Value {
+    let r = a.report();
+    r["links"][link]["sources"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["sysid"] == key.0 && s["compid"] == key.1)
+        .map(|s| s["signing"].clone())
+        .unwrap_or(Value::Null)
+}
+
+fn notices(a: &App) -> Vec<String> {
+    a.notices.iter().map(|n| n.text.clone()).collect()
+}
+
+#[test]
+fn mavterm_signs_and_pymavlink_verifies() {
+    let key = mavproxy_key(PASS);
+    let mut a = app(&["udpin:0.0.0.0:14550", "tcp:127.0.0.1:5760"], Some(PASS), false);
+    let mut sent = Vec::new();
+    for s in 1..4 {
+        sent.extend(sends(&a.update(s * SECOND, Event::Tick)));
+    }
+    // Our GCS heartbeat, once a second on each link.
+    assert_eq!(sent.len(), 6, "{sent:?}");
+    let frames: Vec<Vec<u8>> = sent.iter().map(|(_, f)| f.clone()).collect();
+    let (got, summary) = verify(&key, &frames);
+    for (i, ((link, _), g)) in sent.iter().zip(&got).enumerate() {
+        assert_eq!(g["name"], "HEARTBEAT", "{g}");
+        assert_eq!((g["sysid"].as_u64(), g["compid"].as_u64()), (Some(255), Some(190)));
+        assert_eq!(g["sig_ok"], true, "{g}");
+        assert_eq!(g["link_id"], *link as u64, "link id = link number: {g}");
+        // The wall clock's timestamp; the second link's frame in the same 10 µs gets one more.
+        let second = (i / 2) as u64 + 1;
+        assert_eq!(g["timestamp"], spec_ts(second * SECOND) + (i % 2) as u64, "{g}");
+    }
+    assert_eq!(summary["goodsig_count"], 6, "{summary}");
+    assert_eq!(summary["badsig_count"], 0);
+    // Another key: pymavlink refuses every one.
+    let (got, summary) = verify(&mavproxy_key(OTHER), &frames);
+    assert!(got.iter().all(|g| g["error"] == "Invalid signature"), "{got:?}");
+    assert_eq!(summary["badsig_count"], 6, "{summary}");
+}
+
+#[test]
+fn frames_pymavlink_signs_are_taken() {
+    let key = mavproxy_key(PASS);
+    let mut a = app(&["udpin:0.0.0.0:14550"], Some(PASS), false);
+    let frames = sign(
+        &key,
+        3,
+        spec_ts(0),
+        &[copter_hb(1, 0, 4), copter_hb(1, 1, 4), copter_hb(1, 2, 4)],
+    );
+    for (i, f) in frames.iter().enumerate() {
+        feed(&mut a, 100_000 * (i as u64 + 1), 0, f);
+    }
+    let v = a.vehicles.get((1, 1)).expect("vehicle heard");
+    assert_eq!(v.custom_mode, 4);
+    assert_eq!(a.target, Some((1, 1)));
+    let c = counts(&a, 0, (1, 1));
+    assert_eq!(c["signed"], 3, "{c}");
+    assert_eq!(c["rejected"], 0, "{c}");
+    assert_eq!(a.report()["links"][0]["signing_streams"], 1);
+    // Our clock is at least the vehicle's from now on (the guide's rule).
+    assert!(a.signing.clock.last() >= spec_ts(0) + 2);
+}
+
+#[test]
+fn tampered_wrong_key_replayed_and_stale_frames_are_rejected_and_counted() {
+    let key = mavproxy_key(PASS);
+    let mut a = app(&["udpin:0.0.0.0:14550"], Some(PASS), false);
+    let t0 = spec_ts(0);
+    let good = sign(&key, 0, t0, &[copter_hb(1, 0, 4), copter_hb(1, 1, 4)]);
+    feed(&mut a, 100_000, 0, &good[0]);
+    feed(&mut a, 200_000, 0, &good[1]);
+    // Mode 6 (RTL) in a frame changed on the way (its CRC made right again): not read.
+    let mut tampered = copter_hb(1, 2, 6);
+    tampered["tamper"] = json!(true);
+    tampered["ts"] = json!(t0 + 100);
+    let tampered = sign(&key, 0, t0 + 100, &[tampered]);
+    feed(&mut a, 300_000, 0, &tampered[0]);
+    // Signed with another key.
+    let wrong = sign(&mavproxy_key(OTHER), 0, t0 + 200, &[copter_hb(1, 3, 6)]);
+    feed(&mut a, 400_000, 0, &wrong[0]);
+    // The first frame again: its timestamp is not after the stream's last.
+    feed(&mut a, 500_000, 0, &good[0]);
+    // A new stream (link id 9) two minutes behind our clock.
+    let stale = sign(&key, 9, t0 - 2 * 6_000_000, &[copter_hb(1, 4, 6)]);
+    feed(&mut a, 600_000, 0, &stale[0]);
+    assert_eq!(
+        a.vehicles.get((1, 1)).unwrap().custom_mode,
+        4,
+        "no rejected frame was read"
+    );
+    let c = counts(&a, 0, (1, 1));
+    assert_eq!(c["signed"], 2, "{c}");
+    assert_eq!(c["bad_signature"], 2, "{c}");
+    assert_eq!(c["replayed"], 1, "{c}");
+    assert_eq!(c["too_old"], 1, "{c}");
+    assert_eq!(c["rejected"], 4, "{c}");
+    // Rejected frames are not in the loss counts either.
+    let src = &a.report()["links"][0]["sources"][0];
+    assert_eq!((src["received"].as_u64(), src["lost"].as_u64()), (Some(2), Some(0)));
+    // Told once per kind.
+    let n = notices(&a);
+    assert_eq!(
+        n.iter().filter(|t| t.contains("bad signature")).count(),
+        1,
+        "{n:?}"
+    );
+    assert_eq!(n.iter().filter(|t| t.contains("replayed")).count(), 1, "{n:?}");
+    // A good frame after all that is still taken.
+    let next = sign(&key, 0, t0 + 300, &[copter_hb(1, 5, 5)]);
+    feed(&mut a, 700_000, 0, &next[0]);
+    assert_eq!(a.vehicles.get((1, 1)).unwrap().custom_mode, 5);
+}
+
+#[test]
+fn unsigned_frames_are_rejected_with_a_key_but_radio_status() {
+    let radio_status = json!({"sysid": 51, "compid": 68, "seq": 0, "msg": "RADIO_STATUS",
+        "fields": {"rssi": 100, "remrssi": 90, "txbuf": 80, "noise": 20, "remnoise": 25,
+                   "rxerrors": 0, "fixed": 0}});
+    let radio = json!({"sysid": 51, "compid": 68, "seq": 1, "msg": "RADIO",
+        "fields": {"rssi": 100, "remrssi": 90, "txbuf": 80, "noise": 20, "remnoise": 25,
+                   "rxerrors": 0, "fixed": 0}});
+    let sys_status = json!({"sysid": 1, "compid": 1, "seq": 1, "msg": "SYS_STATUS",
+        "fields": {"onboard_control_sensors_present": 0, "onboard_control_sensors_enabled": 0,
+                   "onboard_control_sensors_health": 0, "load": 0, "voltage_battery": 12000,
+                   "current_battery": 100, "battery_remaining": 50, "drop_rate_comm": 0,
+                   "errors_comm": 0, "errors_count1": 0, "errors_count2": 0,
+                   "errors_count3": 0, "errors_count4": 0}});
+    let mut v1_hb = copter_hb(1, 2, 4);
+    v1_hb["v1"] = json!(true);
+    let unsigned = common::pymavlink_encode(&[
+        copter_hb(1, 0, 4),
+        radio_status,
+        radio,
+        sys_status,
+        v1_hb,
+    ]);
+
+    let mut a = app(
+        &["udpin:0.0.0.0:14550", "serial:/dev/ttyACM0?secure=1"],
+        Some(PASS),
+        false,
+    );
+    for (i, f) in unsigned.iter().enumerate() {
+        feed(&mut a, (i as u64 + 1) * 100_000, 0, f);
+    }
+    assert!(a.vehicles.get((1, 1)).is_none(), "unsigned heartbeats rejected");
+    let c = counts(&a, 0, (1, 1));
+    assert_eq!((c["unsigned"].as_u64(), c["rejected"].as_u64()), (Some(3), Some(3)), "{c}");
+    let radio = counts(&a, 0, (51, 68));
+    assert_eq!(
+        (radio["unsigned"].as_u64(), radio["rejected"].as_u64()),
+        (Some(2), Some(0)),
+        "SiK radios cannot sign: {radio}"
+    );
+    let n = notices(&a);
+    assert!(
+        n.iter().any(|t| t.contains("1:1 sends unsigned frames on link 0: rejected")),
+        "{n:?}"
+    );
+    // On the ?secure=1 link (a USB cable) unsigned frames are taken, and counted.
+    feed(&mut a, SECOND, 1, &unsigned[0]);
+    assert!(a.vehicles.get((1, 1)).is_some());
+    let c = counts(&a, 1, (1, 1));
+    assert_eq!((c["unsigned"].as_u64(), c["rejected"].as_u64()), (Some(1), Some(0)), "{c}");
+
+    // With the option, unsigned HEARTBEATs are taken; nothing else is.
+    let mut a = app(&["udpin:0.0.0.0:14550"], Some(PASS), true);
+    for (i, f) in unsigned.iter().enumerate() {
+        feed(&mut a, (i as u64 + 1) * 100_000, 0, f);
+    }
+    assert!(a.vehicles.get((1, 1)).is_some(), "heartbeat taken");
+    let c = counts(&a, 0, (1, 1));
+    // Heartbeat (v2 and v1) taken, SYS_STATUS rejected.
+    assert_eq!((c["unsigned"].as_u64(), c["rejected"].as_u64()), (Some(3), Some(1)), "{c}");
+}
+
+#[test]
+fn without_a_key_everything_is_taken_and_a_signing_vehicle_is_warned_of() {
+    let key = mavproxy_key(PASS);
+    let mut a = app(&["udpin:0.0.0.0:14550"], None, false);
+    let signed = sign(&key, 0, 1000, &[copter_hb(1, 0, 4), copter_hb(1, 1, 4)]);
+    feed(&mut a, 100_000, 0, &signed[0]);
+    feed(&mut a, 200_000, 0, &signed[1]);
+    feed(&mut a, 300_000, 0, &common::copter_heartbeat(2, 0, 0));
+    assert!(a.vehicles.get((1, 1)).is_some() && a.vehicles.get((2, 1)).is_some());
+    let c = counts(&a, 0, (1, 1));
+    assert_eq!((c["unchecked"].as_u64(), c["rejected"].as_u64()), (Some(2), Some(0)), "{c}");
+    assert_eq!(counts(&a, 0, (2, 1))["unsigned"], 1);
+    let warned: Vec<String> = notices(&a)
+        .into_iter()
+        .filter(|t| t.contains("signs but we have no key"))
+        .collect();
+    assert_eq!(warned.len(), 1, "once: {warned:?}");
+    assert!(warned[0].starts_with("1:1 "), "{warned:?}");
+    // And we do not sign.
+    let ours = sends(&a.update(2 * SECOND, Event::Tick));
+    assert!(!ours.is_empty() && ours.iter().all(|(_, f)| f[2] & 1 == 0));
+}
+
+#[test]
+fn timestamps_never_go_back_across_restarts() {
+    use mavterm::signing_store::{load_state, signing_config};
+    let key = mavproxy_key(PASS);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("signing.json");
+    let state = |a: &App| a.signing.clock.last();
+
+    // First run: two minutes of heartbeats; the state file written as the core asks.
+    let cfg = signing_config(PASS, false, Some(path.clone())).unwrap();
+    assert_eq!(cfg.saved_timestamp, 0);
+    let mut a = app_with(&["udpin:0.0.0.0:14550"], Some(cfg), EPOCH_UNIX);
+    let mut frames = Vec::new();
+    let mut writes = 0;
+    for s in 1..=120 {
+        for e in a.update(s * SECOND, Event::Tick) {
+            match e {
+                Effect::Send { frame, .. } => frames.push(frame),
+                Effect::WriteFile { path: p, contents } => {
+                    assert_eq!(p, path);
+                    std::fs::write(&p, &contents).unwrap();
+                    writes += 1;
+                    // The write is not told of (it is not the operator's file).
+                    let before = a.notices.total;
+                    a.update(
+                        s * SECOND,
+                        Event::FileWritten {
+                            path: p,
+                            error: None,
+                        },
+                    );
+                    assert_eq!(a.notices.total, before);
+                }
+                _ => {}
+            }
+        }
+    }
+    // A reservation a minute ahead, renewed every half minute: a few writes, not one a frame.
+    assert!((3..=6).contains(&writes), "{writes} writes");
+    let (got, _) = verify(&key, &frames);
+    let used: Vec<u64> = got.iter().map(|g| g["timestamp"].as_u64().unwrap()).collect();
+    assert!(used.windows(2).all(|w| w[0] < w[1]), "increasing");
+    let last_a = *used.last().unwrap();
+    assert_eq!(last_a, state(&a));
+    // The run dies without its final save: what the file holds is still ahead of all it used.
+    assert!(load_state(&path).unwrap() > last_a);
+
+    // Second run, with the system clock an hour behind: still after every timestamp used.
+    let cfg = signing_config(PASS, false, Some(path.clone())).unwrap();
+    let mut b = app_with(&["udpin:0.0.0.0:14550"], Some(cfg), EPOCH_UNIX - 3600);
+    let first_b: Vec<Vec<u8>> = sends(&b.update(SECOND, Event::Tick))
+        .into_iter()
+        .map(|(_, f)| f)
+        .collect();
+    let (got, _) = verify(&key, &first_b);
+    let ts_b = got[0]["timestamp"].as_u64().unwrap();
+    assert!(ts_b > last_a, "{ts_b} after {last_a}");
+    assert_eq!(got[0]["sig_ok"], true);
+    // A clean end keeps the exact last timestamp; the third run starts after it.
+    let (p, contents) = b.signing.final_state().unwrap();
+    std::fs::write(&p, contents).unwrap();
+    assert_eq!(load_state(&path).unwrap(), ts_b);
+    let cfg = signing_config(PASS, false, Some(path.clone())).unwrap();
+    let mut c = app_with(&["udpin:0.0.0.0:14550"], Some(cfg), EPOCH_UNIX - 7200);
+    let first_c: Vec<Vec<u8>> = sends(&c.update(SECOND, Event::Tick))
+        .into_iter()
+        .map(|(_, f)| f)
+        .collect();
+    let (got, _) = verify(&key, &first_c);
+    assert!(got[0]["timestamp"].as_u64().unwrap() > ts_b);
+    // A failed write is told once.
+    for _ in 0..2 {
+        c.update(
+            2 * SECOND,
+            Event::FileWritten {
+                path: path.clone(),
+                error: Some("disk full".into()),
+            },
+        );
+    }
+    let told: Vec<String> = notices(&c)
+        .into_iter()
+        .filter(|t| t.contains("signing timestamp"))
+        .collect();
+    assert_eq!(told.len(), 1, "{told:?}");
+}
+
+/// SETUP_SIGNING frames among `fx`, with their links.
+fn setup_signing(fx: &[Effect]) -> Vec<(usize, Vec<u8>)> {
+    fx.iter()
+        .filter_map(|e| match e {
+            Effect::Send {
+                link,
+                frame,
+                msg: mavterm::dialect::MavMessage::SETUP_SIGNING(_),
+            } => Some((*link, frame.clone())),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn signing_setup_and_off_go_only_confirmed_and_only_on_a_secure_link() {
+    let key = mavproxy_key(PASS);
+    let other = mavproxy_key(OTHER);
+    let links = ["udpin:0.0.0.0:14550", "serial:/dev/ttyACM0?secure=1"];
+
+    // No key: nothing to send.
+    let mut a = app(&links, None, false);
+    feed(&mut a, 100_000, 1, &common::copter_heartbeat(1, 0, 0));
+    let fx = command(&mut a, 200_000, "signing setup");
+    assert!(setup_signing(&fx).is_empty());
+    let msg = a.ui.message.clone().unwrap().1;
+    assert!(msg.contains("no signing key"), "{msg}");
+
+    // The vehicle (already signing, with our key) heard on the radio link only: refused.
+    let mut a = app(&links, Some(PASS), false);
+    let radio = sign(&key, 0, spec_ts(0), &[copter_hb(1, 0, 0)]);
+    feed(&mut a, 100_000, 0, &radio[0]);
+    assert_eq!(a.target, Some((1, 1)));
+    let fx = command(&mut a, 200_000, "signing setup");
+    assert!(setup_signing(&fx).is_empty() && a.ui.confirm.is_none());
+    let msg = a.ui.message.clone().unwrap().1;
+    assert!(msg.contains("not heard on a link marked ?secure=1"), "{msg}");
+
+    // Heard on the USB link too (it has another key there: taken on a trusted link).
+    let usb = sign(&other, 0, spec_ts(0), &[copter_hb(1, 1, 0)]);
+    feed(&mut a, 300_000, 1, &usb[0]);
+    let fx = command(&mut a, 400_000, "signing setup");
+    assert!(setup_signing(&fx).is_empty(), "asked first, nothing sent");
+    let q = a.ui.confirm.clone().expect("a confirmation").text;
+    assert!(q.contains("SEND SIGNING KEY") && q.contains("1:1") && q.contains("link 1"), "{q}");
+    let fx = keys(&mut a, 500_000, &["n"]);
+    assert!(setup_signing(&fx).is_empty(), "cancelled: nothing sent");
+    command(&mut a, 600_000, "signing setup");
+    let t = 700_000;
+    let fx = keys(&mut a, t, &["y"]);
+    let sent = setup_signing(&fx);
+    assert_eq!(sent.len(), 1, "{fx:?}");
+    assert_eq!(sent[0].0, 1, "on the secure link only");
+    let (got, _) = verify(&key, &[sent[0].1.clone()]);
+    let g = &got[0];
+    assert_eq!(g["name"], "SETUP_SIGNING", "{g}");
+    assert_eq!(g["sig_ok"], true, "{g}");
+    assert_eq!((g["target_system"].as_u64(), g["target_component"].as_u64()), (Some(1), Some(1)));
+    let secret: Vec<u8> = g["secret_key"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap() as u8)
+        .collect();
+    assert_eq!(hex(&secret), key, "the key MAVProxy makes of the passphrase");
+    let initial = g["initial_timestamp"].as_u64().unwrap();
+    assert!(initial >= spec_ts(t), "{initial}");
+    assert!(initial < g["timestamp"].as_u64().unwrap(), "ours come after it");
+    let msg = a.ui.message.clone().unwrap().1;
+    assert!(msg.contains("sent to 1:1 on link 1"), "{msg}");
+    // The vehicle answers signed with our key: told.
+    let signed = sign(&key, 0, initial + 10, &[copter_hb(1, 2, 0)]);
+    feed(&mut a, 800_000, 1, &signed[0]);
+    assert!(
+        notices(&a).iter().any(|n| n == "1:1 signs with our key: signing is on"),
+        "{:?}",
+        notices(&a)
+    );
+
+    // signing off: the all-zero key and timestamp 0, as MAVProxy's `signing remove`.
+    command(&mut a, SECOND, "signing off");
+    assert!(a.ui.confirm.is_some());
+    let fx = keys(&mut a, SECOND, &["y"]);
+    let sent = setup_signing(&fx);
+    assert_eq!(sent.len(), 1);
+    assert_eq!(sent[0].0, 1);
+    let (got, _) = verify(&key, &[sent[0].1.clone()]);
+    let g = &got[0];
+    assert_eq!(g["sig_ok"], true, "sent signed, with the key it still holds: {g}");
+    assert_eq!(g["initial_timestamp"], 0);
+    assert!(g["secret_key"].as_array().unwrap().iter().all(|v| v == 0), "{g}");
+    // We no longer sign.
+    let ours = sends(&a.update(2 * SECOND, Event::Tick));
+    assert!(!ours.is_empty() && ours.iter().all(|(_, f)| f[2] & 1 == 0));
+    // It still signs five seconds later: told it kept its key.
+    let mut ts = initial + 100;
+    for s in 2..8 {
+        let f = sign(&key, 0, ts, &[copter_hb(1, s as u8 + 2, 0)]);
+        feed(&mut a, s * SECOND + 500_000, 1, &f[0]);
+        ts += 100_000;
+    }
+    let n = notices(&a);
+    assert!(n.iter().any(|t| t.contains("1:1 still signs 5 s after")), "{n:?}");
+    assert!(
+        !n.iter().any(|t| t.contains("signs but we have no key")),
+        "the watch says it instead: {n:?}"
+    );
+}
+
+// ---- Screens ----
+
+use mavterm::ui::{self, buffer_to_text, Theme};
+use ratatui::backend::TestBackend;
+use ratatui::Terminal;
+
+fn draw(app: &App, w: u16, h: u16, f: fn(&App, &mut ratatui::Frame, ratatui::layout::Rect, &Theme)) -> String {
+    let mut t = Terminal::new(TestBackend::new(w, h)).unwrap();
+    t.draw(|frame| f(app, frame, frame.area(), &Theme::PLAIN))
+        .unwrap();
+    buffer_to_text(t.backend().buffer())
+}
+
+#[test]
+fn links_pane_shows_signing_counts_per_source() {
+    let key = mavproxy_key(PASS);
+    let mut a = app(
+        &["udpin:0.0.0.0:14550", "serial:/dev/ttyACM0?secure=1"],
+        Some(PASS),
+        false,
+    );
+    let t0 = spec_ts(0);
+    let reqs: Vec<Value> = (0..10).map(|i| copter_hb(1, i, 4)).collect();
+    let good = sign(&key, 0, t0, &reqs);
+    for (i, f) in good.iter().enumerate() {
+        feed(&mut a, 100_000 * (i as u64 + 1), 0, f);
+    }
+    feed(&mut a, 1_100_000, 0, &good[3]); // replayed
+    let wrong = sign(&mavproxy_key(OTHER), 0, t0 + 50, &[copter_hb(1, 10, 4), copter_hb(1, 11, 4)]);
+    feed(&mut a, 1_200_000, 0, &wrong[0]);
+    feed(&mut a, 1_300_000, 0, &wrong[1]);
+    let unsigned = common::pymavlink_encode(&[
+        json!({"sysid": 51, "compid": 68, "seq": 0, "msg": "RADIO_STATUS",
+               "fields": {"rssi": 1, "remrssi": 2, "txbuf": 3, "noise": 4, "remnoise": 5,
+                          "rxerrors": 0, "fixed": 0}}),
+        copter_hb(2, 0, 0),
+        copter_hb(2, 1, 0),
+    ]);
+    for (i, f) in unsigned.iter().enumerate() {
+        feed(&mut a, 1_400_000 + i as u64 * 100_000, 0, f);
+    }
+    // The USB link: the vehicle unsigned there, taken.
+    feed(&mut a, 1_800_000, 1, &common::copter_heartbeat(1, 0, 4));
+    a.update(2 * SECOND, Event::Tick);
+    for l in &mut a.links {
+        l.expanded = true;
+    }
+    a.ui.focus = mavterm::app::Pane::Links;
+    insta::assert_snapshot!("links_signing_80x24", draw(&a, 80, 24, ui::links::render));
+}
+
+#[test]
+fn a_vehicle_that_signs_while_we_have_no_key_is_a_notice() {
+    let key = mavproxy_key(PASS);
+    let mut a = app(&["udpin:0.0.0.0:14550"], None, false);
+    let signed = sign(&key, 0, spec_ts(0), &[copter_hb(1, 0, 4), copter_hb(1, 1, 4)]);
+    feed(&mut a, 100_000, 0, &signed[0]);
+    feed(&mut a, 1_100_000, 0, &signed[1]);
+    a.update(2 * SECOND, Event::Tick);
+    for l in &mut a.links {
+        l.expanded = true;
+    }
+    insta::assert_snapshot!("links_no_key_80x24", draw(&a, 80, 12, ui::links::render));
+    insta::assert_snapshot!("notices_no_key_80x24", draw(&a, 80, 10, ui::messages::render));
+}
