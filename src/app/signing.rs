@@ -31,7 +31,7 @@ use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavMessage};
 use crate::link::{Frame, LinkId};
 use crate::proto::vehicles::VehicleKey;
-use crate::wire::signing::{self as codec, Clock, SecretKey, Verdict, ONE_MINUTE};
+use crate::wire::signing::{self as codec, Clock, SecretKey, Verdict};
 use crate::wire::tx::Sign;
 
 /// RADIO_STATUS: SiK radios send it unsigned.
@@ -40,6 +40,11 @@ pub const MSG_RADIO_STATUS: u32 = 109;
 pub const MSG_RADIO: u32 = 166;
 /// How long after `signing setup`/`signing off` the vehicle's frames are watched for the change.
 pub const WATCH: Micros = 5 * SECOND;
+/// How far ahead of our clock the state file is written (30 s, in timestamp units), renewed when
+/// the clock is within half of it: a write every 15 s while we sign. After a crash the next run
+/// starts at most this far ahead of the last timestamp used: never behind it, and well within
+/// the minute a vehicle's new stream may be behind ours.
+pub const RESERVE: u64 = 3_000_000;
 
 /// Signing settings the core starts with: made at the edge from `--signing-key` and the state
 /// file.
@@ -163,8 +168,8 @@ pub struct SigningState {
     state_path: Option<PathBuf>,
     /// The timestamp the run started after.
     loaded: u64,
-    /// The timestamp last written to the state file: a reservation, ahead of the clock, so a
-    /// crash between writes never lets the next run reuse a timestamp.
+    /// The timestamp last written to the state file: a reservation [`RESERVE`] ahead of the
+    /// clock, so a crash between writes never lets the next run reuse a timestamp.
     reserved: u64,
     save_failure_told: bool,
     pub watch: Option<Watch>,
@@ -199,15 +204,15 @@ impl SigningState {
         })
     }
 
-    /// The state file write due now, if any: when the clock comes within half a minute of what
-    /// was last reserved, a minute more is reserved.
+    /// The state file write due now, if any: when the clock comes within half of [`RESERVE`]
+    /// of what was last reserved, it is reserved again.
     fn save_due(&mut self) -> Option<Effect> {
         let path = self.state_path.as_ref()?;
         let last = self.clock.last();
-        if last <= self.loaded || last + ONE_MINUTE / 2 <= self.reserved {
+        if last <= self.loaded || last + RESERVE / 2 <= self.reserved {
             return None;
         }
-        self.reserved = last + ONE_MINUTE;
+        self.reserved = last + RESERVE;
         Some(Effect::WriteFile {
             path: path.clone(),
             contents: codec::encode_state(self.reserved),
