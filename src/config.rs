@@ -496,7 +496,10 @@ mod tests {
         let p = problems("signing_key = \"my passphrase\"\n");
         assert_eq!((p[0].0, p[0].1), (1, 15), "{p:?}");
         assert!(p[0].2.contains("file:PATH"), "{p:?}");
-        assert!(!p[0].2.contains("passphrase\""), "the value is not shown: {p:?}");
+        assert!(
+            !p[0].2.contains("passphrase\""),
+            "the value is not shown: {p:?}"
+        );
         let p = problems("signing_allow_unsigned_heartbeat = 1\n");
         assert!(p[0].2.contains("true or false"), "{p:?}");
     }

@@ -61,9 +61,7 @@ fn load_signing(
     let state = if wall_clock {
         let path = mavterm::signing_store::state_path();
         if path.is_none() {
-            eprintln!(
-                "mavterm: no home directory: the signing timestamp is not kept between runs"
-            );
+            eprintln!("mavterm: no home directory: the signing timestamp is not kept between runs");
         }
         path
     } else {

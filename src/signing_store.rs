@@ -154,7 +154,10 @@ mod tests {
         assert_eq!(k, SecretKey::from_passphrase("correct horse"));
         // hex: in a file, and errors that name the file but not the key.
         std::fs::write(&path, format!("hex:{}\r\n", "0a".repeat(32))).unwrap();
-        assert_eq!(read_key_file(&path).unwrap(), SecretKey::from_bytes([10; 32]));
+        assert_eq!(
+            read_key_file(&path).unwrap(),
+            SecretKey::from_bytes([10; 32])
+        );
         std::fs::write(&path, "hex:zz\n").unwrap();
         let e = read_key_file(&path).unwrap_err().to_string();
         assert!(e.contains("64 hex digits") && e.contains(&path.display().to_string()));

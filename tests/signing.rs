@@ -166,15 +166,18 @@ fn verify(key: &str, frames: &[Vec<u8>]) -> (Vec<Value>, Value) {
 /// Frames signed by pymavlink with key `key`, link id `link_id`, first timestamp `ts`.
 fn sign(key: &str, link_id: u8, ts: u64, requests: &[Value]) -> Vec<Vec<u8>> {
     let lines: Vec<String> = requests.iter().map(|r| r.to_string()).collect();
-    py(&["sign", key, &link_id.to_string(), &ts.to_string()], &lines)
-        .iter()
-        .map(|h| {
-            (0..h.len())
-                .step_by(2)
-                .map(|i| u8::from_str_radix(&h[i..i + 2], 16).unwrap())
-                .collect()
-        })
-        .collect()
+    py(
+        &["sign", key, &link_id.to_string(), &ts.to_string()],
+        &lines,
+    )
+    .iter()
+    .map(|h| {
+        (0..h.len())
+            .step_by(2)
+            .map(|i| u8::from_str_radix(&h[i..i + 2], 16).unwrap())
+            .collect()
+    })
+    .collect()
 }
 
 /// An ArduCopter HEARTBEAT request for pymavlink, from `sysid`:1.
@@ -204,7 +207,11 @@ fn notices(a: &App) -> Vec<String> {
 #[test]
 fn mavterm_signs_and_pymavlink_verifies() {
     let key = mavproxy_key(PASS);
-    let mut a = app(&["udpin:0.0.0.0:14550", "tcp:127.0.0.1:5760"], Some(PASS), false);
+    let mut a = app(
+        &["udpin:0.0.0.0:14550", "tcp:127.0.0.1:5760"],
+        Some(PASS),
+        false,
+    );
     let mut sent = Vec::new();
     for s in 1..4 {
         sent.extend(sends(&a.update(s * SECOND, Event::Tick)));
@@ -215,18 +222,28 @@ fn mavterm_signs_and_pymavlink_verifies() {
     let (got, summary) = verify(&key, &frames);
     for (i, ((link, _), g)) in sent.iter().zip(&got).enumerate() {
         assert_eq!(g["name"], "HEARTBEAT", "{g}");
-        assert_eq!((g["sysid"].as_u64(), g["compid"].as_u64()), (Some(255), Some(190)));
+        assert_eq!(
+            (g["sysid"].as_u64(), g["compid"].as_u64()),
+            (Some(255), Some(190))
+        );
         assert_eq!(g["sig_ok"], true, "{g}");
         assert_eq!(g["link_id"], *link as u64, "link id = link number: {g}");
         // The wall clock's timestamp; the second link's frame in the same 10 µs gets one more.
         let second = (i / 2) as u64 + 1;
-        assert_eq!(g["timestamp"], spec_ts(second * SECOND) + (i % 2) as u64, "{g}");
+        assert_eq!(
+            g["timestamp"],
+            spec_ts(second * SECOND) + (i % 2) as u64,
+            "{g}"
+        );
     }
     assert_eq!(summary["goodsig_count"], 6, "{summary}");
     assert_eq!(summary["badsig_count"], 0);
     // Another key: pymavlink refuses every one.
     let (got, summary) = verify(&mavproxy_key(OTHER), &frames);
-    assert!(got.iter().all(|g| g["error"] == "Invalid signature"), "{got:?}");
+    assert!(
+        got.iter().all(|g| g["error"] == "Invalid signature"),
+        "{got:?}"
+    );
     assert_eq!(summary["badsig_count"], 6, "{summary}");
 }
 
@@ -289,7 +306,10 @@ fn tampered_wrong_key_replayed_and_stale_frames_are_rejected_and_counted() {
     assert_eq!(c["rejected"], 4, "{c}");
     // Rejected frames are not in the loss counts either.
     let src = &a.report()["links"][0]["sources"][0];
-    assert_eq!((src["received"].as_u64(), src["lost"].as_u64()), (Some(2), Some(0)));
+    assert_eq!(
+        (src["received"].as_u64(), src["lost"].as_u64()),
+        (Some(2), Some(0))
+    );
     // Told once per kind.
     let n = notices(&a);
     assert_eq!(
@@ -297,7 +317,11 @@ fn tampered_wrong_key_replayed_and_stale_frames_are_rejected_and_counted() {
         1,
         "{n:?}"
     );
-    assert_eq!(n.iter().filter(|t| t.contains("replayed")).count(), 1, "{n:?}");
+    assert_eq!(
+        n.iter().filter(|t| t.contains("replayed")).count(),
+        1,
+        "{n:?}"
+    );
     // A good frame after all that is still taken.
     let next = sign(&key, 0, t0 + 300, &[copter_hb(1, 5, 5)]);
     feed(&mut a, 700_000, 0, &next[0]);
@@ -320,13 +344,8 @@ fn unsigned_frames_are_rejected_with_a_key_but_radio_status() {
                    "errors_count3": 0, "errors_count4": 0}});
     let mut v1_hb = copter_hb(1, 2, 4);
     v1_hb["v1"] = json!(true);
-    let unsigned = common::pymavlink_encode(&[
-        copter_hb(1, 0, 4),
-        radio_status,
-        radio,
-        sys_status,
-        v1_hb,
-    ]);
+    let unsigned =
+        common::pymavlink_encode(&[copter_hb(1, 0, 4), radio_status, radio, sys_status, v1_hb]);
 
     let mut a = app(
         &["udpin:0.0.0.0:14550", "serial:/dev/ttyACM0?secure=1"],
@@ -336,9 +355,16 @@ fn unsigned_frames_are_rejected_with_a_key_but_radio_status() {
     for (i, f) in unsigned.iter().enumerate() {
         feed(&mut a, (i as u64 + 1) * 100_000, 0, f);
     }
-    assert!(a.vehicles.get((1, 1)).is_none(), "unsigned heartbeats rejected");
+    assert!(
+        a.vehicles.get((1, 1)).is_none(),
+        "unsigned heartbeats rejected"
+    );
     let c = counts(&a, 0, (1, 1));
-    assert_eq!((c["unsigned"].as_u64(), c["rejected"].as_u64()), (Some(3), Some(3)), "{c}");
+    assert_eq!(
+        (c["unsigned"].as_u64(), c["rejected"].as_u64()),
+        (Some(3), Some(3)),
+        "{c}"
+    );
     let radio = counts(&a, 0, (51, 68));
     assert_eq!(
         (radio["unsigned"].as_u64(), radio["rejected"].as_u64()),
@@ -347,14 +373,19 @@ fn unsigned_frames_are_rejected_with_a_key_but_radio_status() {
     );
     let n = notices(&a);
     assert!(
-        n.iter().any(|t| t.contains("1:1 sends unsigned frames on link 0: rejected")),
+        n.iter()
+            .any(|t| t.contains("1:1 sends unsigned frames on link 0: rejected")),
         "{n:?}"
     );
     // On the ?secure=1 link (a USB cable) unsigned frames are taken, and counted.
     feed(&mut a, SECOND, 1, &unsigned[0]);
     assert!(a.vehicles.get((1, 1)).is_some());
     let c = counts(&a, 1, (1, 1));
-    assert_eq!((c["unsigned"].as_u64(), c["rejected"].as_u64()), (Some(1), Some(0)), "{c}");
+    assert_eq!(
+        (c["unsigned"].as_u64(), c["rejected"].as_u64()),
+        (Some(1), Some(0)),
+        "{c}"
+    );
 
     // With the option, unsigned HEARTBEATs are taken; nothing else is.
     let mut a = app(&["udpin:0.0.0.0:14550"], Some(PASS), true);
@@ -364,7 +395,11 @@ fn unsigned_frames_are_rejected_with_a_key_but_radio_status() {
     assert!(a.vehicles.get((1, 1)).is_some(), "heartbeat taken");
     let c = counts(&a, 0, (1, 1));
     // Heartbeat (v2 and v1) taken, SYS_STATUS rejected.
-    assert_eq!((c["unsigned"].as_u64(), c["rejected"].as_u64()), (Some(3), Some(1)), "{c}");
+    assert_eq!(
+        (c["unsigned"].as_u64(), c["rejected"].as_u64()),
+        (Some(3), Some(1)),
+        "{c}"
+    );
 }
 
 #[test]
@@ -377,7 +412,11 @@ fn without_a_key_everything_is_taken_and_a_signing_vehicle_is_warned_of() {
     feed(&mut a, 300_000, 0, &common::copter_heartbeat(2, 0, 0));
     assert!(a.vehicles.get((1, 1)).is_some() && a.vehicles.get((2, 1)).is_some());
     let c = counts(&a, 0, (1, 1));
-    assert_eq!((c["unchecked"].as_u64(), c["rejected"].as_u64()), (Some(2), Some(0)), "{c}");
+    assert_eq!(
+        (c["unchecked"].as_u64(), c["rejected"].as_u64()),
+        (Some(2), Some(0)),
+        "{c}"
+    );
     assert_eq!(counts(&a, 0, (2, 1))["unsigned"], 1);
     let warned: Vec<String> = notices(&a)
         .into_iter()
@@ -430,7 +469,10 @@ fn timestamps_never_go_back_across_restarts() {
     // A reservation 30 s ahead, renewed every 15 s: a few writes, not one a frame.
     assert!((6..=9).contains(&writes), "{writes} writes");
     let (got, _) = verify(&key, &frames);
-    let used: Vec<u64> = got.iter().map(|g| g["timestamp"].as_u64().unwrap()).collect();
+    let used: Vec<u64> = got
+        .iter()
+        .map(|g| g["timestamp"].as_u64().unwrap())
+        .collect();
     assert!(used.windows(2).all(|w| w[0] < w[1]), "increasing");
     let last_a = *used.last().unwrap();
     assert_eq!(last_a, state(&a));
@@ -513,7 +555,10 @@ fn signing_setup_and_off_go_only_confirmed_and_only_on_a_secure_link() {
     let fx = command(&mut a, 200_000, "signing setup");
     assert!(setup_signing(&fx).is_empty() && a.ui.confirm.is_none());
     let msg = a.ui.message.clone().unwrap().1;
-    assert!(msg.contains("not heard on a link marked ?secure=1"), "{msg}");
+    assert!(
+        msg.contains("not heard on a link marked ?secure=1"),
+        "{msg}"
+    );
 
     // Heard on the USB link too (it has another key there: taken on a trusted link).
     let usb = sign(&other, 0, spec_ts(0), &[copter_hb(1, 1, 0)]);
@@ -521,7 +566,10 @@ fn signing_setup_and_off_go_only_confirmed_and_only_on_a_secure_link() {
     let fx = command(&mut a, 400_000, "signing setup");
     assert!(setup_signing(&fx).is_empty(), "asked first, nothing sent");
     let q = a.ui.confirm.clone().expect("a confirmation").text;
-    assert!(q.contains("SEND SIGNING KEY") && q.contains("1:1") && q.contains("link 1"), "{q}");
+    assert!(
+        q.contains("SEND SIGNING KEY") && q.contains("1:1") && q.contains("link 1"),
+        "{q}"
+    );
     let fx = keys(&mut a, 500_000, &["n"]);
     assert!(setup_signing(&fx).is_empty(), "cancelled: nothing sent");
     command(&mut a, 600_000, "signing setup");
@@ -534,24 +582,36 @@ fn signing_setup_and_off_go_only_confirmed_and_only_on_a_secure_link() {
     let g = &got[0];
     assert_eq!(g["name"], "SETUP_SIGNING", "{g}");
     assert_eq!(g["sig_ok"], true, "{g}");
-    assert_eq!((g["target_system"].as_u64(), g["target_component"].as_u64()), (Some(1), Some(1)));
+    assert_eq!(
+        (g["target_system"].as_u64(), g["target_component"].as_u64()),
+        (Some(1), Some(1))
+    );
     let secret: Vec<u8> = g["secret_key"]
         .as_array()
         .unwrap()
         .iter()
         .map(|v| v.as_u64().unwrap() as u8)
         .collect();
-    assert_eq!(hex(&secret), key, "the key MAVProxy makes of the passphrase");
+    assert_eq!(
+        hex(&secret),
+        key,
+        "the key MAVProxy makes of the passphrase"
+    );
     let initial = g["initial_timestamp"].as_u64().unwrap();
     assert!(initial >= spec_ts(t), "{initial}");
-    assert!(initial < g["timestamp"].as_u64().unwrap(), "ours come after it");
+    assert!(
+        initial < g["timestamp"].as_u64().unwrap(),
+        "ours come after it"
+    );
     let msg = a.ui.message.clone().unwrap().1;
     assert!(msg.contains("sent to 1:1 on link 1"), "{msg}");
     // The vehicle answers signed with our key: told.
     let signed = sign(&key, 0, initial + 10, &[copter_hb(1, 2, 0)]);
     feed(&mut a, 800_000, 1, &signed[0]);
     assert!(
-        notices(&a).iter().any(|n| n == "1:1 signs with our key: signing is on"),
+        notices(&a)
+            .iter()
+            .any(|n| n == "1:1 signs with our key: signing is on"),
         "{:?}",
         notices(&a)
     );
@@ -565,9 +625,15 @@ fn signing_setup_and_off_go_only_confirmed_and_only_on_a_secure_link() {
     assert_eq!(sent[0].0, 1);
     let (got, _) = verify(&key, &[sent[0].1.clone()]);
     let g = &got[0];
-    assert_eq!(g["sig_ok"], true, "sent signed, with the key it still holds: {g}");
+    assert_eq!(
+        g["sig_ok"], true,
+        "sent signed, with the key it still holds: {g}"
+    );
     assert_eq!(g["initial_timestamp"], 0);
-    assert!(g["secret_key"].as_array().unwrap().iter().all(|v| v == 0), "{g}");
+    assert!(
+        g["secret_key"].as_array().unwrap().iter().all(|v| v == 0),
+        "{g}"
+    );
     // We no longer sign.
     let ours = sends(&a.update(2 * SECOND, Event::Tick));
     assert!(!ours.is_empty() && ours.iter().all(|(_, f)| f[2] & 1 == 0));
@@ -579,7 +645,10 @@ fn signing_setup_and_off_go_only_confirmed_and_only_on_a_secure_link() {
         ts += 100_000;
     }
     let n = notices(&a);
-    assert!(n.iter().any(|t| t.contains("1:1 still signs 5 s after")), "{n:?}");
+    assert!(
+        n.iter().any(|t| t.contains("1:1 still signs 5 s after")),
+        "{n:?}"
+    );
     assert!(
         !n.iter().any(|t| t.contains("signs but we have no key")),
         "the watch says it instead: {n:?}"
@@ -592,7 +661,12 @@ use mavterm::ui::{self, buffer_to_text, Theme};
 use ratatui::backend::TestBackend;
 use ratatui::Terminal;
 
-fn draw(app: &App, w: u16, h: u16, f: fn(&App, &mut ratatui::Frame, ratatui::layout::Rect, &Theme)) -> String {
+fn draw(
+    app: &App,
+    w: u16,
+    h: u16,
+    f: fn(&App, &mut ratatui::Frame, ratatui::layout::Rect, &Theme),
+) -> String {
     let mut t = Terminal::new(TestBackend::new(w, h)).unwrap();
     t.draw(|frame| f(app, frame, frame.area(), &Theme::PLAIN))
         .unwrap();
@@ -614,7 +688,12 @@ fn links_pane_shows_signing_counts_per_source() {
         feed(&mut a, 100_000 * (i as u64 + 1), 0, f);
     }
     feed(&mut a, 1_100_000, 0, &good[3]); // replayed
-    let wrong = sign(&mavproxy_key(OTHER), 0, t0 + 50, &[copter_hb(1, 10, 4), copter_hb(1, 11, 4)]);
+    let wrong = sign(
+        &mavproxy_key(OTHER),
+        0,
+        t0 + 50,
+        &[copter_hb(1, 10, 4), copter_hb(1, 11, 4)],
+    );
     feed(&mut a, 1_200_000, 0, &wrong[0]);
     feed(&mut a, 1_300_000, 0, &wrong[1]);
     let unsigned = common::pymavlink_encode(&[
@@ -641,7 +720,12 @@ fn links_pane_shows_signing_counts_per_source() {
 fn a_vehicle_that_signs_while_we_have_no_key_is_a_notice() {
     let key = mavproxy_key(PASS);
     let mut a = app(&["udpin:0.0.0.0:14550"], None, false);
-    let signed = sign(&key, 0, spec_ts(0), &[copter_hb(1, 0, 4), copter_hb(1, 1, 4)]);
+    let signed = sign(
+        &key,
+        0,
+        spec_ts(0),
+        &[copter_hb(1, 0, 4), copter_hb(1, 1, 4)],
+    );
     feed(&mut a, 100_000, 0, &signed[0]);
     feed(&mut a, 1_100_000, 0, &signed[1]);
     a.update(2 * SECOND, Event::Tick);
@@ -649,5 +733,8 @@ fn a_vehicle_that_signs_while_we_have_no_key_is_a_notice() {
         l.expanded = true;
     }
     insta::assert_snapshot!("links_no_key_80x24", draw(&a, 80, 12, ui::links::render));
-    insta::assert_snapshot!("notices_no_key_80x24", draw(&a, 80, 10, ui::messages::render));
+    insta::assert_snapshot!(
+        "notices_no_key_80x24",
+        draw(&a, 80, 10, ui::messages::render)
+    );
 }

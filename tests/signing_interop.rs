@@ -33,7 +33,7 @@ fn key_hex() -> String {
     String::from_utf8(out.stdout).unwrap().trim().to_string()
 }
 
-fn source<'a>(report: &'a Value, sysid: u64, compid: u64) -> Option<&'a Value> {
+fn source(report: &Value, sysid: u64, compid: u64) -> Option<&Value> {
     report["links"][0]["sources"]
         .as_array()
         .unwrap()
@@ -111,7 +111,10 @@ fn a_signing_vehicle_and_mavterm_agree() {
     let back = py["back"].as_array().unwrap();
     assert!(back.len() >= 2, "{py}");
     assert!(back.iter().all(|b| b["sig_ok"] == true), "{py}");
-    assert!(back.iter().all(|b| b["link_id"] == 0 && b["sysid"] == 255), "{py}");
+    assert!(
+        back.iter().all(|b| b["link_id"] == 0 && b["sysid"] == 255),
+        "{py}"
+    );
     let ts: Vec<u64> = back
         .iter()
         .map(|b| b["timestamp"].as_u64().unwrap())
@@ -147,14 +150,20 @@ fn a_signing_vehicle_and_mavterm_agree() {
         .map(|v| (v["sysid"].as_u64().unwrap(), v["compid"].as_u64().unwrap()))
         .collect();
     assert!(vehicles.contains(&(1, 1)), "{vehicles:?}");
-    assert!(!vehicles.contains(&(2, 1)), "unsigned vehicle not taken: {vehicles:?}");
+    assert!(
+        !vehicles.contains(&(2, 1)),
+        "unsigned vehicle not taken: {vehicles:?}"
+    );
     let v1 = report["vehicles"]
         .as_array()
         .unwrap()
         .iter()
         .find(|v| v["sysid"] == 1)
         .unwrap();
-    assert_eq!(v1["custom_mode"], 4, "tampered and wrongly signed mode 6 never read");
+    assert_eq!(
+        v1["custom_mode"], 4,
+        "tampered and wrongly signed mode 6 never read"
+    );
     assert_eq!(report["signing"]["key"], true);
 
     // The last timestamp is kept for the next run.
@@ -185,6 +194,9 @@ fn a_key_file_others_can_read_is_refused() {
         .unwrap();
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("can be read by others") && err.contains("chmod 600"), "{err}");
+    assert!(
+        err.contains("can be read by others") && err.contains("chmod 600"),
+        "{err}"
+    );
     assert!(!err.contains(PASS), "{err}");
 }

@@ -276,9 +276,7 @@ impl App {
             };
         }
         let current = self.signing.clock.current(self.signing_wall());
-        let Self {
-            signing, links, ..
-        } = self;
+        let Self { signing, links, .. } = self;
         let Some(key) = signing.key.as_ref() else {
             unreachable!("checked above")
         };
@@ -314,7 +312,13 @@ impl App {
 
     /// After an accepted frame was counted (`first`: the first of its kind from its source on
     /// this link): what there is to tell, and the watch after `signing setup`/`off`.
-    pub(super) fn signing_accepted(&mut self, link: LinkId, key: VehicleKey, c: Checked, first: bool) {
+    pub(super) fn signing_accepted(
+        &mut self,
+        link: LinkId,
+        key: VehicleKey,
+        c: Checked,
+        first: bool,
+    ) {
         if let Some(w) = self.signing.watch.as_mut().filter(|w| w.vehicle == key) {
             w.signed = matches!(c.kind, SigKind::Signed | SigKind::Unchecked);
             if w.what == WatchFor::Setup && c.kind == SigKind::Signed {

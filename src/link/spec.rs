@@ -119,9 +119,7 @@ pub enum SpecError {
     BadHost { input: String, host: String },
     #[error("link spec `{input}`: missing file path after `tlog:`, e.g. tlog:flight.tlog")]
     MissingTlogPath { input: String },
-    #[error(
-        "link spec `{input}`: option `{option}` is not known (link options: hl=1, secure=1)"
-    )]
+    #[error("link spec `{input}`: option `{option}` is not known (link options: hl=1, secure=1)")]
     BadOption { input: String, option: String },
 }
 
@@ -984,10 +982,26 @@ mod tests {
     #[test]
     fn secure_option_marks_a_wire() {
         for (spec, shown, hl) in [
-            ("serial:/dev/ttyACM0?secure=1", "serial:/dev/ttyACM0?secure=1", false),
-            ("/dev/ttyACM0,115200?secure", "serial:/dev/ttyACM0:115200?secure=1", false),
-            ("tcp:10.0.0.2:5760?secure=yes&hl=1", "tcp:10.0.0.2:5760?hl=1&secure=1", true),
-            ("udpin:0.0.0.0:14550?secure=true", "udpin:0.0.0.0:14550?secure=1", false),
+            (
+                "serial:/dev/ttyACM0?secure=1",
+                "serial:/dev/ttyACM0?secure=1",
+                false,
+            ),
+            (
+                "/dev/ttyACM0,115200?secure",
+                "serial:/dev/ttyACM0:115200?secure=1",
+                false,
+            ),
+            (
+                "tcp:10.0.0.2:5760?secure=yes&hl=1",
+                "tcp:10.0.0.2:5760?hl=1&secure=1",
+                true,
+            ),
+            (
+                "udpin:0.0.0.0:14550?secure=true",
+                "udpin:0.0.0.0:14550?secure=1",
+                false,
+            ),
         ] {
             let l = p(spec);
             assert!(l.secure(), "{spec}");
@@ -995,7 +1009,12 @@ mod tests {
             assert_eq!(l.to_string(), shown, "{spec}");
             assert_eq!(p(shown), l, "{shown} round-trips");
         }
-        for spec in ["tcp:h:1", "tcp:h:1?secure=0", "serial:/dev/x?hl=1", "sim://?secure=1"] {
+        for spec in [
+            "tcp:h:1",
+            "tcp:h:1?secure=0",
+            "serial:/dev/x?hl=1",
+            "sim://?secure=1",
+        ] {
             assert!(!p(spec).secure(), "{spec}");
         }
         assert!(p("sim://").in_process() && p("tlog:a.tlog").in_process());

@@ -396,7 +396,10 @@ mod tests {
         assert_eq!(parse_key("hex:12"), Err(KeyError::HexLength(2)));
         let mut bad = "ab".repeat(32);
         bad.replace_range(9..10, "g");
-        assert_eq!(parse_key(&format!("hex:{bad}")), Err(KeyError::HexDigit(10)));
+        assert_eq!(
+            parse_key(&format!("hex:{bad}")),
+            Err(KeyError::HexDigit(10))
+        );
         assert_eq!(
             parse_key(&format!("hex:{}", "0".repeat(64))),
             Err(KeyError::Zero)
@@ -410,7 +413,10 @@ mod tests {
     #[test]
     fn timestamps_count_10us_since_2015() {
         assert_eq!(timestamp_from_unix_micros(0), 0);
-        assert_eq!(timestamp_from_unix_micros(EPOCH_UNIX_SECONDS * 1_000_000), 0);
+        assert_eq!(
+            timestamp_from_unix_micros(EPOCH_UNIX_SECONDS * 1_000_000),
+            0
+        );
         // One day after the epoch: 86400 s = 8.64e9 units of 10 µs.
         assert_eq!(
             timestamp_from_unix_micros((EPOCH_UNIX_SECONDS + 86_400) * 1_000_000 + 15),
@@ -510,9 +516,15 @@ mod tests {
         let mut s = Streams::default();
         let now = 100 * ONE_MINUTE;
         let at = |link, ts| signed_heartbeat(&key, link, ts);
-        assert_eq!(s.check(&key, &at(0, now), 255, 190, now), Verdict::Good(now));
+        assert_eq!(
+            s.check(&key, &at(0, now), 255, 190, now),
+            Verdict::Good(now)
+        );
         assert_eq!(s.check(&key, &at(0, now), 255, 190, now), Verdict::Replayed);
-        assert_eq!(s.check(&key, &at(0, now - 1), 255, 190, now), Verdict::Replayed);
+        assert_eq!(
+            s.check(&key, &at(0, now - 1), 255, 190, now),
+            Verdict::Replayed
+        );
         assert_eq!(
             s.check(&key, &at(0, now + 1), 255, 190, now),
             Verdict::Good(now + 1)
