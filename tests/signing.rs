@@ -115,41 +115,24 @@ fn command(a: &mut App, t: Micros, line: &str) -> Vec<Effect> {
 
 /// Run `tests/py/signing.py`.
 fn py(args: &[&str], input: &[String]) -> Vec<String> {
-    use std::io::Write;
-    let mut child = std::process::Command::new(common::python())
-        .arg(common::test_path("py/signing.py"))
-        .args(args)
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    {
-        let mut stdin = child.stdin.take().unwrap();
-        for l in input {
-            writeln!(stdin, "{l}").unwrap();
-        }
-    }
-    let out = child.wait_with_output().unwrap();
-    assert!(
-        out.status.success(),
-        "signing.py {args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout)
-        .unwrap()
-        .lines()
-        .map(str::to_string)
-        .collect()
+    common::py_lines("signing.py", args, input)
 }
 
 fn hex(b: &[u8]) -> String {
     b.iter().map(|x| format!("{x:02x}")).collect()
 }
 
-/// The key MAVProxy makes of a passphrase (hashlib.sha256 of its UTF-8 bytes), as hex.
+/// The key MAVProxy makes of a passphrase (hashlib.sha256 of its UTF-8 bytes), as hex; asked
+/// once per passphrase.
 fn mavproxy_key(pass: &str) -> String {
-    py(&["passphrase", pass], &[]).remove(0)
+    use std::collections::HashMap;
+    use std::sync::Mutex;
+    static KEYS: Mutex<Option<HashMap<String, String>>> = Mutex::new(None);
+    let mut keys = KEYS.lock().unwrap_or_else(|e| e.into_inner());
+    keys.get_or_insert_with(HashMap::new)
+        .entry(pass.to_string())
+        .or_insert_with(|| py(&["passphrase", pass], &[]).remove(0))
+        .clone()
 }
 
 /// pymavlink's reading of each frame with key `key` (hex, or "none"), and its counters.

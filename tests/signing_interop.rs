@@ -8,7 +8,6 @@
 mod common;
 
 use std::process::{Command, Stdio};
-use std::time::Duration;
 
 use serde_json::Value;
 
@@ -24,13 +23,7 @@ fn ts_now() -> u64 {
 }
 
 fn key_hex() -> String {
-    let out = Command::new(common::python())
-        .arg(common::test_path("py/signing.py"))
-        .args(["passphrase", PASS])
-        .output()
-        .unwrap();
-    assert!(out.status.success());
-    String::from_utf8(out.stdout).unwrap().trim().to_string()
+    common::py_lines("signing.py", &["passphrase", PASS], &[]).remove(0)
 }
 
 fn source(report: &Value, sysid: u64, compid: u64) -> Option<&Value> {
@@ -81,14 +74,7 @@ fn a_signing_vehicle_and_mavterm_agree() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let start = std::time::Instant::now();
-    while std::net::UdpSocket::bind(("127.0.0.1", port)).is_ok() {
-        assert!(
-            start.elapsed() < Duration::from_secs(3),
-            "mavterm did not bind {port}"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    common::wait_udp_bound(port);
     let py = Command::new(common::python())
         .arg(common::test_path("py/signed_vehicle.py"))
         .args([port.to_string(), key.clone()])

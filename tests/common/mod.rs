@@ -102,6 +102,18 @@ pub fn free_tcp_port() -> u16 {
         .port()
 }
 
+/// Wait until another process holds UDP `port` (our own bind then fails).
+pub fn wait_udp_bound(port: u16) {
+    let start = std::time::Instant::now();
+    while std::net::UdpSocket::bind(("127.0.0.1", port)).is_ok() {
+        assert!(
+            start.elapsed() < std::time::Duration::from_secs(3),
+            "nothing bound UDP port {port}"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}
+
 /// The mavterm binary built for these tests.
 pub fn mavterm() -> PathBuf {
     PathBuf::from(env!("CARGO_BIN_EXE_mavterm"))
@@ -170,10 +182,15 @@ pub fn copter_heartbeat(sysid: u8, seq: u8, custom_mode: u32) -> Vec<u8> {
 
 /// Run `tests/py/frames.py MODE` on `lines` (one per line in, one per line out).
 fn pymavlink_frames(mode: &str, lines: &[String]) -> Vec<String> {
+    py_lines("frames.py", &[mode], lines)
+}
+
+/// Run the pymavlink script `tests/py/SCRIPT ARGS` with `lines` on its stdin; its stdout lines.
+pub fn py_lines(script: &str, args: &[&str], lines: &[String]) -> Vec<String> {
     use std::io::Write;
     let mut child = std::process::Command::new(python())
-        .arg(test_path("py/frames.py"))
-        .arg(mode)
+        .arg(test_path(&format!("py/{script}")))
+        .args(args)
         .stdin(std::process::Stdio::piped())
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
@@ -188,7 +205,7 @@ fn pymavlink_frames(mode: &str, lines: &[String]) -> Vec<String> {
     let out = child.wait_with_output().unwrap();
     assert!(
         out.status.success(),
-        "frames.py {mode}: {}",
+        "{script} {args:?}: {}",
         String::from_utf8_lossy(&out.stderr)
     );
     String::from_utf8(out.stdout)

@@ -23,14 +23,13 @@ import json
 import struct
 import sys
 
-from pymavlink.dialects.v20 import ardupilotmega as v2
-
 
 def key_arg(s):
     return None if s == "none" else bytes.fromhex(s)
 
 
 def verify(key):
+    from pymavlink.dialects.v20 import ardupilotmega as v2
     mav = v2.MAVLink(None)
     mav.robust_parsing = False
     if key is not None:
@@ -83,6 +82,7 @@ def verify(key):
 
 
 def sign(key, link_id, ts):
+    from pymavlink.dialects.v20 import ardupilotmega as v2
     mav = v2.MAVLink(None)
     mav.signing.secret_key = key
     mav.signing.link_id = link_id
