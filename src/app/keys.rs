@@ -218,7 +218,7 @@ impl App {
             }
             Command::Flight(action) => self.flight(action, None, fx),
             Command::Param(cmd) => self.run_param(cmd, fx),
-            Command::Signing(cmd) => self.run_signing(cmd, fx),
+            Command::Signing(cmd) => self.run_signing(cmd),
             Command::Route(link) => {
                 let key = self.target.ok_or("no target vehicle")?;
                 if let Some(l) = link.filter(|&l| l >= self.links.len()) {

@@ -256,47 +256,40 @@ impl App {
     /// A frame from `link` against the signing policy (nothing counted yet).
     pub(super) fn check_signing(&mut self, link: LinkId, frame: &Frame) -> Checked {
         let signed = frame.is_signed();
-        if self.signing.key.is_none() {
-            let kind = if signed {
-                SigKind::Unchecked
-            } else {
-                SigKind::Unsigned
-            };
-            return Checked {
-                kind,
-                accepted: true,
-            };
-        }
-        let trusted = self.links[link].trusted;
-        if !signed {
-            let ok = unsigned_allowed(frame.msgid, self.signing.allow_unsigned_heartbeat);
-            return Checked {
-                kind: SigKind::Unsigned,
-                accepted: trusted || ok,
-            };
-        }
-        let current = self.signing.clock.current(self.signing_wall());
+        let wall = match (&self.signing.key, signed) {
+            (Some(_), true) => self.signing_wall(),
+            _ => 0,
+        };
         let Self { signing, links, .. } = self;
-        let Some(key) = signing.key.as_ref() else {
-            unreachable!("checked above")
-        };
-        let verdict =
-            links[link]
-                .signing_streams
-                .check(key, &frame.raw, frame.sysid, frame.compid, current);
-        let kind = match verdict {
-            Verdict::Good(ts) => {
-                signing.clock.observe(ts);
-                SigKind::Signed
+        let trusted = links[link].trusted;
+        let (kind, accepted) = match (signing.key.as_ref(), signed) {
+            (None, true) => (SigKind::Unchecked, true),
+            (None, false) => (SigKind::Unsigned, true),
+            (Some(_), false) => (
+                SigKind::Unsigned,
+                trusted || unsigned_allowed(frame.msgid, signing.allow_unsigned_heartbeat),
+            ),
+            (Some(key), true) => {
+                let current = signing.clock.current(wall);
+                let verdict = links[link].signing_streams.check(
+                    key,
+                    &frame.raw,
+                    frame.sysid,
+                    frame.compid,
+                    current,
+                );
+                match verdict {
+                    Verdict::Good(ts) => {
+                        signing.clock.observe(ts);
+                        (SigKind::Signed, true)
+                    }
+                    Verdict::BadSignature => (SigKind::BadSignature, trusted),
+                    Verdict::Replayed => (SigKind::Replayed, trusted),
+                    Verdict::TooOld => (SigKind::TooOld, trusted),
+                }
             }
-            Verdict::BadSignature => SigKind::BadSignature,
-            Verdict::Replayed => SigKind::Replayed,
-            Verdict::TooOld => SigKind::TooOld,
         };
-        Checked {
-            kind,
-            accepted: kind == SigKind::Signed || trusted,
-        }
+        Checked { kind, accepted }
     }
 
     /// A rejected frame: counted on its source, told of once per kind.
@@ -445,11 +438,8 @@ impl App {
     }
 
     /// `signing`, `signing setup`, `signing off`.
-    pub(super) fn run_signing(
-        &mut self,
-        cmd: SigningCmd,
-        _fx: &mut Vec<Effect>,
-    ) -> Result<Option<String>, String> {
+    /// (Setup and off only ask here; [`App::carry_out_signing`] sends once confirmed.)
+    pub(super) fn run_signing(&mut self, cmd: SigningCmd) -> Result<Option<String>, String> {
         match cmd {
             SigningCmd::Status => Ok(Some(self.signing_status())),
             SigningCmd::Setup => {
