@@ -1,5 +1,6 @@
 //! Where mavterm's own files live: its config directory, shared by the config file, the keymap
-//! and the parameter metadata (a leaf: no other module of mavterm is needed here).
+//! and the parameter metadata, and its data directory, where telemetry logs go (a leaf: no other
+//! module of mavterm is needed here).
 
 use std::path::PathBuf;
 
@@ -14,4 +15,22 @@ pub fn config_dir() -> Option<PathBuf> {
             .config_dir()
             .join("mavterm"),
     )
+}
+
+/// mavterm's data directory: `mavterm` in the user's XDG data directory (`$XDG_DATA_HOME`, else
+/// `~/.local/share`; on Windows the roaming AppData folder). `None` when there is no home
+/// directory.
+pub fn data_dir() -> Option<PathBuf> {
+    use etcetera::BaseStrategy;
+    Some(
+        etcetera::choose_base_strategy()
+            .ok()?
+            .data_dir()
+            .join("mavterm"),
+    )
+}
+
+/// Where telemetry logs go by default: `logs` in [`data_dir`].
+pub fn logs_dir() -> Option<PathBuf> {
+    Some(data_dir()?.join("logs"))
 }

@@ -14,6 +14,7 @@ pub mod params;
 pub mod report;
 pub mod screen;
 pub mod session;
+pub mod tap;
 
 use std::collections::BTreeMap;
 
@@ -105,6 +106,14 @@ pub enum Event {
         path: std::path::PathBuf,
         purpose: params::FileUse,
         result: Result<Vec<u8>, String>,
+    },
+    /// The telemetry log the edge records: started, grown (at most once a second), or stopped.
+    Recording(tap::RecordingStatus),
+    /// A forwarding output (`--out`, numbered in the order given): its state changed, or its
+    /// counters did (at most once a second).
+    Output {
+        out: usize,
+        status: tap::OutputStatus,
     },
 }
 
@@ -230,6 +239,10 @@ pub struct App {
     pub param_file: Option<params::LoadedFile>,
     /// Every message heard, per source: the Inspector's.
     pub inspector: inspector::MessageStore,
+    /// The telemetry log being recorded, as the edge last reported it.
+    pub recording: Option<tap::RecordingStatus>,
+    /// Where frames are forwarded (`--out`), as the edge last reported them.
+    pub outputs: tap::Outputs,
     statustext: StatusTextJoiner,
     next_heartbeat: Micros,
     dirty: bool,
@@ -257,6 +270,8 @@ impl App {
             sessions: BTreeMap::new(),
             param_file: None,
             inspector: inspector::MessageStore::default(),
+            recording: None,
+            outputs: tap::Outputs::default(),
             statustext: StatusTextJoiner::default(),
             next_heartbeat: 0,
             dirty: true,
@@ -442,6 +457,8 @@ impl App {
                     self.dirty = true;
                 }
             }
+            Event::Recording(st) => self.on_recording(st),
+            Event::Output { out, status } => self.on_output(out, status),
         }
         self.poll_sessions(&mut fx);
         fx
