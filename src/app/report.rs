@@ -12,11 +12,23 @@
 //! `expected_bytes_per_second`, `budget_bytes_per_second` (a serial link with a known baud),
 //! and `messages[].{id,name,requested_hz,measured_hz,method,state}` (method:
 //! `REQUEST_DATA_STREAM <GROUP>` or `SET_MESSAGE_INTERVAL`).
+//!
+//! `outputs[].{spec,state,reason,sent,received,dropped}`: the forwarding outputs (`--out`);
+//! `recording.{path,bytes,dropped,error}` (null when not recording): the telemetry log.
 
 use serde_json::{json, Value};
 
 use super::links::{loss_pct, LinkState};
 use super::App;
+
+/// A link's or output's state for the report: `up`, `connecting` or `down` with the reason.
+fn state_reason(s: &LinkState) -> (&'static str, Option<String>) {
+    match s {
+        LinkState::Up => ("up", None),
+        LinkState::Connecting => ("connecting", None),
+        LinkState::Down(r) => ("down", Some(r.clone())),
+    }
+}
 
 fn round2(v: f64) -> f64 {
     (v * 100.0).round() / 100.0
@@ -48,11 +60,7 @@ impl App {
                         })
                     })
                     .collect();
-                let (state, reason) = match &l.state {
-                    LinkState::Up => ("up", None),
-                    LinkState::Connecting => ("connecting", None),
-                    LinkState::Down(r) => ("down", Some(r.clone())),
-                };
+                let (state, reason) = state_reason(&l.state);
                 json!({
                     "spec": l.spec,
                     "state": state,
@@ -203,12 +211,38 @@ impl App {
                 })
             })
             .collect();
+        let outputs: Vec<Value> = self
+            .outputs
+            .list
+            .iter()
+            .map(|o| {
+                let (state, reason) = state_reason(&o.state);
+                json!({
+                    "spec": o.spec,
+                    "state": state,
+                    "reason": reason,
+                    "sent": o.sent,
+                    "received": o.received,
+                    "dropped": o.dropped,
+                })
+            })
+            .collect();
+        let recording = self.recording.as_ref().map(|r| {
+            json!({
+                "path": r.path,
+                "bytes": r.bytes,
+                "dropped": r.dropped,
+                "error": r.error,
+            })
+        });
         json!({
             "links": links,
             "vehicles": vehicles,
             "params": params,
             "streams": streams,
             "vehicles_evicted": self.vehicles.evicted,
+            "outputs": outputs,
+            "recording": recording,
         })
     }
 }

@@ -337,4 +337,10 @@ impl VirtualRunner {
     pub fn key(&mut self, key: Key) {
         self.step(Event::Key(key));
     }
+
+    /// Feed any event at the current virtual time (tests: what another part of the edge would
+    /// report).
+    pub fn event(&mut self, ev: Event) {
+        self.step(ev);
+    }
 }

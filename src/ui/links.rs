@@ -3,7 +3,7 @@
 //! them, the forwarding outputs (`--out`), when there are any: state, frames sent to the ground
 //! station there, frames it sent, frames dropped.
 
-use ratatui::layout::{Constraint, Layout, Rect};
+use ratatui::layout::{Constraint, Rect};
 use ratatui::style::Style;
 use ratatui::text::Span;
 use ratatui::widgets::{Cell, Row, Table, TableState};
@@ -131,14 +131,15 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     frame.render_widget(block, area);
     let outputs = &app.outputs.list;
     if !outputs.is_empty() && inner.height >= 4 {
-        // The outputs' header and rows, up to half the pane; the links keep the rest.
-        let want = outputs.len() as u16 + 1;
-        let [top, bottom] = Layout::vertical([
-            Constraint::Min(2),
-            Constraint::Length(want.min(inner.height / 2)),
-        ])
-        .areas(inner);
-        inner = top;
+        // The outputs' header and rows below the links, which keep their header and a row.
+        let want = (outputs.len() as u16).saturating_add(1);
+        let h = want.min(inner.height - 2);
+        let bottom = Rect {
+            y: inner.y + inner.height - h,
+            height: h,
+            ..inner
+        };
+        inner.height -= h;
         render_outputs(app, frame, bottom, theme);
     }
     let cols = columns(inner.width >= 120);
