@@ -213,7 +213,7 @@ fn params_out(
         let start = runner.inner.now();
         let mut front = mavterm::headless::params::StopWhenDone::default();
         let _ = rt.block_on(runner.inner.run(Some(start + limit), &mut front));
-        runner.inner.finish_recording();
+        runner.inner.finish();
         runner.inner.app
     };
     let p = progress(&app);
@@ -284,7 +284,7 @@ fn replay(
             edge.start_real(&mut runner.inner);
         }
         let outcome = run_script(&script, &mut runner, &opts, &mut stdout.lock())?;
-        runner.inner.finish_recording();
+        runner.inner.finish();
         (outcome, runner.app().report())
     };
     if let Some(ReportFormat::Json) = cli.report {

@@ -132,14 +132,20 @@ fn pymavlink_reads_every_frame_both_ways_with_its_time_and_no_secret() {
     let (mut from_vehicle, mut from_us) = (0, 0);
     for (i, m) in msgs.iter().enumerate() {
         assert_ne!(m["type"], "BAD_DATA", "message {i}: {m}");
-        assert_ne!(m["type"], "SETUP_SIGNING", "message {i}: the key was logged");
+        assert_ne!(
+            m["type"], "SETUP_SIGNING",
+            "message {i}: the key was logged"
+        );
         if cur.is_none_or(|(c, at)| at == c.2.len()) {
             cur = Some((chunks.next().expect("more in the log than on the wire"), 0));
         }
         let (chunk, at) = cur.as_mut().unwrap();
         let frame = m["hex"].as_str().unwrap();
         let want = hex(&chunk.2[*at..(*at + frame.len() / 2).min(chunk.2.len())]);
-        assert_eq!(frame, want, "message {i} ({m}) is not the next frame on the wire");
+        assert_eq!(
+            frame, want,
+            "message {i} ({m}) is not the next frame on the wire"
+        );
         *at += frame.len() / 2;
         let t = m["t_us"].as_u64().unwrap();
         // pymavlink's timestamp is a float of seconds: good to a microsecond.
@@ -152,7 +158,10 @@ fn pymavlink_reads_every_frame_both_ways_with_its_time_and_no_secret() {
             from_vehicle += 1;
         } else {
             from_us += 1;
-            assert_eq!((&m["sysid"], &m["compid"]), (&Value::from(255), &Value::from(190)));
+            assert_eq!(
+                (&m["sysid"], &m["compid"]),
+                (&Value::from(255), &Value::from(190))
+            );
         }
     }
     assert!(
@@ -162,7 +171,12 @@ fn pymavlink_reads_every_frame_both_ways_with_its_time_and_no_secret() {
     assert!(from_us >= 10, "our frames: {from_us}");
     // The core did get the SETUP_SIGNING: one frame more than the log holds from the vehicle.
     let report = r.app.report();
-    assert_eq!(report["links"][0]["frames"], from_vehicle + 1, "{}", report["links"][0]);
+    assert_eq!(
+        report["links"][0]["frames"],
+        from_vehicle + 1,
+        "{}",
+        report["links"][0]
+    );
     // The core was told the final size: the file's.
     let size = std::fs::metadata(&path).unwrap().len();
     assert_eq!(report["recording"]["bytes"], size);
@@ -193,7 +207,10 @@ fn a_log_that_cannot_be_opened_is_told_on_screen_and_the_session_goes_on() {
         );
         assert!(screen.contains("stopped"), "status bar: {screen}");
         // The vehicle is there and flying data keeps coming.
-        assert!(screen.contains("1:1") && r.app.vehicles.iter().count() == 1, "{screen}");
+        assert!(
+            screen.contains("1:1") && r.app.vehicles.iter().count() == 1,
+            "{screen}"
+        );
         let frames = r.app.links[0].parser.frames;
         r.advance_to(7 * SECOND);
         assert!(r.app.links[0].parser.frames > frames);
@@ -265,7 +282,9 @@ fn status_bar_shows_the_log_and_the_links_pane_an_output() {
     });
     r.finish_recording();
     // The size shown is the file's.
-    let size = std::fs::metadata(dir.path().join("flight.tlog")).unwrap().len();
+    let size = std::fs::metadata(dir.path().join("flight.tlog"))
+        .unwrap()
+        .len();
     assert_eq!(r.app.recording.as_ref().unwrap().bytes, size);
     let shown = mavterm::ui::fmt::size(size);
     // The temporary directory's name changes every run: a fixed one in its place, as wide.

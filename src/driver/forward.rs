@@ -68,8 +68,9 @@ impl Forwarder {
         self.outs.is_empty()
     }
 
-    /// Frames heard on vehicle link `link`: each to every output that is up, through `send`
-    /// (output number, bytes; false when its queue is full).
+    /// Frames heard on vehicle link `link`: each to every output not down, through `send`
+    /// (output number, bytes; false when its queue is full). An output still connecting queues
+    /// them (its queue is bounded), so a ground station misses nothing of the start.
     pub fn from_vehicles(
         &mut self,
         link: LinkId,
@@ -89,7 +90,8 @@ impl Forwarder {
                 if carries_secret(&f.raw) {
                     continue;
                 }
-                if st.state == LinkState::Up && send(i, f.raw.to_vec()) {
+                let down = matches!(st.state, LinkState::Down(_));
+                if !down && send(i, f.raw.to_vec()) {
                     st.sent += 1;
                 } else {
                     st.dropped += 1;
@@ -174,6 +176,14 @@ impl Forwarder {
         if counters_due && !out.is_empty() {
             self.reported_at = now;
         }
+        out
+    }
+
+    /// Every change not yet reported, due or not (at the end of a run).
+    pub fn final_reports(&mut self) -> Vec<(usize, OutputStatus)> {
+        let at = self.reported_at;
+        let out = self.reports(Micros::MAX);
+        self.reported_at = at;
         out
     }
 

@@ -261,11 +261,21 @@ impl<C: Clock + Clone> RealTime<C> {
         step_edge(&mut self.app, &mut self.links, self.clock.now());
     }
 
-    /// End the recording: everything written and flushed; the core gets the final size.
-    pub fn finish_recording(&mut self) {
+    /// At the end of a run: the recording ended (everything written and flushed) and the core
+    /// told its final size, and the outputs' last counters.
+    pub fn finish(&mut self) {
         if let Some(mut r) = self.links.recorder.take() {
             let st = r.finish();
             self.step(Event::Recording(st));
+        }
+        let reports = self
+            .links
+            .outputs
+            .as_mut()
+            .map(|o| o.fwd.final_reports())
+            .unwrap_or_default();
+        for (out, status) in reports {
+            self.step(Event::Output { out, status });
         }
     }
 
@@ -382,6 +392,6 @@ pub async fn run_for_with(
     setup(&mut rt);
     let until = rt.now() + duration.as_micros() as Micros;
     let _ = rt.run(Some(until), &mut NoFrontend).await;
-    rt.finish_recording();
+    rt.finish();
     rt.app
 }
