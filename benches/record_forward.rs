@@ -43,13 +43,16 @@ fn batches() -> (Vec<Vec<Frame>>, u64) {
     (out, n)
 }
 
+/// An output task's queue: the forwarder's end and the task's.
+type Queue = (
+    tokio::sync::mpsc::Sender<Vec<u8>>,
+    tokio::sync::mpsc::Receiver<Vec<u8>>,
+);
+
 /// Two outputs that are up, with the queues their tasks read from.
 struct Outputs {
     fwd: Forwarder,
-    queues: Vec<(
-        tokio::sync::mpsc::Sender<Vec<u8>>,
-        tokio::sync::mpsc::Receiver<Vec<u8>>,
-    )>,
+    queues: Vec<Queue>,
 }
 
 impl Outputs {

@@ -22,8 +22,12 @@ use mavterm::sim::SimConfig;
 use mavterm::wire::frame::{encode, Header, Version};
 use serde_json::Value;
 
-/// What went through a link, as the vehicle's side saw it: (time, from the vehicle?, bytes).
-type Wire = Arc<Mutex<Vec<(Micros, bool, Vec<u8>)>>>;
+/// Bytes that went through a link at once, as the vehicle's side saw them: (time, from the
+/// vehicle?, bytes).
+type Chunk = (Micros, bool, Vec<u8>);
+
+/// Everything that went through a link.
+type Wire = Arc<Mutex<Vec<Chunk>>>;
 
 /// The simulated vehicle, with every byte in and out noted; at 2 s it also sends a
 /// SETUP_SIGNING (which is not noted: it must not be in the log).
@@ -128,7 +132,7 @@ fn pymavlink_reads_every_frame_both_ways_with_its_time_and_no_secret() {
     // chunk at hand, stamped with the chunk's time.
     let wire = wire.lock().unwrap();
     let mut chunks = wire[before..].iter().filter(|c| !c.2.is_empty());
-    let mut cur: Option<(&(Micros, bool, Vec<u8>), usize)> = None;
+    let mut cur: Option<(&Chunk, usize)> = None;
     let (mut from_vehicle, mut from_us) = (0, 0);
     for (i, m) in msgs.iter().enumerate() {
         assert_ne!(m["type"], "BAD_DATA", "message {i}: {m}");
@@ -295,4 +299,52 @@ fn status_bar_shows_the_log_and_the_links_pane_an_output() {
     insta::assert_snapshot!("recording_and_outputs_200x60", wide);
     let narrow = common::screen(&r, 80, 24).replace(&tmp, &fixed);
     insta::assert_snapshot!("recording_and_outputs_80x24", narrow);
+}
+
+fn cli(args: &[&str]) -> Result<mavterm::cli::Cli, clap::Error> {
+    use clap::Parser;
+    mavterm::cli::Cli::try_parse_from(std::iter::once("mavterm").chain(args.iter().copied()))
+}
+
+#[test]
+fn who_records_by_default() {
+    let links = |c: &mavterm::cli::Cli| c.links(&Default::default());
+    let target = |args: &[&str]| {
+        let c = cli(args).unwrap();
+        c.tlog_target(&links(&c)).unwrap()
+    };
+    // The terminal UI records into the data directory's logs, a new file each time.
+    match target(&[]) {
+        Some(TlogTarget::NewIn(dir)) => assert!(dir.ends_with("mavterm/logs"), "{dir:?}"),
+        other => panic!("{other:?}"),
+    }
+    match target(&["--link", "udpin:0.0.0.0:14550", "--link", "tlog:x.tlog"]) {
+        Some(TlogTarget::NewIn(_)) => {}
+        other => panic!("{other:?}"),
+    }
+    // Not: headless runs, replays only, --no-tlog.
+    assert_eq!(target(&["--headless", "--report", "json"]), None);
+    assert_eq!(
+        target(&["--link", "tlog:a.tlog", "--link", "tlog:b.tlog"]),
+        None
+    );
+    assert_eq!(target(&["--no-tlog"]), None);
+    // --tlog FILE: there, headless too.
+    assert_eq!(
+        target(&["--headless", "--tlog", "out.tlog"]),
+        Some(TlogTarget::File("out.tlog".into()))
+    );
+    assert!(cli(&["--tlog", "a.tlog", "--no-tlog"]).is_err());
+    // Outputs reach ground stations: not the sim nor a replay.
+    assert!(cli(&["--out", "sim://"]).is_err());
+    assert!(cli(&["--out", "tlog:x.tlog"]).is_err());
+    let c = cli(&[
+        "--out",
+        "udpout:127.0.0.1:14550",
+        "--out",
+        "tcpin:0.0.0.0:5760",
+    ])
+    .unwrap();
+    let outs: Vec<String> = c.outs.iter().map(|o| o.to_string()).collect();
+    assert_eq!(outs, ["udpout:127.0.0.1:14550", "tcpin:0.0.0.0:5760"]);
 }

@@ -143,9 +143,7 @@ impl Links for RealLinks {
     }
     fn heard(&mut self, wall: u64, link: LinkId, frames: &[Frame]) {
         if let Some(r) = self.recorder.as_mut() {
-            for f in frames {
-                r.record(wall, &f.raw);
-            }
+            r.record_frames(wall, frames);
         }
         if let Some(o) = self.outputs.as_mut() {
             let mgr = &o.mgr;
@@ -161,8 +159,7 @@ impl Links for RealLinks {
     fn end_step(&mut self, now: Micros) -> Vec<Event> {
         let mut out = std::mem::take(&mut self.pending);
         if let Some(r) = self.recorder.as_mut() {
-            r.end_step();
-            out.extend(r.report(now).map(Event::Recording));
+            out.extend(r.after_step(now).map(Event::Recording));
         }
         if let Some(o) = self.outputs.as_mut() {
             let reports = o.fwd.reports(now);

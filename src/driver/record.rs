@@ -159,6 +159,20 @@ impl Recorder {
         self.batch_frames += 1;
     }
 
+    /// [`Recorder::record`] each of a link's frames.
+    pub fn record_frames(&mut self, wall: u64, frames: &[crate::link::Frame]) {
+        for f in frames {
+            self.record(wall, &f.raw);
+        }
+    }
+
+    /// After a driver step: the batch handed on ([`Recorder::end_step`]), and what the core
+    /// should be told ([`Recorder::report`]).
+    pub fn after_step(&mut self, now: Micros) -> Option<RecordingStatus> {
+        self.end_step();
+        self.report(now)
+    }
+
     /// Hand the batch to the writer; dropped (and counted) when the writer is behind.
     pub fn end_step(&mut self) {
         if self.batch.is_empty() {

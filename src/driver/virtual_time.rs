@@ -129,9 +129,7 @@ impl Links for VLinks {
 
     fn heard(&mut self, wall: u64, _link: LinkId, frames: &[Frame]) {
         if let Some(r) = self.recorder.as_mut() {
-            for f in frames {
-                r.record(wall, &f.raw);
-            }
+            r.record_frames(wall, frames);
         }
     }
 
@@ -142,13 +140,8 @@ impl Links for VLinks {
     }
 
     fn end_step(&mut self, now: Micros) -> Vec<Event> {
-        match self.recorder.as_mut() {
-            Some(r) => {
-                r.end_step();
-                r.report(now).map(Event::Recording).into_iter().collect()
-            }
-            None => Vec::new(),
-        }
+        let report = self.recorder.as_mut().and_then(|r| r.after_step(now));
+        report.map(Event::Recording).into_iter().collect()
     }
 }
 
