@@ -84,7 +84,12 @@ impl RealLinks {
                     |link, bytes| {
                         let ok = mgr.send(link, bytes);
                         if !ok {
-                            pending.push(Event::Dropped { link, frames: 1 });
+                            match pending.last_mut() {
+                                Some(Event::Dropped { link: l, frames }) if *l == link => {
+                                    *frames += 1
+                                }
+                                _ => pending.push(Event::Dropped { link, frames: 1 }),
+                            }
                         }
                         ok
                     },
