@@ -6,6 +6,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 
 use crate::app::AppConfig;
 use crate::config::{seconds_to_micros, FileConfig};
+use crate::driver::record::TlogTarget;
 use crate::link::LinkSpec;
 
 /// A terminal ground-control station for MAVLink vehicles.
@@ -106,6 +107,23 @@ pub struct Cli {
     /// listed). RADIO_STATUS from SiK radios is always taken.
     #[arg(long)]
     pub signing_allow_unsigned_heartbeat: bool,
+    /// Record every frame heard and sent, on every link, to the telemetry log FILE (`.tlog`, as
+    /// MAVProxy, QGroundControl and pymavlink read; an existing FILE is appended to). Default:
+    /// the terminal UI records to a new file named after the start time in mavterm's data
+    /// directory (`~/.local/share/mavterm/logs/`, or under `$XDG_DATA_HOME`); headless runs,
+    /// and sessions whose links are all `tlog:` replays, record only when given FILE.
+    #[arg(long, value_name = "FILE")]
+    pub tlog: Option<PathBuf>,
+
+    /// Record no telemetry log.
+    #[arg(long, conflicts_with = "tlog")]
+    pub no_tlog: bool,
+
+    /// Forward every frame heard, unchanged, to another ground station, and what it sends to
+    /// the vehicles, as MAVProxy's --out (repeatable). The forms of --link; `udpout:HOST:PORT`
+    /// and `tcpin:ADDR:PORT` are typical.
+    #[arg(long = "out", value_name = "SPEC", value_parser = parse_out_spec)]
+    pub outs: Vec<LinkSpec>,
 }
 
 #[derive(Debug, Subcommand)]
@@ -142,6 +160,25 @@ impl Cli {
         cfg
     }
 
+    /// Where to record the telemetry log, if anywhere (see `--tlog`): `Err` when the default
+    /// applies but there is no data directory to put it in.
+    pub fn tlog_target(&self, links: &[LinkSpec]) -> Result<Option<TlogTarget>, String> {
+        if self.no_tlog {
+            return Ok(None);
+        }
+        if let Some(f) = &self.tlog {
+            return Ok(Some(TlogTarget::File(f.clone())));
+        }
+        let replay_only = links.iter().all(|l| matches!(l, LinkSpec::Tlog { .. }));
+        if self.headless || replay_only || self.command.is_some() {
+            return Ok(None);
+        }
+        match crate::paths::logs_dir() {
+            Some(dir) => Ok(Some(TlogTarget::NewIn(dir))),
+            None => Err("no home directory for the telemetry log (give --tlog FILE)".into()),
+        }
+    }
+
     /// The links to open: `--link`s if any, else the config file's `links` if any, else
     /// `sim://`.
     pub fn links(&self, file: &FileConfig) -> Vec<LinkSpec> {
@@ -164,6 +201,16 @@ pub enum ReportFormat {
 
 fn parse_spec(s: &str) -> Result<LinkSpec, String> {
     s.parse::<LinkSpec>().map_err(|e| e.to_string())
+}
+
+/// An output: a link spec that reaches another ground station (not the sim nor a replay).
+fn parse_out_spec(s: &str) -> Result<LinkSpec, String> {
+    match parse_spec(s)? {
+        LinkSpec::Sim { .. } | LinkSpec::Tlog { .. } => Err(format!(
+            "`{s}`: an output is a network or serial link (e.g. udpout:127.0.0.1:14550)"
+        )),
+        spec => Ok(spec),
+    }
 }
 
 /// Seconds: a finite number from 0 to a year.

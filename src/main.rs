@@ -10,6 +10,7 @@ use mavterm::cli::{Cli, Command, ReportFormat};
 use mavterm::clock::SECOND;
 use mavterm::config::FileConfig;
 use mavterm::driver::real_time::{RealTime, RealTimeRunner};
+use mavterm::driver::record::TlogTarget;
 use mavterm::driver::virtual_time::{all_virtual, Driver, VirtualRunner};
 use mavterm::headless::replay::{run_script, ReplayOptions};
 use mavterm::headless::script::Script;
@@ -129,27 +130,36 @@ fn main() -> Result<()> {
     let links = cli.links(&file);
     let cfg = app_config(&cli, &file, !cli.headless || !all_virtual(&links))?;
     let keymap = Keymap::load_user(cli.keymap.as_deref())?;
+    let edge = Edge {
+        tlog: cli.tlog_target(&links),
+        outs: cli.outs.clone(),
+    };
+    // Forwarding is to ground stations in real time: `sim://` then runs on the wall clock too.
+    let virtual_clock = all_virtual(&links) && edge.outs.is_empty();
 
     if cli.headless {
         if let Some(out) = &cli.params_out {
-            return params_out(&cli, cfg, out, &links, rt.handle());
+            return params_out(&cli, cfg, out, &links, &edge, rt.handle());
         }
         if let Some(input) = &cli.input {
-            return replay(&cli, cfg, input, &links, keymap, rt.handle());
+            return replay(&cli, cfg, input, &links, &edge, keymap, rt.handle());
         }
         let Some(ReportFormat::Json) = cli.report else {
             bail!("--headless needs --report json or --input FILE");
         };
         let secs = cli.duration.unwrap_or(10.0).max(0.0);
-        let app = if all_virtual(&links) {
+        let app = if virtual_clock {
             let mut r = VirtualRunner::from_specs(&links, cfg)?;
+            edge.start_virtual(&mut r);
             r.advance_to((secs * SECOND as f64) as u64);
+            r.finish_recording();
             r.app
         } else {
-            rt.block_on(mavterm::driver::real_time::run_for(
+            rt.block_on(mavterm::driver::real_time::run_for_with(
                 &links,
                 cfg,
                 Duration::from_secs_f64(secs),
+                |r| edge.start_real(r),
             ))
         };
         save_signing(&app)?;
@@ -159,7 +169,43 @@ fn main() -> Result<()> {
     if cli.input.is_some() || cli.report.is_some() {
         bail!("--input and --report need --headless");
     }
-    rt.block_on(terminal(&cli, cfg, &links, keymap))
+    rt.block_on(terminal(&cli, cfg, &links, &edge, keymap))
+}
+
+/// What runs at the edge besides the links: the telemetry log and the forwarding outputs.
+struct Edge {
+    tlog: Result<Option<TlogTarget>, String>,
+    outs: Vec<LinkSpec>,
+}
+
+impl Edge {
+    fn start_real(&self, r: &mut RealTime) {
+        match &self.tlog {
+            Ok(Some(t)) => r.record(t),
+            Ok(None) => {}
+            Err(e) => r.step(not_recording(e)),
+        }
+        r.forward(&self.outs);
+    }
+
+    /// On the virtual clock: recording only (forwarding runs on the wall clock).
+    fn start_virtual(&self, r: &mut VirtualRunner) {
+        match &self.tlog {
+            Ok(Some(t)) => r.record(t),
+            Ok(None) => {}
+            // The default log (the only one that can be missing a place) is the terminal's.
+            Err(_) => {}
+        }
+    }
+}
+
+fn not_recording(why: &str) -> mavterm::app::Event {
+    mavterm::app::Event::Recording(mavterm::app::tap::RecordingStatus {
+        path: std::path::PathBuf::new(),
+        bytes: 0,
+        dropped: 0,
+        error: Some(why.to_string()),
+    })
 }
 
 /// `--headless --params-out FILE`: the first autopilot's parameters, progress on stderr.
@@ -168,6 +214,7 @@ fn params_out(
     cfg: AppConfig,
     out: &std::path::Path,
     links: &[LinkSpec],
+    edge: &Edge,
     rt: &tokio::runtime::Handle,
 ) -> Result<()> {
     use mavterm::headless::params::{file_text, progress, Progress};
@@ -180,20 +227,27 @@ fn params_out(
             last = line;
         }
     };
-    let app = if all_virtual(links) {
+    let app = if all_virtual(links) && edge.outs.is_empty() {
         let mut r = VirtualRunner::from_specs(links, cfg)?;
+        edge.start_virtual(&mut r);
         let mut t = 0;
         while t < limit && !progress(&r.app).ended() {
             t += SECOND / 4;
             r.advance_to(t);
             show(&progress(&r.app));
         }
+        r.finish_recording();
         r.app
     } else {
         let mut runner = RealTimeRunner::start(rt.clone(), links, cfg);
+        {
+            let _in_rt = rt.enter();
+            edge.start_real(&mut runner.inner);
+        }
         let start = runner.inner.now();
         let mut front = mavterm::headless::params::StopWhenDone::default();
         let _ = rt.block_on(runner.inner.run(Some(start + limit), &mut front));
+        runner.inner.finish();
         runner.inner.app
     };
     save_signing(&app)?;
@@ -236,6 +290,7 @@ fn replay(
     cfg: AppConfig,
     input: &std::path::Path,
     links: &[LinkSpec],
+    edge: &Edge,
     keymap: Keymap,
     rt: &tokio::runtime::Handle,
 ) -> Result<()> {
@@ -249,15 +304,22 @@ fn replay(
         ..ReplayOptions::default()
     };
     let stdout = std::io::stdout();
-    let (outcome, report) = if all_virtual(links) {
+    let (outcome, report) = if all_virtual(links) && edge.outs.is_empty() {
         let mut runner = VirtualRunner::from_specs(links, cfg)?;
         runner.app.keymap = keymap;
+        edge.start_virtual(&mut runner);
         let outcome = run_script(&script, &mut runner, &opts, &mut stdout.lock())?;
+        runner.finish_recording();
         (outcome, runner.app.report())
     } else {
         let mut runner = RealTimeRunner::start(rt.clone(), links, cfg);
         runner.app_mut().keymap = keymap;
+        {
+            let _in_rt = rt.enter();
+            edge.start_real(&mut runner.inner);
+        }
         let outcome = run_script(&script, &mut runner, &opts, &mut stdout.lock());
+        runner.inner.finish();
         save_signing(runner.app())?;
         (outcome?, runner.app().report())
     };
@@ -274,14 +336,36 @@ fn replay(
 }
 
 /// The terminal front end over real links (and `sim://` in real time).
-async fn terminal(cli: &Cli, cfg: AppConfig, links: &[LinkSpec], keymap: Keymap) -> Result<()> {
+async fn terminal(
+    cli: &Cli,
+    cfg: AppConfig,
+    links: &[LinkSpec],
+    edge: &Edge,
+    keymap: Keymap,
+) -> Result<()> {
     let mut rt = RealTime::start(links, cfg);
     rt.app.keymap = keymap;
+    edge.start_real(&mut rt);
     let opts = TuiOptions {
         fps: cli.fps,
         record: cli.record.clone(),
         theme: Theme::from_env(),
     };
     let app = run_terminal(rt, opts).await?;
-    save_signing(&app)
+    save_signing(&app)?;
+    // Where the flight went, once the screen is back.
+    if let Some(st) = &app.recording {
+        match &st.error {
+            None => eprintln!(
+                "telemetry log: {} ({})",
+                st.path.display(),
+                mavterm::ui::fmt::size(st.bytes)
+            ),
+            Some(e) if !st.path.as_os_str().is_empty() => {
+                eprintln!("telemetry log {}: {e}", st.path.display())
+            }
+            Some(e) => eprintln!("no telemetry log: {e}"),
+        }
+    }
+    Ok(())
 }

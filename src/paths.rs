@@ -1,6 +1,6 @@
 //! Where mavterm's own files live: its config directory, shared by the config file, the keymap
-//! and the parameter metadata, and its data directory, for state kept between runs (a leaf: no
-//! other module of mavterm is needed here).
+//! and the parameter metadata, and its data directory, for state kept between runs and telemetry
+//! logs (a leaf: no other module of mavterm is needed here).
 
 use std::path::PathBuf;
 
@@ -19,7 +19,7 @@ pub fn config_dir() -> Option<PathBuf> {
 
 /// mavterm's data directory: `mavterm` in the user's XDG data directory (`$XDG_DATA_HOME`, else
 /// `~/.local/share`; on Windows the roaming AppData folder), for state kept between runs (the
-/// MAVLink signing timestamp). `None` when there is no home directory.
+/// MAVLink signing timestamp) and telemetry logs. `None` when there is no home directory.
 pub fn data_dir() -> Option<PathBuf> {
     use etcetera::BaseStrategy;
     Some(
@@ -39,4 +39,9 @@ pub fn expand_home(path: &str) -> PathBuf {
         },
         None => PathBuf::from(path),
     }
+}
+
+/// Where telemetry logs go by default: `logs` in [`data_dir`].
+pub fn logs_dir() -> Option<PathBuf> {
+    Some(data_dir()?.join("logs"))
 }

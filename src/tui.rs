@@ -361,7 +361,10 @@ pub async fn run_terminal<C: Clock + Clone + Send>(
     };
     let result = rt.run(None, &mut front).await;
     drop(front);
-    guard.restore()?;
+    let restored = guard.restore();
+    // The telemetry log written out and flushed, whichever way the loop ended (an error too).
+    rt.finish();
+    restored?;
     result?;
     Ok(rt.app)
 }

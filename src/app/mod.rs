@@ -15,6 +15,7 @@ pub mod report;
 pub mod screen;
 pub mod session;
 pub mod signing;
+pub mod tap;
 
 use std::collections::BTreeMap;
 
@@ -109,6 +110,14 @@ pub enum Event {
         path: std::path::PathBuf,
         purpose: params::FileUse,
         result: Result<Vec<u8>, String>,
+    },
+    /// The telemetry log the edge records: started, grown (at most once a second), or stopped.
+    Recording(tap::RecordingStatus),
+    /// A forwarding output (`--out`, numbered in the order given): its state changed, or its
+    /// counters did (at most once a second).
+    Output {
+        out: usize,
+        status: tap::OutputStatus,
     },
 }
 
@@ -236,6 +245,10 @@ pub struct App {
     pub inspector: inspector::MessageStore,
     /// Our signing key, timestamp clock and what `signing setup` waits for.
     pub signing: signing::SigningState,
+    /// The telemetry log being recorded, as the edge last reported it.
+    pub recording: Option<tap::RecordingStatus>,
+    /// Where frames are forwarded (`--out`), as the edge last reported them.
+    pub outputs: tap::Outputs,
     statustext: StatusTextJoiner,
     next_heartbeat: Micros,
     dirty: bool,
@@ -265,6 +278,8 @@ impl App {
             param_file: None,
             inspector: inspector::MessageStore::default(),
             signing,
+            recording: None,
+            outputs: tap::Outputs::default(),
             statustext: StatusTextJoiner::default(),
             next_heartbeat: 0,
             dirty: true,
@@ -459,6 +474,8 @@ impl App {
                     self.dirty = true;
                 }
             }
+            Event::Recording(st) => self.on_recording(st),
+            Event::Output { out, status } => self.on_output(out, status),
         }
         self.poll_sessions(&mut fx);
         fx

@@ -17,11 +17,22 @@
 //! short id, never the key; our last timestamp), `links[].{secure,signing_streams,
 //! signing_streams_evicted}`, and `links[].sources[].signing.{signed,unchecked,unsigned,
 //! bad_signature,replayed,too_old,rejected}`.
+//! `outputs[].{spec,state,reason,sent,received,dropped}`: the forwarding outputs (`--out`);
+//! `recording.{path,bytes,dropped,error}` (null when not recording): the telemetry log.
 
 use serde_json::{json, Value};
 
 use super::links::{loss_pct, LinkState};
 use super::App;
+
+/// A link's or output's state for the report: `up`, `connecting` or `down` with the reason.
+fn state_reason(s: &LinkState) -> (&'static str, Option<String>) {
+    match s {
+        LinkState::Up => ("up", None),
+        LinkState::Connecting => ("connecting", None),
+        LinkState::Down(r) => ("down", Some(r.clone())),
+    }
+}
 
 fn round2(v: f64) -> f64 {
     (v * 100.0).round() / 100.0
@@ -62,11 +73,7 @@ impl App {
                         })
                     })
                     .collect();
-                let (state, reason) = match &l.state {
-                    LinkState::Up => ("up", None),
-                    LinkState::Connecting => ("connecting", None),
-                    LinkState::Down(r) => ("down", Some(r.clone())),
-                };
+                let (state, reason) = state_reason(&l.state);
                 json!({
                     "spec": l.spec,
                     "state": state,
@@ -220,6 +227,30 @@ impl App {
                 })
             })
             .collect();
+        let outputs: Vec<Value> = self
+            .outputs
+            .list
+            .iter()
+            .map(|o| {
+                let (state, reason) = state_reason(&o.state);
+                json!({
+                    "spec": o.spec,
+                    "state": state,
+                    "reason": reason,
+                    "sent": o.sent,
+                    "received": o.received,
+                    "dropped": o.dropped,
+                })
+            })
+            .collect();
+        let recording = self.recording.as_ref().map(|r| {
+            json!({
+                "path": r.path,
+                "bytes": r.bytes,
+                "dropped": r.dropped,
+                "error": r.error,
+            })
+        });
         json!({
             "links": links,
             "vehicles": vehicles,
@@ -231,6 +262,8 @@ impl App {
                 "key_id": self.signing.key.as_ref().map(|k| k.id()),
                 "timestamp": self.signing.clock.last(),
             },
+            "outputs": outputs,
+            "recording": recording,
         })
     }
 }

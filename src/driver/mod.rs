@@ -7,8 +7,14 @@
 //! (headless replay, tests, reports on `sim://`/`tlog:`), and [`real_time`] runs it on the wall
 //! clock over real transports (the terminal, headless reports and replay on real links). Both
 //! wake the core exactly at [`App::next_deadline`], a frame, or a key: never on a fixed tick.
+//!
+//! Every frame a link hears and every frame the core sends passes a tap on the way
+//! ([`Links::heard`], [`Links::sending`]): the telemetry log ([`record`]) and forwarding to other
+//! ground stations ([`forward`]) happen there, at the edge, and report to the core as events.
 
+pub mod forward;
 pub mod real_time;
+pub mod record;
 pub mod virtual_time;
 
 use std::path::{Path, PathBuf};
@@ -18,7 +24,7 @@ use crate::app::{App, Effect, Event};
 use crate::clock::Micros;
 use crate::link::source::{SourceFactory, TlogSource, VirtualSource};
 use crate::link::transport::LinkEvent;
-use crate::link::{LinkId, LinkSpec};
+use crate::link::{Frame, LinkId, LinkSpec};
 use crate::sim::{Sim, SimConfig};
 
 /// Where the core's frames and new links go: virtual sources or real link tasks.
@@ -31,6 +37,22 @@ pub trait Links {
     fn write_file(&mut self, path: PathBuf, contents: Vec<u8>);
     /// Read a file; its bytes come back as [`Event::FileRead`], now or later.
     fn read_file(&mut self, path: PathBuf, purpose: crate::app::params::FileUse);
+    /// Frames `link` heard, before the core has them (recording, forwarding); `wall` is the
+    /// time, µs since the Unix epoch.
+    fn heard(&mut self, _wall: u64, _link: LinkId, _frames: &[Frame]) {}
+    /// A frame the core is sending on `link` (recording).
+    fn sending(&mut self, _wall: u64, _link: LinkId, _frame: &[u8]) {}
+    /// After a step: hand on what the tap gathered, and say what the core should be told
+    /// (the log's size, outputs' counters), as events.
+    fn end_step(&mut self, _now: Micros) -> Vec<Event> {
+        Vec::new()
+    }
+}
+
+/// Wall-clock µs since the Unix epoch of core time `now` (`cfg.epoch + now`: on the virtual
+/// clock too, so a headless run logs the same times every run).
+pub fn wall_us(app: &App, now: Micros) -> u64 {
+    (app.cfg.epoch.timestamp_micros().max(0) as u64).saturating_add(now)
 }
 
 /// A link's report as a core event.
@@ -47,24 +69,51 @@ pub fn link_event(link: LinkId, ev: LinkEvent) -> Event {
 }
 
 /// Feed `ev` into `app` at `now` and carry out its effects on `links`. Frames a link could not
-/// take are told back to the core as [`Event::Dropped`].
+/// take are told back to the core as [`Event::Dropped`]; what the tap has to tell follows.
 pub fn step(app: &mut App, links: &mut impl Links, now: Micros, ev: Event) {
-    let mut queue = vec![ev];
-    while let Some(ev) = queue.pop() {
-        for e in app.update(now, ev) {
-            match e {
-                Effect::Send { link, frame, .. } => {
-                    if !links.send(now, link, frame) {
-                        queue.push(Event::Dropped { link, frames: 1 });
+    run_events(app, links, now, vec![ev]);
+}
+
+/// Feed the core only what the tap has to tell (after the edge did something on its own, e.g.
+/// forwarded an output's frames).
+pub fn step_edge(app: &mut App, links: &mut impl Links, now: Micros) {
+    run_events(app, links, now, Vec::new());
+}
+
+fn run_events(app: &mut App, links: &mut impl Links, now: Micros, mut queue: Vec<Event>) {
+    loop {
+        while let Some(ev) = queue.pop() {
+            let wall = wall_us(app, now);
+            if let Event::Frames { link, frames, .. } = &ev {
+                links.heard(wall, *link, frames);
+            }
+            for e in app.update(now, ev) {
+                match e {
+                    Effect::Send { link, frame, .. } => {
+                        links.sending(wall, link, &frame);
+                        if !links.send(now, link, frame) {
+                            queue.push(Event::Dropped { link, frames: 1 });
+                        }
                     }
+                    Effect::WriteFile { path, contents } => links.write_file(path, contents),
+                    Effect::ReadFile { path, purpose } => links.read_file(path, purpose),
+                    Effect::OpenLink { link, spec } => links.open(now, link, spec),
+                    Effect::Quit => {}
                 }
-                Effect::WriteFile { path, contents } => links.write_file(path, contents),
-                Effect::ReadFile { path, purpose } => links.read_file(path, purpose),
-                Effect::OpenLink { link, spec } => links.open(now, link, spec),
-                Effect::Quit => {}
             }
         }
+        queue = links.end_step(now);
+        queue.reverse(); // taken from the back: in the order given
+        if queue.is_empty() {
+            return;
+        }
     }
+}
+
+/// Open the log for `target`, its new file named after the local time now; the error is the
+/// event that tells the core why not.
+pub fn open_recorder(target: &record::TlogTarget) -> Result<record::Recorder, Event> {
+    record::Recorder::start(target, chrono::Local::now().naive_local()).map_err(Event::Recording)
 }
 
 /// Read a file the core asked for, bounded: parameter files are small, and a wrong path must

@@ -11,13 +11,16 @@ use std::time::Duration;
 
 use tokio::sync::mpsc;
 
+use super::forward::Forwarder;
+use super::record::{Recorder, TlogTarget};
 use super::virtual_time::Driver;
-use super::{link_event, local_sources, step, write_atomic, Links};
+use super::{link_event, local_sources, step, step_edge, wall_us, write_atomic, Links};
 use crate::app::{App, AppConfig, Event};
 use crate::clock::{Clock, Micros, RealClock};
 use crate::keymap::Key;
 use crate::link::manager::LinkManager;
-use crate::link::{LinkId, LinkSpec};
+use crate::link::transport::LinkEvent;
+use crate::link::{Frame, LinkId, LinkSpec};
 
 /// What a front end adds to the loop.
 pub trait Frontend {
@@ -48,10 +51,74 @@ impl Frontend for NoFrontend {
     }
 }
 
-/// Real link tasks, and file writes off the async workers.
+/// Real link tasks, and file writes off the async workers; the tap: the log, the outputs.
 struct RealLinks {
     mgr: LinkManager,
     done: mpsc::UnboundedSender<Event>,
+    recorder: Option<Recorder>,
+    outputs: Option<Outputs>,
+    /// Events the edge made on its own (frames an output's queue could not take), for the core.
+    pending: Vec<Event>,
+}
+
+/// The forwarding outputs: link tasks in an id space of their own, and the forwarder.
+struct Outputs {
+    mgr: LinkManager,
+    fwd: Forwarder,
+}
+
+impl RealLinks {
+    /// Output `out` reported: its frames go to the vehicles' links (and the log), its state and
+    /// drops are counted.
+    fn on_output(&mut self, wall: u64, out: usize, ev: LinkEvent) {
+        let Some(o) = self.outputs.as_mut() else {
+            return;
+        };
+        match ev {
+            LinkEvent::Frames { frames, .. } => {
+                let (mgr, pending, recorder) = (&self.mgr, &mut self.pending, &mut self.recorder);
+                o.fwd.from_output(
+                    out,
+                    &frames,
+                    mgr.len(),
+                    |link, bytes| {
+                        let ok = mgr.send(link, bytes);
+                        if !ok {
+                            match pending.last_mut() {
+                                Some(Event::Dropped { link: l, frames }) if *l == link => {
+                                    *frames += 1
+                                }
+                                _ => pending.push(Event::Dropped { link, frames: 1 }),
+                            }
+                        }
+                        ok
+                    },
+                    |raw| {
+                        if let Some(r) = recorder.as_mut() {
+                            r.record(wall, raw);
+                        }
+                    },
+                );
+            }
+            LinkEvent::State(state) => o.fwd.output_state(out, state),
+            LinkEvent::Dropped(n) => o.fwd.output_dropped(out, n),
+        }
+    }
+
+    /// When the tap next has something to tell the core.
+    fn next_report_at(&self) -> Option<Micros> {
+        let r = self.recorder.as_ref().and_then(Recorder::next_report_at);
+        let o = self.outputs.as_ref().and_then(|o| o.fwd.next_report_at());
+        r.into_iter().chain(o).min()
+    }
+}
+
+/// The next report of any output; never, without outputs.
+async fn next_output(outputs: &mut Option<Outputs>) -> Option<(usize, LinkEvent)> {
+    match outputs {
+        Some(o) => o.mgr.next_event().await,
+        None => std::future::pending().await,
+    }
 }
 
 impl Links for RealLinks {
@@ -78,6 +145,36 @@ impl Links for RealLinks {
                 result,
             });
         });
+    }
+    fn heard(&mut self, wall: u64, link: LinkId, frames: &[Frame]) {
+        if let Some(r) = self.recorder.as_mut() {
+            r.record_frames(wall, frames);
+        }
+        if let Some(o) = self.outputs.as_mut() {
+            let mgr = &o.mgr;
+            o.fwd
+                .from_vehicles(link, frames, |out, bytes| mgr.send(out, bytes));
+        }
+    }
+    fn sending(&mut self, wall: u64, _link: LinkId, frame: &[u8]) {
+        if let Some(r) = self.recorder.as_mut() {
+            r.record(wall, frame);
+        }
+    }
+    fn end_step(&mut self, now: Micros) -> Vec<Event> {
+        let mut out = std::mem::take(&mut self.pending);
+        if let Some(r) = self.recorder.as_mut() {
+            out.extend(r.after_step(now).map(Event::Recording));
+        }
+        if let Some(o) = self.outputs.as_mut() {
+            let reports = o.fwd.reports(now);
+            out.extend(
+                reports
+                    .into_iter()
+                    .map(|(out, status)| Event::Output { out, status }),
+            );
+        }
+        out
     }
 }
 
@@ -118,6 +215,9 @@ impl<C: Clock + Clone> RealTime<C> {
             links: RealLinks {
                 mgr: LinkManager::start(specs, local_sources()),
                 done: tx,
+                recorder: None,
+                outputs: None,
+                pending: Vec::new(),
             },
             done,
             clock,
@@ -136,6 +236,49 @@ impl<C: Clock + Clone> RealTime<C> {
     /// Feed one event now.
     pub fn step(&mut self, ev: Event) {
         step(&mut self.app, &mut self.links, self.clock.now(), ev);
+    }
+
+    /// Record every frame heard and sent from now on to `target`; the core is told where (or
+    /// why not).
+    pub fn record(&mut self, target: &TlogTarget) {
+        match super::open_recorder(target) {
+            Ok(r) => {
+                self.links.recorder = Some(r);
+                step_edge(&mut self.app, &mut self.links, self.clock.now());
+            }
+            Err(ev) => self.step(ev),
+        }
+    }
+
+    /// Forward every frame heard to `outputs` (other ground stations), and theirs to the
+    /// vehicles; call within a tokio runtime. The outputs show in the core's Links pane.
+    pub fn forward(&mut self, outputs: &[LinkSpec]) {
+        if outputs.is_empty() {
+            return;
+        }
+        self.links.outputs = Some(Outputs {
+            mgr: LinkManager::start(outputs, local_sources()),
+            fwd: Forwarder::new(outputs),
+        });
+        step_edge(&mut self.app, &mut self.links, self.clock.now());
+    }
+
+    /// At the end of a run: the recording ended (everything written and flushed) and the core
+    /// told its final size, and the outputs' last counters.
+    pub fn finish(&mut self) {
+        if let Some(mut r) = self.links.recorder.take() {
+            let st = r.finish();
+            self.step(Event::Recording(st));
+        }
+        let reports = self
+            .links
+            .outputs
+            .as_mut()
+            .map(|o| o.fwd.final_reports())
+            .unwrap_or_default();
+        for (out, status) in reports {
+            self.step(Event::Output { out, status });
+        }
     }
 
     /// Run until core time `until` (if given), the core quits, or the front end's input ends.
@@ -158,12 +301,20 @@ impl<C: Clock + Clone> RealTime<C> {
             if let Some(w) = front.wake_at(&self.app) {
                 wake = wake.min(w);
             }
+            if let Some(w) = self.links.next_report_at() {
+                wake = wake.min(w);
+            }
             if let Some(u) = until {
                 wake = wake.min(u);
             }
             let sleep = tokio::time::sleep(Duration::from_micros(wake.saturating_sub(now)));
+            let mut output = None;
             let ev = tokio::select! {
                 ev = self.links.mgr.next_event() => ev.map(|(link, ev)| link_event(link, ev)),
+                Some(o) = next_output(&mut self.links.outputs) => {
+                    output = Some(o);
+                    None
+                }
                 Some(ev) = self.done.recv() => Some(ev),
                 input = front.next_input() => match input? {
                     Some(ev) => Some(ev),
@@ -173,6 +324,11 @@ impl<C: Clock + Clone> RealTime<C> {
             };
             if let Some(ev) = ev {
                 self.step(ev);
+            }
+            if let Some((out, ev)) = output {
+                let now = self.clock.now();
+                self.links.on_output(wall_us(&self.app, now), out, ev);
+                step_edge(&mut self.app, &mut self.links, now);
             }
             front.after(&mut self.app, self.clock.now())?;
         }
@@ -223,8 +379,21 @@ impl Driver for RealTimeRunner {
 
 /// Run the core on real links for `duration`, headless, and return its final state.
 pub async fn run_for(specs: &[LinkSpec], cfg: AppConfig, duration: Duration) -> App {
+    run_for_with(specs, cfg, duration, |_| {}).await
+}
+
+/// [`run_for`], with the runtime set up by `setup` first (recording, forwarding). A recording
+/// is finished (flushed) before the state is returned.
+pub async fn run_for_with(
+    specs: &[LinkSpec],
+    cfg: AppConfig,
+    duration: Duration,
+    setup: impl FnOnce(&mut RealTime),
+) -> App {
     let mut rt = RealTime::start(specs, cfg);
+    setup(&mut rt);
     let until = rt.now() + duration.as_micros() as Micros;
     let _ = rt.run(Some(until), &mut NoFrontend).await;
+    rt.finish();
     rt.app
 }

@@ -9,12 +9,13 @@ use std::path::PathBuf;
 
 use chrono::{DateTime, TimeZone, Utc};
 
-use super::{local_source, step, write_atomic, Links};
+use super::record::{Recorder, TlogTarget};
+use super::{local_source, step, step_edge, write_atomic, Links};
 use crate::app::{App, AppConfig, Event};
 use crate::clock::Micros;
 use crate::keymap::Key;
 use crate::link::source::{TlogOpenError, TlogSource, VirtualSource};
-use crate::link::{FrameParser, LinkId, LinkSpec, LinkState, ParserStats};
+use crate::link::{Frame, FrameParser, LinkId, LinkSpec, LinkState, ParserStats};
 
 /// The wall-clock time shown for virtual time zero when nothing better is known.
 pub fn virtual_epoch() -> DateTime<Utc> {
@@ -87,6 +88,8 @@ struct VLinks {
     /// Events the links produced while carrying out effects (a link opened or failed, a file
     /// written), fed to the core next.
     pending: Vec<Event>,
+    /// The telemetry log, when recording.
+    recorder: Option<Recorder>,
 }
 
 impl Links for VLinks {
@@ -122,6 +125,23 @@ impl Links for VLinks {
             purpose,
             result,
         });
+    }
+
+    fn heard(&mut self, wall: u64, _link: LinkId, frames: &[Frame]) {
+        if let Some(r) = self.recorder.as_mut() {
+            r.record_frames(wall, frames);
+        }
+    }
+
+    fn sending(&mut self, wall: u64, _link: LinkId, frame: &[u8]) {
+        if let Some(r) = self.recorder.as_mut() {
+            r.record(wall, frame);
+        }
+    }
+
+    fn end_step(&mut self, now: Micros) -> Vec<Event> {
+        let report = self.recorder.as_mut().and_then(|r| r.after_step(now));
+        report.map(Event::Recording).into_iter().collect()
     }
 }
 
@@ -162,6 +182,7 @@ impl VirtualRunner {
             links: VLinks {
                 links,
                 pending: Vec::new(),
+                recorder: None,
             },
             now: 0,
         };
@@ -202,6 +223,26 @@ impl VirtualRunner {
 
     pub fn now(&self) -> Micros {
         self.now
+    }
+
+    /// Record every frame heard and sent from now on to `target`, stamped with the virtual
+    /// clock's wall time (`cfg.epoch + now`); the core is told where (or why not).
+    pub fn record(&mut self, target: &TlogTarget) {
+        match super::open_recorder(target) {
+            Ok(r) => {
+                self.links.recorder = Some(r);
+                step_edge(&mut self.app, &mut self.links, self.now);
+            }
+            Err(ev) => self.step(ev),
+        }
+    }
+
+    /// End the recording: everything written and flushed; the core gets the final size.
+    pub fn finish_recording(&mut self) {
+        if let Some(mut r) = self.links.recorder.take() {
+            let st = r.finish();
+            self.step(Event::Recording(st));
+        }
     }
 
     /// The source behind link `i`.
@@ -288,5 +329,11 @@ impl VirtualRunner {
     /// A key pressed at the current virtual time.
     pub fn key(&mut self, key: Key) {
         self.step(Event::Key(key));
+    }
+
+    /// Feed any event at the current virtual time (tests: what another part of the edge would
+    /// report).
+    pub fn event(&mut self, ev: Event) {
+        self.step(ev);
     }
 }

@@ -55,6 +55,15 @@ impl LinkManager {
         }
     }
 
+    /// How many link ids there are (the highest opened, plus one).
+    pub fn len(&self) -> usize {
+        self.handles.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.handles.is_empty()
+    }
+
     /// Queue a frame on a link; false when it was dropped (queue full, link ended).
     pub fn send(&self, link: LinkId, frame: Vec<u8>) -> bool {
         match self.handles.get(link) {

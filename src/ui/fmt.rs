@@ -23,6 +23,26 @@ pub fn count(n: u64, width: usize) -> String {
     }
 }
 
+/// A size in bytes, short: `512 B`, `12.3 kB`, `123 kB`, `1.2 MB` (decimal units, as `ls -h
+/// --si`).
+pub fn size(bytes: u64) -> String {
+    if bytes < 1000 {
+        return format!("{bytes} B");
+    }
+    let mut x = bytes as f64;
+    for unit in ["kB", "MB", "GB", "TB", "PB"] {
+        x /= 1000.0;
+        // One decimal below 100 (rounded to 100.0: none), as long as it stays under 1000.
+        if format!("{x:.1}").len() <= 4 {
+            return format!("{x:.1} {unit}");
+        }
+        if x < 999.5 {
+            return format!("{x:.0} {unit}");
+        }
+    }
+    format!("{:.0} EB", x / 1000.0)
+}
+
 /// A non-negative real (a rate) with `decimals` decimals if that fits in `width`, else with
 /// none, else abbreviated. Negative and non-finite values show as 0.
 pub fn real(x: f64, decimals: usize, width: usize) -> String {
@@ -93,6 +113,24 @@ pub fn pad_row(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sizes_in_decimal_units() {
+        let cases = [
+            (0, "0 B"),
+            (999, "999 B"),
+            (1000, "1.0 kB"),
+            (12_345, "12.3 kB"),
+            (99_949, "99.9 kB"),
+            (99_950, "100 kB"),
+            (999_499, "999 kB"),
+            (999_500, "1.0 MB"),
+            (1_234_567_890, "1.2 GB"),
+        ];
+        for (n, want) in cases {
+            assert_eq!(size(n), want, "{n}");
+        }
+    }
 
     #[test]
     fn counts_are_exact_when_they_fit() {

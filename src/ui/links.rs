@@ -1,7 +1,8 @@
 //! The links pane: one row per link (state, rates, loss over the 10 s window and since start,
 //! CRC errors, sequence counters); an expanded link adds one row per source sysid:compid, and
 //! under it a line of MAVLink signing counts (signed, unsigned, bad signature, replayed,
-//! rejected) when we sign or the source does.
+//! rejected) when we sign or the source does. Below them, the forwarding outputs (`--out`), when
+//! there are any: state, frames sent to the ground station there, frames it sent, frames dropped.
 
 use ratatui::layout::{Constraint, Rect};
 use ratatui::style::Style;
@@ -166,8 +167,21 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         format!(" ({})", app.links.len())
     };
     let block = pane_block(app, Pane::Links, title, theme);
-    let inner = block.inner(area);
+    let mut inner = block.inner(area);
     frame.render_widget(block, area);
+    let outputs = &app.outputs.list;
+    if !outputs.is_empty() && inner.height >= 4 {
+        // The outputs' header and rows below the links, which keep their header and a row.
+        let want = (outputs.len() as u16).saturating_add(1);
+        let h = want.min(inner.height - 2);
+        let bottom = Rect {
+            y: inner.y + inner.height - h,
+            height: h,
+            ..inner
+        };
+        inner.height -= h;
+        render_outputs(app, frame, bottom, theme);
+    }
     let cols = columns(inner.width >= 120);
     let w: Widths = cols.map(|c| c.1);
     let fixed: u16 = cols.iter().map(|c| c.1 + 1).sum::<u16>() + 1;
@@ -251,4 +265,57 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         };
         frame.render_widget(Paragraph::new(line), at);
     }
+}
+
+/// The outputs' table: where frames are forwarded, its state, frames sent there, frames it sent
+/// (carried to the vehicles), frames dropped.
+fn render_outputs(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
+    const NUM_W: u16 = 8;
+    let fixed = 3 * (NUM_W + 1) + 1;
+    let rest = area.width.saturating_sub(fixed) as usize;
+    let state_w = (rest * 2 / 5).clamp(4, 40);
+    let spec_w = rest.saturating_sub(state_w).clamp(4, 48);
+    let widths = [
+        Constraint::Length(spec_w as u16),
+        Constraint::Length(state_w as u16),
+        Constraint::Length(NUM_W),
+        Constraint::Length(NUM_W),
+        Constraint::Length(NUM_W),
+    ];
+    let n = |v: u64| Cell::from(fmt::count(v, NUM_W as usize));
+    let rows: Vec<Row> = app
+        .outputs
+        .list
+        .iter()
+        .enumerate()
+        .map(|(i, o)| {
+            let state_style = match o.state {
+                LinkState::Up => theme.good(),
+                LinkState::Connecting => theme.dim(),
+                LinkState::Down(_) => theme.alert(),
+            };
+            let drop_style = if o.dropped > 0 {
+                theme.alert()
+            } else {
+                Style::default()
+            };
+            Row::new(vec![
+                Cell::from(ellipsize(&format!(" {i} {}", o.spec), spec_w)),
+                Cell::from(Span::styled(
+                    ellipsize(&o.state.label(), state_w),
+                    state_style,
+                )),
+                n(o.sent),
+                n(o.received),
+                Cell::from(Span::styled(
+                    fmt::count(o.dropped, NUM_W as usize),
+                    drop_style,
+                )),
+            ])
+        })
+        .collect();
+    let header =
+        Row::new(vec!["OUTPUT", "STATE", "SENT", "RECEIVED", "DROPPED"]).style(theme.header());
+    let table = Table::new(rows, widths).header(header).column_spacing(1);
+    frame.render_widget(table, area);
 }

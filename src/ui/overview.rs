@@ -46,7 +46,12 @@ fn wanted_height(app: &App, pane: Pane, avail: u16) -> u16 {
                 .filter(|l| l.expanded)
                 .map(|l| l.sources.len())
                 .sum();
-            app.links.len().max(1) + sources + 1
+            // The forwarding outputs, with their own header, below the links.
+            let outputs = match app.outputs.list.len() {
+                0 => 0,
+                n => n + 1,
+            };
+            app.links.len().max(1) + sources + 1 + outputs
         }
         Pane::Messages => 1,
     };

@@ -141,9 +141,25 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         })
         .unwrap_or_default();
     let mut target = target_text(app) + &progress;
-    let room_for = |target: &str| {
-        (area.width as usize).saturating_sub(clock.len() + 2 + target.chars().count() + 4)
+    // The telemetry log, when there is one: name and size; shortened, then left out, when the
+    // bar is short.
+    let (mut log, log_style) = log_text(app, theme);
+    let width = area.width as usize;
+    let used = |target: &str, log: &str| {
+        let log_w = if log.is_empty() {
+            0
+        } else {
+            log.chars().count() + 2
+        };
+        clock.len() + 2 + target.chars().count() + log_w + 4
     };
+    if !log.is_empty() && width.saturating_sub(used(&target, &log)) < MIN_TAIL {
+        log = app.recording.as_ref().map_or(String::new(), short_log_text);
+        if width.saturating_sub(used(&target, &log)) < MIN_TAIL {
+            log.clear();
+        }
+    }
+    let room_for = |target: &str| width.saturating_sub(used(target, &log));
     let mut room = room_for(&target);
     // A message that does not fit gets the room of the target's mode and state.
     if let (Some((_, text)), Some(key)) = (&app.ui.message, app.target) {
@@ -160,14 +176,45 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         }
         None => Span::styled(hints_text(app, room), theme.dim()),
     };
-    let line = Line::from(vec![
+    let mut spans = vec![
         Span::styled(clock, theme.header()),
         Span::raw("  "),
         Span::styled(target, target_style),
-        Span::raw("  │ "),
-        tail,
-    ]);
-    frame.render_widget(Paragraph::new(line), area);
+    ];
+    if !log.is_empty() {
+        spans.push(Span::raw("  "));
+        spans.push(Span::styled(log, log_style));
+    }
+    spans.push(Span::raw("  │ "));
+    spans.push(tail);
+    frame.render_widget(Paragraph::new(Line::from(spans)), area);
+}
+
+/// The fewest columns left for hints or a message before the log's part is shortened.
+const MIN_TAIL: usize = 24;
+
+/// `log NAME SIZE` while recording, `log NAME stopped` after an error, `no log` when it never
+/// started; empty when not recording at all.
+fn log_text(app: &App, theme: &Theme) -> (String, ratatui::style::Style) {
+    let Some(r) = &app.recording else {
+        return (String::new(), theme.dim());
+    };
+    match &r.error {
+        None => (
+            format!("log {} {}", r.name(), super::fmt::size(r.bytes)),
+            theme.dim(),
+        ),
+        Some(_) if r.path.as_os_str().is_empty() => ("no log".into(), theme.alert()),
+        Some(_) => (format!("log {} stopped", r.name()), theme.alert()),
+    }
+}
+
+/// The log's part without its name: `log SIZE`, `log stopped`.
+fn short_log_text(r: &crate::app::tap::RecordingStatus) -> String {
+    match &r.error {
+        None => format!("log {}", super::fmt::size(r.bytes)),
+        Some(_) => "log stopped".into(),
+    }
 }
 
 /// `enter sends  esc cancels` from the `[edit]` keys in use.
