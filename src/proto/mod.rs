@@ -4,6 +4,7 @@
 pub mod ack;
 pub mod commands;
 pub mod loss;
+pub mod mission;
 pub mod mav_cmds;
 pub mod modes;
 pub mod param_ftp;
