@@ -586,20 +586,20 @@ fn read_rally(r: &mut Reader, p: &Map<String, Value>, plan: &mut Plan) {
     }
 }
 
+/// A number as JSON, whole numbers without a fraction (as QGroundControl writes them).
+fn num64(v: f64) -> Value {
+    if v.fract() == 0.0 && v.abs() < 9.0e15 {
+        return Value::from(v as i64);
+    }
+    serde_json::Number::from_f64(v).map_or(Value::Null, Value::Number)
+}
+
 /// A float parameter as JSON: the shortest decimal that is the same `f32`, `null` for NaN.
 fn num32(v: f32) -> Value {
     if v.is_nan() {
         return Value::Null;
     }
-    format!("{v}")
-        .parse::<f64>()
-        .ok()
-        .and_then(serde_json::Number::from_f64)
-        .map_or(Value::Null, Value::Number)
-}
-
-fn num64(v: f64) -> Value {
-    serde_json::Number::from_f64(v).map_or(Value::Null, Value::Number)
+    format!("{v}").parse::<f64>().map_or(Value::Null, num64)
 }
 
 fn lat_lon(i: &MissionItem) -> Vec<Value> {
