@@ -513,7 +513,9 @@ pub struct Progress {
     pub total: Option<u16>,
 }
 
-/// The last refusal, with the vehicle's explanation if it gave one.
+/// The last refusal, with the vehicle's explanation if it gave one: a STATUSTEXT just after
+/// it (ArduPilot queues its text before the MISSION_ACK, it arrives after), else one just
+/// before.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Refusal {
     pub op: OpKind,
@@ -521,6 +523,8 @@ pub struct Refusal {
     pub result: u8,
     pub at: Micros,
     pub reason: Option<String>,
+    /// The reason came after the refusal: a later text does not replace it.
+    explained_after: bool,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -874,6 +878,7 @@ impl MissionMachine {
             result,
             at: now,
             reason,
+            explained_after: false,
         });
         let retry = op == OpKind::Upload
             && t.phase == Phase::Count
@@ -905,9 +910,10 @@ impl MissionMachine {
         if let Some(r) = self
             .last_refusal
             .as_mut()
-            .filter(|r| r.reason.is_none() && now.saturating_sub(r.at) <= EXPLAIN_WINDOW)
+            .filter(|r| !r.explained_after && now.saturating_sub(r.at) <= EXPLAIN_WINDOW)
         {
             r.reason = Some(text.to_string());
+            r.explained_after = true;
             return;
         }
         if self.texts.len() == 8 {
@@ -1551,12 +1557,19 @@ mod tests {
         let mut m = MissionMachine::new(V);
         m.submit(0, Request::Upload(MissionType::Mission, vec![wp(0, 1.0), wp(1, 2.0)]))
             .unwrap();
+        m.on_text(50, "Calibrating barometer");
         let out = m.on_message(100, &ack(NO_SPACE, 0));
         assert!(matches!(
             events(&out)[..],
             [MissionEvent::Refused { result: 4, retry_in: Some(NO_SPACE_WAIT), .. }]
         ));
+        assert_eq!(
+            m.last_refusal().unwrap().reason.as_deref(),
+            Some("Calibrating barometer"),
+            "a text just before, until one comes after"
+        );
         m.on_text(110, "Only 0 items are supported");
+        m.on_text(120, "Barometer 1 calibration complete");
         assert_eq!(
             m.last_refusal().unwrap().reason.as_deref(),
             Some("Only 0 items are supported")
