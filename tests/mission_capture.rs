@@ -8,6 +8,7 @@
 //! fence vertices and a rally point read back. And the core keeps both of the GCS side's frames
 //! that carry sequence number 14.
 
+use mavlink::Message;
 use mavterm::app::{App, AppConfig, Event};
 use mavterm::clock::{Micros, SECOND};
 use mavterm::dialect::MavMessage;
@@ -15,7 +16,6 @@ use mavterm::link::tlog::read_tlog;
 use mavterm::link::{Frame, FrameParser, ParserStats};
 use mavterm::mission::{upload_warnings, MissionItem, MissionType};
 use mavterm::proto::mission::{MissionEvent, MissionMachine, MissionMsg, MissionOut, Request};
-use mavlink::Message;
 use serde_json::{json, Value};
 
 fn data(name: &str) -> String {
@@ -152,7 +152,11 @@ fn the_real_arducopter_mission_session_replays_through_the_machine() {
 
     // The refusal, shown with its reason, then the upload tried again 3 s later, in time for the
     // vehicle's first MISSION_REQUEST.
-    let (t_refused, refused) = &r.events.iter().find(|(_, e)| matches!(e, MissionEvent::Refused { .. })).unwrap();
+    let (t_refused, refused) = &r
+        .events
+        .iter()
+        .find(|(_, e)| matches!(e, MissionEvent::Refused { .. }))
+        .unwrap();
     assert_eq!(
         refused,
         &MissionEvent::Refused {
@@ -163,7 +167,10 @@ fn the_real_arducopter_mission_session_replays_through_the_machine() {
         }
     );
     let (_, text) = refused.notice((1, 1)).unwrap();
-    assert_eq!(text, "mission upload refused by 1:1: NO_SPACE, trying again in 3 s");
+    assert_eq!(
+        text,
+        "mission upload refused by 1:1: NO_SPACE, trying again in 3 s"
+    );
     assert_eq!(
         r.m.last_refusal().unwrap().reason.as_deref(),
         Some("Only 0 items are supported")
@@ -182,17 +189,30 @@ fn the_real_arducopter_mission_session_replays_through_the_machine() {
         .events
         .iter()
         .filter_map(|(_, e)| match e {
-            MissionEvent::Uploaded { mission_type, count, .. } => Some(format!("up {mission_type} {count}")),
-            MissionEvent::Downloaded { mission_type, items, .. } => {
-                Some(format!("down {mission_type} {}", items.len()))
-            }
+            MissionEvent::Uploaded {
+                mission_type,
+                count,
+                ..
+            } => Some(format!("up {mission_type} {count}")),
+            MissionEvent::Downloaded {
+                mission_type,
+                items,
+                ..
+            } => Some(format!("down {mission_type} {}", items.len())),
             MissionEvent::Failed { reason, .. } => Some(format!("failed: {reason}")),
             _ => None,
         })
         .collect();
     assert_eq!(
         done,
-        ["up mission 6", "up fence 4", "up rally 1", "down mission 6", "down fence 4", "down rally 1"]
+        [
+            "up mission 6",
+            "up fence 4",
+            "up rally 1",
+            "down mission 6",
+            "down fence 4",
+            "down rally 1"
+        ]
     );
 
     // What we read is what the vehicle sent, as pymavlink decoded it.
@@ -208,15 +228,21 @@ fn the_real_arducopter_mission_session_replays_through_the_machine() {
         let k = r.m.known(t).unwrap();
         assert!(k.downloaded);
         for i in &k.items {
-            read.push(json!({"type": "MISSION_ITEM_INT", "seq": i.seq, "command": i.command,
-                "frame": i.frame, "z": i.z as f64, "mission_type": t.code()}));
+            read.push(
+                json!({"type": "MISSION_ITEM_INT", "seq": i.seq, "command": i.command,
+                "frame": i.frame, "z": i.z as f64, "mission_type": t.code()}),
+            );
         }
     }
     assert_eq!(read, vehicle_items);
     // The positions ArduPilot gives back are the ones uploaded (home aside: not set yet).
     for t in MissionType::ALL {
         let back = &r.m.known(t).unwrap().items;
-        for (u, d) in uploads[t.index()].iter().zip(back).skip((t == MissionType::Mission) as usize) {
+        for (u, d) in uploads[t.index()]
+            .iter()
+            .zip(back)
+            .skip((t == MissionType::Mission) as usize)
+        {
             assert_eq!((u.x, u.y), (d.x, d.y), "{t} item {}", u.seq);
         }
     }
@@ -262,7 +288,11 @@ fn both_gcs_frames_with_sequence_14_are_kept_by_the_core() {
     let fourteen: Vec<&str> = gcs
         .windows(2)
         .find(|w| w[0].1.seq == 14 && w[1].1.seq == 14)
-        .map(|w| w.iter().map(|(_, f)| f.message.as_ref().map_or("?", |m| m.message_name())).collect())
+        .map(|w| {
+            w.iter()
+                .map(|(_, f)| f.message.as_ref().map_or("?", |m| m.message_name()))
+                .collect()
+        })
         .unwrap();
     assert_eq!(fourteen, ["HEARTBEAT", "MISSION_COUNT"]);
     // Heard by a core with another id (so 255:190 is another GCS, not an echo of ours).

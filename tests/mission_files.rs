@@ -50,11 +50,18 @@ fn mission_planner_file_round_trips_byte_for_byte() {
     // Home, then take-off to 15 m above home, a waypoint, a speed change, a jump, RTL.
     let home = &f.items[0];
     assert_eq!((home.frame, home.alt_ref()), (0, AltRef::Amsl));
-    assert_eq!((home.x, home.y, home.z), (-353_632_610, 1_491_652_300, 584.0));
+    assert_eq!(
+        (home.x, home.y, home.z),
+        (-353_632_610, 1_491_652_300, 584.0)
+    );
     assert_eq!(f.items[1].altitude_text().unwrap(), "15.0 m REL");
     assert_eq!(f.items[4].y, 1_491_657_807);
     assert_eq!(f.items[6].params[..2], [2.0, 1.0], "DO_JUMP to 2, once");
-    assert_eq!(f.items[3].altitude_text(), None, "a speed change has no altitude");
+    assert_eq!(
+        f.items[3].altitude_text(),
+        None,
+        "a speed change has no altitude"
+    );
     // Written back: the same text, line ends aside.
     assert_eq!(
         wpl::write(&f.items, &f.comments),
@@ -90,8 +97,14 @@ fn mavproxy_file_reads_and_pymavlink_reads_what_we_write() {
             ),
             "{row}"
         );
-        assert_eq!((n(4) as f32, n(5) as f32, n(6) as f32), (i.params[0], i.params[1], i.params[2]));
-        assert_eq!(r[7].as_f64().map(|v| v as f32), Some(i.params[3]).filter(|v| !v.is_nan()));
+        assert_eq!(
+            (n(4) as f32, n(5) as f32, n(6) as f32),
+            (i.params[0], i.params[1], i.params[2])
+        );
+        assert_eq!(
+            r[7].as_f64().map(|v| v as f32),
+            Some(i.params[3]).filter(|v| !v.is_nan())
+        );
         // pymavlink holds MISSION_ITEM's float32 x/y: within a float's step of ours.
         assert!((n(8) - i.param5()).abs() < 2e-6, "{row}");
         assert!((n(9) - i.param6()).abs() < 2e-6, "{row}");
@@ -121,7 +134,10 @@ w.save(sys.argv[1])
 print(json.dumps(rows))
 "#;
     let rows = python(script, &[path.to_str().unwrap()]);
-    let f = wpl::parse(&std::fs::read_to_string(&path).unwrap(), MissionType::Mission);
+    let f = wpl::parse(
+        &std::fs::read_to_string(&path).unwrap(),
+        MissionType::Mission,
+    );
     assert!(f.ok(), "{:?}", f.errors);
     for (row, i) in rows.as_array().unwrap().iter().zip(&f.items) {
         let r: Vec<f64> = row
@@ -140,7 +156,10 @@ print(json.dumps(rows))
         assert_eq!(i.autocontinue, r[11] != 0.0);
     }
     assert_eq!(f.items[3].alt_ref(), AltRef::Terr);
-    assert_eq!(f.items[4].x, 0, "MAV_FRAME_MISSION: x is a number, not degrees");
+    assert_eq!(
+        f.items[4].x, 0,
+        "MAV_FRAME_MISSION: x is a number, not degrees"
+    );
 }
 
 #[test]
@@ -198,8 +217,14 @@ fn qgroundcontrol_plan_reads_all_three_lists() {
             (20, 2, 0.0)
         ]
     );
-    assert_eq!((p.mission[0].x, p.mission[0].y), (-353_632_610, 1_491_652_300));
-    assert_eq!(p.mission[5].params[0], 2.0, "DO_JUMP to doJumpId 2 is item 2");
+    assert_eq!(
+        (p.mission[0].x, p.mission[0].y),
+        (-353_632_610, 1_491_652_300)
+    );
+    assert_eq!(
+        p.mission[5].params[0], 2.0,
+        "DO_JUMP to doJumpId 2 is item 2"
+    );
     assert!(p.mission[1].params[3].is_nan(), "null is NaN");
     // Polygon vertices with their count, the exclusion circle with its radius, the return
     // point above home.
@@ -235,7 +260,13 @@ fn plan_written_back_keeps_what_qgroundcontrol_wrote() {
     // QGroundControl's keys beside the items are still there, compared with the original.
     let orig: Value = serde_json::from_str(&data("copter.plan")).unwrap();
     let ours: Value = serde_json::from_str(&text).unwrap();
-    for k in ["cruiseSpeed", "hoverSpeed", "globalPlanAltitudeMode", "firmwareType", "vehicleType"] {
+    for k in [
+        "cruiseSpeed",
+        "hoverSpeed",
+        "globalPlanAltitudeMode",
+        "firmwareType",
+        "vehicleType",
+    ] {
         assert_eq!(ours["mission"][k], orig["mission"][k], "{k}");
     }
     assert_eq!(ours["groundStation"], orig["groundStation"]);
@@ -244,11 +275,28 @@ fn plan_written_back_keeps_what_qgroundcontrol_wrote() {
     let orig_items = orig["mission"]["items"].as_array().unwrap();
     assert_eq!(items.len(), orig_items.len());
     for (a, b) in items.iter().zip(orig_items) {
-        for k in ["command", "frame", "autoContinue", "doJumpId", "type", "AltitudeMode"] {
+        for k in [
+            "command",
+            "frame",
+            "autoContinue",
+            "doJumpId",
+            "type",
+            "AltitudeMode",
+        ] {
             assert_eq!(a.get(k), b.get(k), "{k} of {b}");
         }
-        let pa: Vec<Option<f64>> = a["params"].as_array().unwrap().iter().map(Value::as_f64).collect();
-        let pb: Vec<Option<f64>> = b["params"].as_array().unwrap().iter().map(Value::as_f64).collect();
+        let pa: Vec<Option<f64>> = a["params"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(Value::as_f64)
+            .collect();
+        let pb: Vec<Option<f64>> = b["params"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(Value::as_f64)
+            .collect();
         assert_eq!(pa, pb);
     }
     assert_eq!(ours["geoFence"], orig["geoFence"]);
@@ -264,7 +312,9 @@ fn a_plan_with_a_survey_is_refused_with_where_and_why() {
     let f = plan::parse(&data("survey.plan"));
     assert_eq!(f.errors.len(), 1, "{:?}", f.errors);
     assert_eq!(f.errors[0].at, "mission.items[2]");
-    assert!(f.errors[0].why.contains("ComplexItem \"survey\" is not supported"));
+    assert!(f.errors[0]
+        .why
+        .contains("ComplexItem \"survey\" is not supported"));
 }
 
 #[test]
@@ -289,7 +339,13 @@ fn a_plans_mission_saved_as_a_waypoint_file_reads_back_the_same() {
     assert!(back.ok(), "{:?}", back.errors);
     assert_eq!(back.items, f.plan.mission);
     // And a downloaded list made into a plan, saved and read again.
-    let p = Plan::new(back.items.clone(), f.plan.fence.clone(), f.plan.rally.clone(), 3, None);
+    let p = Plan::new(
+        back.items.clone(),
+        f.plan.fence.clone(),
+        f.plan.rally.clone(),
+        3,
+        None,
+    );
     let again = plan::parse(&p.to_json().unwrap());
     assert!(again.ok(), "{:?}", again.errors);
     assert_eq!(again.plan.mission, back.items);

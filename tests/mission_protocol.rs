@@ -126,14 +126,46 @@ impl Run {
 
 fn items() -> Vec<MissionItem> {
     let t = MissionType::Mission;
-    let mut home = MissionItem::at(t, 0, frame::GLOBAL, cmd::NAV_WAYPOINT, -35.3632621, 149.1652374, 584.07);
+    let mut home = MissionItem::at(
+        t,
+        0,
+        frame::GLOBAL,
+        cmd::NAV_WAYPOINT,
+        -35.3632621,
+        149.1652374,
+        584.07,
+    );
     home.current = true;
-    let takeoff = MissionItem::at(t, 1, frame::GLOBAL_RELATIVE_ALT, cmd::NAV_TAKEOFF, 0.0, 0.0, 15.0);
-    let mut wp = MissionItem::at(t, 2, frame::GLOBAL_RELATIVE_ALT_INT, cmd::NAV_WAYPOINT, 47.3977419, 8.5455938, 30.5);
+    let takeoff = MissionItem::at(
+        t,
+        1,
+        frame::GLOBAL_RELATIVE_ALT,
+        cmd::NAV_TAKEOFF,
+        0.0,
+        0.0,
+        15.0,
+    );
+    let mut wp = MissionItem::at(
+        t,
+        2,
+        frame::GLOBAL_RELATIVE_ALT_INT,
+        cmd::NAV_WAYPOINT,
+        47.3977419,
+        8.5455938,
+        30.5,
+    );
     wp.params = [2.5, 0.0, 0.0, f32::NAN];
     let mut speed = MissionItem::new(t, 3, frame::MISSION, cmd::DO_CHANGE_SPEED);
     speed.params = [1.0, 4.5, -1.0, 0.0];
-    let land = MissionItem::at(t, 4, frame::GLOBAL_TERRAIN_ALT, cmd::NAV_LAND, -35.36, 149.16, 0.0);
+    let land = MissionItem::at(
+        t,
+        4,
+        frame::GLOBAL_TERRAIN_ALT,
+        cmd::NAV_LAND,
+        -35.36,
+        149.16,
+        0.0,
+    );
     vec![home, takeoff, wp, speed, land]
 }
 
@@ -151,8 +183,10 @@ fn expected_item(seq: u64) -> Value {
                     "z": 30.5, "param1": 2.5, "param4": "nan"}),
         3 => json!({"frame": 2, "command": 178, "current": 0, "x": 0, "y": 0, "z": 0.0,
                     "param1": 1.0, "param2": 4.5, "param3": -1.0}),
-        4 => json!({"frame": 10, "command": 21, "current": 0, "x": -353_600_000, "y": 1_491_600_000,
-                    "z": 0.0}),
+        4 => {
+            json!({"frame": 10, "command": 21, "current": 0, "x": -353_600_000, "y": 1_491_600_000,
+                    "z": 0.0})
+        }
         _ => unreachable!(),
     };
     e.extend(more.as_object().unwrap().clone());
@@ -166,7 +200,11 @@ fn assert_fields(got: &Value, want: &Value) {
 }
 
 fn requests(seqs: &[u16], legacy: bool) -> Vec<Value> {
-    let name = if legacy { "MISSION_REQUEST" } else { "MISSION_REQUEST_INT" };
+    let name = if legacy {
+        "MISSION_REQUEST"
+    } else {
+        "MISSION_REQUEST_INT"
+    };
     seqs.iter()
         .map(|s| {
             from_vehicle(
@@ -224,12 +262,18 @@ fn a_vehicle_asking_for_an_item_twice_gets_it_twice() {
         r.hear(m);
     }
     let read = as_pymavlink_reads(&r.sent);
-    let seqs: Vec<u64> = read[1..].iter().map(|v| v["seq"].as_u64().unwrap()).collect();
+    let seqs: Vec<u64> = read[1..]
+        .iter()
+        .map(|v| v["seq"].as_u64().unwrap())
+        .collect();
     assert_eq!(seqs, [0, 1, 1, 2, 3, 3, 4]);
     for got in &read[1..] {
         assert_fields(got, &expected_item(got["seq"].as_u64().unwrap()));
     }
-    assert!(matches!(r.events.last(), Some(MissionEvent::Uploaded { count: 5, .. })));
+    assert!(matches!(
+        r.events.last(),
+        Some(MissionEvent::Uploaded { count: 5, .. })
+    ));
 }
 
 #[test]
@@ -258,7 +302,11 @@ fn a_vehicle_that_never_acks_gets_every_item_and_the_failure_is_shown() {
         "mission upload with 1:1 failed: no MISSION_ACK after the last item (5 s): the vehicle \
          may or may not have taken the mission; download it to see"
     );
-    assert_eq!(r.m.known(MissionType::Mission), None, "not taken as on the vehicle");
+    assert_eq!(
+        r.m.known(MissionType::Mission),
+        None,
+        "not taken as on the vehicle"
+    );
     assert!(r.now >= last + VEHICLE_WAIT);
 }
 
@@ -270,7 +318,11 @@ fn a_refusal_is_shown_with_its_result_and_no_space_tried_again() {
     r.hear(&acks[0]);
     assert!(matches!(
         r.events.last(),
-        Some(MissionEvent::Refused { result: 4, retry_in: Some(NO_SPACE_WAIT), .. })
+        Some(MissionEvent::Refused {
+            result: 4,
+            retry_in: Some(NO_SPACE_WAIT),
+            ..
+        })
     ));
     r.wait(NO_SPACE_WAIT);
     assert_eq!(r.names(), ["MISSION_COUNT", "MISSION_COUNT"]);
@@ -315,7 +367,7 @@ fn a_download_asks_again_for_a_lost_item_and_ignores_what_it_did_not_ask_for() {
     r.hear(&frames[1]); // item 0 -> REQUEST_INT 1
     r.hear(&frames[2]); // item 2: ignored
     r.hear(&frames[3]); // mission item 1: ignored
-    // Item 1 lost: asked for again.
+                        // Item 1 lost: asked for again.
     r.wait(ITEM_TIMEOUT);
     r.hear(&frames[4]); // item 1 -> REQUEST_INT 2
     r.hear(&frames[5]); // item 2 -> ACK
@@ -342,7 +394,10 @@ fn a_download_asks_again_for_a_lost_item_and_ignores_what_it_did_not_ask_for() {
         ]
     );
     for v in &read {
-        assert_fields(v, &json!({"target_system": 1, "target_component": 1, "mission_type": 1}));
+        assert_fields(
+            v,
+            &json!({"target_system": 1, "target_component": 1, "mission_type": 1}),
+        );
     }
     assert_eq!(read[5]["type"], 0, "MAV_MISSION_ACCEPTED");
     let Some(MissionEvent::Downloaded { items, .. }) = r.events.last() else {
@@ -392,7 +447,10 @@ fn a_download_answered_with_legacy_mission_item_is_read() {
     // MISSION_ITEM carries float32 degrees: the nearest 1e-7° of that float.
     let e7 = |v: f64| ((v as f32) as f64 * 1e7).round() as i32;
     assert_eq!((items[0].x, items[0].y), (e7(-35.3632621), e7(149.1652374)));
-    assert_eq!((items[1].x, items[1].y, items[1].z), (e7(-35.36), e7(149.16), 20.0));
+    assert_eq!(
+        (items[1].x, items[1].y, items[1].z),
+        (e7(-35.36), e7(149.16), 20.0)
+    );
 }
 
 #[test]
@@ -421,4 +479,108 @@ fn clear_and_set_current_as_pymavlink_reads_them() {
         &read[2],
         &json!({"name": "MISSION_SET_CURRENT", "seq": 3, "target_system": 1, "target_component": 1}),
     );
+}
+
+/// A frame from the vehicle 1:1, packed by our encoder.
+fn vehicle_frame(seq: u8, m: &MavMessage) -> Vec<u8> {
+    encode(
+        Version::V2,
+        Header {
+            sysid: 1,
+            compid: 1,
+            seq,
+        },
+        m,
+    )
+}
+
+fn feed(app: &mut mavterm::app::App, now: Micros, bytes: &[u8]) -> Vec<mavterm::app::Effect> {
+    app.update(
+        now,
+        mavterm::app::Event::Frames {
+            link: 0,
+            frames: FrameParser::new().parse_all(bytes),
+            stats: mavterm::link::ParserStats::default(),
+        },
+    )
+}
+
+/// Mission messages among the effects.
+fn mission_sends(fx: &[mavterm::app::Effect]) -> Vec<MavMessage> {
+    use mavlink::Message;
+    fx.iter()
+        .filter_map(|e| match e {
+            mavterm::app::Effect::Send { msg, .. } if msg.message_name().starts_with("MISSION") => {
+                Some(msg.clone())
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn the_session_routes_the_vehicles_mission_messages_and_its_timeouts() {
+    use mavterm::dialect::{self, MavMissionType};
+    let mut app = mavterm::app::App::new(mavterm::app::AppConfig {
+        sysid: 250,
+        compid: 191,
+        links: vec!["test".into()],
+        request_streams: false,
+        fetch_params: false,
+        ..Default::default()
+    });
+    feed(&mut app, 0, &common::copter_heartbeat(1, 0, 0));
+    let s = app.sessions.get_mut(&V).expect("a session");
+    let out = s
+        .mission_submit(1_000, Request::Download(MissionType::Rally))
+        .unwrap();
+    assert!(matches!(
+        &out[..],
+        [mavterm::app::session::SessionOut::Send(
+            MavMessage::MISSION_REQUEST_LIST(_)
+        )]
+    ));
+    let count = |ts: u8, tc: u8| {
+        MavMessage::MISSION_COUNT(dialect::MISSION_COUNT_DATA {
+            count: 1,
+            target_system: ts,
+            target_component: tc,
+            mission_type: MavMissionType::MAV_MISSION_TYPE_RALLY,
+            opaque_id: 0,
+        })
+    };
+    // Addressed to another GCS: not ours.
+    assert!(mission_sends(&feed(&mut app, 10_000, &vehicle_frame(1, &count(255, 190)))).is_empty());
+    // Ours: item 0 asked for, on the link, addressed to the vehicle.
+    let sent = mission_sends(&feed(&mut app, 20_000, &vehicle_frame(2, &count(250, 191))));
+    assert!(matches!(&sent[..], [MavMessage::MISSION_REQUEST_INT(r)]
+        if r.seq == 0 && (r.target_system, r.target_component) == V
+            && r.mission_type == MavMissionType::MAV_MISSION_TYPE_RALLY));
+    // The core wakes for the item timeout and asks again.
+    let due = app.next_deadline();
+    assert!(due <= 20_000 + ITEM_TIMEOUT, "{due}");
+    let sent = mission_sends(&app.update(20_000 + ITEM_TIMEOUT, mavterm::app::Event::Tick));
+    assert!(matches!(&sent[..], [MavMessage::MISSION_REQUEST_INT(r)] if r.seq == 0));
+    let item = MavMessage::MISSION_ITEM_INT(dialect::MISSION_ITEM_INT_DATA {
+        seq: 0,
+        command: dialect::MavCmd::MAV_CMD_NAV_RALLY_POINT,
+        target_system: 250,
+        target_component: 191,
+        frame: dialect::MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+        x: -353_635_304,
+        y: 1_491_654_503,
+        z: 15.0,
+        mission_type: MavMissionType::MAV_MISSION_TYPE_RALLY,
+        ..Default::default()
+    });
+    let sent = mission_sends(&feed(&mut app, 300_000, &vehicle_frame(3, &item)));
+    assert!(
+        matches!(&sent[..], [MavMessage::MISSION_ACK(a)] if a.mission_type == MavMissionType::MAV_MISSION_TYPE_RALLY)
+    );
+    let known = app.sessions[&V].mission.known(MissionType::Rally).unwrap();
+    assert_eq!((known.items[0].x, known.items[0].z), (-353_635_304, 15.0));
+    assert!(app
+        .notices
+        .iter()
+        .any(|n| n.text == "rally downloaded from 1:1: 1 item"));
 }

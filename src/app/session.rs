@@ -1,7 +1,7 @@
 //! One session per autopilot heard: its protocol machines and how to reach it.
 //!
-//! The session is where a protocol machine lives (streams now; parameters, commands, mission and
-//! camera each in their own module later). It is handed the messages of its system that are for
+//! The session is where a protocol machine lives (streams, commands, parameters, missions; a
+//! camera's later). It is handed the messages of its system that are for
 //! us (or broadcast), the time, and the link each came on; it returns what to send and what to
 //! tell the operator, and says when it next needs waking ([`Session::next_deadline`]).
 //!
@@ -252,7 +252,11 @@ impl Session {
     }
 
     /// Make `seq` the current mission item.
-    pub fn mission_set_current(&mut self, now: Micros, seq: u16) -> Result<Vec<SessionOut>, String> {
+    pub fn mission_set_current(
+        &mut self,
+        now: Micros,
+        seq: u16,
+    ) -> Result<Vec<SessionOut>, String> {
         let out = self.mission.set_current(now, seq)?;
         Ok(self.mission_out(out))
     }

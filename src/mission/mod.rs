@@ -33,7 +33,8 @@ pub enum MissionType {
 }
 
 impl MissionType {
-    pub const ALL: [MissionType; 3] = [MissionType::Mission, MissionType::Fence, MissionType::Rally];
+    pub const ALL: [MissionType; 3] =
+        [MissionType::Mission, MissionType::Fence, MissionType::Rally];
 
     /// The MAV_MISSION_TYPE value.
     pub fn code(self) -> u8 {
@@ -231,7 +232,8 @@ fn is_landing(command: u16) -> bool {
 /// The list a set of commands belongs in: fence items in the fence, rally points in the rally
 /// list, anything else (or nothing) in the mission.
 pub fn infer_type(items: &[MissionItem]) -> MissionType {
-    let fence = |c: u16| (cmd::NAV_FENCE_RETURN_POINT..=cmd::NAV_FENCE_CIRCLE_EXCLUSION).contains(&c);
+    let fence =
+        |c: u16| (cmd::NAV_FENCE_RETURN_POINT..=cmd::NAV_FENCE_CIRCLE_EXCLUSION).contains(&c);
     if !items.is_empty() && items.iter().all(|i| fence(i.command)) {
         MissionType::Fence
     } else if !items.is_empty() && items.iter().all(|i| i.command == cmd::NAV_RALLY_POINT) {
@@ -300,7 +302,11 @@ impl PartialEq for MissionItem {
             && self.command == o.command
             && self.current == o.current
             && self.autocontinue == o.autocontinue
-            && self.params.iter().zip(&o.params).all(|(a, b)| same_f32(*a, *b))
+            && self
+                .params
+                .iter()
+                .zip(&o.params)
+                .all(|(a, b)| same_f32(*a, *b))
             && self.x == o.x
             && self.y == o.y
             && same_f32(self.z, o.z)

@@ -205,7 +205,10 @@ impl Reader {
         let a = self.array(v, at)?;
         let want = if with_alt { 3 } else { 2 };
         if a.len() < want || a.len() > 3 {
-            self.err(at, format!("{} numbers where {want} were expected", a.len()));
+            self.err(
+                at,
+                format!("{} numbers where {want} were expected", a.len()),
+            );
             return None;
         }
         let mut c = [0.0; 3];
@@ -213,7 +216,10 @@ impl Reader {
             c[k] = self.number(Some(x), &format!("{at}[{k}]"))?;
         }
         if !(-90.0..=90.0).contains(&c[0]) || !(-180.0..=180.0).contains(&c[1]) {
-            self.err(at, format!("{}, {} is not a latitude and longitude", c[0], c[1]));
+            self.err(
+                at,
+                format!("{}, {} is not a latitude and longitude", c[0], c[1]),
+            );
             return None;
         }
         Some(c)
@@ -266,7 +272,10 @@ pub fn parse(text: &str) -> PlanFile {
         None => r.err("fileType", "missing: not a QGroundControl plan"),
     }
     r.version(top, "plan", 1);
-    plan.kept.top = others(top, &["fileType", "version", "mission", "geoFence", "rallyPoints"]);
+    plan.kept.top = others(
+        top,
+        &["fileType", "version", "mission", "geoFence", "rallyPoints"],
+    );
     if let Some(m) = r.object(top.get("mission"), "mission") {
         read_mission(&mut r, m, &mut plan);
     }
@@ -301,7 +310,11 @@ fn read_mission(r: &mut Reader, m: &Map<String, Value>, plan: &mut Plan) {
         return;
     }
     plan.firmware_type = r
-        .whole(m.get("firmwareType"), "mission.firmwareType", u8::MAX as u64)
+        .whole(
+            m.get("firmwareType"),
+            "mission.firmwareType",
+            u8::MAX as u64,
+        )
         .unwrap_or(0);
     if m.contains_key("vehicleType") {
         plan.vehicle_type = r.whole(m.get("vehicleType"), "mission.vehicleType", u8::MAX as u64);
@@ -316,8 +329,11 @@ fn read_mission(r: &mut Reader, m: &Map<String, Value>, plan: &mut Plan) {
             "items",
         ],
     );
-    if let Some(h) = r.coordinate(m.get("plannedHomePosition"), "mission.plannedHomePosition", true)
-    {
+    if let Some(h) = r.coordinate(
+        m.get("plannedHomePosition"),
+        "mission.plannedHomePosition",
+        true,
+    ) {
         let mut home = MissionItem::at(
             MissionType::Mission,
             0,
@@ -331,8 +347,12 @@ fn read_mission(r: &mut Reader, m: &Map<String, Value>, plan: &mut Plan) {
         plan.mission.push(home);
     } else {
         // Keep the numbering right for the errors that follow.
-        plan.mission
-            .push(MissionItem::new(MissionType::Mission, 0, frame::GLOBAL, cmd::NAV_WAYPOINT));
+        plan.mission.push(MissionItem::new(
+            MissionType::Mission,
+            0,
+            frame::GLOBAL,
+            cmd::NAV_WAYPOINT,
+        ));
     }
     let Some(items) = r.array(m.get("items"), "mission.items") else {
         return;
@@ -364,7 +384,10 @@ fn read_mission(r: &mut Reader, m: &Map<String, Value>, plan: &mut Plan) {
                 continue;
             }
             Some(other) => {
-                r.err(&format!("{at}.type"), format!("{other:?} is not an item type"));
+                r.err(
+                    &format!("{at}.type"),
+                    format!("{other:?} is not an item type"),
+                );
                 continue;
             }
             None => {
@@ -428,16 +451,22 @@ fn read_simple(
         }
     }
     if p.len() != 7 {
-        r.err(&params_at, format!("{} values where 7 were expected", p.len()));
+        r.err(
+            &params_at,
+            format!("{} values where 7 were expected", p.len()),
+        );
         return None;
     }
     let mut item = MissionItem::new(MissionType::Mission, seq, frame, command as u16);
     item.autocontinue = autocontinue;
-    for k in 0..4 {
-        item.params[k] = match to_f32(p[k]) {
+    for (k, (dst, v)) in item.params.iter_mut().zip(&p).enumerate() {
+        *dst = match to_f32(*v) {
             Some(v) => v,
             None => {
-                r.err(&format!("{params_at}[{k}]"), format!("{} does not fit a float", p[k]));
+                r.err(
+                    &format!("{params_at}[{k}]"),
+                    format!("{v} does not fit a float"),
+                );
                 return None;
             }
         };
@@ -448,7 +477,10 @@ fn read_simple(
             None => {
                 r.err(
                     &format!("{params_at}[{k}]"),
-                    format!("{} does not fit MISSION_ITEM_INT (degrees ×1e7 in 32 bits)", p[k]),
+                    format!(
+                        "{} does not fit MISSION_ITEM_INT (degrees ×1e7 in 32 bits)",
+                        p[k]
+                    ),
                 );
                 return None;
             }
@@ -457,7 +489,10 @@ fn read_simple(
     item.z = match to_f32(p[6]) {
         Some(v) => v,
         None => {
-            r.err(&format!("{params_at}[6]"), format!("{} does not fit a float", p[6]));
+            r.err(
+                &format!("{params_at}[6]"),
+                format!("{} does not fit a float", p[6]),
+            );
             return None;
         }
     };
@@ -705,7 +740,8 @@ impl Plan {
         while k < self.fence.len() {
             let i = &self.fence[k];
             match i.command {
-                cmd::NAV_FENCE_POLYGON_VERTEX_INCLUSION | cmd::NAV_FENCE_POLYGON_VERTEX_EXCLUSION => {
+                cmd::NAV_FENCE_POLYGON_VERTEX_INCLUSION
+                | cmd::NAV_FENCE_POLYGON_VERTEX_EXCLUSION => {
                     let n = i.params[0];
                     let count = n as usize;
                     if n.fract() != 0.0 || count < 3 || k + count > self.fence.len() {
@@ -843,7 +879,10 @@ mod tests {
         assert_eq!(m.len(), 4);
         assert_eq!((m[0].frame, m[0].z), (0, 584.0), "home is AMSL");
         assert_eq!((m[0].x, m[0].y), (-353_632_610, 1_491_652_300));
-        assert_eq!((m[1].seq, m[1].command, m[1].frame, m[1].z), (1, 22, 3, 15.0));
+        assert_eq!(
+            (m[1].seq, m[1].command, m[1].frame, m[1].z),
+            (1, 22, 3, 15.0)
+        );
         assert!(m[1].params[3].is_nan());
         assert_eq!(m[3].params[0], 2.0, "DO_JUMP to doJumpId 2 = item 2");
         assert_eq!(f.plan.firmware_type, 3);
@@ -877,7 +916,12 @@ mod tests {
             .replace("[2, 3, 0, 0, 0, 0, 0]", "[9, 3, 0, 0, 0, 0, 0]");
         let f = parse(&text);
         let at: Vec<&str> = f.errors.iter().map(|e| e.at.as_str()).collect();
-        assert_eq!(at, ["mission.items[1]", "mission.items[3].params[0]"], "{:?}", f.errors);
+        assert_eq!(
+            at,
+            ["mission.items[1]", "mission.items[3].params[0]"],
+            "{:?}",
+            f.errors
+        );
         assert!(f.errors[0].why.contains("\"survey\" is not supported"));
         assert!(f.errors[1].why.contains("doJumpId 9"));
         let f = parse("{\"fileType\": \"Plan\",\n \"version\": 1,,}");

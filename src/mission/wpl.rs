@@ -250,7 +250,10 @@ mod tests {
         let home = &f.items[0];
         assert!(home.current);
         assert_eq!((home.frame, home.command), (0, cmd::NAV_WAYPOINT));
-        assert_eq!((home.x, home.y, home.z), (-353_632_610, 1_491_652_300, 584.0));
+        assert_eq!(
+            (home.x, home.y, home.z),
+            (-353_632_610, 1_491_652_300, 584.0)
+        );
         assert_eq!(f.items[1].z, 15.0);
         assert_eq!(write(&f.items, &f.comments), MP.replace("\r\n", "\n"));
     }
@@ -281,7 +284,10 @@ mod tests {
         // Line 3: short; 4: command not a number; 5: latitude out of range; 6: seq 4 where 1
         // was expected (lines 3-5 lost).
         assert_eq!(lines, [3, 4, 5, 6], "{:?}", f.errors);
-        assert_eq!(f.errors[0].to_string(), "line 3: 10 fields where 12 were expected");
+        assert_eq!(
+            f.errors[0].to_string(),
+            "line 3: 10 fields where 12 were expected"
+        );
         assert!(f.errors[1].why.contains("command \"WP\""));
         assert!(f.errors[2].why.contains("does not fit"));
         assert!(f.errors[3].why.contains("sequence number 4 where 1"));
@@ -290,7 +296,10 @@ mod tests {
 
     #[test]
     fn header_checked() {
-        let f = parse("QGC WPL 100\n0\t1\t0\t16\t0\t0\t0\t0\t0\t0\t0\t1\n", MissionType::Mission);
+        let f = parse(
+            "QGC WPL 100\n0\t1\t0\t16\t0\t0\t0\t0\t0\t0\t0\t1\n",
+            MissionType::Mission,
+        );
         assert_eq!(f.errors.len(), 1);
         assert_eq!(f.errors[0].line, 1);
         assert!(f.items.is_empty());
@@ -304,7 +313,10 @@ mod tests {
         i.params = [1e-9, 0.1, 12345.678, -0.0];
         i.z = 1.234_567_9;
         let line = item_line(&i);
-        assert!(line.contains("\t0.000000001\t0.10000000\t12345.67773438\t"), "{line}");
+        assert!(
+            line.contains("\t0.000000001\t0.10000000\t12345.67773438\t"),
+            "{line}"
+        );
         let back = parse(&format!("{HEADER}\n{line}\n"), MissionType::Mission);
         assert_eq!(back.items, vec![i]);
     }

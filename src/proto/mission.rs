@@ -368,12 +368,22 @@ pub enum MissionEvent {
         reason: String,
     },
     /// MISSION_CURRENT shows a new current item.
-    Current { seq: u16, total: u16 },
-    Reached { seq: u16 },
+    Current {
+        seq: u16,
+        total: u16,
+    },
+    Reached {
+        seq: u16,
+    },
     /// MISSION_CURRENT shows the item MISSION_SET_CURRENT asked for.
-    CurrentSet { seq: u16 },
+    CurrentSet {
+        seq: u16,
+    },
     /// It did not, in time (`now_at`: the current item it shows).
-    SetCurrentFailed { seq: u16, now_at: Option<u16> },
+    SetCurrentFailed {
+        seq: u16,
+        now_at: Option<u16>,
+    },
     /// The vehicle's plan id for `mission_type` is not the one we downloaded or uploaded.
     PlanChanged {
         mission_type: MissionType,
@@ -617,7 +627,10 @@ pub fn check_items(t: MissionType, items: &[MissionItem]) -> Result<(), String> 
             ));
         }
         if i.mission_type != t {
-            return Err(format!("item {k} is a {} item, not a {t} item", i.mission_type));
+            return Err(format!(
+                "item {k} is a {} item, not a {t} item",
+                i.mission_type
+            ));
         }
     }
     Ok(())
@@ -800,7 +813,9 @@ impl MissionMachine {
     /// Ask the vehicle to make `seq` the current mission item (MISSION_SET_CURRENT).
     pub fn set_current(&mut self, now: Micros, seq: u16) -> Result<Vec<MissionOut>, String> {
         if let Some((s, _)) = self.set_current {
-            return Err(format!("mission item {s} was asked for and not yet confirmed"));
+            return Err(format!(
+                "mission item {s} was asked for and not yet confirmed"
+            ));
         }
         self.set_current = Some((seq, now + SET_CURRENT_TIMEOUT));
         Ok(vec![MissionOut::Send(MavMessage::MISSION_SET_CURRENT(
@@ -827,7 +842,9 @@ impl MissionMachine {
         }));
         let (msg, phase) = match &req {
             Request::Download(_) => (request_list(self.key, t), Phase::List),
-            Request::Upload(_, items) => (count_message(self.key, t, items.len() as u16), Phase::Count),
+            Request::Upload(_, items) => {
+                (count_message(self.key, t, items.len() as u16), Phase::Count)
+            }
             Request::Clear(_) => (clear_message(self.key, t), Phase::Clear),
         };
         out.push(MissionOut::Send(msg));
@@ -966,7 +983,10 @@ impl MissionMachine {
     }
 
     fn on_current(&mut self, cur: Current, out: &mut Vec<MissionOut>) {
-        if self.current.is_none_or(|c| c.seq != cur.seq || c.total != cur.total) {
+        if self
+            .current
+            .is_none_or(|c| c.seq != cur.seq || c.total != cur.total)
+        {
             out.push(MissionOut::Event(MissionEvent::Current {
                 seq: cur.seq,
                 total: cur.total,
@@ -1517,7 +1537,10 @@ mod tests {
         let out = m.poll(10 + VEHICLE_WAIT);
         match events(&out)[..] {
             [MissionEvent::Failed { reason, .. }] => {
-                assert!(reason.contains("no MISSION_ACK after the last item"), "{reason}")
+                assert!(
+                    reason.contains("no MISSION_ACK after the last item"),
+                    "{reason}"
+                )
             }
             ref other => panic!("{other:?}"),
         }
@@ -1536,7 +1559,8 @@ mod tests {
         let mut f = MissionItem::at(MissionType::Fence, 0, 0, 5001, 1.0, 2.0, 0.0);
         f.params[0] = 3.0;
         let fence: Vec<MissionItem> = (0..3).map(|s| MissionItem { seq: s, ..f }).collect();
-        m.submit(0, Request::Upload(MissionType::Fence, fence)).unwrap();
+        m.submit(0, Request::Upload(MissionType::Fence, fence))
+            .unwrap();
         let mut counts = 1;
         let mut t;
         loop {
@@ -1555,13 +1579,20 @@ mod tests {
     #[test]
     fn no_space_at_the_start_is_shown_and_tried_again() {
         let mut m = MissionMachine::new(V);
-        m.submit(0, Request::Upload(MissionType::Mission, vec![wp(0, 1.0), wp(1, 2.0)]))
-            .unwrap();
+        m.submit(
+            0,
+            Request::Upload(MissionType::Mission, vec![wp(0, 1.0), wp(1, 2.0)]),
+        )
+        .unwrap();
         m.on_text(50, "Calibrating barometer");
         let out = m.on_message(100, &ack(NO_SPACE, 0));
         assert!(matches!(
             events(&out)[..],
-            [MissionEvent::Refused { result: 4, retry_in: Some(NO_SPACE_WAIT), .. }]
+            [MissionEvent::Refused {
+                result: 4,
+                retry_in: Some(NO_SPACE_WAIT),
+                ..
+            }]
         ));
         assert_eq!(
             m.last_refusal().unwrap().reason.as_deref(),
@@ -1583,7 +1614,11 @@ mod tests {
         let out = m.on_message(300 + 2 * NO_SPACE_WAIT, &ack(NO_SPACE, 0));
         assert!(matches!(
             events(&out)[..],
-            [MissionEvent::Refused { result: 4, retry_in: None, .. }]
+            [MissionEvent::Refused {
+                result: 4,
+                retry_in: None,
+                ..
+            }]
         ));
         assert!(!m.busy());
         let (sev, text) = events(&out)[0].notice(V).unwrap();
@@ -1594,8 +1629,13 @@ mod tests {
     #[test]
     fn download_re_requests_a_lost_item_and_ignores_unrequested_ones() {
         let mut m = MissionMachine::new(V);
-        let out = m.submit(0, Request::Download(MissionType::Mission)).unwrap();
-        assert!(matches!(sends(&out)[..], [MavMessage::MISSION_REQUEST_LIST(_)]));
+        let out = m
+            .submit(0, Request::Download(MissionType::Mission))
+            .unwrap();
+        assert!(matches!(
+            sends(&out)[..],
+            [MavMessage::MISSION_REQUEST_LIST(_)]
+        ));
         let out = m.on_message(
             10,
             &MissionMsg::Count {
@@ -1624,9 +1664,15 @@ mod tests {
         assert!(matches!(sends(&out)[..], [MavMessage::MISSION_REQUEST_INT(r)] if r.seq == 1));
         m.on_message(t + 5, &item(1, 0));
         let out = m.on_message(t + 6, &item(2, 0));
-        assert!(matches!(sends(&out)[..], [MavMessage::MISSION_ACK(a)] if a.mission_type == MavMissionType::MAV_MISSION_TYPE_MISSION));
+        assert!(
+            matches!(sends(&out)[..], [MavMessage::MISSION_ACK(a)] if a.mission_type == MavMissionType::MAV_MISSION_TYPE_MISSION)
+        );
         match events(&out)[..] {
-            [_, MissionEvent::Downloaded { items, opaque_id: 77, .. }] => {
+            [_, MissionEvent::Downloaded {
+                items,
+                opaque_id: 77,
+                ..
+            }] => {
                 assert_eq!(items.iter().map(|i| i.seq).collect::<Vec<_>>(), [0, 1, 2])
             }
             ref other => panic!("{other:?}"),
@@ -1640,12 +1686,18 @@ mod tests {
     #[test]
     fn transfers_queue_one_at_a_time() {
         let mut m = MissionMachine::new(V);
-        m.submit(0, Request::Download(MissionType::Mission)).unwrap();
+        m.submit(0, Request::Download(MissionType::Mission))
+            .unwrap();
         let out = m.submit(1, Request::Download(MissionType::Fence)).unwrap();
         assert!(sends(&out).is_empty());
-        assert!(matches!(events(&out)[..], [MissionEvent::Queued { ahead: 1, .. }]));
+        assert!(matches!(
+            events(&out)[..],
+            [MissionEvent::Queued { ahead: 1, .. }]
+        ));
         assert!(m.submit(2, Request::Download(MissionType::Fence)).is_err());
-        assert!(m.submit(2, Request::Download(MissionType::Mission)).is_err());
+        assert!(m
+            .submit(2, Request::Download(MissionType::Mission))
+            .is_err());
         let out = m.on_message(
             10,
             &MissionMsg::Count {
@@ -1658,7 +1710,9 @@ mod tests {
         // The empty mission acknowledged, the fence download started.
         let s = sends(&out);
         assert!(matches!(s[0], MavMessage::MISSION_ACK(_)));
-        assert!(matches!(s[1], MavMessage::MISSION_REQUEST_LIST(r) if r.mission_type == MavMissionType::MAV_MISSION_TYPE_FENCE));
+        assert!(
+            matches!(s[1], MavMessage::MISSION_REQUEST_LIST(r) if r.mission_type == MavMissionType::MAV_MISSION_TYPE_FENCE)
+        );
     }
 
     #[test]
@@ -1679,14 +1733,18 @@ mod tests {
     fn current_item_set_and_plan_changes_seen() {
         let mut m = MissionMachine::new(V);
         let out = m.set_current(0, 3).unwrap();
-        assert!(matches!(sends(&out)[..], [MavMessage::MISSION_SET_CURRENT(s)] if s.seq == 3 && s.target_system == 1));
-        let cur = |seq, ids| MissionMsg::Current(Current {
-            seq,
-            total: 5,
-            state: 3,
-            mode: 1,
-            ids,
-        });
+        assert!(
+            matches!(sends(&out)[..], [MavMessage::MISSION_SET_CURRENT(s)] if s.seq == 3 && s.target_system == 1)
+        );
+        let cur = |seq, ids| {
+            MissionMsg::Current(Current {
+                seq,
+                total: 5,
+                state: 3,
+                mode: 1,
+                ids,
+            })
+        };
         m.on_message(10, &cur(1, [0; 3]));
         let out = m.on_message(20, &cur(3, [0; 3]));
         assert!(events(&out).contains(&&MissionEvent::CurrentSet { seq: 3 }));
@@ -1702,7 +1760,8 @@ mod tests {
         );
         assert!(sends(&out).is_empty());
         // A plan id differing from the one downloaded: said once.
-        m.submit(100, Request::Download(MissionType::Mission)).unwrap();
+        m.submit(100, Request::Download(MissionType::Mission))
+            .unwrap();
         m.on_message(
             110,
             &MissionMsg::Count {
@@ -1732,7 +1791,10 @@ mod tests {
         let mut odd = wp(1, 1.0);
         odd.command = 31_999;
         let e = m
-            .submit(0, Request::Upload(MissionType::Mission, vec![wp(0, 1.0), odd]))
+            .submit(
+                0,
+                Request::Upload(MissionType::Mission, vec![wp(0, 1.0), odd]),
+            )
             .unwrap_err();
         assert!(e.contains("command 31999"), "{e}");
         let e = m

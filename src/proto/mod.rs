@@ -4,8 +4,8 @@
 pub mod ack;
 pub mod commands;
 pub mod loss;
-pub mod mission;
 pub mod mav_cmds;
+pub mod mission;
 pub mod modes;
 pub mod param_ftp;
 pub mod params;
