@@ -44,7 +44,7 @@ use std::fmt;
 
 use serde_json::{json, Map, Value};
 
-use super::{cmd, frame, xy_from_wire, xy_to_wire, MissionItem, MissionType};
+use super::{cmd, frame, xy_to_wire, MissionItem, MissionType};
 
 /// Something wrong in a plan, and where.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -842,11 +842,6 @@ impl Plan {
     }
 }
 
-/// Latitude/longitude of an item in degrees (for display).
-pub fn degrees(i: &MissionItem) -> (f64, f64) {
-    (xy_from_wire(i.frame, i.x), xy_from_wire(i.frame, i.y))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -903,7 +898,11 @@ mod tests {
         f.plan.mission[1].z = 30.0;
         let v: Value = serde_json::from_str(&f.plan.to_json().unwrap()).unwrap();
         assert!(v["mission"]["items"][0].get("Altitude").is_none());
-        assert_eq!(v["mission"]["items"][0]["params"][6], json!(30.0));
+        assert_eq!(
+            v["mission"]["items"][0]["params"][6],
+            json!(30),
+            "whole numbers as QGC writes them"
+        );
     }
 
     #[test]
