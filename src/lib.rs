@@ -13,6 +13,7 @@ pub mod driver;
 pub mod headless;
 pub mod keymap;
 pub mod link;
+pub mod mission;
 pub mod params;
 pub mod paths;
 pub mod proto;

@@ -639,13 +639,14 @@ impl App {
                 if !self.sessions.contains_key(&key)
                     && self.vehicles.get(key).is_some_and(|v| v.is_autopilot())
                 {
-                    let s = Session::new(
+                    let mut s = Session::new(
                         key,
                         hb.autopilot,
                         self.cfg.request_streams,
                         self.cfg.fetch_params,
                         self.cfg.streams.clone(),
                     );
+                    s.mission.gcs = (self.cfg.sysid, self.cfg.compid);
                     self.sessions.insert(key, s);
                 }
             }

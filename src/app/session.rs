@@ -1,7 +1,7 @@
 //! One session per autopilot heard: its protocol machines and how to reach it.
 //!
-//! The session is where a protocol machine lives (streams now; parameters, commands, mission and
-//! camera each in their own module later). It is handed the messages of its system that are for
+//! The session is where a protocol machine lives (streams, commands, parameters, missions; a
+//! camera's later). It is handed the messages of its system that are for
 //! us (or broadcast), the time, and the link each came on; it returns what to send and what to
 //! tell the operator, and says when it next needs waking ([`Session::next_deadline`]).
 //!
@@ -16,6 +16,7 @@ use crate::dialect::{MavAutopilot, MavCmd, MavMessage};
 use crate::link::LinkId;
 use crate::proto::ack::CommandAck;
 use crate::proto::commands::{CmdOut, CommandQueue, CommandSpec, State};
+use crate::proto::mission::{MissionMachine, MissionMsg, MissionOut, Request as MissionRequest};
 use crate::proto::params::{ParamMachine, ParamOut};
 use crate::proto::rates::StreamRates;
 use crate::proto::sequence::{SeqOut, Sequence};
@@ -56,6 +57,8 @@ pub struct Session {
     pub flight: FlightTelemetry,
     /// Parameters of the autopilot and the other components of its system.
     pub params: ParamMachine,
+    /// Mission, fence and rally point transfers; the current item and items reached.
+    pub mission: MissionMachine,
 }
 
 impl Session {
@@ -75,6 +78,7 @@ impl Session {
             sequence: None,
             flight: FlightTelemetry::new(key, request_streams),
             params: ParamMachine::new(key, autopilot, fetch_params),
+            mission: MissionMachine::new(key),
         }
     }
 
@@ -189,6 +193,10 @@ impl Session {
             }
             return out;
         }
+        if let Some(m) = MissionMsg::read(id, payload) {
+            let o = self.mission.on_message(now, &m);
+            out.extend(self.mission_out(o));
+        }
         let hb = match msg {
             Some(MavMessage::HEARTBEAT(hb)) => Some(hb),
             _ => None,
@@ -230,6 +238,40 @@ impl Session {
     /// A text the vehicle said (joined STATUSTEXT): it may explain a refusal.
     pub fn on_text(&mut self, now: Micros, text: &str) {
         self.commands.on_statustext(now, self.key.0, text);
+        self.mission.on_text(now, text);
+    }
+
+    /// Start (or queue) a mission, fence or rally point transfer.
+    pub fn mission_submit(
+        &mut self,
+        now: Micros,
+        req: MissionRequest,
+    ) -> Result<Vec<SessionOut>, String> {
+        let out = self.mission.submit(now, req)?;
+        Ok(self.mission_out(out))
+    }
+
+    /// Make `seq` the current mission item.
+    pub fn mission_set_current(
+        &mut self,
+        now: Micros,
+        seq: u16,
+    ) -> Result<Vec<SessionOut>, String> {
+        let out = self.mission.set_current(now, seq)?;
+        Ok(self.mission_out(out))
+    }
+
+    /// Mission machine output: its messages go to the vehicle on its route (the operator asked
+    /// for every transfer), its events worth telling become notices.
+    fn mission_out(&self, outs: Vec<MissionOut>) -> Vec<SessionOut> {
+        outs.into_iter()
+            .filter_map(|o| match o {
+                MissionOut::Send(m) => Some(SessionOut::Send(m)),
+                MissionOut::Event(e) => e
+                    .notice(self.key)
+                    .map(|(sev, text)| SessionOut::Notice(sev, text)),
+            })
+            .collect()
     }
 
     /// Send a command through the queue.
@@ -323,6 +365,7 @@ impl Session {
     /// The vehicle rebooted: every machine starts over where it must.
     pub fn on_reboot(&mut self) {
         self.streams.on_reboot();
+        self.mission.on_reboot();
     }
 
     /// `link` came back after being down.
@@ -348,6 +391,8 @@ impl Session {
         out.extend(self.flight.poll(now).into_iter().map(SessionOut::SendAuto));
         let p = self.params.poll(now);
         out.extend(p.into_iter().map(|o| self.pmap(o)));
+        let m = self.mission.poll(now);
+        out.extend(self.mission_out(m));
         out
     }
 
@@ -364,7 +409,7 @@ impl Session {
 
     /// True when a poll now would do something (a machine has work that is not on a timer).
     pub fn due(&self) -> bool {
-        self.streams.due() || self.flight.due() || self.params.due()
+        self.streams.due() || self.flight.due() || self.params.due() || self.mission.due()
     }
 
     /// When the session next needs a poll.
@@ -375,6 +420,7 @@ impl Session {
             self.sequence.as_ref().and_then(|s| s.next_deadline()),
             self.flight.next_deadline(),
             self.params.next_deadline(),
+            self.mission.next_deadline(),
         ]
         .into_iter()
         .flatten()

@@ -7,7 +7,7 @@
 
 use num_traits::FromPrimitive;
 
-use crate::dialect::{MavCmd, MavResult};
+use crate::dialect::MavResult;
 use crate::wire::Frame;
 
 /// COMMAND_ACK's message id.
@@ -58,15 +58,7 @@ impl CommandAck {
 }
 
 /// `MAV_CMD_NAV_TAKEOFF` → `NAV_TAKEOFF`; a number the dialect does not know stays a number.
-pub fn command_name(command: u16) -> String {
-    match MavCmd::from_u16(command) {
-        Some(c) => {
-            let s = format!("{c:?}");
-            s.strip_prefix("MAV_CMD_").unwrap_or(&s).to_string()
-        }
-        None => format!("command {command}"),
-    }
-}
+pub use crate::mission::command_name;
 
 /// `MAV_RESULT_DENIED` → `DENIED`; a number the dialect does not know stays a number.
 pub fn result_name(result: u8) -> String {

@@ -5,6 +5,7 @@ pub mod ack;
 pub mod commands;
 pub mod loss;
 pub mod mav_cmds;
+pub mod mission;
 pub mod modes;
 pub mod param_ftp;
 pub mod params;
