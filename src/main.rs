@@ -110,7 +110,12 @@ fn main() -> Result<()> {
         let secs = cli.duration.unwrap_or(10.0).max(0.0);
         let app = if all_virtual(&links) {
             let mut r = VirtualRunner::from_specs(&links, cfg)?;
-            r.advance_to((secs * SECOND as f64) as u64);
+            // With a replay and no --duration: to the end of every log (a sim alongside runs as
+            // long); otherwise for the duration.
+            let to_end = cli.duration.is_none() && r.run_to_end_of_replays(u64::MAX);
+            if !to_end {
+                r.advance_to((secs * SECOND as f64) as u64);
+            }
             r.app
         } else {
             rt.block_on(mavterm::driver::real_time::run_for(

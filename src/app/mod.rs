@@ -11,6 +11,7 @@ pub mod links;
 pub mod notices;
 pub mod palette;
 pub mod params;
+pub mod replay;
 pub mod report;
 pub mod screen;
 pub mod session;
@@ -22,6 +23,7 @@ use chrono::{DateTime, Utc};
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavMessage};
 use crate::keymap::{Key, Keymap, Mode};
+use crate::link::replay::{ReplayCmd, ReplayStatus};
 use crate::link::{Frame, LinkId, LinkSpec, ParserStats};
 use crate::proto::ack::CommandAck;
 use crate::proto::loss::SeqOutcome;
@@ -106,6 +108,8 @@ pub enum Event {
         purpose: params::FileUse,
         result: Result<Vec<u8>, String>,
     },
+    /// Where a replay link is (`tlog:`): sent when that changes, in order with its frames.
+    ReplayStatus { link: LinkId, status: ReplayStatus },
 }
 
 /// What the core wants done.
@@ -133,6 +137,8 @@ pub enum Effect {
         link: LinkId,
         spec: LinkSpec,
     },
+    /// Pause, step, seek or change the speed of a replay link.
+    ReplayControl { link: LinkId, cmd: ReplayCmd },
     Quit,
 }
 
@@ -442,6 +448,7 @@ impl App {
                     self.dirty = true;
                 }
             }
+            Event::ReplayStatus { link, status } => self.on_replay_status(link, status),
         }
         self.poll_sessions(&mut fx);
         fx

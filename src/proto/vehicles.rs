@@ -306,6 +306,16 @@ impl Registry {
         }
     }
 
+    /// Time jumped on `link` (a replay seeked): the boot times heard there no longer follow
+    /// the ones before, so they are not taken for a reboot.
+    pub fn on_time_jump(&mut self, link: LinkId) {
+        for v in self.vehicles.values_mut() {
+            if v.links.contains(&link) {
+                v.last_boot_ms = None;
+            }
+        }
+    }
+
     /// The component's sequence count restarted (see `loss`) on some link. Where SYSTEM_TIME
     /// arrives, it alone decides; otherwise this is the sign, taken once per reboot however many
     /// links show it.
