@@ -8,6 +8,7 @@ use super::{App, Effect};
 use crate::clock::{Micros, SECOND};
 use crate::link::replay::{clock_text, ReplayCmd, ReplaySpeed, ReplayStatus};
 use crate::link::LinkId;
+use crate::proto::vehicles::Pace;
 
 /// The reason shown on a replay link whose log has ended.
 pub const END_OF_LOG: &str = "end of log";
@@ -139,6 +140,18 @@ impl App {
             Some(p) => (p.status.seeks != status.seeks, p.status.ended),
             None => (false, false),
         };
+        // A paused replay's vehicles are not lost meanwhile, a slow one's judged in log time;
+        // at the end of the log they go lost by the normal timeout.
+        let pace = if status.ended {
+            None
+        } else if status.paused {
+            Some(Pace::Held(now))
+        } else if !status.speed.is_max() && status.speed.get() < 1.0 {
+            Some(Pace::Slow(1.0 / status.speed.get()))
+        } else {
+            None
+        };
+        self.vehicles.set_pace(link, pace, now);
         if jumped {
             // What was skipped over is not loss, and boot times jump with the log.
             for s in l.sources.values_mut() {
