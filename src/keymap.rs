@@ -407,6 +407,19 @@ impl Action {
         ),
     ];
 
+    /// True for the actions that control replay links.
+    pub fn is_replay(self) -> bool {
+        matches!(
+            self,
+            Action::ReplayPause
+                | Action::ReplayStep
+                | Action::ReplayBack
+                | Action::ReplayForward
+                | Action::ReplaySlower
+                | Action::ReplayFaster
+        )
+    }
+
     pub fn name(self) -> &'static str {
         Action::ALL
             .iter()

@@ -168,7 +168,7 @@ impl App {
                 SEV_INFO,
                 None,
                 format!(
-                    "replay {spec}: end of log at {}",
+                    "end of log at {} on {spec}",
                     clock_text(status.position, long)
                 ),
             );
@@ -177,7 +177,7 @@ impl App {
                 l.state = LinkState::Up;
                 l.notified_down = None;
             }
-            self.notice(SEV_INFO, None, format!("replay {spec}: playing again"));
+            self.notice(SEV_INFO, None, format!("playing again: {spec}"));
         }
         if let Some(note) = status.note {
             self.notice(SEV_WARNING, None, format!("replay {spec}: {note}"));
