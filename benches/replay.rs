@@ -73,8 +73,9 @@ fn bench(c: &mut Criterion) {
     let spec: LinkSpec = format!("tlog:{}?speed=0", path.display()).parse().unwrap();
     g.bench_function("tlog_link_through_the_core", |b| {
         b.iter(|| {
-            let mut r = VirtualRunner::from_specs(std::slice::from_ref(&spec), AppConfig::default())
-                .unwrap();
+            let mut r =
+                VirtualRunner::from_specs(std::slice::from_ref(&spec), AppConfig::default())
+                    .unwrap();
             assert!(r.run_to_end_of_replays(u64::MAX));
             assert_eq!(r.app.links[0].parser.frames, n);
         })

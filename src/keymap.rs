@@ -399,7 +399,11 @@ impl Action {
             "replay_forward",
             "replay: seek 10 s forward (skipped frames are not loss)",
         ),
-        (Action::ReplaySlower, "replay_slower", "replay: half the speed"),
+        (
+            Action::ReplaySlower,
+            "replay_slower",
+            "replay: half the speed",
+        ),
         (
             Action::ReplayFaster,
             "replay_faster",

@@ -68,7 +68,9 @@ impl PyLog {
     }
 
     fn spec(&self, query: &str) -> LinkSpec {
-        format!("tlog:{}{query}", self.path.display()).parse().unwrap()
+        format!("tlog:{}{query}", self.path.display())
+            .parse()
+            .unwrap()
     }
 }
 
@@ -130,6 +132,9 @@ fn a_pymavlink_log_replays_with_pymavlink_counts_to_its_end() {
     assert_eq!(r.now(), last);
     assert_eq!(link["state"], "down", "{link}");
     assert_eq!(link["reason"], "end of log", "{link}");
+    assert_eq!(link["replay"]["ended"], true, "{link}");
+    assert_eq!(link["replay"]["position_s"], last as f64 / 1e6, "{link}");
+    assert_eq!(link["replay"]["duration_s"], last as f64 / 1e6, "{link}");
     assert_eq!(
         r.app.links[0].state,
         LinkState::Down("end of log".to_string())
@@ -145,9 +150,12 @@ fn the_flight_capture_replays_with_pymavlink_counts_as_fast_as_possible() {
     let exp: Value =
         serde_json::from_str(&std::fs::read_to_string(data("expected.json")).unwrap()).unwrap();
     let e = &exp["copter-flight.vehicle.tlog"];
-    let spec: LinkSpec = format!("tlog:{}?speed=0", data("copter-flight.vehicle.tlog").display())
-        .parse()
-        .unwrap();
+    let spec: LinkSpec = format!(
+        "tlog:{}?speed=0",
+        data("copter-flight.vehicle.tlog").display()
+    )
+    .parse()
+    .unwrap();
     let mut r = runner(spec);
     assert!(r.run_to_end_of_replays(u64::MAX));
     assert_eq!(core_types(&r, (1, 1)), counts(&e["types"]));
@@ -178,7 +186,10 @@ fn frames_arrive_at_their_log_time_divided_by_the_speed() {
         let mut r = runner(log.spec(query));
         r.advance_to(want - 1);
         assert!(
-            !r.app.notices.iter().any(|n| n.text.contains("five seconds")),
+            !r.app
+                .notices
+                .iter()
+                .any(|n| n.text.contains("five seconds")),
             "{query}: early"
         );
         r.advance_to(want + 20 * SECOND);
@@ -312,24 +323,20 @@ fn the_replay_command_controls_every_replay_and_says_what_it_did() {
 
 #[test]
 fn the_status_bar_shows_where_the_replay_is() {
-    let spec: LinkSpec = "tlog:tests/data/copter-flight.vehicle.tlog".parse().unwrap();
+    let spec: LinkSpec = "tlog:tests/data/copter-flight.vehicle.tlog"
+        .parse()
+        .unwrap();
     let mut r = runner(spec);
     r.advance_to(20 * SECOND);
     r.key(Key::ch('+'));
     r.advance_to(25 * SECOND);
     r.key(Key::ch('P'));
     r.advance_to(30 * SECOND);
-    let screen = mavterm::headless::replay::screen_text(
-        &r.app,
-        (80, 24),
-        &mavterm::ui::Theme::PLAIN,
-    );
+    let screen =
+        mavterm::headless::replay::screen_text(&r.app, (80, 24), &mavterm::ui::Theme::PLAIN);
     let status = screen.lines().last().unwrap();
     // 20 s at ×1 and 5 s at ×2: 30 s into an 81.8 s log, paused.
-    assert!(
-        status.contains("replay 00:30/01:21 ×2 paused"),
-        "{status}"
-    );
+    assert!(status.contains("replay 00:30/01:21 ×2 paused"), "{status}");
     insta::assert_snapshot!("replay_paused_80x24", screen);
 }
 
@@ -351,12 +358,20 @@ fn mavterm(args: &[&str]) -> String {
 #[test]
 fn a_headless_report_runs_to_the_end_of_the_log_unless_told_a_duration() {
     let link = "tlog:tests/data/copter-flight.vehicle.tlog";
-    let full: Value =
-        serde_json::from_str(&mavterm(&["--headless", "--report", "json", "--link", link]))
-            .unwrap();
+    let full: Value = serde_json::from_str(&mavterm(&[
+        "--headless",
+        "--report",
+        "json",
+        "--link",
+        link,
+    ]))
+    .unwrap();
     let l = &full["links"][0];
     assert_eq!(l["frames"], 11648, "{l}");
-    assert_eq!((&l["state"], &l["reason"]), (&"down".into(), &"end of log".into()));
+    assert_eq!(
+        (&l["state"], &l["reason"]),
+        (&"down".into(), &"end of log".into())
+    );
     let short: Value = serde_json::from_str(&mavterm(&[
         "--headless",
         "--report",
@@ -396,13 +411,19 @@ fn a_headless_script_on_a_tlog_gives_the_same_screens_twice() {
     };
     let a = run();
     let b = run();
-    assert_eq!(a, b, "the same script on the same log gives the same screens");
+    assert_eq!(
+        a, b,
+        "the same script on the same log gives the same screens"
+    );
     let snap = |name: &str| {
         let s = a.split(&format!("=== snapshot {name} ")).nth(1).unwrap();
         s.lines().nth(24).unwrap().to_string()
     };
     assert!(snap("playing").contains("replay 00:05/01:21 ×1 "), "{a}");
-    assert!(snap("paused").contains("replay 00:06/01:21 ×1 paused"), "{a}");
+    assert!(
+        snap("paused").contains("replay 00:06/01:21 ×1 paused"),
+        "{a}"
+    );
     assert!(snap("faster").contains("×2"), "{}", snap("faster"));
 }
 
@@ -445,8 +466,16 @@ fn seeking_a_long_log_keeps_memory_bounded_and_lands_where_asked() {
         let bytes = src.poll(now);
         // The record at the target: heartbeat number target × 10.
         let i = target_s * 10;
-        assert_eq!(bytes, common::copter_heartbeat(1, i as u8, 0), "at {target_s} s");
-        assert!(src.buffered_bytes() <= 256 * 1024, "{}", src.buffered_bytes());
+        assert_eq!(
+            bytes,
+            common::copter_heartbeat(1, i as u8, 0),
+            "at {target_s} s"
+        );
+        assert!(
+            src.buffered_bytes() <= 256 * 1024,
+            "{}",
+            src.buffered_bytes()
+        );
         assert!(src.buffered_records() <= 1);
         assert!(src.index().len() <= SEEK_INDEX_MAX);
         src.control(now, ReplayCmd::Resume);

@@ -109,7 +109,10 @@ pub enum Event {
         result: Result<Vec<u8>, String>,
     },
     /// Where a replay link is (`tlog:`): sent when that changes, in order with its frames.
-    ReplayStatus { link: LinkId, status: ReplayStatus },
+    ReplayStatus {
+        link: LinkId,
+        status: ReplayStatus,
+    },
 }
 
 /// What the core wants done.
@@ -138,7 +141,10 @@ pub enum Effect {
         spec: LinkSpec,
     },
     /// Pause, step, seek or change the speed of a replay link.
-    ReplayControl { link: LinkId, cmd: ReplayCmd },
+    ReplayControl {
+        link: LinkId,
+        cmd: ReplayCmd,
+    },
     Quit,
 }
 

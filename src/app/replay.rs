@@ -28,7 +28,10 @@ fn parse_time(s: &str) -> Option<f64> {
         return None;
     }
     for (i, p) in parts.iter().enumerate() {
-        let v: f64 = p.parse().ok().filter(|v: &f64| v.is_finite() && *v >= 0.0)?;
+        let v: f64 = p
+            .parse()
+            .ok()
+            .filter(|v: &f64| v.is_finite() && *v >= 0.0)?;
         if i > 0 && v >= 60.0 {
             return None;
         }
@@ -204,7 +207,15 @@ mod tests {
             Ok(ReplayCmd::Speed(ReplaySpeed::new(4.0).unwrap()))
         );
         assert_eq!(parse("speed 0"), Ok(ReplayCmd::Speed(ReplaySpeed::MAX)));
-        for bad in ["", "jump", "pause now", "seek", "seek 1:70", "seek x", "step 0"] {
+        for bad in [
+            "",
+            "jump",
+            "pause now",
+            "seek",
+            "seek 1:70",
+            "seek x",
+            "step 0",
+        ] {
             assert!(parse(bad).is_err(), "{bad}");
         }
         assert!(parse("speed -2").unwrap_err().contains("speed `-2`"));

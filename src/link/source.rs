@@ -328,7 +328,9 @@ impl TlogSource {
             }
             Some(Err(e)) => {
                 tracing::warn!(offset = at, "tlog read: {e}");
-                self.note = Some(format!("read error at byte {at}: {e}; the replay ends there"));
+                self.note = Some(format!(
+                    "read error at byte {at}: {e}; the replay ends there"
+                ));
                 None
             }
             None => None,
@@ -459,7 +461,7 @@ impl VirtualSource for TlogSource {
         self.touch(now);
         let here = self.log_now(now);
         match cmd {
-            ReplayCmd::TogglePause if self.paused => return self.control(now, ReplayCmd::Resume),
+            ReplayCmd::TogglePause if self.paused => self.control(now, ReplayCmd::Resume),
             ReplayCmd::TogglePause | ReplayCmd::Pause => {
                 if !self.paused {
                     self.anchor = Some((now, here));

@@ -12,9 +12,9 @@
 use std::net::SocketAddr;
 use std::time::Duration;
 
+use std::sync::Arc;
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream, UdpSocket};
-use std::sync::Arc;
 
 use tokio::sync::{mpsc, Semaphore};
 
@@ -205,8 +205,8 @@ impl Ingest {
 pub fn spawn_link(id: LinkId, spec: LinkSpec, local: SourceFactory, events: EventTx) -> LinkHandle {
     let (tx, rx) = mpsc::channel(OUT_QUEUE);
     let (ctl, ctl_rx) = mpsc::channel(CONTROL_QUEUE);
-    let credits = matches!(spec, LinkSpec::Tlog { .. })
-        .then(|| Arc::new(Semaphore::new(REPLAY_CREDITS)));
+    let credits =
+        matches!(spec, LinkSpec::Tlog { .. }).then(|| Arc::new(Semaphore::new(REPLAY_CREDITS)));
     let task_spec = spec.clone();
     let task_credits = credits.clone();
     let task = tokio::spawn(async move {

@@ -220,7 +220,7 @@ impl Registry {
                 }
             }
         }
-        running.then(|| (self.lost_timeout as f64 * stretch) as Micros)
+        running.then_some((self.lost_timeout as f64 * stretch) as Micros)
     }
 
     pub fn get(&self, key: VehicleKey) -> Option<&Vehicle> {

@@ -166,9 +166,8 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let mut target = target_text(app) + &progress;
     let replay = replay_text(app).map(|r| r + "  ").unwrap_or_default();
     let room_for = |target: &str| {
-        (area.width as usize).saturating_sub(
-            clock.len() + 2 + replay.chars().count() + target.chars().count() + 4,
-        )
+        (area.width as usize)
+            .saturating_sub(clock.len() + 2 + replay.chars().count() + target.chars().count() + 4)
     };
     let mut room = room_for(&target);
     // A message that does not fit gets the room of the target's mode and state.
