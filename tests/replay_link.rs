@@ -530,7 +530,7 @@ fn a_replay_in_real_time_as_fast_as_possible_loses_nothing_and_ends() {
 }
 
 #[test]
-fn a_replay_in_real_time_pauses_on_the_key() {
+fn a_replay_in_real_time_pauses_and_seeks_on_the_keys() {
     let log = PyLog::write(60);
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_all()
@@ -559,5 +559,29 @@ fn a_replay_in_real_time_pauses_on_the_key() {
         let t = rt.now() + 500_000;
         let _ = rt.run(Some(t), &mut NoFrontend).await;
         assert_eq!(rt.app.links[0].parser.frames, n);
+        // Play again, and seek 5 s on while playing (80 frames: a gap the sequence numbers
+        // would show as loss): what was passed over is not loss.
+        rt.step(mavterm::app::Event::Key(Key::ch('P')));
+        let t = rt.now() + 300_000;
+        let _ = rt.run(Some(t), &mut NoFrontend).await;
+        for c in ":replay seek +5\n".chars() {
+            let k = match c {
+                '\n' => Key::plain(mavterm::keymap::KeyCode::Enter),
+                c => Key::ch(c),
+            };
+            rt.step(mavterm::app::Event::Key(k));
+        }
+        let t = rt.now() + 500_000;
+        let _ = rt.run(Some(t), &mut NoFrontend).await;
+        let rep = rt.app.report();
+        let link = &rep["links"][0];
+        assert!(link["frames"].as_u64().unwrap() > n, "{link}");
+        assert_eq!(link["replay"]["paused"], false, "{link}");
+        assert!(
+            link["replay"]["position_s"].as_f64().unwrap() > 5.0,
+            "{link}"
+        );
+        assert_eq!(link["sources"][0]["lost"], 0, "{link}");
+        assert_eq!(rep["vehicles"][0]["reboots"], 0, "{rep}");
     });
 }

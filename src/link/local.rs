@@ -34,31 +34,34 @@ pub(crate) async fn run_local(
                 tokio::time::sleep_until(start + Duration::from_micros(deadline)).await
             }
         };
+        let mut events = Vec::with_capacity(3);
         tokio::select! {
             _ = sleep => {}
             m = out.recv() => match m {
                 Some(bytes) => src.receive(now(), &bytes),
                 None => return Ok(()),
             },
-            Some(cmd) = ctl.recv() => src.control(now(), cmd),
+            Some(cmd) = ctl.recv() => {
+                src.control(now(), cmd);
+                // Told before the frames that follow, so a seek's jump is known when they come.
+                events.extend(src.take_status(now()).map(LinkEvent::Replay));
+            }
         }
         let bytes = src.poll(now());
         // What the source passed over (a tlog's garbage) counts as garbage on the link.
         let skipped = src.skipped();
         let new_skipped = skipped.saturating_sub(skipped_reported);
         skipped_reported = skipped;
-        let status = src.take_status(now());
         if !src.lossless() {
             if !bytes.is_empty() || new_skipped > 0 {
                 ingest.feed_skipped(&bytes, new_skipped);
             }
             continue;
         }
-        let mut events = Vec::with_capacity(2);
         if !bytes.is_empty() || new_skipped > 0 {
             events.push(ingest.frames_event(&bytes, new_skipped));
         }
-        events.extend(status.map(LinkEvent::Replay));
+        events.extend(src.take_status(now()).map(LinkEvent::Replay));
         for ev in events {
             if !ingest
                 .send_waiting(ev, out, |b| src.receive(now(), &b))

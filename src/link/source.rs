@@ -389,7 +389,7 @@ impl TlogSource {
         }
         if let Some((_, off)) = jump {
             if let Err(e) = self.reader.get_mut().seek_to(off) {
-                self.note = Some(format!("cannot seek back: {e}"));
+                self.note = Some(format!("cannot seek: {e}"));
                 return;
             }
             self.reader.restart_at(off);
