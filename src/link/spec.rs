@@ -367,7 +367,8 @@ fn looks_like_options(tail: &str) -> bool {
 /// whose `?` is followed by something that reads as options is written with a `?` at the end.
 fn tlog(input: &str, rest: &str) -> Result<LinkSpec, SpecError> {
     let (path, query) = match rest.rsplit_once('?') {
-        Some((path, tail)) if looks_like_options(tail) => (path, tail),
+        // Blanks before the options are not the path's (they would not print back).
+        Some((path, tail)) if looks_like_options(tail) => (path.trim_end(), tail),
         _ => (rest, ""),
     };
     if path.trim().is_empty() {
@@ -826,6 +827,7 @@ mod tests {
         assert_eq!(p("tlog:a.tlog?speed=0.25"), at("a.tlog", 0.25));
         assert_eq!(p("tlog:a.tlog?speed=1"), tlog("a.tlog"));
         assert_eq!(p("tlog:a.tlog?"), tlog("a.tlog"));
+        assert_eq!(p("tlog:a.tlog \n?speed=2"), at("a.tlog", 2.0));
         assert_eq!(p("file:///tmp/a.tlog?speed=4"), at("/tmp/a.tlog", 4.0));
         // A `?` not followed by options is the path's own.
         assert_eq!(p("tlog:what?.tlog"), tlog("what?.tlog"));
