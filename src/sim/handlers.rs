@@ -603,6 +603,8 @@ impl SimVehicle {
         self.auto.auto_armed = true;
         self.takeoff_target = Some(target.min(1000.0));
         self.guided_target = None;
+        self.guided_vel = None;
+        self.guided_yaw = None;
         self.armed_on_ground_since = None;
         MavResult::MAV_RESULT_ACCEPTED
     }

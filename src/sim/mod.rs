@@ -123,6 +123,7 @@ impl Sim {
             let mut v = SimVehicle::new(sysid, i, cfg.seed, params, path);
             v.drop_left = cfg.drop_cmd.clone();
             v.set_link(cfg.baud, cfg.ftp);
+            v.mission.ready_at = cfg.mission_boot_ms.saturating_mul(1000);
             vehicles.push(v);
         }
         let impair = Impairer::new(
@@ -327,3 +328,5 @@ fn encode_raw(h: Header, msgid: u32, payload: &[u8]) -> Vec<u8> {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_mission;

@@ -369,6 +369,10 @@ impl SimVehicle {
         // ArduPilot names its own id MAV_SYSID (SYSID_THISMAV before 4.7).
         params.set("MAV_SYSID", sysid as f64);
         params.set("SYSID_THISMAV", sysid as f64);
+        // The stores start empty (they are not kept in the state file), and so their counts.
+        for total in ["MIS_TOTAL", "FENCE_TOTAL", "RALLY_TOTAL"] {
+            params.set(total, 0.0);
+        }
         SimVehicle {
             sysid,
             compid: 1,
