@@ -50,7 +50,9 @@ pub(super) enum Sub {
     /// Hold at a point (also after the mission ends in the air).
     #[default]
     Loiter,
-    Takeoff { alt: f64 },
+    Takeoff {
+        alt: f64,
+    },
     /// Fly to a point (waypoint, spline, loiter commands).
     Wp,
     /// NAV_LAND: fly to the point at the current altitude, then descend.
@@ -238,7 +240,10 @@ impl SimVehicle {
             return false;
         }
         if self.armed && self.landed && !self.starts_with_takeoff() {
-            self.text(MavSeverity::MAV_SEVERITY_CRITICAL, "Auto: Missing Takeoff Cmd");
+            self.text(
+                MavSeverity::MAV_SEVERITY_CRITICAL,
+                "Auto: Missing Takeoff Cmd",
+            );
             return false;
         }
         true
@@ -652,8 +657,7 @@ impl SimVehicle {
                 );
             }
             cmd::CONDITION_DELAY => {
-                self.auto.condition_until =
-                    Some(self.now + (p1.max(0.0) as f64 * 1e6) as Micros);
+                self.auto.condition_until = Some(self.now + (p1.max(0.0) as f64 * 1e6) as Micros);
             }
             cmd::CONDITION_DISTANCE => self.auto.condition_distance = p1 as f64,
             cmd::CONDITION_YAW => {
@@ -744,8 +748,7 @@ impl SimVehicle {
             },
             cmd::CONDITION_DISTANCE => {
                 let (n, e, _) = self.auto.dest;
-                if (n - self.north).hypot(e - self.east) < self.auto.condition_distance.max(0.0)
-                {
+                if (n - self.north).hypot(e - self.east) < self.auto.condition_distance.max(0.0) {
                     self.auto.condition_distance = 0.0;
                     true
                 } else {
@@ -863,7 +866,6 @@ impl SimVehicle {
     /// True when AUTO has something to do on every tick.
     pub(super) fn auto_busy(&self) -> bool {
         self.custom_mode == mode::AUTO
-            && (self.auto.waiting_to_start
-                || (self.auto.state == RunState::Running && self.armed))
+            && (self.auto.waiting_to_start || (self.auto.state == RunState::Running && self.armed))
     }
 }

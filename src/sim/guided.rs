@@ -78,8 +78,7 @@ impl SimVehicle {
     /// `in_guided_mode()`: GUIDED, or AUTO running a NAV_GUIDED_ENABLE item.
     pub fn in_guided_mode(&self) -> bool {
         self.custom_mode == mode::GUIDED
-            || (self.custom_mode == mode::AUTO
-                && self.auto.sub == super::auto::Sub::NavGuided)
+            || (self.custom_mode == mode::AUTO && self.auto.sub == super::auto::Sub::NavGuided)
     }
 
     /// The GUIDED velocity target in force, if any (north, east, up m/s).
@@ -134,7 +133,10 @@ impl SimVehicle {
             return;
         }
         use MavFrame::*;
-        let body = matches!(m.coordinate_frame, MAV_FRAME_BODY_NED | MAV_FRAME_BODY_OFFSET_NED);
+        let body = matches!(
+            m.coordinate_frame,
+            MAV_FRAME_BODY_NED | MAV_FRAME_BODY_OFFSET_NED
+        );
         let offset = body || m.coordinate_frame == MAV_FRAME_LOCAL_OFFSET_NED;
         if !(offset || m.coordinate_frame == MAV_FRAME_LOCAL_NED) {
             return self.guided_stop();
@@ -196,8 +198,7 @@ impl SimVehicle {
         }
         use MavFrame::*;
         let pos = if tm & POS_IGNORE == 0 {
-            if m.lat_int.unsigned_abs() > 900_000_000 || m.lon_int.unsigned_abs() > 1_800_000_000
-            {
+            if m.lat_int.unsigned_abs() > 900_000_000 || m.lon_int.unsigned_abs() > 1_800_000_000 {
                 return self.guided_stop();
             }
             let terrain = matches!(
@@ -206,9 +207,7 @@ impl SimVehicle {
             );
             let up = match m.coordinate_frame {
                 MAV_FRAME_GLOBAL | MAV_FRAME_GLOBAL_INT => m.alt as f64 - self.home.2,
-                MAV_FRAME_GLOBAL_RELATIVE_ALT | MAV_FRAME_GLOBAL_RELATIVE_ALT_INT => {
-                    m.alt as f64
-                }
+                MAV_FRAME_GLOBAL_RELATIVE_ALT | MAV_FRAME_GLOBAL_RELATIVE_ALT_INT => m.alt as f64,
                 _ if terrain => m.alt as f64,
                 _ => return self.guided_stop(),
             };

@@ -87,7 +87,8 @@ impl SimVehicle {
     pub(super) fn handle(&mut self, now: Micros, from: (u8, u8), msg: &MavMessage) {
         if self.blocked.is_some() {
             // A synchronous calibration holds the main loop: read it afterwards.
-            self.queued_in.push_back((from, Inbound::Msg(msg.clone())));
+            self.queued_in
+                .push_back((from, Inbound::Msg(Box::new(msg.clone()))));
             return;
         }
         self.now = now;
@@ -177,9 +178,7 @@ impl SimVehicle {
                 self.command(now, cmd);
             }
             MavMessage::SET_POSITION_TARGET_LOCAL_NED(m) => self.set_position_target_local_ned(m),
-            MavMessage::SET_POSITION_TARGET_GLOBAL_INT(m) => {
-                self.set_position_target_global_int(m)
-            }
+            MavMessage::SET_POSITION_TARGET_GLOBAL_INT(m) => self.set_position_target_global_int(m),
             // ArduPilot has no handler for COMMAND_CANCEL (GCS_MAVLINK::handle_message has no
             // case for it): it is ignored, nothing is cancelled, nothing is acknowledged.
             MavMessage::COMMAND_CANCEL(_) => {}
@@ -340,7 +339,7 @@ impl SimVehicle {
             }
             // handle_MAV_CMD_DO_CHANGE_SPEED: in AUTO and GUIDED (the modes with set_speed_*).
             MavCmd::MAV_CMD_DO_CHANGE_SPEED => {
-                if !(p[1] > 0.0) {
+                if p[1].is_nan() || p[1] <= 0.0 {
                     return MAV_RESULT_FAILED;
                 }
                 if self.custom_mode != mode::AUTO && self.custom_mode != mode::GUIDED {

@@ -193,7 +193,10 @@ fn f32_at(p: &[u8], i: usize) -> f32 {
 /// A mission protocol message from the GCS, read from its payload.
 #[derive(Debug, Clone, PartialEq)]
 pub(super) enum Incoming {
-    Count { count: u16, ty: u8 },
+    Count {
+        count: u16,
+        ty: u8,
+    },
     /// MISSION_ITEM_INT (`int`) or MISSION_ITEM; a MISSION_ITEM whose lat/lon cannot be
     /// converted carries the error to answer with.
     Item {
@@ -201,11 +204,25 @@ pub(super) enum Incoming {
         int: bool,
         bad: Option<MavMissionResult>,
     },
-    Request { seq: u16, ty: u8, int: bool },
-    RequestList { ty: u8 },
-    ClearAll { ty: u8 },
-    SetCurrent { seq: u16 },
-    WritePartial { start: i16, end: i16, ty: u8 },
+    Request {
+        seq: u16,
+        ty: u8,
+        int: bool,
+    },
+    RequestList {
+        ty: u8,
+    },
+    ClearAll {
+        ty: u8,
+    },
+    SetCurrent {
+        seq: u16,
+    },
+    WritePartial {
+        start: i16,
+        end: i16,
+        ty: u8,
+    },
     Ack,
 }
 
@@ -248,9 +265,9 @@ pub(super) fn parse(id: u32, payload: &[u8]) -> Option<(u8, u8, Incoming)> {
                 if xy_not_location(command) {
                     item.x = fx as i32;
                     item.y = fy as i32;
-                } else if !(fx.abs() <= 90.0) {
+                } else if fx.is_nan() || fx.abs() > 90.0 {
                     bad = Some(MavMissionResult::MAV_MISSION_INVALID_PARAM5_X);
-                } else if !(fy.abs() <= 180.0) {
+                } else if fy.is_nan() || fy.abs() > 180.0 {
                     bad = Some(MavMissionResult::MAV_MISSION_INVALID_PARAM6_Y);
                 } else {
                     // `packet.x * 1.0e7f`: single precision, as ArduPilot computes it.
@@ -301,13 +318,7 @@ pub(super) fn parse(id: u32, payload: &[u8]) -> Option<(u8, u8, Incoming)> {
         }
         MISSION_SET_CURRENT => {
             let p = padded(payload, 4);
-            (
-                p[2],
-                p[3],
-                Incoming::SetCurrent {
-                    seq: u16_at(&p, 0),
-                },
-            )
+            (p[2], p[3], Incoming::SetCurrent { seq: u16_at(&p, 0) })
         }
         MISSION_WRITE_PARTIAL_LIST => {
             let p = padded(payload, 7);
@@ -416,7 +427,10 @@ fn as_i16(v: f32) -> f32 {
 /// WAYPOINT, LAND and TAKEOFF), infinity nowhere.
 fn sanity_check_params(it: &MissionItem) -> MavMissionResult {
     use MavMissionResult::*;
-    let nan_ok_4 = matches!(it.command, cmd::NAV_WAYPOINT | cmd::NAV_LAND | cmd::NAV_TAKEOFF);
+    let nan_ok_4 = matches!(
+        it.command,
+        cmd::NAV_WAYPOINT | cmd::NAV_LAND | cmd::NAV_TAKEOFF
+    );
     let codes = [
         MAV_MISSION_INVALID_PARAM1,
         MAV_MISSION_INVALID_PARAM2,
@@ -652,7 +666,7 @@ fn validate_fence(items: &[MissionItem]) -> Result<(), String> {
                 if left > 0 {
                     return Err("Received incorrect type".into());
                 }
-                if !(it.params[0] > 0.0) {
+                if it.params[0].is_nan() || it.params[0] <= 0.0 {
                     return Err("Non-positive circle radius".into());
                 }
             }
@@ -740,7 +754,7 @@ struct Protocol {
 }
 
 /// The three stores and their protocol state.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct MissionStore {
     /// AP_Mission's items: `len()` is MIS_TOTAL; item 0 is the home slot (reads give home).
     pub(super) mission: Vec<MissionItem>,
@@ -751,18 +765,6 @@ pub struct MissionStore {
     /// an upload is refused with NO_SPACE ("Only 0 items are supported"), as ArduCopter does
     /// while it boots (`mission_boot_ms`).
     pub(super) ready_at: Micros,
-}
-
-impl Default for MissionStore {
-    fn default() -> Self {
-        MissionStore {
-            mission: Vec::new(),
-            fence: Vec::new(),
-            rally: Vec::new(),
-            protocols: Default::default(),
-            ready_at: 0,
-        }
-    }
 }
 
 impl MissionStore {
@@ -778,9 +780,7 @@ impl MissionStore {
         self.protocols
             .iter()
             .filter_map(|p| p.upload.as_ref())
-            .map(|u| {
-                (u.last_request + REQUEST_RESEND + 1).min(u.last_receive + UPLOAD_TIMEOUT + 1)
-            })
+            .map(|u| (u.last_request + REQUEST_RESEND + 1).min(u.last_receive + UPLOAD_TIMEOUT + 1))
             .min()
     }
 }
@@ -859,7 +859,11 @@ impl SimVehicle {
                 if seq as usize > n {
                     return Err(MAV_MISSION_INVALID_SEQUENCE);
                 }
-                *self.mission.fence.get(seq as usize).ok_or(MAV_MISSION_ERROR)?
+                *self
+                    .mission
+                    .fence
+                    .get(seq as usize)
+                    .ok_or(MAV_MISSION_ERROR)?
             }
             _ => *self
                 .mission
@@ -907,7 +911,8 @@ impl SimVehicle {
                     return;
                 }
                 if self.mission.receiving(ty) {
-                    self.out.push(ack_out(from, MavMissionResult::MAV_MISSION_DENIED, ty));
+                    self.out
+                        .push(ack_out(from, MavMissionResult::MAV_MISSION_DENIED, ty));
                     return;
                 }
                 let n = self.item_count(ty);
@@ -1109,18 +1114,18 @@ impl SimVehicle {
                 } else {
                     // convert_MISSION_ITEM_INT_to_MISSION_ITEM checks the converted lat/lon.
                     let (lat, lon) = (item.x as f32 * 1.0e-7f32, item.y as f32 * 1.0e-7f32);
-                    if !xy_not_location(item.command) && !(lat.abs() <= 90.0) {
-                        self.out.push(ack_out(from, MAV_MISSION_INVALID_PARAM5_X, ty));
+                    if !xy_not_location(item.command) && (lat.is_nan() || lat.abs() > 90.0) {
+                        self.out
+                            .push(ack_out(from, MAV_MISSION_INVALID_PARAM5_X, ty));
                         return;
                     }
-                    if !xy_not_location(item.command) && !(lon.abs() <= 180.0) {
-                        self.out.push(ack_out(from, MAV_MISSION_INVALID_PARAM6_Y, ty));
+                    if !xy_not_location(item.command) && (lon.is_nan() || lon.abs() > 180.0) {
+                        self.out
+                            .push(ack_out(from, MAV_MISSION_INVALID_PARAM6_Y, ty));
                         return;
                     }
-                    self.out.push(raw(
-                        msgid::MISSION_ITEM,
-                        item_payload(&item, from, false),
-                    ));
+                    self.out
+                        .push(raw(msgid::MISSION_ITEM, item_payload(&item, from, false)));
                     let p = &mut self.mission.protocols[ty as usize];
                     if !p.warned_request {
                         p.warned_request = true;
@@ -1192,7 +1197,8 @@ impl SimVehicle {
             return;
         };
         if item.seq != up.request_i {
-            self.out.push(ack_out(from, MAV_MISSION_INVALID_SEQUENCE, ty));
+            self.out
+                .push(ack_out(from, MAV_MISSION_INVALID_SEQUENCE, ty));
             return;
         }
         if from != up.dest {
@@ -1297,7 +1303,10 @@ impl SimVehicle {
         let mut texts: Vec<(MavSeverity, String)> = Vec::new();
         let result = match ty {
             mission_type::MISSION => {
-                texts.push((MavSeverity::MAV_SEVERITY_INFO, "Flight plan received".into()));
+                texts.push((
+                    MavSeverity::MAV_SEVERITY_INFO,
+                    "Flight plan received".into(),
+                ));
                 MAV_MISSION_ACCEPTED
             }
             mission_type::FENCE => {
@@ -1410,7 +1419,14 @@ mod tests {
     /// comes back without `_INT`; altitudes go through centimetres.
     #[test]
     fn a_waypoint_is_stored_as_ap_mission_keeps_it() {
-        let it = wp(3, frame::GLOBAL_RELATIVE_ALT_INT, [2.7, 5.0, 1.0, 90.0], 1, 2, 12.345);
+        let it = wp(
+            3,
+            frame::GLOBAL_RELATIVE_ALT_INT,
+            [2.7, 5.0, 1.0, 90.0],
+            1,
+            2,
+            12.345,
+        );
         let s = store_mission_item(&it).unwrap();
         assert_eq!(s.params, [2.0, 0.0, 0.0, 0.0]);
         assert_eq!(s.frame, frame::GLOBAL_RELATIVE_ALT);
@@ -1493,7 +1509,10 @@ mod tests {
             ..Default::default()
         };
         let s = store_rally_item(&it).unwrap();
-        assert_eq!((s.frame, s.z, s.autocontinue), (frame::GLOBAL_RELATIVE_ALT, 15.0, 0));
+        assert_eq!(
+            (s.frame, s.z, s.autocontinue),
+            (frame::GLOBAL_RELATIVE_ALT, 15.0, 0)
+        );
         let abs = MissionItem {
             frame: frame::GLOBAL,
             ..it
@@ -1508,7 +1527,7 @@ mod tests {
     fn mission_item_float_lat_lon_is_converted_in_single_precision() {
         let mut p = vec![0u8; 38];
         p[16..20].copy_from_slice(&(-35.363_262_f32).to_le_bytes());
-        p[20..24].copy_from_slice(&(149.165_237_f32).to_le_bytes());
+        p[20..24].copy_from_slice(&(149.165_24_f32).to_le_bytes());
         p[30..32].copy_from_slice(&16u16.to_le_bytes());
         p[32] = 1;
         p[33] = 1;
@@ -1518,7 +1537,7 @@ mod tests {
         };
         assert!(!int && bad.is_none());
         assert_eq!(item.x, (-35.363_262_f32 * 1.0e7f32) as i32);
-        assert_eq!(item.y, (149.165_237_f32 * 1.0e7f32) as i32);
+        assert_eq!(item.y, (149.165_24_f32 * 1.0e7f32) as i32);
         p[16..20].copy_from_slice(&91.0f32.to_le_bytes());
         let (_, _, m) = parse(msgid::MISSION_ITEM, &p).unwrap();
         assert!(matches!(

@@ -132,6 +132,18 @@ impl Bench {
         }
     }
 
+    /// MISSION_CURRENT every `interval` µs (SET_MESSAGE_INTERVAL).
+    fn stream_mission_current(&mut self, interval: u32) {
+        self.send(MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+            command: MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+            param1: msgid::MISSION_CURRENT as f32,
+            param2: interval as f32,
+            target_system: 1,
+            target_component: 1,
+            ..Default::default()
+        }));
+    }
+
     /// Texts since frame `from`.
     fn texts_since(&self, from: usize) -> Vec<String> {
         self.frames[from..]
@@ -389,8 +401,24 @@ fn download(b: &mut Bench, ty: u8) -> Vec<MissionItem> {
 /// waypoint's delay and location, and whole metres survive the centimetre round trip).
 fn grid_mission(n: u16) -> Vec<MissionItem> {
     let (lat0, lon0) = (-353_632_621, 1_491_652_374);
-    let mut v = vec![item(0, cmd::NAV_WAYPOINT, frame::GLOBAL, [0.0; 4], lat0, lon0, 584.0)];
-    v.push(item(1, cmd::NAV_TAKEOFF, frame::GLOBAL_RELATIVE_ALT, [0.0; 4], 0, 0, 20.0));
+    let mut v = vec![item(
+        0,
+        cmd::NAV_WAYPOINT,
+        frame::GLOBAL,
+        [0.0; 4],
+        lat0,
+        lon0,
+        584.0,
+    )];
+    v.push(item(
+        1,
+        cmd::NAV_TAKEOFF,
+        frame::GLOBAL_RELATIVE_ALT,
+        [0.0; 4],
+        0,
+        0,
+        20.0,
+    ));
     for i in 2..n - 1 {
         let (r, c) = ((i - 2) / 8, (i - 2) % 8);
         v.push(item(
@@ -403,7 +431,15 @@ fn grid_mission(n: u16) -> Vec<MissionItem> {
             20.0 + (i % 7) as f32,
         ));
     }
-    v.push(item(n - 1, cmd::NAV_RETURN_TO_LAUNCH, frame::GLOBAL, [0.0; 4], 0, 0, 0.0));
+    v.push(item(
+        n - 1,
+        cmd::NAV_RETURN_TO_LAUNCH,
+        frame::GLOBAL,
+        [0.0; 4],
+        0,
+        0,
+        0.0,
+    ));
     v
 }
 
@@ -452,7 +488,10 @@ fn fifty_items_up_and_down_clean_and_at_30_percent_loss() {
             assert!(asked.values().any(|&n| n > 1), "no request repeated");
             assert!(resends > 0, "the GCS never had to resend");
         } else {
-            assert_eq!(requests.iter().map(|r| r.0).collect::<Vec<_>>(), (0..50).collect::<Vec<_>>());
+            assert_eq!(
+                requests.iter().map(|r| r.0).collect::<Vec<_>>(),
+                (0..50).collect::<Vec<_>>()
+            );
             assert_eq!(resends, 0);
         }
     }
@@ -484,7 +523,11 @@ fn the_capture_replayed_gets_the_real_copters_answers() {
     assert_eq!(want.len(), 29, "the capture's protocol messages");
     assert_eq!(got, want);
     let texts = b.texts_since(0);
-    for t in ["Only 0 items are supported", "Flight plan received", "Fence Indexed OK"] {
+    for t in [
+        "Only 0 items are supported",
+        "Flight plan received",
+        "Fence Indexed OK",
+    ] {
         assert!(texts.iter().any(|x| x == t), "{t} in {texts:?}");
     }
     assert_eq!(b.v().param("MIS_TOTAL"), Some(6.0));
@@ -504,58 +547,127 @@ fn the_capture_replayed_gets_the_real_copters_answers() {
 fn fence_and_rally_round_trips() {
     let mut b = Bench::new("");
     b.run_for(SECOND);
-    let corners = [(-353_650_576, 1_491_630_269), (-353_605_660, 1_491_630_269),
-        (-353_605_660, 1_491_685_346), (-353_650_576, 1_491_685_346)];
+    let corners = [
+        (-353_650_576, 1_491_630_269),
+        (-353_605_660, 1_491_630_269),
+        (-353_605_660, 1_491_685_346),
+        (-353_650_576, 1_491_685_346),
+    ];
     let mut fence: Vec<MissionItem> = corners
         .iter()
         .enumerate()
         .map(|(i, &(x, y))| MissionItem {
             mission_type: mission_type::FENCE,
-            ..item(i as u16, cmd::NAV_FENCE_POLYGON_VERTEX_INCLUSION, frame::GLOBAL, [4.0, 0.0, 0.0, 0.0], x, y, 0.0)
+            ..item(
+                i as u16,
+                cmd::NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+                frame::GLOBAL,
+                [4.0, 0.0, 0.0, 0.0],
+                x,
+                y,
+                0.0,
+            )
         })
         .collect();
     fence.push(MissionItem {
         mission_type: mission_type::FENCE,
-        ..item(4, cmd::NAV_FENCE_RETURN_POINT, frame::GLOBAL_RELATIVE_ALT, [0.0; 4], -353_632_621, 1_491_652_374, 0.0)
+        ..item(
+            4,
+            cmd::NAV_FENCE_RETURN_POINT,
+            frame::GLOBAL_RELATIVE_ALT,
+            [0.0; 4],
+            -353_632_621,
+            1_491_652_374,
+            0.0,
+        )
     });
-    assert_eq!(upload(&mut b, &fence, mission_type::FENCE).0, Upload::Accepted);
+    assert_eq!(
+        upload(&mut b, &fence, mission_type::FENCE).0,
+        Upload::Accepted
+    );
     let got = download(&mut b, mission_type::FENCE);
     assert_eq!(got.len(), 5);
     for (up, down) in fence.iter().zip(&got) {
         // AC_PolyFence keeps command, param1 and lat/lon; frame GLOBAL, autocontinue 0.
-        assert_eq!((down.command, down.params[0], down.x, down.y), (up.command, up.params[0], up.x, up.y));
-        assert_eq!((down.frame, down.autocontinue, down.z), (frame::GLOBAL, 0, 0.0));
+        assert_eq!(
+            (down.command, down.params[0], down.x, down.y),
+            (up.command, up.params[0], up.x, up.y)
+        );
+        assert_eq!(
+            (down.frame, down.autocontinue, down.z),
+            (frame::GLOBAL, 0, 0.0)
+        );
     }
     assert_eq!(b.v().param("FENCE_TOTAL"), Some(6.0));
     // Three vertices announced as four: "Incorrect item count", ERROR, the old fence stays.
     let bad: Vec<MissionItem> = fence[..3].to_vec();
     let from = b.frames.len();
-    assert_eq!(upload(&mut b, &bad, mission_type::FENCE).0, Upload::AfterLast(1));
+    assert_eq!(
+        upload(&mut b, &bad, mission_type::FENCE).0,
+        Upload::AfterLast(1)
+    );
     let texts = b.texts_since(from);
-    assert!(texts.contains(&"Incorrect item count".to_string()), "{texts:?}");
-    assert!(texts.contains(&"Fence validation failed".to_string()), "{texts:?}");
+    assert!(
+        texts.contains(&"Incorrect item count".to_string()),
+        "{texts:?}"
+    );
+    assert!(
+        texts.contains(&"Fence validation failed".to_string()),
+        "{texts:?}"
+    );
     assert_eq!(b.v().stored_items(mission_type::FENCE).len(), 5);
 
     let rally = [MissionItem {
         mission_type: mission_type::RALLY,
-        ..item(0, cmd::NAV_RALLY_POINT, frame::GLOBAL_RELATIVE_ALT_INT, [0.0; 4], -353_635_304, 1_491_654_503, 15.0)
+        ..item(
+            0,
+            cmd::NAV_RALLY_POINT,
+            frame::GLOBAL_RELATIVE_ALT_INT,
+            [0.0; 4],
+            -353_635_304,
+            1_491_654_503,
+            15.0,
+        )
     }];
-    assert_eq!(upload(&mut b, &rally, mission_type::RALLY).0, Upload::Accepted);
+    assert_eq!(
+        upload(&mut b, &rally, mission_type::RALLY).0,
+        Upload::Accepted
+    );
     let got = download(&mut b, mission_type::RALLY);
     assert_eq!(got.len(), 1);
-    assert_eq!((got[0].frame, got[0].x, got[0].y, got[0].z), (frame::GLOBAL_RELATIVE_ALT, -353_635_304, 1_491_654_503, 15.0));
+    assert_eq!(
+        (got[0].frame, got[0].x, got[0].y, got[0].z),
+        (
+            frame::GLOBAL_RELATIVE_ALT,
+            -353_635_304,
+            1_491_654_503,
+            15.0
+        )
+    );
     assert_eq!(b.v().param("RALLY_TOTAL"), Some(1.0));
     // A rally point must be relative to home.
-    let abs = [MissionItem { frame: frame::GLOBAL, ..rally[0] }];
-    assert_eq!(upload(&mut b, &abs, mission_type::RALLY).0, Upload::AfterLast(2));
+    let abs = [MissionItem {
+        frame: frame::GLOBAL,
+        ..rally[0]
+    }];
+    assert_eq!(
+        upload(&mut b, &abs, mission_type::RALLY).0,
+        Upload::AfterLast(2)
+    );
 
     // MISSION_CLEAR_ALL per type.
     let from = b.frames.len();
     b.send_raw(msgid::MISSION_CLEAR_ALL, &[1, 1, mission_type::RALLY]);
     b.run_for(20_000);
     assert_eq!(
-        protos(&b.frames[from..]).into_iter().map(|p| p.1).collect::<Vec<_>>(),
-        vec![Proto::Ack { result: 0, ty: mission_type::RALLY }]
+        protos(&b.frames[from..])
+            .into_iter()
+            .map(|p| p.1)
+            .collect::<Vec<_>>(),
+        vec![Proto::Ack {
+            result: 0,
+            ty: mission_type::RALLY
+        }]
     );
     assert!(b.v().stored_items(mission_type::RALLY).is_empty());
     assert_eq!(b.v().stored_items(mission_type::FENCE).len(), 5);
@@ -575,7 +687,10 @@ fn duplicates_and_interleavings() {
     send_request(&mut b, 2, 0, true);
     b.run_for(20_000);
     let answers: Vec<Proto> = protos(&b.frames[from..]).into_iter().map(|p| p.1).collect();
-    let want = Proto::Item { item: items[2], int: true };
+    let want = Proto::Item {
+        item: items[2],
+        int: true,
+    };
     assert_eq!(answers, vec![want.clone(), want]);
 
     // Upload with a duplicated item.
@@ -586,19 +701,43 @@ fn duplicates_and_interleavings() {
     send_item(&mut b, &items[0]);
     b.run_for(20_000);
     // Another GCS tries to upload meanwhile; a download is refused too.
-    let h = Header { sysid: 200, compid: 1, seq: 0 };
-    b.sim.receive(b.now, &encode_raw(h, msgid::MISSION_COUNT, &[2, 0, 1, 1, 0]));
+    let h = Header {
+        sysid: 200,
+        compid: 1,
+        seq: 0,
+    };
+    b.sim.receive(
+        b.now,
+        &encode_raw(h, msgid::MISSION_COUNT, &[2, 0, 1, 1, 0]),
+    );
     b.send_raw(msgid::MISSION_REQUEST_LIST, &[1, 1, 0]);
     b.run_for(20_000);
     let got: Vec<Proto> = protos(&b.frames[from..]).into_iter().map(|p| p.1).collect();
     assert_eq!(
         got,
         vec![
-            Proto::Request { seq: 0, ty: 0, int: false },
-            Proto::Request { seq: 1, ty: 0, int: false },
-            Proto::Ack { result: MavMissionResult::MAV_MISSION_INVALID_SEQUENCE as u8, ty: 0 },
-            Proto::Ack { result: MavMissionResult::MAV_MISSION_DENIED as u8, ty: 0 },
-            Proto::Ack { result: MavMissionResult::MAV_MISSION_DENIED as u8, ty: 0 },
+            Proto::Request {
+                seq: 0,
+                ty: 0,
+                int: false
+            },
+            Proto::Request {
+                seq: 1,
+                ty: 0,
+                int: false
+            },
+            Proto::Ack {
+                result: MavMissionResult::MAV_MISSION_INVALID_SEQUENCE as u8,
+                ty: 0
+            },
+            Proto::Ack {
+                result: MavMissionResult::MAV_MISSION_DENIED as u8,
+                ty: 0
+            },
+            Proto::Ack {
+                result: MavMissionResult::MAV_MISSION_DENIED as u8,
+                ty: 0
+            },
         ]
     );
     assert!(b.v().mission_receiving(0));
@@ -627,13 +766,21 @@ fn re_requests_each_second_then_cancels_after_eight() {
         .map(|(t, _)| t - t_item)
         .collect();
     // Immediately, then at the first 10 ms tick more than 1 s after the previous.
-    assert_eq!(requests, vec![0, 1_010_000, 2_020_000, 3_030_000, 4_040_000, 5_050_000, 6_060_000, 7_070_000]);
+    assert_eq!(
+        requests,
+        vec![0, 1_010_000, 2_020_000, 3_030_000, 4_040_000, 5_050_000, 6_060_000, 7_070_000]
+    );
     let cancel: Vec<(Micros, Proto)> = got
         .into_iter()
         .filter(|(_, p)| matches!(p, Proto::Ack { .. }))
         .collect();
-    assert_eq!(cancel, vec![(t_item + 8_010_000, Proto::Ack { result: 15, ty: 0 })]);
-    assert!(b.texts_since(from).contains(&"Mission upload timeout".to_string()));
+    assert_eq!(
+        cancel,
+        vec![(t_item + 8_010_000, Proto::Ack { result: 15, ty: 0 })]
+    );
+    assert!(b
+        .texts_since(from)
+        .contains(&"Mission upload timeout".to_string()));
     assert_eq!(b.v().stored_items(0).len(), 2);
     assert!(!b.v().mission_receiving(0));
 }
@@ -644,7 +791,15 @@ fn re_requests_each_second_then_cancels_after_eight() {
 fn the_float_messages_work_with_a_warning() {
     let mut b = Bench::new("");
     b.run_for(SECOND);
-    let mut it = item(1, cmd::NAV_WAYPOINT, frame::GLOBAL_RELATIVE_ALT, [0.0; 4], 0, 0, 30.0);
+    let mut it = item(
+        1,
+        cmd::NAV_WAYPOINT,
+        frame::GLOBAL_RELATIVE_ALT,
+        [0.0; 4],
+        0,
+        0,
+        30.0,
+    );
     send_count(&mut b, 2, 0);
     b.run_for(20_000);
     send_item(&mut b, &grid_mission(3)[0]);
@@ -655,7 +810,9 @@ fn the_float_messages_work_with_a_warning() {
     p[20..24].copy_from_slice(&(149.17f32).to_le_bytes());
     b.send_raw(msgid::MISSION_ITEM, &p);
     b.run_for(20_000);
-    assert!(b.texts_since(from).contains(&"got MISSION_ITEM; GCS should send MISSION_ITEM_INT".to_string()));
+    assert!(b
+        .texts_since(from)
+        .contains(&"got MISSION_ITEM; GCS should send MISSION_ITEM_INT".to_string()));
     it.x = (-35.36f32 * 1.0e7f32) as i32;
     it.y = (149.17f32 * 1.0e7f32) as i32;
     assert_eq!(b.v().stored_items(0)[1], it);
@@ -665,16 +822,31 @@ fn the_float_messages_work_with_a_warning() {
     b.run_for(20_000);
     let got: Vec<Proto> = protos(&b.frames[from..]).into_iter().map(|p| p.1).collect();
     assert_eq!(got.len(), 2);
-    let Proto::Item { item: back, int: false } = &got[0] else { panic!("{got:?}") };
+    let Proto::Item {
+        item: back,
+        int: false,
+    } = &got[0]
+    else {
+        panic!("{got:?}")
+    };
     assert_eq!(back.x, (it.x as f32 * 1.0e-7f32 * 1.0e7f32) as i32);
     let warnings = b.texts_since(from);
-    assert_eq!(warnings, vec!["got MISSION_REQUEST; use MISSION_REQUEST_INT!".to_string()]);
+    assert_eq!(
+        warnings,
+        vec!["got MISSION_REQUEST; use MISSION_REQUEST_INT!".to_string()]
+    );
     // Beyond the end: MISSION_COUNT to educate the GCS, then INVALID_SEQUENCE.
     let from = b.frames.len();
     send_request(&mut b, 7, 0, true);
     b.run_for(20_000);
     let got: Vec<Proto> = protos(&b.frames[from..]).into_iter().map(|p| p.1).collect();
-    assert_eq!(got, vec![Proto::Count { count: 2, ty: 0 }, Proto::Ack { result: 13, ty: 0 }]);
+    assert_eq!(
+        got,
+        vec![
+            Proto::Count { count: 2, ty: 0 },
+            Proto::Ack { result: 13, ty: 0 }
+        ]
+    );
     // An unknown mission type is refused, echoing the type.
     let from = b.frames.len();
     send_count(&mut b, 1, 9);
@@ -705,14 +877,7 @@ fn the_capture_mission_flies_like_the_real_copter() {
         .collect();
     assert_eq!(items.len(), 6);
     assert_eq!(upload(&mut b, &items, 0).0, Upload::Accepted);
-    b.send(MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
-        command: MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
-        param1: 42.0,
-        param2: 250_000.0,
-        target_system: 1,
-        target_component: 1,
-        ..Default::default()
-    }));
+    b.stream_mission_current(250_000);
     b.guided_armed(Some(10.0));
     // The capture's GCS sent AUTO and MISSION_START together (one loop handles both).
     let from = b.frames.len();
@@ -755,13 +920,19 @@ fn the_capture_mission_flies_like_the_real_copter() {
         .collect();
     assert_eq!(want_texts.len(), 9, "{want_texts:?}");
     assert_eq!(want_texts[3], "Reached command #2");
-    let got_texts: Vec<String> = b.texts_since(from).into_iter().filter(|t| mission_texts(t)).collect();
+    let got_texts: Vec<String> = b
+        .texts_since(from)
+        .into_iter()
+        .filter(|t| mission_texts(t))
+        .collect();
     assert_eq!(got_texts, want_texts);
 
     let want_reached: Vec<u16> = vehicle
         .iter()
         .filter(|(_, f)| f.msgid == msgid::MISSION_ITEM_REACHED)
-        .map(|(_, f)| u16::from_le_bytes([f.payload()[0], f.payload().get(1).copied().unwrap_or(0)]))
+        .map(|(_, f)| {
+            u16::from_le_bytes([f.payload()[0], f.payload().get(1).copied().unwrap_or(0)])
+        })
         .collect();
     assert_eq!(want_reached, vec![1, 3, 4, 5]);
     assert_eq!(b.reached_since(from), want_reached);
@@ -792,27 +963,42 @@ fn a_mission_ending_in_the_air_holds_in_auto() {
     let (lat0, lon0) = (-353_632_621, 1_491_652_374);
     let items = vec![
         item(0, cmd::NAV_WAYPOINT, frame::GLOBAL, [0.0; 4], 0, 0, 0.0),
-        item(1, cmd::NAV_TAKEOFF, frame::GLOBAL_RELATIVE_ALT, [0.0; 4], 0, 0, 10.0),
-        item(2, cmd::NAV_WAYPOINT, frame::GLOBAL_RELATIVE_ALT, [0.0; 4], lat0 + 2_700, lon0, 12.0),
+        item(
+            1,
+            cmd::NAV_TAKEOFF,
+            frame::GLOBAL_RELATIVE_ALT,
+            [0.0; 4],
+            0,
+            0,
+            10.0,
+        ),
+        item(
+            2,
+            cmd::NAV_WAYPOINT,
+            frame::GLOBAL_RELATIVE_ALT,
+            [0.0; 4],
+            lat0 + 2_700,
+            lon0,
+            12.0,
+        ),
     ];
     assert_eq!(upload(&mut b, &items, 0).0, Upload::Accepted);
-    b.send(MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
-        command: MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
-        param1: 42.0,
-        param2: 500_000.0,
-        target_system: 1,
-        target_component: 1,
-        ..Default::default()
-    }));
+    b.stream_mission_current(500_000);
     b.guided_armed(None);
-    assert_eq!(b.long(MavCmd::MAV_CMD_MISSION_START, [0.0; 7]), MavResult::MAV_RESULT_ACCEPTED);
+    assert_eq!(
+        b.long(MavCmd::MAV_CMD_MISSION_START, [0.0; 7]),
+        MavResult::MAV_RESULT_ACCEPTED
+    );
     while b.v().auto.state != super::auto::RunState::Complete {
         b.run_for(100_000);
         assert!(b.now < 60 * SECOND, "mission not complete");
     }
     let done = (b.v().position_ne(), b.v().relative_alt_m());
     // 30 m north, 12 m up, reached within WPNAV_RADIUS (2 m).
-    assert!((done.0 .0 - 30.0).abs() < 2.1 && (done.1 - 12.0).abs() < 2.1, "{done:?}");
+    assert!(
+        (done.0 .0 - 30.0).abs() < 2.1 && (done.1 - 12.0).abs() < 2.1,
+        "{done:?}"
+    );
     let from = b.frames.len();
     b.run_for(20 * SECOND);
     assert_eq!((b.v().position_ne(), b.v().relative_alt_m()), done);
@@ -831,26 +1017,59 @@ fn takeoff_four_waypoints_and_land_from_the_ground() {
     let (lat0, lon0) = (-353_632_621, 1_491_652_374);
     let d = 5_390; // 60 m north in 1e-7 degrees
     let e = 6_620; // about 60 m east at this latitude
-    let corners = [(lat0 + d, lon0), (lat0 + d, lon0 + e), (lat0, lon0 + e), (lat0, lon0)];
-    let mut items = vec![item(0, cmd::NAV_WAYPOINT, frame::GLOBAL, [0.0; 4], 0, 0, 0.0)];
-    items.push(item(1, cmd::NAV_TAKEOFF, frame::GLOBAL_RELATIVE_ALT, [0.0; 4], 0, 0, 15.0));
+    let corners = [
+        (lat0 + d, lon0),
+        (lat0 + d, lon0 + e),
+        (lat0, lon0 + e),
+        (lat0, lon0),
+    ];
+    let mut items = vec![item(
+        0,
+        cmd::NAV_WAYPOINT,
+        frame::GLOBAL,
+        [0.0; 4],
+        0,
+        0,
+        0.0,
+    )];
+    items.push(item(
+        1,
+        cmd::NAV_TAKEOFF,
+        frame::GLOBAL_RELATIVE_ALT,
+        [0.0; 4],
+        0,
+        0,
+        15.0,
+    ));
     for (i, (x, y)) in corners.iter().enumerate() {
-        items.push(item(2 + i as u16, cmd::NAV_WAYPOINT, frame::GLOBAL_RELATIVE_ALT, [0.0; 4], *x, *y, 15.0));
+        items.push(item(
+            2 + i as u16,
+            cmd::NAV_WAYPOINT,
+            frame::GLOBAL_RELATIVE_ALT,
+            [0.0; 4],
+            *x,
+            *y,
+            15.0,
+        ));
     }
-    items.push(item(6, cmd::NAV_LAND, frame::GLOBAL_RELATIVE_ALT, [0.0; 4], 0, 0, 0.0));
+    items.push(item(
+        6,
+        cmd::NAV_LAND,
+        frame::GLOBAL_RELATIVE_ALT,
+        [0.0; 4],
+        0,
+        0,
+        0.0,
+    ));
     assert_eq!(upload(&mut b, &items, 0).0, Upload::Accepted);
-    b.send(MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
-        command: MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
-        param1: 42.0,
-        param2: 200_000.0,
-        target_system: 1,
-        target_component: 1,
-        ..Default::default()
-    }));
+    b.stream_mission_current(200_000);
     b.guided_armed(None);
     // Arming in AUTO is refused (AUTO_OPTIONS 0), so MISSION_START from GUIDED on the ground.
     let from = b.frames.len();
-    assert_eq!(b.long(MavCmd::MAV_CMD_MISSION_START, [0.0; 7]), MavResult::MAV_RESULT_ACCEPTED);
+    assert_eq!(
+        b.long(MavCmd::MAV_CMD_MISSION_START, [0.0; 7]),
+        MavResult::MAV_RESULT_ACCEPTED
+    );
     let mut reached_at: Vec<(u16, Micros)> = Vec::new();
     let mut max_speed = 0.0f64;
     let mut last = (b.now, b.v().position_ne());
@@ -868,14 +1087,23 @@ fn takeoff_four_waypoints_and_land_from_the_ground() {
         assert!(b.now < 120 * SECOND, "still flying");
     }
     b.run_for(SECOND);
-    assert_eq!(reached_at.iter().map(|r| r.0).collect::<Vec<_>>(), vec![1, 2, 3, 4, 5]);
+    assert_eq!(
+        reached_at.iter().map(|r| r.0).collect::<Vec<_>>(),
+        vec![1, 2, 3, 4, 5]
+    );
     assert!(max_speed <= 10.0 + 1e-6, "{max_speed}");
     for w in reached_at.windows(2).skip(1) {
         // 60 m legs at 10 m/s, reached within WPNAV_RADIUS (2 m): at least 5.8 s each.
         assert!(w[1].1 - w[0].1 >= 5_800_000, "{reached_at:?}");
     }
     let texts = b.texts_since(from);
-    for t in ["Mission: 1 Takeoff", "Mission: 2 WP", "Reached command #5", "Mission: 6 Land", "Disarming motors"] {
+    for t in [
+        "Mission: 1 Takeoff",
+        "Mission: 2 WP",
+        "Reached command #5",
+        "Mission: 6 Land",
+        "Disarming motors",
+    ] {
         assert!(texts.contains(&t.to_string()), "{t} in {texts:?}");
     }
     // The disarm resets the mission (seq 0) and AUTO, still running it, starts it over at
@@ -905,10 +1133,16 @@ fn set_current_and_clear_all() {
     b.run_for(20_000);
     assert_eq!(b.mission_current_since(from), vec![(3, 5, 2, 0)]);
     let p = [4.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
-    assert_eq!(b.long(MavCmd::MAV_CMD_DO_SET_MISSION_CURRENT, p), MavResult::MAV_RESULT_ACCEPTED);
+    assert_eq!(
+        b.long(MavCmd::MAV_CMD_DO_SET_MISSION_CURRENT, p),
+        MavResult::MAV_RESULT_ACCEPTED
+    );
     assert_eq!(b.v().auto.nav_index(), Some(4));
     let p = [9.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
-    assert_eq!(b.long(MavCmd::MAV_CMD_DO_SET_MISSION_CURRENT, p), MavResult::MAV_RESULT_FAILED);
+    assert_eq!(
+        b.long(MavCmd::MAV_CMD_DO_SET_MISSION_CURRENT, p),
+        MavResult::MAV_RESULT_FAILED
+    );
     // The downloaded current item carries current = 1.
     assert_eq!(b.v().stored_items(0)[4].current, 1);
 
@@ -919,14 +1153,28 @@ fn set_current_and_clear_all() {
     let from = b.frames.len();
     b.send_raw(msgid::MISSION_CLEAR_ALL, &[1, 1, 0]);
     b.run_for(20_000);
-    assert_eq!(protos(&b.frames[from..]).into_iter().map(|p| p.1).collect::<Vec<_>>(), vec![Proto::Ack { result: 1, ty: 0 }]);
+    assert_eq!(
+        protos(&b.frames[from..])
+            .into_iter()
+            .map(|p| p.1)
+            .collect::<Vec<_>>(),
+        vec![Proto::Ack { result: 1, ty: 0 }]
+    );
     // Out of AUTO the mission stops (NOT_STARTED), and can be cleared.
     assert_eq!(b.set_mode(mode::GUIDED), MavResult::MAV_RESULT_ACCEPTED);
     let from = b.frames.len();
     b.send_raw(msgid::MISSION_CLEAR_ALL, &[1, 1, 0]);
     b.run_for(20_000);
-    assert_eq!(protos(&b.frames[from..]).into_iter().map(|p| p.1).collect::<Vec<_>>(), vec![Proto::Ack { result: 0, ty: 0 }]);
-    assert!(b.texts_since(from).contains(&"Flight plan received".to_string()));
+    assert_eq!(
+        protos(&b.frames[from..])
+            .into_iter()
+            .map(|p| p.1)
+            .collect::<Vec<_>>(),
+        vec![Proto::Ack { result: 0, ty: 0 }]
+    );
+    assert!(b
+        .texts_since(from)
+        .contains(&"Flight plan received".to_string()));
     assert_eq!(b.v().param("MIS_TOTAL"), Some(0.0));
     // Armed, with no mission, AUTO is refused.
     assert_eq!(b.set_mode(mode::AUTO), MavResult::MAV_RESULT_FAILED);
@@ -940,29 +1188,85 @@ fn do_jump_repeats_the_given_number_of_times() {
     let (lat0, lon0) = (-353_632_621, 1_491_652_374);
     let items = vec![
         item(0, cmd::NAV_WAYPOINT, frame::GLOBAL, [0.0; 4], 0, 0, 0.0),
-        item(1, cmd::NAV_TAKEOFF, frame::GLOBAL_RELATIVE_ALT, [0.0; 4], 0, 0, 5.0),
-        item(2, cmd::NAV_WAYPOINT, frame::GLOBAL_RELATIVE_ALT, [0.0; 4], lat0 + 300, lon0, 5.0),
-        item(3, cmd::NAV_WAYPOINT, frame::GLOBAL_RELATIVE_ALT, [0.0; 4], lat0, lon0, 5.0),
-        item(4, cmd::DO_JUMP, frame::GLOBAL, [2.0, 2.0, 0.0, 0.0], 0, 0, 0.0),
-        item(5, cmd::NAV_LAND, frame::GLOBAL_RELATIVE_ALT, [0.0; 4], 0, 0, 0.0),
+        item(
+            1,
+            cmd::NAV_TAKEOFF,
+            frame::GLOBAL_RELATIVE_ALT,
+            [0.0; 4],
+            0,
+            0,
+            5.0,
+        ),
+        item(
+            2,
+            cmd::NAV_WAYPOINT,
+            frame::GLOBAL_RELATIVE_ALT,
+            [0.0; 4],
+            lat0 + 300,
+            lon0,
+            5.0,
+        ),
+        item(
+            3,
+            cmd::NAV_WAYPOINT,
+            frame::GLOBAL_RELATIVE_ALT,
+            [0.0; 4],
+            lat0,
+            lon0,
+            5.0,
+        ),
+        item(
+            4,
+            cmd::DO_JUMP,
+            frame::GLOBAL,
+            [2.0, 2.0, 0.0, 0.0],
+            0,
+            0,
+            0.0,
+        ),
+        item(
+            5,
+            cmd::NAV_LAND,
+            frame::GLOBAL_RELATIVE_ALT,
+            [0.0; 4],
+            0,
+            0,
+            0.0,
+        ),
     ];
     assert_eq!(upload(&mut b, &items, 0).0, Upload::Accepted);
     b.guided_armed(None);
     let from = b.frames.len();
-    assert_eq!(b.long(MavCmd::MAV_CMD_MISSION_START, [0.0; 7]), MavResult::MAV_RESULT_ACCEPTED);
+    assert_eq!(
+        b.long(MavCmd::MAV_CMD_MISSION_START, [0.0; 7]),
+        MavResult::MAV_RESULT_ACCEPTED
+    );
     while b.v().armed() {
         b.run_for(SECOND);
         assert!(b.now < 120 * SECOND);
     }
-    let started: Vec<String> = b.texts_since(from).into_iter().filter(|t| t.starts_with("Mission:")).collect();
+    let started: Vec<String> = b
+        .texts_since(from)
+        .into_iter()
+        .filter(|t| t.starts_with("Mission:"))
+        .collect();
     // Takeoff twice (MISSION_START starts it, AUTO's first run resumes it); after the landing
     // disarms, the reset mission starts again in AUTO and waits for the next arming.
     assert_eq!(
         started,
         [
-            "Mission: 1 Takeoff", "Mission: 1 Takeoff", "Mission: 2 WP", "Mission: 3 WP",
-            "Mission: 4 Jump 1/2", "Mission: 2 WP", "Mission: 3 WP", "Mission: 4 Jump 2/2",
-            "Mission: 2 WP", "Mission: 3 WP", "Mission: 5 Land", "Mission: 1 Takeoff",
+            "Mission: 1 Takeoff",
+            "Mission: 1 Takeoff",
+            "Mission: 2 WP",
+            "Mission: 3 WP",
+            "Mission: 4 Jump 1/2",
+            "Mission: 2 WP",
+            "Mission: 3 WP",
+            "Mission: 4 Jump 2/2",
+            "Mission: 2 WP",
+            "Mission: 3 WP",
+            "Mission: 5 Land",
+            "Mission: 1 Takeoff",
         ]
     );
 }
@@ -978,18 +1282,20 @@ fn velocity(b: &mut Bench, fr: MavFrame, v: (f32, f32, f32), yaw_rate: Option<f3
     if yaw_rate.is_none() {
         mask |= PositionTargetTypemask::POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE;
     }
-    b.send(MavMessage::SET_POSITION_TARGET_LOCAL_NED(SET_POSITION_TARGET_LOCAL_NED_DATA {
-        time_boot_ms: 0,
-        vx: v.0,
-        vy: v.1,
-        vz: v.2,
-        yaw_rate: yaw_rate.unwrap_or(0.0),
-        type_mask: mask,
-        target_system: 1,
-        target_component: 1,
-        coordinate_frame: fr,
-        ..Default::default()
-    }));
+    b.send(MavMessage::SET_POSITION_TARGET_LOCAL_NED(
+        SET_POSITION_TARGET_LOCAL_NED_DATA {
+            time_boot_ms: 0,
+            vx: v.0,
+            vy: v.1,
+            vz: v.2,
+            yaw_rate: yaw_rate.unwrap_or(0.0),
+            type_mask: mask,
+            target_system: 1,
+            target_component: 1,
+            coordinate_frame: fr,
+            ..Default::default()
+        },
+    ));
 }
 
 /// A body-frame velocity nudge as the capture's GCS sent them (10 Hz, velocity and yaw rate
@@ -1005,11 +1311,19 @@ fn a_velocity_nudge_moves_it_and_stops_after_the_timeout() {
     assert_eq!(b.v().heading_deg(), 0.0);
     // One second of 2 m/s forward (north, heading 0).
     for _ in 0..10 {
-        velocity(&mut b, MavFrame::MAV_FRAME_BODY_OFFSET_NED, (2.0, 0.0, 0.0), None);
+        velocity(
+            &mut b,
+            MavFrame::MAV_FRAME_BODY_OFFSET_NED,
+            (2.0, 0.0, 0.0),
+            None,
+        );
         b.run_for(100_000);
     }
     let p = b.v().position_ne();
-    assert!((p.0 - start.0 - 2.0).abs() < 0.05 && (p.1 - start.1).abs() < 1e-6, "{p:?}");
+    assert!(
+        (p.0 - start.0 - 2.0).abs() < 0.05 && (p.1 - start.1).abs() < 1e-6,
+        "{p:?}"
+    );
     // No more messages: 3 s more at 2 m/s, then it stops.
     b.run_for(2_900_000);
     assert!(b.v().guided_velocity().unwrap().0 > 1.9);
@@ -1023,10 +1337,19 @@ fn a_velocity_nudge_moves_it_and_stops_after_the_timeout() {
     assert_eq!(b.v().relative_alt_m(), 10.0);
     // Turn right at 45 deg/s for 2 s (no translation).
     for _ in 0..20 {
-        velocity(&mut b, MavFrame::MAV_FRAME_BODY_OFFSET_NED, (0.0, 0.0, 0.0), Some(45f32.to_radians()));
+        velocity(
+            &mut b,
+            MavFrame::MAV_FRAME_BODY_OFFSET_NED,
+            (0.0, 0.0, 0.0),
+            Some(45f32.to_radians()),
+        );
         b.run_for(100_000);
     }
-    assert!((b.v().heading_deg() - 90.0).abs() < 0.1, "{}", b.v().heading_deg());
+    assert!(
+        (b.v().heading_deg() - 90.0).abs() < 0.1,
+        "{}",
+        b.v().heading_deg()
+    );
     // Forward now means east; a climb in NED is negative z.
     let before = b.v().position_ne();
     for _ in 0..10 {
@@ -1034,16 +1357,27 @@ fn a_velocity_nudge_moves_it_and_stops_after_the_timeout() {
         b.run_for(100_000);
     }
     let after = b.v().position_ne();
-    assert!((after.1 - before.1 - 3.0).abs() < 0.05 && (after.0 - before.0).abs() < 0.05, "{before:?} {after:?}");
+    assert!(
+        (after.1 - before.1 - 3.0).abs() < 0.05 && (after.0 - before.0).abs() < 0.05,
+        "{before:?} {after:?}"
+    );
     assert!((b.v().relative_alt_m() - 11.0).abs() < 0.05);
     // LOCAL_NED velocities are north/east whatever the heading.
     let before = b.v().position_ne();
     for _ in 0..10 {
-        velocity(&mut b, MavFrame::MAV_FRAME_LOCAL_NED, (-1.0, 0.0, 0.0), None);
+        velocity(
+            &mut b,
+            MavFrame::MAV_FRAME_LOCAL_NED,
+            (-1.0, 0.0, 0.0),
+            None,
+        );
         b.run_for(100_000);
     }
     let after = b.v().position_ne();
-    assert!((after.0 - before.0 + 1.0).abs() < 0.05, "{before:?} {after:?}");
+    assert!(
+        (after.0 - before.0 + 1.0).abs() < 0.05,
+        "{before:?} {after:?}"
+    );
 }
 
 fn global_target(b: &mut Bench, fr: MavFrame, lat: i32, lon: i32, alt: f32) {
@@ -1055,16 +1389,18 @@ fn global_target(b: &mut Bench, fr: MavFrame, lat: i32, lon: i32, alt: f32) {
         | PositionTargetTypemask::POSITION_TARGET_TYPEMASK_AZ_IGNORE
         | PositionTargetTypemask::POSITION_TARGET_TYPEMASK_YAW_IGNORE
         | PositionTargetTypemask::POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE;
-    b.send(MavMessage::SET_POSITION_TARGET_GLOBAL_INT(SET_POSITION_TARGET_GLOBAL_INT_DATA {
-        lat_int: lat,
-        lon_int: lon,
-        alt,
-        type_mask: mask,
-        target_system: 1,
-        target_component: 1,
-        coordinate_frame: fr,
-        ..Default::default()
-    }));
+    b.send(MavMessage::SET_POSITION_TARGET_GLOBAL_INT(
+        SET_POSITION_TARGET_GLOBAL_INT_DATA {
+            lat_int: lat,
+            lon_int: lon,
+            alt,
+            type_mask: mask,
+            target_system: 1,
+            target_component: 1,
+            coordinate_frame: fr,
+            ..Default::default()
+        },
+    ));
 }
 
 /// SET_POSITION_TARGET_GLOBAL_INT: a position 50 m north at 20 m above home is flown to at
@@ -1077,7 +1413,13 @@ fn a_global_position_target_moves_it() {
     let (lat, lon) = (b.v().home().0, b.v().home().1);
     let north_50 = ((lat + 50.0 / 111_319.5) * 1e7).round() as i32;
     let lon_e7 = (lon * 1e7).round() as i32;
-    global_target(&mut b, MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, north_50, lon_e7, 20.0);
+    global_target(
+        &mut b,
+        MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+        north_50,
+        lon_e7,
+        20.0,
+    );
     b.run_for(4 * SECOND);
     // 10 m/s: 40 m after 4 s.
     let p = b.v().position_ne();
@@ -1089,7 +1431,11 @@ fn a_global_position_target_moves_it() {
     // AMSL: 604 m is 20 m below... 20 m above the 584 m home.
     global_target(&mut b, MavFrame::MAV_FRAME_GLOBAL, north_50, lon_e7, 599.0);
     b.run_for(10 * SECOND);
-    assert!((b.v().relative_alt_m() - 15.0).abs() < 0.01, "{}", b.v().relative_alt_m());
+    assert!(
+        (b.v().relative_alt_m() - 15.0).abs() < 0.01,
+        "{}",
+        b.v().relative_alt_m()
+    );
     // A frame ArduCopter has no altitude for stops the vehicle where it is.
     global_target(&mut b, MavFrame::MAV_FRAME_LOCAL_NED, lon_e7, lon_e7, 50.0);
     b.run_for(SECOND);
@@ -1105,30 +1451,121 @@ fn targets_are_ignored_unless_guided_and_do_nothing_disarmed() {
     b.run_until(super::vehicle::EKF_GPS_AT + 100_000);
     assert_eq!(b.set_mode(mode::GUIDED), MavResult::MAV_RESULT_ACCEPTED);
     for _ in 0..10 {
-        velocity(&mut b, MavFrame::MAV_FRAME_LOCAL_NED, (3.0, 0.0, -1.0), None);
+        velocity(
+            &mut b,
+            MavFrame::MAV_FRAME_LOCAL_NED,
+            (3.0, 0.0, -1.0),
+            None,
+        );
         b.run_for(100_000);
     }
     assert_eq!(b.v().position_ne(), (0.0, 0.0));
     assert!(b.v().landed());
     let lat = ((b.v().home().0 + 0.0005) * 1e7) as i32;
     let lon = (b.v().home().1 * 1e7) as i32;
-    global_target(&mut b, MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT, lat, lon, 10.0);
+    global_target(
+        &mut b,
+        MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+        lat,
+        lon,
+        10.0,
+    );
     b.run_for(3 * SECOND);
     assert_eq!(b.v().position_ne(), (0.0, 0.0));
 
     let arm = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
-    assert_eq!(b.long(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, arm), MavResult::MAV_RESULT_ACCEPTED);
+    assert_eq!(
+        b.long(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, arm),
+        MavResult::MAV_RESULT_ACCEPTED
+    );
     let p = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 10.0];
-    assert_eq!(b.long(MavCmd::MAV_CMD_NAV_TAKEOFF, p), MavResult::MAV_RESULT_ACCEPTED);
+    assert_eq!(
+        b.long(MavCmd::MAV_CMD_NAV_TAKEOFF, p),
+        MavResult::MAV_RESULT_ACCEPTED
+    );
     b.run_for(10 * SECOND);
     assert_eq!(b.set_mode(mode::LOITER), MavResult::MAV_RESULT_ACCEPTED);
     let here = b.v().position_ne();
     for _ in 0..20 {
         velocity(&mut b, MavFrame::MAV_FRAME_LOCAL_NED, (3.0, 0.0, 0.0), None);
-        global_target(&mut b, MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT, lat, lon, 30.0);
+        global_target(
+            &mut b,
+            MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+            lat,
+            lon,
+            30.0,
+        );
         b.run_for(100_000);
     }
     assert_eq!(b.v().position_ne(), here);
     assert_eq!(b.v().guided_velocity(), None);
     assert_eq!(b.v().relative_alt_m(), 10.0);
+}
+
+/// A mission ending with NAV_RETURN_TO_LAUNCH: RTL climbs to RTL_ALT (15 m), returns and lands;
+/// on the ground the RTL item completes (reported), the mission is COMPLETE and the vehicle
+/// disarms (`exit_mission` on the ground); being complete, it does not start over.
+#[test]
+fn a_mission_ending_with_rtl_lands_and_disarms_complete() {
+    let mut b = Bench::new("");
+    b.run_for(SECOND);
+    let (lat0, lon0) = (-353_632_621, 1_491_652_374);
+    let items = vec![
+        item(0, cmd::NAV_WAYPOINT, frame::GLOBAL, [0.0; 4], 0, 0, 0.0),
+        item(
+            1,
+            cmd::NAV_TAKEOFF,
+            frame::GLOBAL_RELATIVE_ALT,
+            [0.0; 4],
+            0,
+            0,
+            10.0,
+        ),
+        item(
+            2,
+            cmd::NAV_WAYPOINT,
+            frame::GLOBAL_RELATIVE_ALT,
+            [0.0; 4],
+            lat0 + 1_800,
+            lon0,
+            10.0,
+        ),
+        item(
+            3,
+            cmd::NAV_RETURN_TO_LAUNCH,
+            frame::GLOBAL,
+            [0.0; 4],
+            0,
+            0,
+            0.0,
+        ),
+    ];
+    assert_eq!(upload(&mut b, &items, 0).0, Upload::Accepted);
+    b.stream_mission_current(500_000);
+    b.guided_armed(None);
+    let from = b.frames.len();
+    assert_eq!(
+        b.long(MavCmd::MAV_CMD_MISSION_START, [0.0; 7]),
+        MavResult::MAV_RESULT_ACCEPTED
+    );
+    let mut max_alt = 0.0f64;
+    while b.v().armed() {
+        b.run_for(100_000);
+        max_alt = max_alt.max(b.v().relative_alt_m());
+        assert!(b.now < 120 * SECOND, "still flying");
+    }
+    b.run_for(2 * SECOND);
+    assert!((max_alt - 15.0).abs() < 0.01, "RTL_ALT 15 m: {max_alt}");
+    assert_eq!(b.reached_since(from), vec![1, 2, 3]);
+    assert_eq!(b.v().auto.state, super::auto::RunState::Complete);
+    let mc = b.mission_current_since(from);
+    assert_eq!(mc.last(), Some(&(0, 3, 5, 1)), "{mc:?}");
+    let texts = b.texts_since(from);
+    let disarmed = texts.iter().position(|t| t == "Disarming motors").unwrap();
+    assert!(
+        !texts[disarmed..].iter().any(|t| t.starts_with("Mission:")),
+        "{texts:?}"
+    );
+    let (n, e) = b.v().position_ne();
+    assert!(n.hypot(e) < 0.1 && b.v().landed());
 }

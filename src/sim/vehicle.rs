@@ -240,7 +240,7 @@ pub(super) enum Out {
 /// its raw payload (those are read from the payload, see `mission.rs`).
 #[derive(Debug, Clone)]
 pub(super) enum Inbound {
-    Msg(MavMessage),
+    Msg(Box<MavMessage>),
     Raw { msgid: u32, payload: Vec<u8> },
 }
 
@@ -567,9 +567,7 @@ impl SimVehicle {
                 };
                 match msg {
                     Inbound::Msg(m) => self.handle(now, from, &m),
-                    Inbound::Raw { msgid, payload } => {
-                        self.handle_raw(now, from, msgid, &payload)
-                    }
+                    Inbound::Raw { msgid, payload } => self.handle_raw(now, from, msgid, &payload),
                 }
             }
             if self.blocked.is_some() {
@@ -703,8 +701,9 @@ impl SimVehicle {
         }
         if self.landed {
             let m = self.custom_mode;
-            let auto_rtl = m == mode::AUTO && self.auto.sub == super::auto::Sub::Rtl;
-            if m == mode::LAND || m == mode::RTL || m == mode::SMART_RTL || auto_rtl {
+            // (In AUTO the mission disarms: NAV_LAND on touchdown, the mission's end on the
+            // ground.)
+            if m == mode::LAND || m == mode::RTL || m == mode::SMART_RTL {
                 self.disarm("Disarming motors");
                 return;
             }
