@@ -208,7 +208,9 @@ impl LinkStatus {
         let profile = parsed
             .as_ref()
             .map(|l| LinkProfile {
-                hl: l.high_latency(),
+                // A replay cannot answer: nothing automatic goes to it (no stream requests, no
+                // parameter download), as QGroundControl treats its log replay links.
+                hl: l.high_latency() || matches!(l, crate::link::LinkSpec::Tlog { .. }),
                 baud: l.explicit_baud(),
             })
             .unwrap_or_default();

@@ -393,7 +393,8 @@ pub enum StreamOut {
 /// What a link is, as far as asking for telemetry goes.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct LinkProfile {
-    /// High latency or low bandwidth (`?hl=1`): nothing automatic is sent on it.
+    /// High latency or low bandwidth (`?hl=1`), or a tlog replay: nothing automatic is sent on
+    /// it.
     pub hl: bool,
     /// The baud rate given on a serial spec (unknown otherwise).
     pub baud: Option<u32>,
