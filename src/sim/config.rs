@@ -21,7 +21,7 @@ pub enum SimError {
 }
 
 /// Listed in the unknown-key error so the operator sees what is accepted.
-pub const KNOWN_KEYS: &str = "vehicles, sysid, loss, dup, reorder, corrupt, latency_ms, seed, params, baud, state, impair_in, drop_cmd, ftp";
+pub const KNOWN_KEYS: &str = "vehicles, sysid, loss, dup, reorder, corrupt, latency_ms, seed, params, baud, state, impair_in, drop_cmd, ftp, camera, camera_drop";
 
 /// How many vehicles, which ids, and how bad the simulated link is.
 #[derive(Debug, Clone, PartialEq)]
@@ -57,6 +57,10 @@ pub struct SimConfig {
     /// `ftp=0`: a firmware built without MAVFTP (`AP_MAVLINK_FTP_ENABLED` 0): FILE_TRANSFER_PROTOCOL
     /// goes unanswered and AUTOPILOT_VERSION does not announce MAV_PROTOCOL_CAPABILITY_FTP.
     pub ftp: bool,
+    /// `camera=1`: each vehicle has a camera component (compid 100, [`super::camera`]).
+    pub camera: bool,
+    /// `camera_drop=N`: the camera's first CAMERA_IMAGE_CAPTURED of image N is lost.
+    pub camera_drop: Option<i32>,
 }
 
 impl Default for SimConfig {
@@ -76,6 +80,8 @@ impl Default for SimConfig {
             impair_in: false,
             drop_cmd: BTreeMap::new(),
             ftp: true,
+            camera: false,
+            camera_drop: None,
         }
     }
 }
@@ -212,6 +218,15 @@ impl SimConfig {
                 "drop_cmd" => c.drop_cmd = drop_list(key, value)?,
                 "impair_in" => c.impair_in = flag(key, value)?,
                 "ftp" => c.ftp = flag(key, value)?,
+                "camera" => c.camera = flag(key, value)?,
+                "camera_drop" => {
+                    c.camera_drop = Some(
+                        value
+                            .parse::<u16>()
+                            .map_err(|_| bad(key, value, "expected an image index (0 to 65535)"))?
+                            as i32,
+                    )
+                }
                 _ => {
                     return Err(SimError::UnknownKey {
                         key: key.to_string(),
