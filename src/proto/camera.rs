@@ -704,13 +704,17 @@ impl CameraSet {
                 }
                 if has(CAP_HAS_MODES) && !has(CAP_VIDEO_IN_IMAGE_MODE) {
                     match mode {
-                        None => return Err(format!(
+                        None => {
+                            return Err(format!(
                             "camera {compid}: mode unknown (CAMERA_SETTINGS not heard): not sent"
-                        )),
-                        Some(m) if m != 1 => return Err(format!(
+                        ))
+                        }
+                        Some(m) if m != 1 => {
+                            return Err(format!(
                             "camera {compid} is in {} mode: `camera mode video` first (not sent)",
                             mode_name(m)
-                        )),
+                        ))
+                        }
                         _ => {}
                     }
                 }
