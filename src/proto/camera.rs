@@ -17,7 +17,7 @@
 //! Requests go out through the vehicle's command queue (one REQUEST_MESSAGE open per target at
 //! a time): the set holds them until [`CameraSet::next_request`] is taken.
 
-use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::collections::{BTreeMap, VecDeque};
 
 use crate::clock::{Micros, SECOND};
 
@@ -413,8 +413,6 @@ impl CameraAction {
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct CameraSet {
     pub cameras: BTreeMap<u8, Camera>,
-    /// Components that answered CAMERA_INFORMATION requests with nothing at all.
-    failed: BTreeSet<u8>,
     /// The last GIMBAL_DEVICE_ATTITUDE_STATUS: (component, roll, pitch, yaw in degrees).
     pub gimbal: Option<(u8, f32, f32, f32)>,
 }
@@ -446,9 +444,6 @@ impl CameraSet {
             return notes;
         }
         if hb_type == Some(MAV_TYPE_CAMERA) && !self.cameras.contains_key(&from) {
-            if self.failed.contains(&from) {
-                return notes;
-            }
             self.cameras.insert(from, Camera::new(from));
             return notes;
         }
@@ -565,19 +560,21 @@ impl CameraSet {
             return notes;
         };
         match command {
-            CMD_REQUEST_MESSAGE if params[0] == CAMERA_INFORMATION as f64 => {
-                if c.info.is_none() && c.discovery == Discovery::Asking {
-                    c.discovery = Discovery::FallbackAt(now + FALLBACK_WAIT);
-                }
+            CMD_REQUEST_MESSAGE
+                if params[0] == CAMERA_INFORMATION as f64
+                    && c.info.is_none()
+                    && c.discovery == Discovery::Asking =>
+            {
+                c.discovery = Discovery::FallbackAt(now + FALLBACK_WAIT);
             }
-            CMD_REQUEST_CAMERA_INFORMATION => {
-                if c.info.is_none() && !accepted {
-                    c.discovery = Discovery::Failed;
-                    notes.push((
-                        crate::proto::severity::WARNING,
-                        format!("camera {compid}: no CAMERA_INFORMATION (REQUEST_MESSAGE and 521 unanswered)"),
-                    ));
-                }
+            CMD_REQUEST_CAMERA_INFORMATION if c.info.is_none() && !accepted => {
+                c.discovery = Discovery::Failed;
+                notes.push((
+                    crate::proto::severity::WARNING,
+                    format!(
+                        "camera {compid}: no CAMERA_INFORMATION (REQUEST_MESSAGE and 521 unanswered)"
+                    ),
+                ));
             }
             CMD_SET_CAMERA_MODE | CMD_SET_CAMERA_ZOOM | CMD_SET_CAMERA_FOCUS if accepted => {
                 c.request(CAMERA_SETTINGS, 0.0);
