@@ -209,3 +209,75 @@ fn a_pymavlink_camera_is_discovered_and_operated() {
         vec![0, 1, 2]
     );
 }
+
+/// A pymavlink camera over UDP (`tests/py/fake_camera.py`: an ArduCopter heartbeat on 1:1, a
+/// MAV_TYPE_CAMERA on 1:100) and mavterm headless with a replay script: discovered, shown on the
+/// Camera screen, and one image taken from the keyboard.
+#[test]
+fn a_pymavlink_camera_over_udp_is_discovered_and_shoots() {
+    let dir = tempfile::tempdir().unwrap();
+    let port = common::free_udp_port();
+    let log = dir.path().join("camera.json");
+    let script = dir.path().join("script.txt");
+    std::fs::write(&script, "5 key 6\n5.2 key s\n7 snapshot camera\n7.5 quit\n").unwrap();
+    let screens = dir.path().join("screens");
+    // mavterm listens first; the camera sends to it.
+    let mut run = std::process::Command::new(common::mavterm())
+        .args([
+            "--link",
+            &format!("udpin:127.0.0.1:{port}"),
+            "--headless",
+            "--input",
+        ])
+        .arg(&script)
+        .arg("--screens")
+        .arg(&screens)
+        .args(["--size", "80x24"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let _cam = common::stand_in(
+        "fake_camera.py",
+        &[
+            "--port".into(),
+            port.to_string().into(),
+            "--log-out".into(),
+            log.clone().into(),
+            "--duration".into(),
+            "20".into(),
+        ],
+    );
+    let status = run.wait().unwrap();
+    let mut err = String::new();
+    use std::io::Read;
+    run.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    assert!(status.success(), "{err}");
+    let got: Vec<Vec<f64>> = serde_json::from_str(&std::fs::read_to_string(&log).unwrap()).unwrap();
+    // REQUEST_MESSAGE 259 first, then the settings, storage and capture status.
+    let first: Vec<(f64, f64)> = got.iter().take(4).map(|c| (c[0], c[1])).collect();
+    assert_eq!(
+        first,
+        vec![
+            (512.0, 259.0),
+            (512.0, 260.0),
+            (512.0, 261.0),
+            (512.0, 262.0)
+        ],
+        "{got:?}"
+    );
+    // `s` on the Camera screen: one image, sequence number 1.
+    let shot: Vec<&Vec<f64>> = got.iter().filter(|c| c[0] == 2000.0).collect();
+    assert_eq!(shot.len(), 1, "{got:?}");
+    assert_eq!(&shot[0][1..5], &[0.0, 0.0, 1.0, 1.0]);
+    let screen = std::fs::read_to_string(screens.join("camera.txt")).unwrap();
+    assert!(
+        screen.contains("Gremsy ZIO2") && screen.contains("1920x1080"),
+        "{screen}"
+    );
+    assert!(
+        screen.contains("BIT16") && screen.contains("last #0"),
+        "{screen}"
+    );
+}
