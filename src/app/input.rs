@@ -227,7 +227,7 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
     (
         "camera",
         "SUB …",
-        "mode image|video, shoot [N [S]], stop, video start|stop, zoom, focus, format, select",
+        "mode, shoot [N [S]], stop, video start|stop, zoom, focus, format",
     ),
     (
         "gimbal",
