@@ -626,11 +626,6 @@ impl CameraSet {
             .min()
     }
 
-    /// True when requests wait for the queue.
-    pub fn due(&self) -> bool {
-        self.cameras.values().any(|c| !c.pending.is_empty())
-    }
-
     /// The requests waiting, by camera: (compid, command, params), the first of each camera.
     pub fn heads(&self) -> Vec<(u8, u16, [f64; 7])> {
         self.cameras
@@ -876,5 +871,26 @@ mod tests {
         assert!(s.action(100, &CameraAction::VideoStart).is_ok());
         let e = s.action(100, &CameraAction::Zoom(50.0)).unwrap_err();
         assert!(e.contains("HAS_BASIC_ZOOM"), "{e}");
+    }
+
+    #[test]
+    fn gimbal_attitude_is_read_as_degrees() {
+        // Pitch -30°, yaw 45° (ZYX): q = qz(45°) * qy(-30°).
+        let (p, y) = ((-30f32).to_radians() / 2.0, 45f32.to_radians() / 2.0);
+        let q = [
+            p.cos() * y.cos(),
+            -p.sin() * y.sin(),
+            p.sin() * y.cos(),
+            p.cos() * y.sin(),
+        ];
+        let mut payload = vec![0u8; 40];
+        for (i, v) in q.iter().enumerate() {
+            payload[4 + 4 * i..8 + 4 * i].copy_from_slice(&v.to_le_bytes());
+        }
+        let mut s = CameraSet::default();
+        s.on_message(0, 154, GIMBAL_DEVICE_ATTITUDE_STATUS, None, &payload);
+        let (from, roll, pitch, yaw) = s.gimbal.unwrap();
+        assert_eq!(from, 154);
+        assert!(roll.abs() < 0.01 && (pitch + 30.0).abs() < 0.01 && (yaw - 45.0).abs() < 0.01);
     }
 }

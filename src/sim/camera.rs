@@ -123,10 +123,9 @@ impl SimCamera {
                 self.shots = (left > 0 && every > 0).then_some((left, every, next + every));
             }
         }
-        if let Some((since, every)) = self.recording {
+        if let Some((_, every)) = self.recording {
             if every > 0 && now >= self.next_status {
                 self.next_status = now + every;
-                let _ = since; // the status reports the time since
                 self.out.push(Out::Msg(self.status(now)));
             }
         }
