@@ -297,7 +297,11 @@ impl Session {
             match self.commands.submit(now, spec) {
                 Ok((_, sends)) => {
                     self.cameras.sent(compid);
-                    out.extend(self.drive(now, sends));
+                    // Asked on our own: not over a high-latency link.
+                    out.extend(self.drive(now, sends).into_iter().map(|o| match o {
+                        SessionOut::Send(m) => SessionOut::SendAuto(m),
+                        o => o,
+                    }));
                 }
                 Err(_) => continue,
             }
