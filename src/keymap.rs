@@ -232,6 +232,20 @@ pub enum Action {
     ReplaySlower,
     /// Double the speed (past ×64: as fast as possible).
     ReplayFaster,
+    /// Camera screen: take one image (`camera shoot`).
+    CameraShoot,
+    /// Camera screen: start or stop recording video.
+    CameraVideo,
+    /// Camera screen: switch between image and video mode.
+    CameraMode,
+    /// Camera screen: select the next camera.
+    CameraNext,
+    /// Camera screen: point the gimbal 5° up, down, left, right, or back to level and ahead.
+    GimbalUp,
+    GimbalDown,
+    GimbalLeft,
+    GimbalRight,
+    GimbalCenter,
 }
 
 impl Action {
@@ -408,6 +422,31 @@ impl Action {
             Action::ReplayFaster,
             "replay_faster",
             "replay: double the speed (past ×64: as fast as possible)",
+        ),
+        (
+            Action::CameraShoot,
+            "camera_shoot",
+            "camera: take one image (if its mode allows)",
+        ),
+        (
+            Action::CameraVideo,
+            "camera_video",
+            "camera: start / stop recording video",
+        ),
+        (
+            Action::CameraMode,
+            "camera_mode",
+            "camera: switch image / video mode",
+        ),
+        (Action::CameraNext, "camera_next", "select the next camera"),
+        (Action::GimbalUp, "gimbal_up", "gimbal: pitch 5° up"),
+        (Action::GimbalDown, "gimbal_down", "gimbal: pitch 5° down"),
+        (Action::GimbalLeft, "gimbal_left", "gimbal: yaw 5° left"),
+        (Action::GimbalRight, "gimbal_right", "gimbal: yaw 5° right"),
+        (
+            Action::GimbalCenter,
+            "gimbal_center",
+            "gimbal: level, straight ahead",
         ),
     ];
 

@@ -287,7 +287,12 @@ fn a_camera_is_reached_through_its_vehicle_and_its_ack_is_matched() {
         target_component: 190,
     });
     a.update(200_000, frames_from((1, 100), 1, &ack));
-    let e = a.sessions[&(1, 1)].commands.entries().next().unwrap();
+    // (The camera's heartbeat also started its discovery: a REQUEST_MESSAGE of its own.)
+    let e = a.sessions[&(1, 1)]
+        .commands
+        .entries()
+        .find(|e| e.spec.command == MavCmd::MAV_CMD_IMAGE_START_CAPTURE as u16)
+        .unwrap();
     assert_eq!(e.spec.target, (1, 100));
     assert_eq!(e.state, State::Done(0));
 }

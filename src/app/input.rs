@@ -224,6 +224,16 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
         "SUB …",
         "fetch; set NAME VALUE; save, load, diff FILE (.params: QGC's)",
     ),
+    (
+        "camera",
+        "SUB …",
+        "mode, shoot [N [S]], stop, video start|stop, zoom, focus, format",
+    ),
+    (
+        "gimbal",
+        "PITCH YAW",
+        "point the gimbal (degrees; DO_GIMBAL_MANAGER_PITCHYAW)",
+    ),
     ("help", "", "show the keys of this screen"),
     (
         "link",
@@ -268,6 +278,8 @@ pub enum Command {
     Signing(super::signing::SigningCmd),
     /// Control the replay links.
     Replay(crate::link::replay::ReplayCmd),
+    /// Operate the target's camera or gimbal.
+    Camera(super::camera::CameraCmd),
 }
 
 /// A MAV_CMD by name (`NAV_TAKEOFF`, `mav_cmd_nav_takeoff`, `takeoff` when only one matches
@@ -407,6 +419,8 @@ pub fn parse_command(line: &str, takeoff_alt: f64) -> Result<Command, String> {
             }
         }
         "replay" => super::replay::parse(rest).map(Command::Replay),
+        "camera" => super::camera::parse(rest).map(Command::Camera),
+        "gimbal" => super::camera::parse_gimbal(rest).map(Command::Camera),
         "mode" if rest.is_empty() || rest.contains(' ') => {
             Err("usage: mode NAME, e.g. mode guided (tab lists the modes)".into())
         }

@@ -229,6 +229,7 @@ impl App {
             Command::Replay(cmd) => self.replay_control(cmd, fx).map(Some),
             Command::Param(cmd) => self.run_param(cmd, fx),
             Command::Signing(cmd) => self.run_signing(cmd),
+            Command::Camera(cmd) => self.run_camera(cmd, fx),
             Command::Route(link) => {
                 let key = self.target.ok_or("no target vehicle")?;
                 if let Some(l) = link.filter(|&l| l >= self.links.len()) {
@@ -391,6 +392,15 @@ impl App {
             Action::InspectorRate | Action::InspectorFilter | Action::InspectorDetail => {
                 self.on_inspector_action(action)
             }
+            Action::CameraShoot
+            | Action::CameraVideo
+            | Action::CameraMode
+            | Action::CameraNext
+            | Action::GimbalUp
+            | Action::GimbalDown
+            | Action::GimbalLeft
+            | Action::GimbalRight
+            | Action::GimbalCenter => self.on_camera_action(action, fx),
             Action::ReplayPause
             | Action::ReplayStep
             | Action::ReplayBack

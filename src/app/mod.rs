@@ -3,6 +3,7 @@
 //! No I/O and no clock in here: every event comes with the time, so the same events give the
 //! same state and the same effects, in the terminal, in headless replay and in tests.
 
+pub mod camera;
 mod flight;
 pub mod input;
 pub mod inspector;
@@ -213,6 +214,10 @@ pub struct UiState {
     pub params: params::ParamView,
     /// The MAVLink Inspector.
     pub inspector: inspector::InspectorView,
+    /// The Camera screen's selected camera (row among the target's cameras).
+    pub camera_sel: usize,
+    /// The gimbal angles last asked for (pitch, yaw in degrees): the gimbal keys step from them.
+    pub gimbal: (f64, f64),
 }
 
 impl Default for UiState {
@@ -233,6 +238,8 @@ impl Default for UiState {
             palette: None,
             params: params::ParamView::default(),
             inspector: inspector::InspectorView::default(),
+            camera_sel: 0,
+            gimbal: (0.0, 0.0),
         }
     }
 }

@@ -15,6 +15,7 @@ use crate::clock::Micros;
 use crate::dialect::{MavAutopilot, MavCmd, MavMessage};
 use crate::link::LinkId;
 use crate::proto::ack::CommandAck;
+use crate::proto::camera::{CameraAction, CameraSet};
 use crate::proto::commands::{CmdOut, CommandQueue, CommandSpec, State};
 use crate::proto::mission::{MissionMachine, MissionMsg, MissionOut, Request as MissionRequest};
 use crate::proto::params::{ParamMachine, ParamOut};
@@ -59,6 +60,8 @@ pub struct Session {
     pub params: ParamMachine,
     /// Mission, fence and rally point transfers; the current item and items reached.
     pub mission: MissionMachine,
+    /// The cameras of this system (camera components, or the autopilot answering for one).
+    pub cameras: CameraSet,
 }
 
 impl Session {
@@ -79,6 +82,7 @@ impl Session {
             flight: FlightTelemetry::new(key, request_streams),
             params: ParamMachine::new(key, autopilot, fetch_params),
             mission: MissionMachine::new(key),
+            cameras: CameraSet::default(),
         }
     }
 
@@ -184,6 +188,15 @@ impl Session {
             let _ = a;
             self.params.on_version_answer(now);
         }
+        // Cameras: any component of the system (ArduPilot answers for its camera itself).
+        let hb_type = match msg {
+            Some(MavMessage::HEARTBEAT(hb)) => Some(hb.mavtype as u8),
+            _ => None,
+        };
+        if hb_type.is_some() || (259..=269).contains(&id) || id == 285 {
+            let notes = self.cameras.on_message(now, from, id, hb_type, payload);
+            out.extend(notes.into_iter().map(|(s, t)| SessionOut::Notice(s, t)));
+        }
         if from != self.key.1 {
             // Another component of this system (a camera, a gimbal): the answers to commands
             // sent to it through this session's queue.
@@ -191,6 +204,7 @@ impl Session {
                 let done = self.commands.on_ack(now, (self.key.0, from), a);
                 out.extend(self.drive(now, done));
             }
+            out.extend(self.camera_requests(now));
             return out;
         }
         if let Some(m) = MissionMsg::read(id, payload) {
@@ -221,6 +235,76 @@ impl Session {
                 .contains(crate::dialect::MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED);
             let r = seq.on_heartbeat(hb.custom_mode, armed);
             out.extend(self.seq_out(now, r));
+        }
+        out.extend(self.camera_requests(now));
+        out
+    }
+
+    /// Operate camera `compid` of this system: the command goes through the queue, or the
+    /// reason the camera cannot do it comes back.
+    pub fn camera_action(
+        &mut self,
+        now: Micros,
+        compid: u8,
+        action: &CameraAction,
+    ) -> Result<(u64, Vec<SessionOut>), String> {
+        let (command, params) = self.cameras.action(compid, action)?;
+        let spec = CommandSpec {
+            target: (self.key.0, compid),
+            command,
+            params,
+            form: crate::proto::commands::Form::Long,
+        };
+        let r = self.submit(now, spec)?;
+        if matches!(action, CameraAction::Shoot { count: 1, .. }) {
+            self.cameras.shot_sent(compid);
+        }
+        Ok(r)
+    }
+
+    /// Point the gimbal (MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW to the autopilot, the usual gimbal
+    /// manager): pitch and yaw in degrees, rates unset, all gimbals.
+    pub fn gimbal_pitch_yaw(
+        &mut self,
+        now: Micros,
+        pitch: f64,
+        yaw: f64,
+    ) -> Result<(u64, Vec<SessionOut>), String> {
+        let spec = CommandSpec {
+            target: self.key,
+            command: crate::proto::camera::CMD_DO_GIMBAL_MANAGER_PITCHYAW,
+            params: [pitch, yaw, f64::NAN, f64::NAN, 0.0, 0.0, 0.0],
+            form: crate::proto::commands::Form::Long,
+        };
+        self.submit(now, spec)
+    }
+
+    /// The cameras' waiting requests, each camera's first, when the queue takes it (one
+    /// REQUEST_MESSAGE per target open at a time).
+    fn camera_requests(&mut self, now: Micros) -> Vec<SessionOut> {
+        let mut out = Vec::new();
+        for (compid, command, params) in self.cameras.heads() {
+            let target = (self.key.0, compid);
+            if self.commands.is_open(target, command) {
+                continue;
+            }
+            let spec = CommandSpec {
+                target,
+                command,
+                params,
+                form: crate::proto::commands::Form::Long,
+            };
+            match self.commands.submit(now, spec) {
+                Ok((_, sends)) => {
+                    self.cameras.sent(compid);
+                    // Asked on our own: not over a high-latency link.
+                    out.extend(self.drive(now, sends).into_iter().map(|o| match o {
+                        SessionOut::Send(m) => SessionOut::SendAuto(m),
+                        o => o,
+                    }));
+                }
+                Err(_) => continue,
+            }
         }
         out
     }
@@ -312,6 +396,22 @@ impl Session {
                 CmdOut::Send(m) => out.push(SessionOut::Send(m)),
                 CmdOut::Notice(s, t) => out.push(SessionOut::Notice(s, t)),
                 CmdOut::Finished(id) => {
+                    if let Some(e) = self.commands.get(id) {
+                        if self.cameras.cameras.contains_key(&e.spec.target.1)
+                            && e.spec.target.0 == self.key.0
+                        {
+                            let accepted = e.state == State::Done(0);
+                            let (c, cmd, p) = (e.spec.target.1, e.spec.command, e.spec.params);
+                            if accepted
+                                && cmd == crate::proto::camera::CMD_STORAGE_FORMAT
+                                && p[2] == 1.0
+                            {
+                                self.cameras.forget_images(c);
+                            }
+                            let notes = self.cameras.on_finished(now, c, cmd, &p, accepted);
+                            out.extend(notes.into_iter().map(|(s, t)| SessionOut::Notice(s, t)));
+                        }
+                    }
                     if let (Some(seq), Some(e)) = (self.sequence.as_mut(), self.commands.get(id)) {
                         let accepted = e.state == State::Done(0);
                         let outcome = match &e.reason {
@@ -393,6 +493,8 @@ impl Session {
         out.extend(p.into_iter().map(|o| self.pmap(o)));
         let m = self.mission.poll(now);
         out.extend(self.mission_out(m));
+        self.cameras.poll(now);
+        out.extend(self.camera_requests(now));
         out
     }
 
@@ -409,7 +511,15 @@ impl Session {
 
     /// True when a poll now would do something (a machine has work that is not on a timer).
     pub fn due(&self) -> bool {
-        self.streams.due() || self.flight.due() || self.params.due() || self.mission.due()
+        self.streams.due()
+            || self.flight.due()
+            || self.params.due()
+            || self.mission.due()
+            || self
+                .cameras
+                .heads()
+                .iter()
+                .any(|(c, cmd, _)| !self.commands.is_open((self.key.0, *c), *cmd))
     }
 
     /// When the session next needs a poll.
@@ -421,6 +531,7 @@ impl Session {
             self.flight.next_deadline(),
             self.params.next_deadline(),
             self.mission.next_deadline(),
+            self.cameras.next_deadline(),
         ]
         .into_iter()
         .flatten()

@@ -2,6 +2,7 @@
 //! needs to be woken. Nothing here reads a clock or touches a socket.
 
 pub mod ack;
+pub mod camera;
 pub mod commands;
 pub mod loss;
 pub mod mav_cmds;

@@ -21,7 +21,7 @@ pub enum SimError {
 }
 
 /// Listed in the unknown-key error so the operator sees what is accepted.
-pub const KNOWN_KEYS: &str = "vehicles, sysid, loss, dup, reorder, corrupt, latency_ms, seed, params, baud, state, impair_in, drop_cmd, ftp, mission_boot_ms";
+pub const KNOWN_KEYS: &str = "vehicles, sysid, loss, dup, reorder, corrupt, latency_ms, seed, params, baud, state, impair_in, drop_cmd, ftp, mission_boot_ms, camera, camera_drop";
 
 /// How many vehicles, which ids, and how bad the simulated link is.
 #[derive(Debug, Clone, PartialEq)]
@@ -62,6 +62,10 @@ pub struct SimConfig {
     /// as a real ArduCopter answers a GCS that uploads while it is still booting. 0 (default):
     /// the simulated boot is instantaneous, so no such window.
     pub mission_boot_ms: u64,
+    /// `camera=1`: each vehicle has a camera component (compid 100, [`super::camera`]).
+    pub camera: bool,
+    /// `camera_drop=N`: the camera's first CAMERA_IMAGE_CAPTURED of image N is lost.
+    pub camera_drop: Option<i32>,
 }
 
 impl Default for SimConfig {
@@ -82,6 +86,8 @@ impl Default for SimConfig {
             drop_cmd: BTreeMap::new(),
             ftp: true,
             mission_boot_ms: 0,
+            camera: false,
+            camera_drop: None,
         }
     }
 }
@@ -220,6 +226,15 @@ impl SimConfig {
                 "ftp" => c.ftp = flag(key, value)?,
                 "mission_boot_ms" => {
                     c.mission_boot_ms = num(key, value, "milliseconds (a whole number)")?
+                }
+                "camera" => c.camera = flag(key, value)?,
+                "camera_drop" => {
+                    c.camera_drop = Some(
+                        value
+                            .parse::<u16>()
+                            .map_err(|_| bad(key, value, "expected an image index (0 to 65535)"))?
+                            as i32,
+                    )
                 }
                 _ => {
                     return Err(SimError::UnknownKey {

@@ -12,6 +12,7 @@
 //! protocol), `auto` (AUTO flying the mission), `guided` (SET_POSITION_TARGET_* in GUIDED).
 
 pub mod auto;
+pub mod camera;
 pub mod config;
 pub mod guided;
 pub mod handlers;
@@ -52,6 +53,8 @@ pub struct Sim {
     cfg: SimConfig,
     vehicles: Vec<SimVehicle>,
     seqs: Vec<u8>,
+    /// The camera of each vehicle (`camera=1`), and its sequence numbers.
+    cameras: Vec<(camera::SimCamera, u8)>,
     parser: FrameParser,
     impair: Impairer,
     in_rng: Rng,
@@ -137,8 +140,17 @@ impl Sim {
             },
             Rng::derive(cfg.seed, 0x11A7),
         );
+        let cameras = if cfg.camera {
+            vehicles
+                .iter()
+                .map(|v| (camera::SimCamera::new(v.sysid, cfg.camera_drop), 0u8))
+                .collect()
+        } else {
+            Vec::new()
+        };
         Sim {
             seqs: vec![0; vehicles.len()],
+            cameras,
             vehicles,
             parser: FrameParser::new(),
             impair,
@@ -200,6 +212,10 @@ impl Sim {
                         self.vehicles[i].handle(now, from, msg);
                         self.flush(i, now);
                     }
+                    for i in 0..self.cameras.len() {
+                        self.cameras[i].0.handle(now, from, msg);
+                        self.flush_camera(i, now);
+                    }
                 }
                 None if f.msgid == COMMAND_LONG_ID || f.msgid == COMMAND_INT_ID => {
                     self.unknown_command(now, from, f.payload())
@@ -252,6 +268,9 @@ impl Sim {
             .map(|v| v.next_event(self.next_tick))
             .min()
             .unwrap_or(self.next_tick);
+        for (c, _) in &self.cameras {
+            t = t.min(c.next_event().max(self.next_tick));
+        }
         if let Some(d) = self.impair.next_due() {
             t = t.min(d);
         }
@@ -281,9 +300,49 @@ impl Sim {
                 self.vehicles[i].tick(t);
                 self.flush(i, t);
             }
+            for i in 0..self.cameras.len() {
+                let v = &self.vehicles[i];
+                let (lat, lon) = v.lat_lon();
+                let rel = v.relative_alt_m();
+                self.cameras[i].0.position = (
+                    (lat * 1e7) as i32,
+                    (lon * 1e7) as i32,
+                    ((vehicle::HOME_ALT_M + rel) * 1000.0) as i32,
+                    (rel * 1000.0) as i32,
+                );
+                self.cameras[i].0.tick(t);
+                self.flush_camera(i, t);
+            }
             self.next_tick += TICK;
         }
         now
+    }
+
+    /// The camera of vehicle `sysid` (`camera=1`).
+    pub fn camera(&self, sysid: u8) -> Option<&camera::SimCamera> {
+        self.cameras
+            .iter()
+            .map(|(c, _)| c)
+            .find(|c| c.sysid == sysid)
+    }
+
+    fn flush_camera(&mut self, i: usize, t: Micros) {
+        let (cam, seq) = &mut self.cameras[i];
+        let msgs = cam.drain();
+        let (sysid, compid) = (cam.sysid, cam.compid);
+        for m in msgs {
+            let h = Header {
+                sysid,
+                compid,
+                seq: *seq,
+            };
+            *seq = seq.wrapping_add(1);
+            let frame = match m {
+                Out::Msg(m) => encode(Version::V2, h, &m),
+                Out::Raw { msgid, payload } => encode_raw(h, msgid, &payload),
+            };
+            self.impair.push(t, sysid, frame);
+        }
     }
 
     fn next_seq(&mut self, i: usize) -> u8 {

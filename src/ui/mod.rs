@@ -6,6 +6,7 @@
 //! palette, the key help and a confirmation pop up over both. Nothing here can panic on any size:
 //! every rectangle is clipped to the frame.
 
+pub mod camera;
 pub mod commands;
 pub mod confirm;
 pub mod flight;

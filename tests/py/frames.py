@@ -55,7 +55,7 @@ def encode(req):
     cls = getattr(mod, "MAVLink_%s_message" % req["msg"].lower())
     fields = dict(req.get("fields", {}))
     for k, v in fields.items():
-        if isinstance(v, str) and k in ("text", "param_id"):
+        if isinstance(v, str) and k in ("text", "param_id", "cam_definition_uri", "file_url", "name", "uri"):
             fields[k] = v.encode()
     msg = cls(**fields)
     return msg.pack(mav, force_mavlink1=bool(req.get("v1"))).hex()

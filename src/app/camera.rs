@@ -1,0 +1,211 @@
+//! Operating cameras from the prompt and the Camera screen's keys: `camera …` and `gimbal …`.
+//!
+//! Each goes through the target vehicle's command queue to the selected camera (its own
+//! component id), so its ACK is shown on the Commands screen and as a notice. What the camera's
+//! CAMERA_CAP_FLAGS or mode rule out is not sent: the reason is shown instead.
+
+use super::{App, Effect};
+use crate::proto::camera::CameraAction;
+
+/// A parsed `camera …` / `gimbal …` line.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CameraCmd {
+    Act(CameraAction),
+    /// `camera format` asks first; `camera format yes` goes ahead.
+    FormatAsk,
+    /// Select the camera of this component id (or the Nth row, 1-based, when small).
+    Select(u8),
+    Gimbal {
+        pitch: f64,
+        yaw: f64,
+    },
+}
+
+pub const USAGE: &str = "usage: camera mode image|video|survey, shoot [N [SECONDS]], stop, video start|stop, zoom 0-100, focus 0-100, format, select COMPID";
+
+/// Parse what follows `camera`.
+pub fn parse(rest: &str) -> Result<CameraCmd, String> {
+    let w: Vec<&str> = rest.split_whitespace().collect();
+    let num = |s: &str, lo: f64, hi: f64| {
+        s.parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite() && (lo..=hi).contains(v))
+            .ok_or_else(|| format!("`{s}` is not a number from {lo} to {hi}"))
+    };
+    Ok(match w.as_slice() {
+        ["mode", m] => CameraCmd::Act(CameraAction::Mode(match *m {
+            "image" | "photo" => 0,
+            "video" => 1,
+            "survey" => 2,
+            _ => return Err("usage: camera mode image|video|survey".into()),
+        })),
+        ["shoot"] => CameraCmd::Act(CameraAction::Shoot {
+            count: 1,
+            interval: 0.0,
+        }),
+        ["shoot", n] => {
+            let count = num(n, 0.0, 10_000.0)? as u32;
+            CameraCmd::Act(CameraAction::Shoot {
+                count,
+                interval: if count == 1 { 0.0 } else { 1.0 },
+            })
+        }
+        ["shoot", n, s] => CameraCmd::Act(CameraAction::Shoot {
+            count: num(n, 0.0, 10_000.0)? as u32,
+            interval: num(s, 0.0, 3600.0)?,
+        }),
+        ["stop"] => CameraCmd::Act(CameraAction::StopImages),
+        ["video", "start"] => CameraCmd::Act(CameraAction::VideoStart),
+        ["video", "stop"] => CameraCmd::Act(CameraAction::VideoStop),
+        ["zoom", z] => CameraCmd::Act(CameraAction::Zoom(num(z, 0.0, 100.0)?)),
+        ["focus", f] => CameraCmd::Act(CameraAction::Focus(num(f, 0.0, 100.0)?)),
+        ["format"] => CameraCmd::FormatAsk,
+        ["format", "yes"] => CameraCmd::Act(CameraAction::Format),
+        ["select", n] => CameraCmd::Select(n.parse().map_err(|_| USAGE.to_string())?),
+        _ => return Err(USAGE.into()),
+    })
+}
+
+/// Parse what follows `gimbal`: PITCH YAW in degrees.
+pub fn parse_gimbal(rest: &str) -> Result<CameraCmd, String> {
+    let usage = || "usage: gimbal PITCH YAW (degrees, e.g. gimbal -90 0)".to_string();
+    let w: Vec<f64> = rest
+        .split_whitespace()
+        .map(|s| s.parse::<f64>().map_err(|_| usage()))
+        .collect::<Result<_, _>>()?;
+    match w.as_slice() {
+        [p, y] if (-180.0..=180.0).contains(p) && (-180.0..=360.0).contains(y) => {
+            Ok(CameraCmd::Gimbal { pitch: *p, yaw: *y })
+        }
+        _ => Err(usage()),
+    }
+}
+
+/// Degrees a gimbal key turns.
+pub const GIMBAL_STEP: f64 = 5.0;
+
+impl App {
+    /// A Camera screen key.
+    pub(super) fn on_camera_action(&mut self, action: crate::keymap::Action, fx: &mut Vec<Effect>) {
+        use crate::keymap::Action::*;
+        let sel = self.selected_camera();
+        let cam = sel.and_then(|id| {
+            self.target
+                .and_then(|k| self.sessions.get(&k))
+                .and_then(|s| s.cameras.cameras.get(&id))
+        });
+        let (pitch, yaw) = self.ui.gimbal;
+        let cmd = match action {
+            CameraShoot => CameraCmd::Act(CameraAction::Shoot {
+                count: 1,
+                interval: 0.0,
+            }),
+            CameraVideo => CameraCmd::Act(if cam.is_some_and(|c| c.recording()) {
+                CameraAction::VideoStop
+            } else {
+                CameraAction::VideoStart
+            }),
+            CameraMode => CameraCmd::Act(CameraAction::Mode(
+                if cam.and_then(|c| c.settings).is_some_and(|s| s.mode == 1) {
+                    0
+                } else {
+                    1
+                },
+            )),
+            CameraNext => {
+                let n = self
+                    .target
+                    .and_then(|k| self.sessions.get(&k))
+                    .map_or(0, |s| s.cameras.cameras.len());
+                self.ui.camera_sel = if n == 0 {
+                    0
+                } else {
+                    (self.ui.camera_sel.min(n - 1) + 1) % n
+                };
+                return;
+            }
+            GimbalUp => CameraCmd::Gimbal {
+                pitch: (pitch + GIMBAL_STEP).min(90.0),
+                yaw,
+            },
+            GimbalDown => CameraCmd::Gimbal {
+                pitch: (pitch - GIMBAL_STEP).max(-90.0),
+                yaw,
+            },
+            GimbalLeft => CameraCmd::Gimbal {
+                pitch,
+                yaw: (yaw - GIMBAL_STEP).max(-180.0),
+            },
+            GimbalRight => CameraCmd::Gimbal {
+                pitch,
+                yaw: (yaw + GIMBAL_STEP).min(180.0),
+            },
+            GimbalCenter => CameraCmd::Gimbal {
+                pitch: 0.0,
+                yaw: 0.0,
+            },
+            _ => return,
+        };
+        self.ui.message = Some(match self.run_camera(cmd, fx) {
+            Ok(t) => (crate::proto::severity::INFO, t.unwrap_or_default()),
+            Err(e) => (crate::proto::severity::ERROR, e),
+        });
+    }
+
+    /// The camera (component id) commands go to: the selected row of the target's cameras.
+    pub fn selected_camera(&self) -> Option<u8> {
+        let key = self.target?;
+        let s = self.sessions.get(&key)?;
+        let ids: Vec<u8> = s.cameras.cameras.keys().copied().collect();
+        ids.get(self.ui.camera_sel.min(ids.len().saturating_sub(1)))
+            .copied()
+    }
+
+    pub(super) fn run_camera(
+        &mut self,
+        cmd: CameraCmd,
+        fx: &mut Vec<Effect>,
+    ) -> Result<Option<String>, String> {
+        let key = self.target.ok_or("no target vehicle")?;
+        let now = self.now;
+        if let CameraCmd::Gimbal { pitch, yaw } = cmd {
+            let s = self.sessions.get_mut(&key).ok_or("no session")?;
+            let (_, out) = s.gimbal_pitch_yaw(now, pitch, yaw)?;
+            self.ui.gimbal = (pitch, yaw);
+            self.session_out(key, out, fx);
+            return Ok(Some(format!("gimbal pitch {pitch}° yaw {yaw}°: sent")));
+        }
+        if let CameraCmd::Select(n) = cmd {
+            let s = self.sessions.get(&key).ok_or("no session")?;
+            let ids: Vec<u8> = s.cameras.cameras.keys().copied().collect();
+            let i = ids
+                .iter()
+                .position(|&c| c == n)
+                .or_else(|| (n >= 1 && (n as usize) <= ids.len()).then(|| n as usize - 1))
+                .ok_or_else(|| format!("no camera {n} (cameras: {ids:?})"))?;
+            self.ui.camera_sel = i;
+            return Ok(Some(format!("camera {}:{} selected", key.0, ids[i])));
+        }
+        let compid = self
+            .selected_camera()
+            .ok_or_else(|| format!("no camera heard on {}:{}", key.0, key.1))?;
+        let action = match cmd {
+            CameraCmd::FormatAsk => {
+                return Ok(Some(format!(
+                    "formatting erases every image and video on camera {}:{compid}: type `camera format yes`",
+                    key.0
+                )))
+            }
+            CameraCmd::Act(a) => a,
+            _ => unreachable!(),
+        };
+        let s = self.sessions.get_mut(&key).ok_or("no session")?;
+        let (_, out) = s.camera_action(now, compid, &action)?;
+        self.session_out(key, out, fx);
+        Ok(Some(format!(
+            "camera {}:{compid} {}: sent",
+            key.0,
+            action.describe()
+        )))
+    }
+}

@@ -1,0 +1,896 @@
+//! Cameras of one system (MAVLink Camera Protocol v2), sans-I/O.
+//!
+//! - Discovery: a component whose HEARTBEAT says MAV_TYPE_CAMERA, or an autopilot that sends
+//!   CAMERA_INFORMATION itself (ArduPilot's camera library answers on the autopilot's id), is
+//!   asked for CAMERA_INFORMATION with MAV_CMD_REQUEST_MESSAGE; if that is refused or goes
+//!   unanswered the older MAV_CMD_REQUEST_CAMERA_INFORMATION (521, param1 = 1) is tried, as
+//!   QGroundControl does. Then CAMERA_SETTINGS, STORAGE_INFORMATION, CAMERA_CAPTURE_STATUS and,
+//!   with CAMERA_CAP_FLAGS_HAS_VIDEO_STREAM, VIDEO_STREAM_INFORMATION.
+//! - The camera messages are read from their payloads (zeros MAVLink 2 cut restored), so a
+//!   camera that sets flag bits or enum values newer than our dialect is still read.
+//! - Images: every CAMERA_IMAGE_CAPTURED is kept by index; an index below the highest heard (or
+//!   below CAMERA_CAPTURE_STATUS.image_count) that never came is asked for again
+//!   (REQUEST_MESSAGE 263, param2 = index), up to [`HOLE_TRIES`] times, so the list has no holes.
+//! - Operating: [`CameraSet::action`] turns what the operator asks into a command for the camera,
+//!   or says why the camera cannot do it (its flags, its mode).
+//!
+//! Requests go out through the vehicle's command queue (one REQUEST_MESSAGE open per target at
+//! a time): the set holds them until [`CameraSet::next_request`] is taken.
+
+use std::collections::{BTreeMap, VecDeque};
+
+use crate::clock::{Micros, SECOND};
+
+pub const CAMERA_INFORMATION: u32 = 259;
+pub const CAMERA_SETTINGS: u32 = 260;
+pub const STORAGE_INFORMATION: u32 = 261;
+pub const CAMERA_CAPTURE_STATUS: u32 = 262;
+pub const CAMERA_IMAGE_CAPTURED: u32 = 263;
+pub const VIDEO_STREAM_INFORMATION: u32 = 269;
+pub const GIMBAL_DEVICE_ATTITUDE_STATUS: u32 = 285;
+
+pub const CMD_REQUEST_MESSAGE: u16 = 512;
+pub const CMD_REQUEST_CAMERA_INFORMATION: u16 = 521;
+pub const CMD_STORAGE_FORMAT: u16 = 526;
+pub const CMD_SET_CAMERA_MODE: u16 = 530;
+pub const CMD_SET_CAMERA_ZOOM: u16 = 531;
+pub const CMD_SET_CAMERA_FOCUS: u16 = 532;
+pub const CMD_DO_GIMBAL_MANAGER_PITCHYAW: u16 = 1000;
+pub const CMD_IMAGE_START_CAPTURE: u16 = 2000;
+pub const CMD_IMAGE_STOP_CAPTURE: u16 = 2001;
+pub const CMD_VIDEO_START_CAPTURE: u16 = 2500;
+pub const CMD_VIDEO_STOP_CAPTURE: u16 = 2501;
+
+/// MAV_TYPE_CAMERA.
+pub const MAV_TYPE_CAMERA: u8 = 30;
+
+/// Times a missing image is asked for.
+pub const HOLE_TRIES: u32 = 3;
+/// The wait for a missing image before asking again.
+pub const HOLE_RETRY: Micros = 3 * SECOND;
+/// After a CAMERA_INFORMATION request finished without the message, the wait before 521.
+pub const FALLBACK_WAIT: Micros = SECOND;
+
+/// CAMERA_CAP_FLAGS, bit by bit, as the common dialect names them.
+pub const CAP_FLAGS: &[(u32, &str)] = &[
+    (1, "CAPTURE_VIDEO"),
+    (2, "CAPTURE_IMAGE"),
+    (4, "HAS_MODES"),
+    (8, "CAN_CAPTURE_IMAGE_IN_VIDEO_MODE"),
+    (16, "CAN_CAPTURE_VIDEO_IN_IMAGE_MODE"),
+    (32, "HAS_IMAGE_SURVEY_MODE"),
+    (64, "HAS_BASIC_ZOOM"),
+    (128, "HAS_BASIC_FOCUS"),
+    (256, "HAS_VIDEO_STREAM"),
+    (512, "HAS_TRACKING_POINT"),
+    (1024, "HAS_TRACKING_RECTANGLE"),
+    (2048, "HAS_TRACKING_GEO_STATUS"),
+    (4096, "HAS_THERMAL_RANGE"),
+    (8192, "HAS_MTI"),
+];
+pub const CAP_CAPTURE_VIDEO: u32 = 1;
+pub const CAP_CAPTURE_IMAGE: u32 = 2;
+pub const CAP_HAS_MODES: u32 = 4;
+pub const CAP_IMAGE_IN_VIDEO_MODE: u32 = 8;
+pub const CAP_VIDEO_IN_IMAGE_MODE: u32 = 16;
+pub const CAP_SURVEY_MODE: u32 = 32;
+pub const CAP_ZOOM: u32 = 64;
+pub const CAP_FOCUS: u32 = 128;
+pub const CAP_VIDEO_STREAM: u32 = 256;
+
+/// The names of the bits set in `flags` (unknown bits as `BIT n`).
+pub fn flag_names(flags: u32) -> Vec<String> {
+    (0..32)
+        .filter(|b| flags & (1 << b) != 0)
+        .map(|b| {
+            CAP_FLAGS
+                .iter()
+                .find(|(v, _)| *v == 1 << b)
+                .map_or(format!("BIT{b}"), |(_, n)| n.to_string())
+        })
+        .collect()
+}
+
+/// CAMERA_MODE by number.
+pub fn mode_name(mode: u8) -> &'static str {
+    match mode {
+        0 => "image",
+        1 => "video",
+        2 => "survey",
+        _ => "unknown",
+    }
+}
+
+/// A payload with the zeros MAVLink 2 cut restored.
+struct P(Vec<u8>);
+
+impl P {
+    fn new(payload: &[u8], len: usize) -> P {
+        let mut v = payload.to_vec();
+        if v.len() < len {
+            v.resize(len, 0);
+        }
+        P(v)
+    }
+    fn u8(&self, o: usize) -> u8 {
+        self.0[o]
+    }
+    fn u16(&self, o: usize) -> u16 {
+        u16::from_le_bytes([self.0[o], self.0[o + 1]])
+    }
+    fn u32(&self, o: usize) -> u32 {
+        u32::from_le_bytes(self.0[o..o + 4].try_into().unwrap_or_default())
+    }
+    fn i32(&self, o: usize) -> i32 {
+        self.u32(o) as i32
+    }
+    fn u64(&self, o: usize) -> u64 {
+        u64::from_le_bytes(self.0[o..o + 8].try_into().unwrap_or_default())
+    }
+    fn f32(&self, o: usize) -> f32 {
+        f32::from_bits(self.u32(o))
+    }
+    fn text(&self, o: usize, n: usize) -> String {
+        let b = &self.0[o..o + n];
+        let end = b.iter().position(|&c| c == 0).unwrap_or(n);
+        String::from_utf8_lossy(&b[..end]).trim().to_string()
+    }
+}
+
+/// CAMERA_INFORMATION.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CameraInfo {
+    pub vendor: String,
+    pub model: String,
+    /// (major, minor, revision, build), from `firmware_version` (build in the top byte).
+    pub firmware: (u8, u8, u8, u8),
+    pub focal_length_mm: f32,
+    pub sensor_mm: (f32, f32),
+    pub flags: u32,
+    pub resolution: (u16, u16),
+    pub lens_id: u8,
+    pub definition_uri: String,
+    pub gimbal_device_id: u8,
+}
+
+impl CameraInfo {
+    pub fn read(payload: &[u8]) -> CameraInfo {
+        let p = P::new(payload, 237);
+        let fw = p.u32(4);
+        CameraInfo {
+            firmware: (
+                (fw & 0xff) as u8,
+                (fw >> 8 & 0xff) as u8,
+                (fw >> 16 & 0xff) as u8,
+                (fw >> 24) as u8,
+            ),
+            focal_length_mm: p.f32(8),
+            sensor_mm: (p.f32(12), p.f32(16)),
+            flags: p.u32(20),
+            resolution: (p.u16(24), p.u16(26)),
+            vendor: p.text(30, 32),
+            model: p.text(62, 32),
+            lens_id: p.u8(94),
+            definition_uri: p.text(95, 140),
+            gimbal_device_id: p.u8(235),
+        }
+    }
+    pub fn has(&self, flag: u32) -> bool {
+        self.flags & flag != 0
+    }
+}
+
+/// CAMERA_SETTINGS.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    pub mode: u8,
+    pub zoom: f32,
+    pub focus: f32,
+}
+
+/// STORAGE_INFORMATION (MiB).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Storage {
+    pub total: f32,
+    pub used: f32,
+    pub available: f32,
+    pub id: u8,
+    pub count: u8,
+    /// STORAGE_STATUS: 0 empty, 1 unformatted, 2 ready, 3 not supported.
+    pub status: u8,
+}
+
+/// CAMERA_CAPTURE_STATUS.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CaptureStatus {
+    pub image_interval: f32,
+    pub recording_ms: u32,
+    pub available_mib: f32,
+    /// 0 idle, 1 capturing, 2 interval set but idle, 3 interval set and capturing.
+    pub image_status: u8,
+    /// 0 idle, 1 recording.
+    pub video_status: u8,
+    pub image_count: i32,
+}
+
+/// One CAMERA_IMAGE_CAPTURED.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Image {
+    pub index: i32,
+    pub time_utc_us: u64,
+    pub lat_e7: i32,
+    pub lon_e7: i32,
+    pub alt_mm: i32,
+    pub relative_alt_mm: i32,
+    /// 1 success, 0 failure, -1 unknown.
+    pub result: i8,
+    pub url: String,
+}
+
+impl Image {
+    pub fn read(payload: &[u8]) -> Image {
+        let p = P::new(payload, 255);
+        Image {
+            time_utc_us: p.u64(0),
+            lat_e7: p.i32(12),
+            lon_e7: p.i32(16),
+            alt_mm: p.i32(20),
+            relative_alt_mm: p.i32(24),
+            index: p.i32(44),
+            result: p.u8(49) as i8,
+            url: p.text(50, 205),
+        }
+    }
+}
+
+/// VIDEO_STREAM_INFORMATION.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stream {
+    pub id: u8,
+    pub name: String,
+    pub uri: String,
+    pub resolution: (u16, u16),
+    pub framerate: f32,
+    /// VIDEO_STREAM_TYPE: 0 RTSP, 1 RTP/UDP, 2 TCP MPEG, 3 MPEG-TS.
+    pub kind: u8,
+}
+
+/// Where asking for CAMERA_INFORMATION stands.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Discovery {
+    /// REQUEST_MESSAGE 259 asked (or waiting to be).
+    Asking,
+    /// Refused or unanswered: 521 from this time.
+    FallbackAt(Micros),
+    /// MAV_CMD_REQUEST_CAMERA_INFORMATION asked.
+    Legacy,
+    Found,
+    /// Neither request brought CAMERA_INFORMATION.
+    Failed,
+}
+
+/// One camera component.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Camera {
+    pub compid: u8,
+    pub discovery: Discovery,
+    pub info: Option<CameraInfo>,
+    pub settings: Option<Settings>,
+    pub storage: Option<Storage>,
+    pub status: Option<CaptureStatus>,
+    pub images: BTreeMap<i32, Image>,
+    /// The index of the last CAMERA_IMAGE_CAPTURED heard (not a re-requested one).
+    pub last_image: Option<i32>,
+    pub streams: BTreeMap<u8, Stream>,
+    /// Missing image indices asked for again: how often, and when last.
+    asked: BTreeMap<i32, (u32, Micros)>,
+    /// Requests waiting for the command queue: (command, params).
+    pending: VecDeque<(u16, [f64; 7])>,
+    /// Sequence number of the next single-image capture (IMAGE_START_CAPTURE param4).
+    next_seq: u32,
+}
+
+impl Camera {
+    fn new(compid: u8) -> Camera {
+        let mut c = Camera {
+            compid,
+            discovery: Discovery::Asking,
+            info: None,
+            settings: None,
+            storage: None,
+            status: None,
+            images: BTreeMap::new(),
+            last_image: None,
+            streams: BTreeMap::new(),
+            asked: BTreeMap::new(),
+            pending: VecDeque::new(),
+            next_seq: 1,
+        };
+        c.request(CAMERA_INFORMATION, 0.0);
+        c
+    }
+
+    fn request(&mut self, id: u32, p2: f64) {
+        let r = (
+            CMD_REQUEST_MESSAGE,
+            [id as f64, p2, 0.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        if !self.pending.contains(&r) {
+            self.pending.push_back(r);
+        }
+    }
+
+    pub fn has(&self, flag: u32) -> bool {
+        self.info.as_ref().is_some_and(|i| i.has(flag))
+    }
+
+    pub fn recording(&self) -> bool {
+        self.status.is_some_and(|s| s.video_status == 1)
+    }
+
+    /// Image indices below the highest known that never came.
+    pub fn missing(&self) -> Vec<i32> {
+        let top = self
+            .images
+            .keys()
+            .next_back()
+            .map(|i| i + 1)
+            .unwrap_or(0)
+            .max(self.status.map_or(0, |s| s.image_count));
+        // Bounded: a camera's count can be large; only the newest 1000 are looked for.
+        (top.saturating_sub(1000).max(0)..top)
+            .filter(|i| !self.images.contains_key(i))
+            .collect()
+    }
+
+    fn find_holes(&mut self, now: Micros) {
+        for i in self.missing() {
+            let (n, last) = self.asked.entry(i).or_insert((0, 0));
+            if *n == 0 || (*n < HOLE_TRIES && now >= *last + HOLE_RETRY) {
+                *n += 1;
+                *last = now;
+                self.request(CAMERA_IMAGE_CAPTURED, i as f64);
+            }
+        }
+    }
+
+    /// When a missing image is next asked for again.
+    fn hole_deadline(&self) -> Option<Micros> {
+        self.asked
+            .iter()
+            .filter(|(i, (n, _))| *n < HOLE_TRIES && !self.images.contains_key(i))
+            .map(|(_, (_, last))| last + HOLE_RETRY)
+            .min()
+    }
+
+    /// The line the Camera screen heads with: `Sony ILX-LR1 (1:100)`.
+    pub fn title(&self) -> String {
+        match &self.info {
+            Some(i) => format!("{} {}", i.vendor, i.model),
+            None => "camera".into(),
+        }
+    }
+}
+
+/// What the operator asks of a camera.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CameraAction {
+    Mode(u8),
+    /// Images: count (0 = until stopped), interval in seconds.
+    Shoot {
+        count: u32,
+        interval: f64,
+    },
+    StopImages,
+    VideoStart,
+    VideoStop,
+    Zoom(f64),
+    Focus(f64),
+    Format,
+}
+
+impl CameraAction {
+    /// What the operator sees it as: `shoot 3 every 1 s`, `mode video`, …
+    pub fn describe(&self) -> String {
+        match self {
+            CameraAction::Mode(m) => format!("mode {}", mode_name(*m)),
+            CameraAction::Shoot { count: 1, .. } => "shoot".into(),
+            CameraAction::Shoot { count: 0, interval } => {
+                format!("shoot every {interval} s until stopped")
+            }
+            CameraAction::Shoot { count, interval } => format!("shoot {count} every {interval} s"),
+            CameraAction::StopImages => "stop images".into(),
+            CameraAction::VideoStart => "video start".into(),
+            CameraAction::VideoStop => "video stop".into(),
+            CameraAction::Zoom(z) => format!("zoom {z}%"),
+            CameraAction::Focus(f) => format!("focus {f}%"),
+            CameraAction::Format => "format storage".into(),
+        }
+    }
+}
+
+/// The cameras of one system, by component id.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct CameraSet {
+    pub cameras: BTreeMap<u8, Camera>,
+    /// The last GIMBAL_DEVICE_ATTITUDE_STATUS: (component, roll, pitch, yaw in degrees).
+    pub gimbal: Option<(u8, f32, f32, f32)>,
+}
+
+impl CameraSet {
+    /// A message of component `from` of this system. `hb_type`: its HEARTBEAT's MAV_TYPE.
+    /// Returns notices to show.
+    pub fn on_message(
+        &mut self,
+        now: Micros,
+        from: u8,
+        id: u32,
+        hb_type: Option<u8>,
+        payload: &[u8],
+    ) -> Vec<(u8, String)> {
+        let mut notes = Vec::new();
+        if id == GIMBAL_DEVICE_ATTITUDE_STATUS {
+            let p = P::new(payload, 49);
+            let (w, x, y, z) = (p.f32(4), p.f32(8), p.f32(12), p.f32(16));
+            let roll = (2.0 * (w * x + y * z)).atan2(1.0 - 2.0 * (x * x + y * y));
+            let pitch = (2.0 * (w * y - z * x)).clamp(-1.0, 1.0).asin();
+            let yaw = (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z));
+            self.gimbal = Some((
+                from,
+                roll.to_degrees(),
+                pitch.to_degrees(),
+                yaw.to_degrees(),
+            ));
+            return notes;
+        }
+        if hb_type == Some(MAV_TYPE_CAMERA) && !self.cameras.contains_key(&from) {
+            self.cameras.insert(from, Camera::new(from));
+            return notes;
+        }
+        if id == CAMERA_INFORMATION && !self.cameras.contains_key(&from) {
+            // An autopilot answering for its camera (ArduPilot).
+            let mut c = Camera::new(from);
+            c.pending.clear();
+            self.cameras.insert(from, c);
+        }
+        let Some(c) = self.cameras.get_mut(&from) else {
+            return notes;
+        };
+        match id {
+            CAMERA_INFORMATION => {
+                let info = CameraInfo::read(payload);
+                let first = c.info.is_none();
+                if first {
+                    notes.push((
+                        crate::proto::severity::INFO,
+                        format!(
+                            "camera {from}: {} {} {}x{}",
+                            info.vendor, info.model, info.resolution.0, info.resolution.1
+                        ),
+                    ));
+                    c.request(CAMERA_SETTINGS, 0.0);
+                    c.request(STORAGE_INFORMATION, 0.0);
+                    c.request(CAMERA_CAPTURE_STATUS, 0.0);
+                    if info.has(CAP_VIDEO_STREAM) {
+                        c.request(VIDEO_STREAM_INFORMATION, 0.0);
+                    }
+                }
+                c.discovery = Discovery::Found;
+                c.info = Some(info);
+            }
+            CAMERA_SETTINGS => {
+                let p = P::new(payload, 14);
+                c.settings = Some(Settings {
+                    mode: p.u8(4),
+                    zoom: p.f32(5),
+                    focus: p.f32(9),
+                });
+            }
+            STORAGE_INFORMATION => {
+                let p = P::new(payload, 61);
+                c.storage = Some(Storage {
+                    total: p.f32(4),
+                    used: p.f32(8),
+                    available: p.f32(12),
+                    id: p.u8(24),
+                    count: p.u8(25),
+                    status: p.u8(26),
+                });
+            }
+            CAMERA_CAPTURE_STATUS => {
+                let p = P::new(payload, 23);
+                c.status = Some(CaptureStatus {
+                    image_interval: p.f32(4),
+                    recording_ms: p.u32(8),
+                    available_mib: p.f32(12),
+                    image_status: p.u8(16),
+                    video_status: p.u8(17),
+                    image_count: p.i32(18),
+                });
+                c.find_holes(now);
+            }
+            CAMERA_IMAGE_CAPTURED => {
+                let img = Image::read(payload);
+                if img.index >= 0 {
+                    let again = c.asked.remove(&img.index).is_some();
+                    if !again {
+                        c.last_image = Some(img.index.max(c.last_image.unwrap_or(-1)));
+                        // The count and the card's free space changed.
+                        c.request(CAMERA_CAPTURE_STATUS, 0.0);
+                    }
+                    c.images.insert(img.index, img);
+                    // Keep memory bounded: the newest 10 000 images.
+                    while c.images.len() > 10_000 {
+                        c.images.pop_first();
+                    }
+                    c.find_holes(now);
+                }
+            }
+            VIDEO_STREAM_INFORMATION => {
+                let p = P::new(payload, 215);
+                let s = Stream {
+                    framerate: p.f32(0),
+                    resolution: (p.u16(10), p.u16(12)),
+                    id: p.u8(18),
+                    kind: p.u8(20),
+                    name: p.text(21, 32),
+                    uri: p.text(53, 160),
+                };
+                if c.streams.len() < 16 || c.streams.contains_key(&s.id) {
+                    c.streams.insert(s.id, s);
+                }
+            }
+            _ => {}
+        }
+        notes
+    }
+
+    /// A command to camera `compid` finished: `accepted` or not. Drives the fallback and the
+    /// refreshes after a change.
+    pub fn on_finished(
+        &mut self,
+        now: Micros,
+        compid: u8,
+        command: u16,
+        params: &[f64; 7],
+        accepted: bool,
+    ) -> Vec<(u8, String)> {
+        let mut notes = Vec::new();
+        let Some(c) = self.cameras.get_mut(&compid) else {
+            return notes;
+        };
+        match command {
+            CMD_REQUEST_MESSAGE
+                if params[0] == CAMERA_INFORMATION as f64
+                    && c.info.is_none()
+                    && c.discovery == Discovery::Asking =>
+            {
+                c.discovery = Discovery::FallbackAt(now + FALLBACK_WAIT);
+            }
+            CMD_REQUEST_CAMERA_INFORMATION if c.info.is_none() && !accepted => {
+                c.discovery = Discovery::Failed;
+                notes.push((
+                    crate::proto::severity::WARNING,
+                    format!(
+                        "camera {compid}: no CAMERA_INFORMATION (REQUEST_MESSAGE and 521 unanswered)"
+                    ),
+                ));
+            }
+            CMD_SET_CAMERA_MODE | CMD_SET_CAMERA_ZOOM | CMD_SET_CAMERA_FOCUS if accepted => {
+                c.request(CAMERA_SETTINGS, 0.0);
+            }
+            CMD_IMAGE_START_CAPTURE
+            | CMD_IMAGE_STOP_CAPTURE
+            | CMD_VIDEO_START_CAPTURE
+            | CMD_VIDEO_STOP_CAPTURE => {
+                c.request(CAMERA_CAPTURE_STATUS, 0.0);
+            }
+            CMD_STORAGE_FORMAT if accepted => {
+                c.request(STORAGE_INFORMATION, 0.0);
+                c.request(CAMERA_CAPTURE_STATUS, 0.0);
+            }
+            _ => {}
+        }
+        notes
+    }
+
+    /// Due work: the 521 fallback.
+    pub fn poll(&mut self, now: Micros) {
+        for c in self.cameras.values_mut() {
+            if c.hole_deadline().is_some_and(|t| now >= t) {
+                c.find_holes(now);
+            }
+            if let Discovery::FallbackAt(t) = c.discovery {
+                if now >= t && c.info.is_none() {
+                    c.discovery = Discovery::Legacy;
+                    c.pending.push_back((
+                        CMD_REQUEST_CAMERA_INFORMATION,
+                        [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                    ));
+                }
+            }
+        }
+    }
+
+    pub fn next_deadline(&self) -> Option<Micros> {
+        self.cameras
+            .values()
+            .flat_map(|c| {
+                let fallback = match c.discovery {
+                    Discovery::FallbackAt(t) => Some(t),
+                    _ => None,
+                };
+                [fallback, c.hole_deadline()]
+            })
+            .flatten()
+            .min()
+    }
+
+    /// The requests waiting, by camera: (compid, command, params), the first of each camera.
+    pub fn heads(&self) -> Vec<(u8, u16, [f64; 7])> {
+        self.cameras
+            .values()
+            .filter_map(|c| c.pending.front().map(|(cmd, p)| (c.compid, *cmd, *p)))
+            .collect()
+    }
+
+    /// The head request of `compid` went out.
+    pub fn sent(&mut self, compid: u8) {
+        if let Some(c) = self.cameras.get_mut(&compid) {
+            c.pending.pop_front();
+        }
+    }
+
+    /// The command for `action` on camera `compid`, or why the camera cannot do it.
+    pub fn action(&self, compid: u8, action: &CameraAction) -> Result<(u16, [f64; 7]), String> {
+        let c = self
+            .cameras
+            .get(&compid)
+            .ok_or_else(|| format!("no camera {compid}"))?;
+        let info = c
+            .info
+            .as_ref()
+            .ok_or_else(|| format!("camera {compid}: CAMERA_INFORMATION not heard yet"))?;
+        let has = |f: u32| info.has(f);
+        let lacks = |what: &str, flag: &str| {
+            format!("camera {compid} cannot {what} (no CAMERA_CAP_FLAGS_{flag})")
+        };
+        let mode = c.settings.map(|s| s.mode);
+        let p = |a: f64, b: f64, cc: f64, d: f64| [a, b, cc, d, 0.0, 0.0, 0.0];
+        match action {
+            CameraAction::Mode(m) => {
+                if !has(CAP_HAS_MODES) {
+                    return Err(lacks("change modes", "HAS_MODES"));
+                }
+                if *m == 2 && !has(CAP_SURVEY_MODE) {
+                    return Err(lacks("survey", "HAS_IMAGE_SURVEY_MODE"));
+                }
+                if c.recording() {
+                    return Err(format!(
+                        "camera {compid} is recording: `camera video stop` first"
+                    ));
+                }
+                Ok((CMD_SET_CAMERA_MODE, p(0.0, *m as f64, 0.0, 0.0)))
+            }
+            CameraAction::Shoot { count, interval } => {
+                if !has(CAP_CAPTURE_IMAGE) {
+                    return Err(lacks("take images", "CAPTURE_IMAGE"));
+                }
+                if has(CAP_HAS_MODES) && !has(CAP_IMAGE_IN_VIDEO_MODE) {
+                    match mode {
+                        None => return Err(format!("camera {compid}: mode unknown (CAMERA_SETTINGS not heard): not sent")),
+                        Some(1) => return Err(format!("camera {compid} is in video mode: `camera mode image` first (not sent)")),
+                        _ => {}
+                    }
+                }
+                let seq = if *count == 1 { c.next_seq as f64 } else { 0.0 };
+                Ok((
+                    CMD_IMAGE_START_CAPTURE,
+                    p(0.0, *interval, *count as f64, seq),
+                ))
+            }
+            CameraAction::StopImages => Ok((CMD_IMAGE_STOP_CAPTURE, p(0.0, 0.0, 0.0, 0.0))),
+            CameraAction::VideoStart => {
+                if !has(CAP_CAPTURE_VIDEO) {
+                    return Err(lacks("record video", "CAPTURE_VIDEO"));
+                }
+                if has(CAP_HAS_MODES) && !has(CAP_VIDEO_IN_IMAGE_MODE) {
+                    match mode {
+                        None => {
+                            return Err(format!(
+                            "camera {compid}: mode unknown (CAMERA_SETTINGS not heard): not sent"
+                        ))
+                        }
+                        Some(m) if m != 1 => {
+                            return Err(format!(
+                            "camera {compid} is in {} mode: `camera mode video` first (not sent)",
+                            mode_name(m)
+                        ))
+                        }
+                        _ => {}
+                    }
+                }
+                // CAMERA_CAPTURE_STATUS at 1 Hz while recording (param2).
+                Ok((CMD_VIDEO_START_CAPTURE, p(0.0, 1.0, 0.0, 0.0)))
+            }
+            CameraAction::VideoStop => Ok((CMD_VIDEO_STOP_CAPTURE, p(0.0, 0.0, 0.0, 0.0))),
+            CameraAction::Zoom(z) => {
+                if !has(CAP_ZOOM) {
+                    return Err(lacks("zoom", "HAS_BASIC_ZOOM"));
+                }
+                // ZOOM_TYPE_RANGE (2): 0 to 100 % of the range.
+                Ok((CMD_SET_CAMERA_ZOOM, p(2.0, *z, 0.0, 0.0)))
+            }
+            CameraAction::Focus(f) => {
+                if !has(CAP_FOCUS) {
+                    return Err(lacks("focus", "HAS_BASIC_FOCUS"));
+                }
+                // FOCUS_TYPE_RANGE (2): 0 to 100 % of the range.
+                Ok((CMD_SET_CAMERA_FOCUS, p(2.0, *f, 0.0, 0.0)))
+            }
+            CameraAction::Format => {
+                if c.storage.is_none() {
+                    return Err(format!("camera {compid}: STORAGE_INFORMATION not heard"));
+                }
+                if c.recording() {
+                    return Err(format!(
+                        "camera {compid} is recording: `camera video stop` first"
+                    ));
+                }
+                let id = c.storage.map_or(1, |s| s.id.max(1));
+                // Storage id (1 = first), format, reset the image log.
+                Ok((CMD_STORAGE_FORMAT, p(id as f64, 1.0, 1.0, 0.0)))
+            }
+        }
+    }
+
+    /// A single capture went out: the next one carries the next sequence number.
+    pub fn shot_sent(&mut self, compid: u8) {
+        if let Some(c) = self.cameras.get_mut(&compid) {
+            c.next_seq += 1;
+        }
+    }
+
+    /// After a format that reset the image log: forget the images.
+    pub fn forget_images(&mut self, compid: u8) {
+        if let Some(c) = self.cameras.get_mut(&compid) {
+            c.images.clear();
+            c.asked.clear();
+            c.last_image = None;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn info_payload(flags: u32) -> Vec<u8> {
+        let mut p = vec![0u8; 237];
+        p[20..24].copy_from_slice(&flags.to_le_bytes());
+        p[24..26].copy_from_slice(&4000u16.to_le_bytes());
+        p[30..34].copy_from_slice(b"Acme");
+        p[62..65].copy_from_slice(b"X10");
+        p
+    }
+
+    fn image(index: i32) -> Vec<u8> {
+        let mut p = vec![0u8; 255];
+        p[44..48].copy_from_slice(&index.to_le_bytes());
+        p[49] = 1;
+        p
+    }
+
+    #[test]
+    fn discovery_falls_back_to_521_and_holes_are_asked_for() {
+        let mut s = CameraSet::default();
+        s.on_message(0, 100, 0, Some(MAV_TYPE_CAMERA), &[]);
+        assert_eq!(
+            s.heads(),
+            vec![(100, 512, [259.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])]
+        );
+        s.sent(100);
+        s.on_finished(
+            SECOND,
+            100,
+            512,
+            &[259.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            false,
+        );
+        s.poll(SECOND + FALLBACK_WAIT);
+        assert_eq!(
+            s.heads(),
+            vec![(100, 521, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])]
+        );
+        s.sent(100);
+        // New flag bits beyond the dialect are kept.
+        s.on_message(3 * SECOND, 100, 259, None, &info_payload(2 | 4 | (1 << 20)));
+        let c = &s.cameras[&100];
+        assert_eq!(c.info.as_ref().unwrap().vendor, "Acme");
+        assert_eq!(
+            flag_names(c.info.as_ref().unwrap().flags),
+            ["CAPTURE_IMAGE", "HAS_MODES", "BIT20"]
+        );
+        for _ in 0..3 {
+            s.sent(100); // settings, storage, status
+        }
+        s.on_message(4 * SECOND, 100, 263, None, &image(0));
+        s.on_message(4 * SECOND, 100, 263, None, &image(2));
+        // A new image asks for the capture status (count, free space), then the hole.
+        assert_eq!(
+            s.heads(),
+            vec![(100, 512, [262.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])]
+        );
+        s.sent(100);
+        assert_eq!(
+            s.heads(),
+            vec![(100, 512, [263.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0])]
+        );
+        s.sent(100);
+        // Not asked again while the answer may still come; asked again after HOLE_RETRY.
+        s.poll(4 * SECOND + 1);
+        assert!(s.heads().is_empty());
+        s.poll(4 * SECOND + HOLE_RETRY);
+        assert_eq!(
+            s.heads(),
+            vec![(100, 512, [263.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0])]
+        );
+        s.sent(100);
+        s.on_message(5 * SECOND, 100, 263, None, &image(1));
+        assert!(s.cameras[&100].missing().is_empty());
+        assert_eq!(s.cameras[&100].last_image, Some(2));
+    }
+
+    #[test]
+    fn a_capture_in_the_wrong_mode_is_not_sent() {
+        let mut s = CameraSet::default();
+        s.on_message(0, 100, 259, None, &info_payload(1 | 2 | 4));
+        let e = s
+            .action(
+                100,
+                &CameraAction::Shoot {
+                    count: 1,
+                    interval: 0.0,
+                },
+            )
+            .unwrap_err();
+        assert!(e.contains("mode unknown"), "{e}");
+        let mut settings = vec![0u8; 14];
+        settings[4] = 1; // video
+        s.on_message(0, 100, 260, None, &settings);
+        let e = s
+            .action(
+                100,
+                &CameraAction::Shoot {
+                    count: 1,
+                    interval: 0.0,
+                },
+            )
+            .unwrap_err();
+        assert!(e.contains("video mode"), "{e}");
+        assert!(s.action(100, &CameraAction::VideoStart).is_ok());
+        let e = s.action(100, &CameraAction::Zoom(50.0)).unwrap_err();
+        assert!(e.contains("HAS_BASIC_ZOOM"), "{e}");
+    }
+
+    #[test]
+    fn gimbal_attitude_is_read_as_degrees() {
+        // Pitch -30°, yaw 45° (ZYX): q = qz(45°) * qy(-30°).
+        let (p, y) = ((-30f32).to_radians() / 2.0, 45f32.to_radians() / 2.0);
+        let q = [
+            p.cos() * y.cos(),
+            -p.sin() * y.sin(),
+            p.sin() * y.cos(),
+            p.cos() * y.sin(),
+        ];
+        let mut payload = vec![0u8; 40];
+        for (i, v) in q.iter().enumerate() {
+            payload[4 + 4 * i..8 + 4 * i].copy_from_slice(&v.to_le_bytes());
+        }
+        let mut s = CameraSet::default();
+        s.on_message(0, 154, GIMBAL_DEVICE_ATTITUDE_STATUS, None, &payload);
+        let (from, roll, pitch, yaw) = s.gimbal.unwrap();
+        assert_eq!(from, 154);
+        assert!(roll.abs() < 0.01 && (pitch + 30.0).abs() < 0.01 && (yaw - 45.0).abs() < 0.01);
+    }
+}
