@@ -67,3 +67,11 @@ fn pymavlink_param_list_at_57600_baud() {
     );
     assert!(took < 90.0, "{took:.1} s");
 }
+
+/// The mission protocol against pymavlink as the GCS: a mission built with `mavwp`, a fence and
+/// a rally point uploaded with MISSION_ITEM_INT and downloaded back item by item; the vehicle
+/// asks with MISSION_REQUEST as ArduCopter does; an old MISSION_REQUEST gets a MISSION_ITEM.
+#[test]
+fn pymavlink_mission_fence_rally_round_trips() {
+    run("py/sim_mission.py", &[], "");
+}

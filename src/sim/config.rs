@@ -21,7 +21,7 @@ pub enum SimError {
 }
 
 /// Listed in the unknown-key error so the operator sees what is accepted.
-pub const KNOWN_KEYS: &str = "vehicles, sysid, loss, dup, reorder, corrupt, latency_ms, seed, params, baud, state, impair_in, drop_cmd, ftp";
+pub const KNOWN_KEYS: &str = "vehicles, sysid, loss, dup, reorder, corrupt, latency_ms, seed, params, baud, state, impair_in, drop_cmd, ftp, mission_boot_ms";
 
 /// How many vehicles, which ids, and how bad the simulated link is.
 #[derive(Debug, Clone, PartialEq)]
@@ -57,6 +57,11 @@ pub struct SimConfig {
     /// `ftp=0`: a firmware built without MAVFTP (`AP_MAVLINK_FTP_ENABLED` 0): FILE_TRANSFER_PROTOCOL
     /// goes unanswered and AUTOPILOT_VERSION does not announce MAV_PROTOCOL_CAPABILITY_FTP.
     pub ftp: bool,
+    /// `mission_boot_ms=N`: for the first N ms after boot the mission storage is not ready, so
+    /// a mission upload is refused with MISSION_ACK NO_SPACE and "Only 0 items are supported",
+    /// as a real ArduCopter answers a GCS that uploads while it is still booting. 0 (default):
+    /// the simulated boot is instantaneous, so no such window.
+    pub mission_boot_ms: u64,
 }
 
 impl Default for SimConfig {
@@ -76,6 +81,7 @@ impl Default for SimConfig {
             impair_in: false,
             drop_cmd: BTreeMap::new(),
             ftp: true,
+            mission_boot_ms: 0,
         }
     }
 }
@@ -212,6 +218,9 @@ impl SimConfig {
                 "drop_cmd" => c.drop_cmd = drop_list(key, value)?,
                 "impair_in" => c.impair_in = flag(key, value)?,
                 "ftp" => c.ftp = flag(key, value)?,
+                "mission_boot_ms" => {
+                    c.mission_boot_ms = num(key, value, "milliseconds (a whole number)")?
+                }
                 _ => {
                     return Err(SimError::UnknownKey {
                         key: key.to_string(),
@@ -294,6 +303,13 @@ mod tests {
     }
 
     #[test]
+    fn mission_boot_window() {
+        assert_eq!(SimConfig::default().mission_boot_ms, 0);
+        let c = SimConfig::from_query("mission_boot_ms=2500").unwrap();
+        assert_eq!(c.mission_boot_ms, 2500);
+    }
+
+    #[test]
     fn errors_name_the_key() {
         for (q, key) in [
             ("bogus=1", "bogus"),
@@ -318,6 +334,8 @@ mod tests {
             ("drop_cmd=512:1,512:2", "drop_cmd"),
             ("ftp=2", "ftp"),
             ("ftp=off", "ftp"),
+            ("mission_boot_ms=-1", "mission_boot_ms"),
+            ("mission_boot_ms=1.5", "mission_boot_ms"),
         ] {
             let e = SimConfig::from_query(q).unwrap_err().to_string();
             assert!(e.contains(&format!("`{key}`")), "{q}: {e}");

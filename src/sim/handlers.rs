@@ -9,7 +9,7 @@ use super::mavftp::Request as FtpRequest;
 use super::streams::{self, id, DEFAULT_INTERVAL};
 use super::telemetry::{command_ack, param_value_notify, raw_command_ack};
 use super::vehicle::{
-    mode, AirspeedCal, Blocked, LastCommand, SimVehicle, ACCEL_CAL_TIME, GYRO_CAL_TIME,
+    mode, AirspeedCal, Blocked, Inbound, LastCommand, SimVehicle, ACCEL_CAL_TIME, GYRO_CAL_TIME,
 };
 use crate::clock::Micros;
 use crate::dialect::*;
@@ -87,7 +87,8 @@ impl SimVehicle {
     pub(super) fn handle(&mut self, now: Micros, from: (u8, u8), msg: &MavMessage) {
         if self.blocked.is_some() {
             // A synchronous calibration holds the main loop: read it afterwards.
-            self.queued_in.push_back((from, msg.clone()));
+            self.queued_in
+                .push_back((from, Inbound::Msg(Box::new(msg.clone()))));
             return;
         }
         self.now = now;
@@ -176,11 +177,24 @@ impl SimVehicle {
                 };
                 self.command(now, cmd);
             }
+            MavMessage::SET_POSITION_TARGET_LOCAL_NED(m) => self.set_position_target_local_ned(m),
+            MavMessage::SET_POSITION_TARGET_GLOBAL_INT(m) => self.set_position_target_global_int(m),
             // ArduPilot has no handler for COMMAND_CANCEL (GCS_MAVLINK::handle_message has no
             // case for it): it is ignored, nothing is cancelled, nothing is acknowledged.
             MavMessage::COMMAND_CANCEL(_) => {}
             _ => {}
         }
+    }
+
+    /// A message handled from its raw payload (the mission protocol, see `mission.rs`).
+    pub(super) fn handle_raw(&mut self, now: Micros, from: (u8, u8), msgid: u32, payload: &[u8]) {
+        if self.blocked.is_some() {
+            let payload = payload.to_vec();
+            self.queued_in
+                .push_back((from, Inbound::Raw { msgid, payload }));
+            return;
+        }
+        self.mission_message(now, from, msgid, payload);
     }
 
     /// GCS_MAVLINK::handle_param_set: an unknown name, NaN or infinity is ignored (nothing is
@@ -295,6 +309,50 @@ impl SimVehicle {
             MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH => ok(self.set_mode(mode::RTL)),
             MavCmd::MAV_CMD_NAV_LOITER_UNLIM => ok(self.set_mode(mode::LOITER)),
             MavCmd::MAV_CMD_DO_REPOSITION => self.reposition(cmd),
+            // GCS_MAVLINK_Copter::handle_MAV_CMD_MISSION_START: AUTO, auto-armed, and the
+            // mission started or resumed unless it already runs. First/last item not supported.
+            MavCmd::MAV_CMD_MISSION_START => {
+                if p[0] != 0.0 || p[1] != 0.0 {
+                    return MAV_RESULT_DENIED;
+                }
+                if !self.set_mode(mode::AUTO) {
+                    return MAV_RESULT_FAILED;
+                }
+                self.auto.auto_armed = true;
+                if !self.auto.running() {
+                    self.mission_start_or_resume();
+                }
+                MAV_RESULT_ACCEPTED
+            }
+            // GCS_MAVLINK::handle_command_do_set_mission_current: param2 = 1 resets the
+            // mission (jump counters) first; MISSION_CURRENT follows.
+            MavCmd::MAV_CMD_DO_SET_MISSION_CURRENT => {
+                if p[1] as i8 == 1 {
+                    self.auto.reset();
+                }
+                let seq = f32_as_u32(p[0]).min(u16::MAX as u32) as u16;
+                if !self.set_current_cmd(seq) {
+                    return MAV_RESULT_FAILED;
+                }
+                after.push(self.mission_current(None));
+                MAV_RESULT_ACCEPTED
+            }
+            // handle_MAV_CMD_DO_CHANGE_SPEED: in AUTO and GUIDED (the modes with set_speed_*).
+            MavCmd::MAV_CMD_DO_CHANGE_SPEED => {
+                if p[1].is_nan() || p[1] <= 0.0 {
+                    return MAV_RESULT_FAILED;
+                }
+                if self.custom_mode != mode::AUTO && self.custom_mode != mode::GUIDED {
+                    return MAV_RESULT_FAILED;
+                }
+                let v = Some(p[1] as f64);
+                match p[0] as u8 {
+                    2 => self.auto.speed_up = v,
+                    3 => self.auto.speed_down = v,
+                    _ => self.auto.speed_xy = v,
+                }
+                MAV_RESULT_ACCEPTED
+            }
             MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION => self.preflight_calibration(cmd),
             // GCS_MAVLINK::set_message_interval: FAILED for an id with no ap_message, which
             // set_mavlink_message_id_interval tells the GCS of in a STATUSTEXT.
@@ -488,9 +546,9 @@ impl SimVehicle {
     /// The modes' `init(ignore_checks)` where it can fail on this vehicle.
     fn mode_init(&mut self, m: u32, ignore_checks: bool) -> bool {
         match m {
-            // ModeAuto::init: a mission of more than the home item, unless disarmed; the
-            // simulated vehicle has no mission.
-            mode::AUTO => ignore_checks,
+            // ModeAuto::init: a mission of more than the home item, unless disarmed, and a
+            // takeoff first when armed on the ground.
+            mode::AUTO => self.auto_init(ignore_checks),
             // ModeSmartRTL::init: only with a recorded path, which starts at arming.
             mode::SMART_RTL => self.srtl_active,
             // ModeThrow::init: never when already armed.
@@ -540,8 +598,12 @@ impl SimVehicle {
             return MavResult::MAV_RESULT_FAILED;
         }
         self.landed = false;
+        // Mode::do_user_takeoff sets auto-armed.
+        self.auto.auto_armed = true;
         self.takeoff_target = Some(target.min(1000.0));
         self.guided_target = None;
+        self.guided_vel = None;
+        self.guided_yaw = None;
         self.armed_on_ground_since = None;
         MavResult::MAV_RESULT_ACCEPTED
     }

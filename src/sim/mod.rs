@@ -8,12 +8,16 @@
 //! Modules: `config` (query string), `rng` (seeded PRNG), `vehicle` (state and flight model),
 //! `handlers` (GCS messages and commands), `telemetry` (messages out), `streams` (rates),
 //! `params` + `param_pck` (parameter table, packed file), `param_send` (PARAM_VALUE pacing),
-//! `mavftp` (FTP server), `impair` (link).
+//! `mavftp` (FTP server), `impair` (link), `mission` (mission, fence and rally stores and their
+//! protocol), `auto` (AUTO flying the mission), `guided` (SET_POSITION_TARGET_* in GUIDED).
 
+pub mod auto;
 pub mod config;
+pub mod guided;
 pub mod handlers;
 pub mod impair;
 pub mod mavftp;
+pub mod mission;
 pub mod param_send;
 pub mod params;
 pub mod rng;
@@ -119,6 +123,7 @@ impl Sim {
             let mut v = SimVehicle::new(sysid, i, cfg.seed, params, path);
             v.drop_left = cfg.drop_cmd.clone();
             v.set_link(cfg.baud, cfg.ftp);
+            v.mission.ready_at = cfg.mission_boot_ms.saturating_mul(1000);
             vehicles.push(v);
         }
         let impair = Impairer::new(
@@ -181,6 +186,14 @@ impl Sim {
                 continue;
             }
             let from = (f.sysid, f.compid);
+            if mission::is_protocol_message(f.msgid) {
+                // Read from the payload, so ids the dialect lacks still get an answer.
+                for i in 0..self.vehicles.len() {
+                    self.vehicles[i].handle_raw(now, from, f.msgid, f.payload());
+                    self.flush(i, now);
+                }
+                continue;
+            }
             match &f.message {
                 Some(msg) => {
                     for i in 0..self.vehicles.len() {
@@ -315,3 +328,5 @@ fn encode_raw(h: Header, msgid: u32, payload: &[u8]) -> Vec<u8> {
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_mission;

@@ -400,7 +400,7 @@ impl SimVehicle {
                 freemem: u16::MAX,
                 freemem32: 131_072,
             }),
-            id::MISSION_CURRENT => MavMessage::MISSION_CURRENT(MISSION_CURRENT_DATA::default()),
+            id::MISSION_CURRENT => self.mission_current(None),
             id::NAV_CONTROLLER_OUTPUT => {
                 MavMessage::NAV_CONTROLLER_OUTPUT(NAV_CONTROLLER_OUTPUT_DATA {
                     alt_error: self.takeoff_target.map(|t| t - self.alt).unwrap_or(0.0) as f32,

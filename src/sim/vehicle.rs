@@ -4,7 +4,10 @@
 //!
 //! Everything happens at times handed in; the vehicle never reads a clock.
 
+use super::auto::AutoState;
+use super::guided::GuidedVel;
 use super::mavftp::{FtpOut, FtpServer};
+use super::mission::MissionStore;
 use super::param_send::{LinkModel, ParamSender, IO_TIMER_PERIOD, PARAM_SEND_INTERVAL};
 use super::params::ParamTable;
 use super::rng::Rng;
@@ -213,7 +216,7 @@ pub mod mode {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum RtlPhase {
+pub enum RtlPhase {
     Climb,
     Return,
     Descend,
@@ -231,6 +234,14 @@ pub(super) enum Out {
         msgid: u32,
         payload: Vec<u8>,
     },
+}
+
+/// A message waiting while the vehicle is busy: decoded, or a mission protocol message kept as
+/// its raw payload (those are read from the payload, see `mission.rs`).
+#[derive(Debug, Clone)]
+pub(super) enum Inbound {
+    Msg(Box<MavMessage>),
+    Raw { msgid: u32, payload: Vec<u8> },
 }
 
 /// A synchronous calibration in progress: until `until` the vehicle's main loop is busy, sends
@@ -278,13 +289,22 @@ pub struct SimVehicle {
     pub(super) origin: (f64, f64, f64),
     /// Heading, degrees 0..360 (the vehicle faces where it flies and keeps facing there).
     pub(super) yaw: f64,
-    /// GUIDED destination (DO_REPOSITION): metres north/east of home, metres above home.
+    /// GUIDED destination (DO_REPOSITION, SET_POSITION_TARGET_*): metres north/east of home,
+    /// metres above home.
     pub(super) guided_target: Option<(f64, f64, f64)>,
+    /// GUIDED velocity target (SET_POSITION_TARGET_* velocities).
+    pub(super) guided_vel: Option<GuidedVel>,
+    /// Heading commanded with a GUIDED destination, degrees.
+    pub(super) guided_yaw: Option<f64>,
+    /// Mission, fence and rally stores and their transfers.
+    pub(super) mission: MissionStore,
+    /// The mission being flown (AP_Mission and ModeAuto state).
+    pub(super) auto: AutoState,
     /// SmartRTL has a path (recorded from arming with a position estimate).
     pub(super) srtl_active: bool,
     pub(super) blocked: Option<Blocked>,
     /// Messages that arrived while blocked, handled when the block ends.
-    pub(super) queued_in: VecDeque<((u8, u8), MavMessage)>,
+    pub(super) queued_in: VecDeque<((u8, u8), Inbound)>,
     pub(super) airspeed_cal: Option<AirspeedCal>,
     /// `drop_cmd`: copies of each command id still to drop.
     pub(super) drop_left: BTreeMap<u16, u32>,
@@ -349,6 +369,10 @@ impl SimVehicle {
         // ArduPilot names its own id MAV_SYSID (SYSID_THISMAV before 4.7).
         params.set("MAV_SYSID", sysid as f64);
         params.set("SYSID_THISMAV", sysid as f64);
+        // The stores start empty (they are not kept in the state file), and so their counts.
+        for total in ["MIS_TOTAL", "FENCE_TOTAL", "RALLY_TOTAL"] {
+            params.set(total, 0.0);
+        }
         SimVehicle {
             sysid,
             compid: 1,
@@ -362,6 +386,10 @@ impl SimVehicle {
             origin: home,
             yaw: 0.0,
             guided_target: None,
+            guided_vel: None,
+            guided_yaw: None,
+            mission: MissionStore::default(),
+            auto: AutoState::default(),
             srtl_active: false,
             blocked: None,
             queued_in: VecDeque::new(),
@@ -537,7 +565,10 @@ impl SimVehicle {
                 let Some((from, msg)) = self.queued_in.pop_front() else {
                     break;
                 };
-                self.handle(now, from, &msg);
+                match msg {
+                    Inbound::Msg(m) => self.handle(now, from, &m),
+                    Inbound::Raw { msgid, payload } => self.handle_raw(now, from, msgid, &payload),
+                }
             }
             if self.blocked.is_some() {
                 return;
@@ -562,6 +593,8 @@ impl SimVehicle {
             self.text(MavSeverity::MAV_SEVERITY_INFO, &field);
             self.announce_home();
         }
+        self.mission_tick(now);
+        self.auto_update();
         self.step(now, dt);
         self.airspeed_cal_tick(now);
         if now >= self.next_heartbeat {
@@ -613,6 +646,7 @@ impl SimVehicle {
             || self.airspeed_cal.is_some()
             || (self.armed && !self.landed)
             || (self.armed && self.armed_on_ground_since.is_some())
+            || self.auto_busy()
             || !self.booted;
         if busy {
             return next_tick;
@@ -625,6 +659,9 @@ impl SimVehicle {
             t = t.min(self.next_param_run);
         }
         if let Some(d) = self.ftp.next_due() {
+            t = t.min(d);
+        }
+        if let Some(d) = self.mission.next_due() {
             t = t.min(d);
         }
         if !self.gps_fix {
@@ -664,6 +701,8 @@ impl SimVehicle {
         }
         if self.landed {
             let m = self.custom_mode;
+            // (In AUTO the mission disarms: NAV_LAND on touchdown, the mission's end on the
+            // ground.)
             if m == mode::LAND || m == mode::RTL || m == mode::SMART_RTL {
                 self.disarm("Disarming motors");
                 return;
@@ -679,22 +718,8 @@ impl SimVehicle {
         }
         match self.custom_mode {
             mode::LAND => self.descend(dt),
-            mode::RTL => match self.rtl_phase {
-                RtlPhase::Climb => {
-                    let target = self.rtl_alt();
-                    if self.alt < target {
-                        self.climb_to(target, dt);
-                    } else {
-                        self.rtl_phase = RtlPhase::Return;
-                    }
-                }
-                RtlPhase::Return => {
-                    if self.fly_home(dt) {
-                        self.rtl_phase = RtlPhase::Descend;
-                    }
-                }
-                RtlPhase::Descend => self.descend(dt),
-            },
+            mode::RTL => self.rtl_step(dt),
+            mode::AUTO => self.auto_run(dt),
             // SmartRTL retraces its path; flown here as a straight line home, then a landing.
             mode::SMART_RTL => match self.rtl_phase {
                 RtlPhase::Climb | RtlPhase::Return => {
@@ -712,14 +737,32 @@ impl SimVehicle {
                         self.takeoff_target = None;
                     }
                 } else if m == mode::GUIDED {
-                    if let Some(target) = self.guided_target {
-                        self.fly_to(target, dt);
-                    }
+                    self.guided_run(dt);
                 }
             }
         }
-        if self.vn != 0.0 || self.ve != 0.0 {
+        if (self.vn != 0.0 || self.ve != 0.0) && !self.guided_heading_commanded() {
             self.yaw = self.ve.atan2(self.vn).to_degrees().rem_euclid(360.0);
+        }
+    }
+
+    /// RTL (and RTL inside AUTO): climb to RTL_ALT, return at RTL_SPEED, land.
+    pub(super) fn rtl_step(&mut self, dt: f64) {
+        match self.rtl_phase {
+            RtlPhase::Climb => {
+                let target = self.rtl_alt();
+                if self.alt < target {
+                    self.climb_to(target, dt);
+                } else {
+                    self.rtl_phase = RtlPhase::Return;
+                }
+            }
+            RtlPhase::Return => {
+                if self.fly_home(dt) {
+                    self.rtl_phase = RtlPhase::Descend;
+                }
+            }
+            RtlPhase::Descend => self.descend(dt),
         }
     }
 
@@ -742,7 +785,7 @@ impl SimVehicle {
 
     /// Horizontal and vertical speed limits of GUIDED position control (WPNAV_SPEED,
     /// WPNAV_SPEED_UP, WPNAV_SPEED_DN, cm/s), m/s.
-    fn wpnav_speeds(&self) -> (f64, f64, f64) {
+    pub(super) fn wpnav_speeds(&self) -> (f64, f64, f64) {
         let p = |n: &str, d: f64| (self.params.value(n).unwrap_or(d) / 100.0).clamp(0.1, 50.0);
         (
             p("WPNAV_SPEED", 1000.0),
@@ -753,8 +796,18 @@ impl SimVehicle {
 
     /// GUIDED towards a destination (north, east, up from home) in a straight line; it holds
     /// there once arrived. A destination at or below the ground is a landing.
-    fn fly_to(&mut self, (tn, te, ta): (f64, f64, f64), dt: f64) {
-        let (h, up, down) = self.wpnav_speeds();
+    pub(super) fn fly_to(&mut self, target: (f64, f64, f64), dt: f64) {
+        let speeds = self.nav_speeds();
+        self.fly_to_at(target, speeds, dt);
+    }
+
+    /// `fly_to` at the given horizontal, up and down speeds (m/s).
+    pub(super) fn fly_to_at(
+        &mut self,
+        (tn, te, ta): (f64, f64, f64),
+        (h, up, down): (f64, f64, f64),
+        dt: f64,
+    ) {
         let (dn, de) = (tn - self.north, te - self.east);
         let dist = dn.hypot(de);
         let step = h * dt;
@@ -819,7 +872,7 @@ impl SimVehicle {
         }
     }
 
-    fn climb_to(&mut self, target: f64, dt: f64) {
+    pub(super) fn climb_to(&mut self, target: f64, dt: f64) {
         let next = (self.alt + CLIMB_RATE * dt).min(target);
         self.vu = if dt > 0.0 {
             (next - self.alt) / dt
@@ -829,7 +882,7 @@ impl SimVehicle {
         self.alt = next;
     }
 
-    fn descend(&mut self, dt: f64) {
+    pub(super) fn descend(&mut self, dt: f64) {
         let v = self.land_speed();
         self.alt -= v * dt;
         self.vu = -v;
@@ -849,7 +902,12 @@ impl SimVehicle {
             self.armed_on_ground_since = None;
             self.takeoff_target = None;
             self.guided_target = None;
+            self.guided_vel = None;
+            self.guided_yaw = None;
             self.srtl_active = false;
+            // AP_Arming_Copter::disarm resets the mission; auto-armed ends with the motors.
+            self.auto.reset();
+            self.auto.auto_armed = false;
             self.text(MavSeverity::MAV_SEVERITY_INFO, why);
         }
     }
@@ -867,9 +925,38 @@ impl SimVehicle {
         };
         self.takeoff_target = None;
         self.guided_target = None;
+        self.guided_vel = None;
+        self.guided_yaw = None;
+        if self.custom_mode == mode::AUTO {
+            self.auto_exit();
+        }
+        // A new mode starts at the WPNAV speeds (DO_CHANGE_SPEED lasts until the mode ends).
+        self.auto.speed_xy = None;
+        self.auto.speed_up = None;
+        self.auto.speed_down = None;
         self.custom_mode = m;
+        if m == mode::AUTO {
+            self.auto_enter();
+        }
         let hb = self.heartbeat();
         self.push(hb);
+    }
+
+    /// Move home to the vehicle (DO_SET_HOME with "use current location").
+    pub(super) fn set_home_here(&mut self) {
+        let (lat, lon) = self.lat_lon();
+        let amsl = self.home.2 + self.alt;
+        self.set_home_at(lat, lon, amsl);
+    }
+
+    /// Move home; the vehicle stays where it is, so its home-relative position changes.
+    pub(super) fn set_home_at(&mut self, lat: f64, lon: f64, amsl: f64) {
+        let (vlat, vlon) = self.lat_lon();
+        let vamsl = self.home.2 + self.alt;
+        self.home = (lat, lon, amsl);
+        (self.north, self.east) = self.ne_of(vlat, vlon);
+        self.alt = vamsl - amsl;
+        self.announce_home();
     }
 
     /// Latitude/longitude (degrees) of the current position (flat earth around home).
