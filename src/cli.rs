@@ -50,7 +50,8 @@ pub struct Cli {
     #[arg(long)]
     pub headless: bool,
 
-    /// Headless: how long to run before reporting.
+    /// Headless: how long to run before reporting [default: to the end of the tlog: replays,
+    /// else 10 s].
     #[arg(long, value_name = "SECONDS", value_parser = parse_duration)]
     pub duration: Option<f64>,
 

@@ -219,6 +219,19 @@ pub enum Action {
     InspectorFilter,
     /// Inspector: the keys scroll the selected message's fields, or the list again.
     InspectorDetail,
+    // Replay links (`tlog:`), on every screen.
+    /// Pause or resume.
+    ReplayPause,
+    /// While paused, hand on the next frame.
+    ReplayStep,
+    /// Seek 10 s back.
+    ReplayBack,
+    /// Seek 10 s forward.
+    ReplayForward,
+    /// Half the speed.
+    ReplaySlower,
+    /// Double the speed (past ×64: as fast as possible).
+    ReplayFaster,
 }
 
 impl Action {
@@ -370,7 +383,46 @@ impl Action {
             "inspector_detail",
             "the keys scroll the fields / the list",
         ),
+        (
+            Action::ReplayPause,
+            "replay_pause",
+            "replay (tlog:): pause / resume",
+        ),
+        (
+            Action::ReplayStep,
+            "replay_step",
+            "replay: pause, then the next frame at each press",
+        ),
+        (Action::ReplayBack, "replay_back", "replay: seek 10 s back"),
+        (
+            Action::ReplayForward,
+            "replay_forward",
+            "replay: seek 10 s forward (skipped frames are not loss)",
+        ),
+        (
+            Action::ReplaySlower,
+            "replay_slower",
+            "replay: half the speed",
+        ),
+        (
+            Action::ReplayFaster,
+            "replay_faster",
+            "replay: double the speed (past ×64: as fast as possible)",
+        ),
     ];
+
+    /// True for the actions that control replay links.
+    pub fn is_replay(self) -> bool {
+        matches!(
+            self,
+            Action::ReplayPause
+                | Action::ReplayStep
+                | Action::ReplayBack
+                | Action::ReplayForward
+                | Action::ReplaySlower
+                | Action::ReplayFaster
+        )
+    }
 
     pub fn name(self) -> &'static str {
         Action::ALL

@@ -151,7 +151,12 @@ fn main() -> Result<()> {
         let app = if virtual_clock {
             let mut r = VirtualRunner::from_specs(&links, cfg)?;
             edge.start_virtual(&mut r);
-            r.advance_to((secs * SECOND as f64) as u64);
+            // With a replay and no --duration: to the end of every log (a sim alongside runs as
+            // long); otherwise for the duration.
+            let to_end = cli.duration.is_none() && r.run_to_end_of_replays(u64::MAX);
+            if !to_end {
+                r.advance_to((secs * SECOND as f64) as u64);
+            }
             r.finish_recording();
             r.app
         } else {

@@ -439,6 +439,15 @@ fn keys_for_and_bindings_list_what_applies_in_file_order() {
         ("mode", "M"),
         ("palette", "ctrl-p"),
     ]);
+    let replay = [
+        ("replay_pause", "P"),
+        ("replay_step", "."),
+        ("replay_back", "["),
+        ("replay_forward", "]"),
+        ("replay_slower", "-"),
+        ("replay_faster", "+ ="),
+    ];
+    overview.extend(replay);
     assert_eq!(
         names(km.bindings(Mode::Normal, "overview")),
         pairs(&overview)
@@ -458,6 +467,7 @@ fn keys_for_and_bindings_list_what_applies_in_file_order() {
         ("param_fetch", "f"),
         ("param_only_diff", "d"),
     ]);
+    parameters.extend(replay);
     assert_eq!(
         names(km.bindings(Mode::Normal, "parameters")),
         pairs(&parameters)

@@ -317,7 +317,7 @@ async fn a_core_that_falls_behind_gets_a_count_of_what_was_dropped() {
         match ev {
             LinkEvent::Frames { frames: f, .. } => frames += f.len() as u64,
             LinkEvent::Dropped(d) => dropped += d,
-            LinkEvent::State(_) => {}
+            LinkEvent::State(_) | LinkEvent::Replay(_) => {}
         }
         if !sent_last && events > EVENT_QUEUE / 2 {
             sent_last = true;

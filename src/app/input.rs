@@ -232,6 +232,11 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
     ),
     ("quit", "", "quit mavterm"),
     (
+        "replay",
+        "pause|resume|step|seek ±S|speed N",
+        "control tlog: replays (seek -10, seek 1:30, speed 0 = max)",
+    ),
+    (
         "route",
         "LINK|auto",
         "send to the target on this link, or the most recent",
@@ -261,6 +266,8 @@ pub enum Command {
     Param(super::params::ParamCmd),
     /// MAVLink 2 signing: state, or set up / turn off on the target.
     Signing(super::signing::SigningCmd),
+    /// Control the replay links.
+    Replay(crate::link::replay::ReplayCmd),
 }
 
 /// A MAV_CMD by name (`NAV_TAKEOFF`, `mav_cmd_nav_takeoff`, `takeoff` when only one matches
@@ -399,6 +406,7 @@ pub fn parse_command(line: &str, takeoff_alt: f64) -> Result<Command, String> {
                 ),
             }
         }
+        "replay" => super::replay::parse(rest).map(Command::Replay),
         "mode" if rest.is_empty() || rest.contains(' ') => {
             Err("usage: mode NAME, e.g. mode guided (tab lists the modes)".into())
         }

@@ -9,6 +9,7 @@ use super::input::{parse_command, Command, COMMANDS};
 use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
 use super::{links::LinkStatus, screen, App, Effect, Pane};
 use crate::keymap::{Action, Key, KeyCode, Mode};
+use crate::link::replay::ReplayCmd;
 use crate::link::LinkSpec;
 use crate::proto::vehicles::VehicleKey;
 
@@ -158,6 +159,14 @@ impl App {
         out.push("disarm force".into());
         out.push("signing setup".into());
         out.push("signing off".into());
+        if !self.replay_links().is_empty() {
+            for sub in [
+                "pause", "resume", "step", "seek -10", "seek +10", "speed 1", "speed 0", "faster",
+                "slower",
+            ] {
+                out.push(format!("replay {sub}"));
+            }
+        }
         out.push("route auto".into());
         for i in 0..self.links.len() {
             out.push(format!("route {i}"));
@@ -217,6 +226,7 @@ impl App {
                 Ok(Some(format!("link {link}: opening {name}")))
             }
             Command::Flight(action) => self.flight(action, None, fx),
+            Command::Replay(cmd) => self.replay_control(cmd, fx).map(Some),
             Command::Param(cmd) => self.run_param(cmd, fx),
             Command::Signing(cmd) => self.run_signing(cmd),
             Command::Route(link) => {
@@ -380,6 +390,26 @@ impl App {
             | Action::ParamOnlyDiff => self.on_param_action(action, fx),
             Action::InspectorRate | Action::InspectorFilter | Action::InspectorDetail => {
                 self.on_inspector_action(action)
+            }
+            Action::ReplayPause
+            | Action::ReplayStep
+            | Action::ReplayBack
+            | Action::ReplayForward
+            | Action::ReplaySlower
+            | Action::ReplayFaster => {
+                let step = super::replay::SEEK_STEP * crate::clock::SECOND as i64;
+                let cmd = match action {
+                    Action::ReplayPause => ReplayCmd::TogglePause,
+                    Action::ReplayStep => ReplayCmd::Step(1),
+                    Action::ReplayBack => ReplayCmd::Seek(-step),
+                    Action::ReplayForward => ReplayCmd::Seek(step),
+                    Action::ReplaySlower => ReplayCmd::Slower,
+                    _ => ReplayCmd::Faster,
+                };
+                // What it did shows in the status bar's replay state; only a refusal is told.
+                if let Err(e) = self.replay_control(cmd, fx) {
+                    self.ui.message = Some((SEV_ERROR, e));
+                }
             }
             // Far enough to clamp at either end of any list.
             Action::Top => self.move_selection(-(1 << 30)),

@@ -80,6 +80,14 @@ impl RecentFrames {
 }
 
 impl SourceStats {
+    /// Start afresh after a jump in the link's time (a replay's seek): the next frame starts a
+    /// new count, as after a reconnect, and nothing before it makes a duplicate or a copy.
+    pub fn restart(&mut self) {
+        self.seq.restart_sequence();
+        self.crcs.clear();
+        self.recent = RecentFrames::default();
+    }
+
     /// Remember `crc` for `seq` at `now`; true if the last frame with that seq was the same
     /// frame, heard within [`DUPLICATE_WINDOW`].
     #[inline]
@@ -132,6 +140,20 @@ impl RateMeter {
     }
 }
 
+/// Where a replay link is, as it last said, and when (core time) it said so.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReplayView {
+    pub status: crate::link::replay::ReplayStatus,
+    pub at: Micros,
+}
+
+impl ReplayView {
+    /// Log time at core time `now`.
+    pub fn position(&self, now: Micros) -> Micros {
+        self.status.position_at(self.at, now)
+    }
+}
+
 /// Frames we sent that are remembered per link, to know our own frames when a router echoes them.
 pub const SENT_MEMORY: usize = 64;
 /// Sources tracked per link at most; past this the longest silent is evicted and counted.
@@ -174,6 +196,8 @@ pub struct LinkStatus {
     pub trusted: bool,
     /// Incoming signing streams and their last timestamps.
     pub signing_streams: crate::wire::signing::Streams,
+    /// A replay's last status and the core time it came (`tlog:` links).
+    pub replay: Option<ReplayView>,
     /// The second the loss history was last sampled in, and the totals then.
     loss_mark: (u64, (u64, u64)),
 }
@@ -212,6 +236,7 @@ impl LinkStatus {
             notified_down: None,
             loss_history: History::default(),
             loss_mark: (0, (0, 0)),
+            replay: None,
         }
     }
 

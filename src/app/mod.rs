@@ -11,6 +11,7 @@ pub mod links;
 pub mod notices;
 pub mod palette;
 pub mod params;
+pub mod replay;
 pub mod report;
 pub mod screen;
 pub mod session;
@@ -24,6 +25,7 @@ use chrono::{DateTime, Utc};
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavMessage};
 use crate::keymap::{Key, Keymap, Mode};
+use crate::link::replay::{ReplayCmd, ReplayStatus};
 use crate::link::{Frame, LinkId, LinkSpec, ParserStats};
 use crate::proto::ack::CommandAck;
 use crate::proto::loss::SeqOutcome;
@@ -119,6 +121,11 @@ pub enum Event {
         out: usize,
         status: tap::OutputStatus,
     },
+    /// Where a replay link is (`tlog:`): sent when that changes, in order with its frames.
+    ReplayStatus {
+        link: LinkId,
+        status: ReplayStatus,
+    },
 }
 
 /// What the core wants done.
@@ -145,6 +152,11 @@ pub enum Effect {
     OpenLink {
         link: LinkId,
         spec: LinkSpec,
+    },
+    /// Pause, step, seek or change the speed of a replay link.
+    ReplayControl {
+        link: LinkId,
+        cmd: ReplayCmd,
     },
     Quit,
 }
@@ -476,6 +488,7 @@ impl App {
             }
             Event::Recording(st) => self.on_recording(st),
             Event::Output { out, status } => self.on_output(out, status),
+            Event::ReplayStatus { link, status } => self.on_replay_status(link, status),
         }
         self.poll_sessions(&mut fx);
         fx

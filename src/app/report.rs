@@ -5,7 +5,9 @@
 //! `vehicles[].{sysid,compid,type,autopilot,mode,armed,system_status,lost}`. Extra fields may be
 //! added, never renamed. Bounded tables and queues say what they let go: `links[].dropped` (frames
 //! a queue dropped), `links[].echoes` (our own frames heard back), `links[].evicted_sources`, and
-//! `vehicles_evicted` at the top. A tlog link's skipped bytes are in `links[].garbage_bytes`.
+//! `vehicles_evicted` at the top. A tlog link's skipped bytes are in `links[].garbage_bytes`, and
+//! where its replay is in `links[].replay.{position_s,duration_s,speed,paused,ended}` (speed 0 =
+//! as fast as possible; `null` on other links).
 //!
 //! `streams[]`, per session (`sysid`, `compid`, `autopilot`), per link heard: `link`, `state`
 //! (`due`, `asking`, `flowing`, `failed`, `high-latency`), `requests` (frames sent),
@@ -98,6 +100,13 @@ impl App {
                     "signing_streams": l.signing_streams.len(),
                     "signing_streams_evicted": l.signing_streams.evicted,
                     "sources": sources,
+                    "replay": l.replay.as_ref().map(|v| json!({
+                        "position_s": v.position(now) as f64 / 1e6,
+                        "duration_s": v.status.duration.map(|d| d as f64 / 1e6),
+                        "speed": v.status.speed.get(),
+                        "paused": v.status.paused,
+                        "ended": v.status.ended,
+                    })),
                 })
             })
             .collect();

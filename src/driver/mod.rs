@@ -22,6 +22,7 @@ use std::sync::Arc;
 
 use crate::app::{App, Effect, Event};
 use crate::clock::Micros;
+use crate::link::replay::ReplayCmd;
 use crate::link::source::{SourceFactory, TlogSource, VirtualSource};
 use crate::link::transport::LinkEvent;
 use crate::link::{Frame, LinkId, LinkSpec};
@@ -37,6 +38,9 @@ pub trait Links {
     fn write_file(&mut self, path: PathBuf, contents: Vec<u8>);
     /// Read a file; its bytes come back as [`Event::FileRead`], now or later.
     fn read_file(&mut self, path: PathBuf, purpose: crate::app::params::FileUse);
+    /// Pass a replay control to link `link`'s source; what changes comes back as
+    /// [`Event::ReplayStatus`], now or later.
+    fn replay_control(&mut self, now: Micros, link: LinkId, cmd: ReplayCmd);
     /// Frames `link` heard, before the core has them (recording, forwarding); `wall` is the
     /// time, µs since the Unix epoch.
     fn heard(&mut self, _wall: u64, _link: LinkId, _frames: &[Frame]) {}
@@ -65,6 +69,7 @@ pub fn link_event(link: LinkId, ev: LinkEvent) -> Event {
         },
         LinkEvent::State(state) => Event::LinkState { link, state },
         LinkEvent::Dropped(frames) => Event::Dropped { link, frames },
+        LinkEvent::Replay(status) => Event::ReplayStatus { link, status },
     }
 }
 
@@ -98,6 +103,7 @@ fn run_events(app: &mut App, links: &mut impl Links, now: Micros, mut queue: Vec
                     Effect::WriteFile { path, contents } => links.write_file(path, contents),
                     Effect::ReadFile { path, purpose } => links.read_file(path, purpose),
                     Effect::OpenLink { link, spec } => links.open(now, link, spec),
+                    Effect::ReplayControl { link, cmd } => links.replay_control(now, link, cmd),
                     Effect::Quit => {}
                 }
             }
@@ -145,9 +151,9 @@ pub fn write_atomic(path: &Path, contents: &[u8]) -> std::io::Result<()> {
 /// Build the in-process source a spec names: the simulated vehicle or a tlog replay.
 pub fn local_source(spec: &LinkSpec) -> Result<Box<dyn VirtualSource>, String> {
     match spec {
-        LinkSpec::Tlog { path } => {
+        LinkSpec::Tlog { path, speed } => {
             let src = TlogSource::open(path).map_err(|e| format!("{path}: {e}"))?;
-            Ok(Box::new(src))
+            Ok(Box::new(src.with_speed(*speed)))
         }
         LinkSpec::Sim { query } => {
             let cfg = SimConfig::from_query(query).map_err(|e| format!("sim: {e}"))?;

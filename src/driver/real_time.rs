@@ -19,6 +19,7 @@ use crate::app::{App, AppConfig, Event};
 use crate::clock::{Clock, Micros, RealClock};
 use crate::keymap::Key;
 use crate::link::manager::LinkManager;
+use crate::link::replay::ReplayCmd;
 use crate::link::transport::LinkEvent;
 use crate::link::{Frame, LinkId, LinkSpec};
 
@@ -102,6 +103,8 @@ impl RealLinks {
             }
             LinkEvent::State(state) => o.fwd.output_state(out, state),
             LinkEvent::Dropped(n) => o.fwd.output_dropped(out, n),
+            // Outputs are never replays (`--out tlog:` is refused).
+            LinkEvent::Replay(_) => {}
         }
     }
 
@@ -127,6 +130,11 @@ impl Links for RealLinks {
     }
     fn open(&mut self, _now: Micros, link: LinkId, spec: LinkSpec) {
         self.mgr.open(link, spec);
+    }
+    fn replay_control(&mut self, _now: Micros, link: LinkId, cmd: ReplayCmd) {
+        // A full control queue (keys held down faster than the link takes them) drops the
+        // press, as a terminal does when it cannot keep up.
+        self.mgr.control(link, cmd);
     }
     fn write_file(&mut self, path: PathBuf, contents: Vec<u8>) {
         let done = self.done.clone();

@@ -14,6 +14,7 @@ use super::{local_source, step, step_edge, write_atomic, Links};
 use crate::app::{App, AppConfig, Event};
 use crate::clock::Micros;
 use crate::keymap::Key;
+use crate::link::replay::ReplayCmd;
 use crate::link::source::{TlogOpenError, TlogSource, VirtualSource};
 use crate::link::{Frame, FrameParser, LinkId, LinkSpec, LinkState, ParserStats};
 
@@ -143,6 +144,15 @@ impl Links for VLinks {
         let report = self.recorder.as_mut().and_then(|r| r.after_step(now));
         report.map(Event::Recording).into_iter().collect()
     }
+    fn replay_control(&mut self, now: Micros, link: LinkId, cmd: ReplayCmd) {
+        if let Some(src) = self.links.get_mut(link).and_then(|l| l.src.as_mut()) {
+            src.control(now, cmd);
+            // Told before the frames that follow, so a seek's jump is known when they come.
+            if let Some(status) = src.take_status(now) {
+                self.pending.push(Event::ReplayStatus { link, status });
+            }
+        }
+    }
 }
 
 impl VLink {
@@ -201,14 +211,14 @@ impl VirtualRunner {
         let mut epoch = None;
         for spec in specs {
             match spec {
-                LinkSpec::Tlog { path } => {
+                LinkSpec::Tlog { path, speed } => {
                     let path = path.clone();
                     let src = TlogSource::open(&path).map_err(|e| match e {
                         TlogOpenError::Io(source) => RunnerError::Io { path, source },
                         TlogOpenError::Tlog(source) => RunnerError::Tlog { path, source },
                     })?;
                     epoch = epoch.or(src.start_time());
-                    sources.push(Box::new(src));
+                    sources.push(Box::new(src.with_speed(*speed)));
                 }
                 LinkSpec::Sim { .. } => {
                     sources.push(local_source(spec).map_err(RunnerError::Sim)?);
@@ -264,30 +274,87 @@ impl VirtualRunner {
         }
     }
 
-    fn deliver(&mut self, i: usize) {
+    /// Poll link `i`'s source and hand what it emitted to the core; false when it emitted
+    /// nothing.
+    fn deliver(&mut self, i: usize) -> bool {
         let now = self.now;
         let l = &mut self.links.links[i];
-        let Some(src) = l.src.as_mut() else { return };
+        let Some(src) = l.src.as_mut() else {
+            return false;
+        };
         let bytes = src.poll(now);
+        let status = src.take_status(now);
         // What the source passed over (a tlog's garbage) is garbage on the link, as if the
         // parser had skipped it.
         let skipped = src.skipped();
         let new_skipped = skipped.saturating_sub(l.skipped_reported);
-        if bytes.is_empty() && new_skipped == 0 {
-            return;
+        let progress = !bytes.is_empty() || new_skipped > 0;
+        if progress {
+            l.skipped_reported = skipped;
+            let mut frames = Vec::new();
+            l.parser.push(&bytes, |f| frames.push(f));
+            let total = *l.parser.stats();
+            let mut stats = total.since(&l.reported);
+            stats.garbage_bytes += new_skipped;
+            l.reported = total;
+            self.step(Event::Frames {
+                link: i,
+                frames,
+                stats,
+            });
         }
-        l.skipped_reported = skipped;
-        let mut frames = Vec::new();
-        l.parser.push(&bytes, |f| frames.push(f));
-        let total = *l.parser.stats();
-        let mut stats = total.since(&l.reported);
-        stats.garbage_bytes += new_skipped;
-        l.reported = total;
-        self.step(Event::Frames {
-            link: i,
-            frames,
-            stats,
-        });
+        if let Some(status) = status {
+            self.step(Event::ReplayStatus { link: i, status });
+        }
+        progress
+    }
+
+    /// True when there is a replay link and every replay has handed on its last record.
+    pub fn replays_ended(&self) -> bool {
+        let mut any = false;
+        for l in &self.links.links {
+            if let Some(st) = l.src.as_ref().and_then(|s| s.replay_status()) {
+                if !st.ended {
+                    return false;
+                }
+                any = true;
+            }
+        }
+        any
+    }
+
+    /// Run until every replay link has ended (other links run alongside), or `limit`, or
+    /// nothing more can come (a replay paused). False if there is no replay link.
+    pub fn run_to_end_of_replays(&mut self, limit: Micros) -> bool {
+        let any = self
+            .links
+            .links
+            .iter()
+            .any(|l| l.src.as_ref().is_some_and(|s| s.replay_status().is_some()));
+        if !any {
+            return false;
+        }
+        while !self.replays_ended() && self.now < limit {
+            // A paused replay would wait for ever.
+            let playing = self.links.links.iter().any(|l| {
+                l.src
+                    .as_ref()
+                    .and_then(|s| s.replay_status())
+                    .is_some_and(|st| !st.ended && !st.paused)
+            });
+            let next = self
+                .links
+                .links
+                .iter()
+                .map(VLink::deadline)
+                .min()
+                .unwrap_or(Micros::MAX);
+            if !playing || next == Micros::MAX {
+                break;
+            }
+            self.advance_to(next.max(self.now).min(limit));
+        }
+        true
     }
 
     /// Run links and core up to virtual time `t`, in time order, links in index order.
@@ -303,7 +370,8 @@ impl VirtualRunner {
                 .unwrap_or(Micros::MAX);
             let next_core = self.app.next_deadline();
             let mut next = next_src.min(next_core).max(self.now);
-            // Something that stays due without progress must not stall virtual time.
+            // Something that stays due without progress must not stall virtual time. A source
+            // that emits each time (a replay as fast as possible) is progress.
             spins = if next == self.now { spins + 1 } else { 0 };
             if spins > 64 {
                 next = self.now + 1;
@@ -314,8 +382,8 @@ impl VirtualRunner {
             }
             self.now = next;
             for i in 0..self.links.links.len() {
-                if self.links.links[i].deadline() <= self.now {
-                    self.deliver(i);
+                if self.links.links[i].deadline() <= self.now && self.deliver(i) {
+                    spins = 0;
                 }
             }
             if self.app.next_deadline() <= self.now {

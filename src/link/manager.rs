@@ -3,6 +3,7 @@
 
 use tokio::sync::mpsc;
 
+use super::replay::ReplayCmd;
 use super::source::SourceFactory;
 use super::transport::{spawn_link, EventTx, LinkEvent, LinkHandle, EVENT_QUEUE};
 use super::{LinkId, LinkSpec};
@@ -48,10 +49,24 @@ impl LinkManager {
 
     /// The next report from any link (state changes first).
     pub async fn next_event(&mut self) -> Option<(LinkId, LinkEvent)> {
-        tokio::select! {
+        let ev = tokio::select! {
             biased;
             Some(ev) = self.states.recv() => Some(ev),
             ev = self.frames.recv() => ev,
+        };
+        if let Some((id, LinkEvent::Frames { .. })) = &ev {
+            if let Some(Some(h)) = self.handles.get(*id) {
+                h.took_frames();
+            }
+        }
+        ev
+    }
+
+    /// Pass a replay control to a link; false when it was dropped (no such link, queue full).
+    pub fn control(&self, link: LinkId, cmd: ReplayCmd) -> bool {
+        match self.handles.get(link) {
+            Some(Some(h)) => h.control(cmd),
+            _ => false,
         }
     }
 

@@ -3,6 +3,7 @@
 
 pub(crate) mod local;
 pub mod manager;
+pub mod replay;
 pub mod source;
 pub mod spec;
 pub mod state;

@@ -25,7 +25,11 @@
 //!   traffic (`udpin:0.0.0.0:14550?hl=1`, `serial:/dev/ttyUSB0:57600?hl=1`); `secure=1` marks a
 //!   link nobody else can reach (a USB cable, a wire): MAVLink signing keys go only on such a
 //!   link, and unsigned frames are accepted on it (`serial:/dev/ttyACM0?secure=1`). Options join
-//!   with `&`. `sim://` keeps its own options after `?`, and a `tlog:` path keeps its `?`.
+//!   with `&`. `sim://` keeps its own options after `?`.
+//! - `tlog:PATH?speed=N` replays at N times real time (1 by default; 0 = as fast as possible).
+//!   The last `?` starts the options when what follows it reads as options (`key=value` words);
+//!   otherwise it is part of the path (`tlog:what?.tlog`). A path whose `?` is followed by
+//!   something that reads as options is written with a `?` at the end: `tlog:a?b=1.tlog?`.
 //! - A serial spec remembers whether its baud was given: only a baud the operator wrote says how
 //!   fast the link is (a USB port ignores it, a radio's UART does not), so only then are telemetry
 //!   rates fitted to it.
@@ -34,6 +38,8 @@ use std::fmt;
 use std::net::Ipv6Addr;
 use std::str::FromStr;
 
+use super::replay::ReplaySpeed;
+
 /// Baud rate used when a serial spec names none (the usual telemetry-radio rate).
 pub const DEFAULT_BAUD: u32 = 57_600;
 
@@ -41,7 +47,7 @@ pub const DEFAULT_BAUD: u32 = 57_600;
 pub const ACCEPTED_FORMS: &str =
     "accepted forms: udpin:ADDR:PORT, udpout:HOST:PORT, tcp:HOST:PORT, \
 tcpin:ADDR:PORT, serial:PATH[:BAUD], PATH,BAUD, udp://[HOST]:PORT, udpout://HOST:PORT, \
-tcp://HOST:PORT, serial://PATH[:BAUD], sim://[?vehicles=N&...], tlog:PATH; \
+tcp://HOST:PORT, serial://PATH[:BAUD], sim://[?vehicles=N&...], tlog:PATH[?speed=N]; \
 network and serial links take ?hl=1 (high latency: nothing sent but the heartbeat) and \
 ?secure=1 (a USB cable or a wire: signing keys may go on it)";
 
@@ -85,8 +91,8 @@ pub enum LinkSpec {
     },
     /// The embedded simulated vehicle(s); `query` is the text after `?`.
     Sim { query: String },
-    /// Replay of a tlog file.
-    Tlog { path: String },
+    /// Replay of a tlog file at a speed (1 = real time, 0 = as fast as possible).
+    Tlog { path: String, speed: ReplaySpeed },
 }
 
 /// Why a connection string was refused. Each message names the part that is wrong.
@@ -121,6 +127,13 @@ pub enum SpecError {
     MissingTlogPath { input: String },
     #[error("link spec `{input}`: option `{option}` is not known (link options: hl=1, secure=1)")]
     BadOption { input: String, option: String },
+    #[error(
+        "link spec `{input}`: option `{option}` is not known (tlog options: speed=N, 1 = real \
+         time, 0 = as fast as possible; a path holding `?` ends with `?`: tlog:a?b=1.tlog?)"
+    )]
+    BadTlogOption { input: String, option: String },
+    #[error("link spec `{input}`: {message}")]
+    BadSpeed { input: String, message: String },
 }
 
 impl LinkSpec {
@@ -198,8 +211,16 @@ impl fmt::Display for LinkSpec {
             }
             LinkSpec::Sim { query } if query.is_empty() => write!(f, "sim://")?,
             LinkSpec::Sim { query } => write!(f, "sim://?{query}")?,
-            LinkSpec::Tlog { path } if path.starts_with("//") => write!(f, "tlog://{path}")?,
-            LinkSpec::Tlog { path } => write!(f, "tlog:{path}")?,
+            LinkSpec::Tlog { path, speed } => {
+                let sep = if path.starts_with("//") { "//" } else { "" };
+                write!(f, "tlog:{sep}{path}")?;
+                // A path holding `?` ends with one, so what follows it is not read as options.
+                if *speed != ReplaySpeed::REAL_TIME {
+                    write!(f, "?speed={speed}")?;
+                } else if path.contains('?') {
+                    write!(f, "?")?;
+                }
+            }
         }
         match (self.high_latency(), self.secure()) {
             (true, true) => write!(f, "?hl=1&secure=1")?,
@@ -388,6 +409,53 @@ fn options<'a>(input: &str, rest: &'a str) -> Result<(&'a str, LinkOptions), Spe
     Ok((before, o))
 }
 
+/// True when `tail` (what follows a `?`) reads as options: `key[=value]` parts joined by `&`,
+/// keys being words of letters.
+fn looks_like_options(tail: &str) -> bool {
+    tail.split('&').filter(|o| !o.is_empty()).all(|o| {
+        let key = o.split_once('=').map_or(o, |(k, _)| k);
+        !key.is_empty() && key.chars().all(|c| c.is_ascii_alphabetic() || c == '_')
+    })
+}
+
+/// `tlog:PATH[?speed=N]`. The last `?` starts options when what follows it reads as options
+/// ([`looks_like_options`]) or is empty; otherwise it is part of the path (`what?.tlog`). A path
+/// whose `?` is followed by something that reads as options is written with a `?` at the end.
+fn tlog(input: &str, rest: &str) -> Result<LinkSpec, SpecError> {
+    let (path, query) = match rest.rsplit_once('?') {
+        // Blanks before the options are not the path's (they would not print back).
+        Some((path, tail)) if looks_like_options(tail) => (path.trim_end(), tail),
+        _ => (rest, ""),
+    };
+    if path.trim().is_empty() {
+        return Err(SpecError::MissingTlogPath {
+            input: input.into(),
+        });
+    }
+    let mut speed = ReplaySpeed::REAL_TIME;
+    for opt in query.split('&').filter(|o| !o.is_empty()) {
+        match opt.split_once('=') {
+            Some((k, v)) if k.eq_ignore_ascii_case("speed") => {
+                speed = v.parse().map_err(|message| SpecError::BadSpeed {
+                    input: input.into(),
+                    message,
+                })?
+            }
+            _ => {
+                return Err(SpecError::BadTlogOption {
+                    input: input.into(),
+                    option: opt.into(),
+                })
+            }
+        }
+    }
+    Ok(LinkSpec::Tlog {
+        path: path.into(),
+        speed,
+    })
+}
+
+
 /// The same spec with the options `o`.
 fn with_options(spec: LinkSpec, o: LinkOptions) -> LinkSpec {
     let LinkOptions { hl, secure } = o;
@@ -535,7 +603,7 @@ fn transport(input: &str, s: &str) -> Result<LinkSpec, SpecError> {
                         input: input.into(),
                     });
                 }
-                return Ok(LinkSpec::Tlog { path: rest.into() });
+                return tlog(input, rest);
             }
             _ if is_com_port(s) => return serial(input, s),
             _ => {
@@ -765,7 +833,10 @@ mod tests {
     }
 
     fn tlog(path: &str) -> LinkSpec {
-        LinkSpec::Tlog { path: path.into() }
+        LinkSpec::Tlog {
+            path: path.into(),
+            speed: ReplaySpeed::REAL_TIME,
+        }
     }
 
     #[test]
@@ -867,6 +938,51 @@ mod tests {
     }
 
     #[test]
+    fn tlog_speed_option() {
+        let at = |path: &str, v: f64| LinkSpec::Tlog {
+            path: path.into(),
+            speed: ReplaySpeed::new(v).unwrap(),
+        };
+        assert_eq!(p("tlog:a.tlog?speed=2"), at("a.tlog", 2.0));
+        assert_eq!(p("tlog:a.tlog?speed=0"), at("a.tlog", 0.0));
+        assert_eq!(p("tlog:a.tlog?speed=0.25"), at("a.tlog", 0.25));
+        assert_eq!(p("tlog:a.tlog?speed=1"), tlog("a.tlog"));
+        assert_eq!(p("tlog:a.tlog?"), tlog("a.tlog"));
+        assert_eq!(p("tlog:a.tlog \n?speed=2"), at("a.tlog", 2.0));
+        assert_eq!(p("file:///tmp/a.tlog?speed=4"), at("/tmp/a.tlog", 4.0));
+        // A `?` not followed by options is the path's own.
+        assert_eq!(p("tlog:what?.tlog"), tlog("what?.tlog"));
+        assert_eq!(p("tlog:what?.tlog?speed=2"), at("what?.tlog", 2.0));
+        for (spec, shown) in [
+            ("tlog:a.tlog?speed=2", "tlog:a.tlog?speed=2"),
+            ("tlog:a.tlog?speed=0.5", "tlog:a.tlog?speed=0.5"),
+            ("tlog:a.tlog?speed=1", "tlog:a.tlog"),
+            ("tlog:what?.tlog", "tlog:what?.tlog?"),
+            ("tlog:a?x=1.tlog?", "tlog:a?x=1.tlog?"),
+            ("tlog:////srv/x.tlog?speed=0", "tlog:////srv/x.tlog?speed=0"),
+        ] {
+            let l = p(spec);
+            assert_eq!(l.to_string(), shown, "{spec}");
+            assert_eq!(p(shown), l, "{shown} round-trips");
+        }
+        for (spec, what) in [
+            ("tlog:a.tlog?speed=-1", "speed `-1`"),
+            ("tlog:a.tlog?speed=fast", "speed `fast`"),
+            ("tlog:a.tlog?speed=", "speed ``"),
+            ("tlog:a.tlog?speed=nan", "speed `nan`"),
+            ("tlog:a.tlog?sped=2", "option `sped=2`"),
+            ("tlog:a.tlog?speed=2&hl=1", "option `hl=1`"),
+            ("tlog:a.tlog?loop", "option `loop`"),
+        ] {
+            let e = spec.parse::<LinkSpec>().unwrap_err();
+            assert!(e.to_string().contains(what), "{spec}: {e}");
+            assert!(e.to_string().contains(&format!("`{spec}`")), "{spec}: {e}");
+        }
+        let e = "tlog:?speed=2".parse::<LinkSpec>().unwrap_err();
+        assert!(matches!(e, SpecError::MissingTlogPath { .. }), "{e}");
+    }
+
+    #[test]
     fn tlog_needs_a_path() {
         for spec in ["tlog:", "tlog://", "  tlog:  "] {
             let e = spec.parse::<LinkSpec>().unwrap_err();
@@ -962,7 +1078,12 @@ mod tests {
                 query: "hl=1".into()
             }
         );
-        assert_eq!(p("tlog:a?hl=1.tlog"), tlog("a?hl=1.tlog"));
+        // A tlog path whose `?` is followed by what reads as options ends with `?`.
+        assert_eq!(p("tlog:a?hl=1.tlog?"), tlog("a?hl=1.tlog"));
+        assert!(matches!(
+            "tlog:a?hl=1.tlog".parse::<LinkSpec>(),
+            Err(SpecError::BadTlogOption { .. })
+        ));
         assert!(!p("sim://?hl=1").high_latency());
         // Unknown options and values are refused, naming them.
         for (spec, opt) in [

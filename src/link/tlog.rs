@@ -168,6 +168,11 @@ pub struct TlogReader<R> {
     failed: bool,
     skipped: Skipped,
     offset: u64,
+    /// The furthest offset read so far: bytes before it that are read again (after a seek back)
+    /// are not counted as skipped twice.
+    high_water: u64,
+    /// The open gap has been counted.
+    gap_counted: bool,
 }
 
 impl<R: Read> TlogReader<R> {
@@ -182,7 +187,37 @@ impl<R: Read> TlogReader<R> {
             failed: false,
             skipped: Skipped::default(),
             offset: 0,
+            high_water: 0,
+            gap_counted: false,
         }
+    }
+
+    /// A reader of `inner` positioned at `offset` of its stream somewhere in the middle, where a
+    /// record may not start: only a frame whose CRC checks out is taken as the first record.
+    pub fn resync(inner: R, offset: u64) -> Self {
+        let mut r = Self::new(inner);
+        r.offset = offset;
+        r.high_water = offset;
+        r.in_step = false;
+        r
+    }
+
+    /// The stream read from, to move it (then [`TlogReader::restart_at`]).
+    pub fn get_mut(&mut self) -> &mut R {
+        &mut self.inner
+    }
+
+    /// Read on from `offset`, the start of a record, where the stream was moved to: what was
+    /// buffered is dropped. What is skipped again before [`TlogReader::offset`]'s furthest point
+    /// is not counted again.
+    pub fn restart_at(&mut self, offset: u64) {
+        self.buf.clear();
+        self.pos = 0;
+        self.eof = false;
+        self.failed = false;
+        self.in_step = true;
+        self.in_gap = false;
+        self.offset = offset;
     }
 
     /// What has been skipped so far.
@@ -234,12 +269,19 @@ impl<R: Read> TlogReader<R> {
     fn skip(&mut self, n: usize) {
         if !self.in_gap {
             self.in_gap = true;
+            self.gap_counted = false;
+        }
+        let end = self.offset + n as u64;
+        let fresh = end.saturating_sub(self.offset.max(self.high_water));
+        if fresh > 0 && !self.gap_counted {
+            self.gap_counted = true;
             self.skipped.gaps += 1;
         }
         self.in_step = false;
         self.pos += n;
-        self.offset += n as u64;
-        self.skipped.bytes += n as u64;
+        self.offset = end;
+        self.high_water = self.high_water.max(end);
+        self.skipped.bytes += fresh;
     }
 }
 
@@ -264,6 +306,7 @@ impl<R: Read> Iterator for TlogReader<R> {
                 let frame = d[TS_LEN..n].to_vec();
                 self.pos += n;
                 self.offset += n as u64;
+                self.high_water = self.high_water.max(self.offset);
                 self.in_step = true;
                 self.in_gap = false;
                 return Some(Ok(TlogRecord { time_us, frame }));

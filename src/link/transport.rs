@@ -12,10 +12,13 @@
 use std::net::SocketAddr;
 use std::time::Duration;
 
+use std::sync::Arc;
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream, UdpSocket};
-use tokio::sync::mpsc;
 
+use tokio::sync::{mpsc, Semaphore};
+
+use super::replay::{ReplayCmd, ReplayStatus};
 use super::source::SourceFactory;
 use super::spec::LinkSpec;
 use super::state::LinkState;
@@ -40,12 +43,21 @@ pub enum LinkEvent {
     State(LinkState),
     /// Frames dropped because the queue to the core was full.
     Dropped(u64),
+    /// Where a replay is (sent in order with its frames).
+    Replay(ReplayStatus),
 }
 
 /// Reports a link may have waiting for the core (each carries the frames of one read).
 pub const EVENT_QUEUE: usize = 1024;
 /// Frames the core may have waiting for a link.
 pub const OUT_QUEUE: usize = 256;
+/// Replay controls waiting for a link.
+pub const CONTROL_QUEUE: usize = 16;
+/// Reports of frames a replay may have waiting for the core: a replay waits for the core rather
+/// than drop frames, and holds at most this many reports of [`REPLAY_CHUNK`] bytes of frames.
+///
+/// [`REPLAY_CHUNK`]: super::source::REPLAY_CHUNK
+pub const REPLAY_CREDITS: usize = 8;
 
 /// The core's handle on a running link task.
 #[derive(Debug)]
@@ -53,6 +65,9 @@ pub struct LinkHandle {
     pub id: LinkId,
     pub spec: LinkSpec,
     tx: mpsc::Sender<Vec<u8>>,
+    ctl: mpsc::Sender<ReplayCmd>,
+    /// For a replay: reports it may still send (one comes back as the core takes each).
+    credits: Option<Arc<Semaphore>>,
     task: tokio::task::JoinHandle<()>,
 }
 
@@ -61,6 +76,18 @@ impl LinkHandle {
     /// keep up) or the task has ended.
     pub fn send(&self, frame: Vec<u8>) -> bool {
         self.tx.try_send(frame).is_ok()
+    }
+
+    /// Pass a replay control on; false when it was dropped (queue full, task ended).
+    pub fn control(&self, cmd: ReplayCmd) -> bool {
+        self.ctl.try_send(cmd).is_ok()
+    }
+
+    /// The core took a report of frames from this link: a replay may send another.
+    pub fn took_frames(&self) {
+        if let Some(c) = &self.credits {
+            c.add_permits(1);
+        }
     }
 }
 
@@ -87,6 +114,15 @@ struct Ingest {
     dropped: u64,
     /// Bytes an in-process source passed over, not reported yet (added to the garbage bytes).
     skipped: u64,
+    /// A replay's credits ([`REPLAY_CREDITS`]).
+    credits: Option<Arc<Semaphore>>,
+}
+
+/// Room for one report to the core, waited for: a place in the queue, and for frames of a
+/// replay one of its credits.
+struct Room<'a> {
+    credit: Option<tokio::sync::SemaphorePermit<'a>>,
+    slot: mpsc::Permit<'a, (LinkId, LinkEvent)>,
 }
 
 impl Ingest {
@@ -98,7 +134,30 @@ impl Ingest {
             events,
             dropped: 0,
             skipped: 0,
+            credits: None,
         }
+    }
+
+    /// Frame `bytes` into a report, with `skipped` bytes counted as garbage.
+    fn frames_event(&mut self, bytes: &[u8], skipped: u64) -> LinkEvent {
+        let mut frames = self.parser.frame_vec(bytes.len());
+        self.parser.push_into(bytes, &mut frames);
+        let now = *self.parser.stats();
+        let mut stats = now.since(&self.reported);
+        self.reported = now;
+        stats.garbage_bytes += skipped;
+        LinkEvent::Frames { frames, stats }
+    }
+
+    /// Wait for room for a report (`credit`: one of a replay's frames reports). `None` when the
+    /// core has gone.
+    async fn room(&self, credit: bool) -> Option<Room<'_>> {
+        let credit = match (&self.credits, credit) {
+            (Some(c), true) => Some(c.acquire().await.ok()?),
+            _ => None,
+        };
+        let slot = self.events.frames.reserve().await.ok()?;
+        Some(Room { credit, slot })
     }
 
     /// Frame `bytes`; `datagram` says they were one whole UDP packet.
@@ -145,11 +204,22 @@ impl Ingest {
 /// Start the task for one link; `local` builds in-process sources (`sim://`, `tlog:`).
 pub fn spawn_link(id: LinkId, spec: LinkSpec, local: SourceFactory, events: EventTx) -> LinkHandle {
     let (tx, rx) = mpsc::channel(OUT_QUEUE);
+    let (ctl, ctl_rx) = mpsc::channel(CONTROL_QUEUE);
+    let credits =
+        matches!(spec, LinkSpec::Tlog { .. }).then(|| Arc::new(Semaphore::new(REPLAY_CREDITS)));
     let task_spec = spec.clone();
+    let task_credits = credits.clone();
     let task = tokio::spawn(async move {
-        run_link(id, task_spec, local, events, rx).await;
+        run_link(id, task_spec, local, events, rx, ctl_rx, task_credits).await;
     });
-    LinkHandle { id, spec, tx, task }
+    LinkHandle {
+        id,
+        spec,
+        tx,
+        ctl,
+        credits,
+        task,
+    }
 }
 
 type OutRx = mpsc::Receiver<Vec<u8>>;
@@ -160,8 +230,11 @@ async fn run_link(
     local: SourceFactory,
     events: EventTx,
     mut out: OutRx,
+    mut ctl: mpsc::Receiver<ReplayCmd>,
+    credits: Option<Arc<Semaphore>>,
 ) {
     let mut ingest = Ingest::new(id, events);
+    ingest.credits = credits;
     let mut backoff = BACKOFF_START;
     loop {
         ingest.state(LinkState::Connecting);
@@ -187,6 +260,7 @@ async fn run_link(
                                     src,
                                     &mut ingest_adapter(&mut ingest),
                                     &mut out,
+                                    &mut ctl,
                                 )
                                 .await
                             }
@@ -229,6 +303,41 @@ impl LocalIngest<'_> {
     }
     pub fn up(&mut self) {
         self.ingest.state(LinkState::Up);
+    }
+
+    /// Frame `bytes` into a report, `skipped` bytes counted as garbage, to send with
+    /// [`LocalIngest::send_waiting`].
+    pub fn frames_event(&mut self, bytes: &[u8], skipped: u64) -> LinkEvent {
+        self.ingest.frames_event(bytes, skipped)
+    }
+
+    /// Send `ev` to the core, waiting for room (a replay loses nothing), while still taking
+    /// what the core sends to the source (`out`, handed to `receive`). False when the core or
+    /// the link's handle has gone.
+    pub async fn send_waiting(
+        &mut self,
+        ev: LinkEvent,
+        out: &mut mpsc::Receiver<Vec<u8>>,
+        mut receive: impl FnMut(Vec<u8>),
+    ) -> bool {
+        let credit = matches!(ev, LinkEvent::Frames { .. });
+        let id = self.ingest.id;
+        loop {
+            tokio::select! {
+                room = self.ingest.room(credit) => {
+                    let Some(room) = room else { return false };
+                    if let Some(c) = room.credit {
+                        c.forget();
+                    }
+                    room.slot.send((id, ev));
+                    return true;
+                }
+                m = out.recv() => match m {
+                    Some(bytes) => receive(bytes),
+                    None => return false,
+                },
+            }
+        }
     }
 }
 

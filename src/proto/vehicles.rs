@@ -148,6 +148,17 @@ pub struct Registry {
     own: VehicleKey,
     /// Components evicted to keep the table within [`MAX_COMPONENTS`].
     pub evicted: u64,
+    /// Links whose time runs slow or stands still (a replay played slowly or paused).
+    paced: BTreeMap<LinkId, Pace>,
+}
+
+/// How time runs on a link compared with ours (a replay's).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Pace {
+    /// Stopped at this time of ours (paused): components heard only there are not lost.
+    Held(Micros),
+    /// This many times slower (≥ 1): the lost timeout stretches as much.
+    Slow(f64),
 }
 
 impl Registry {
@@ -158,7 +169,58 @@ impl Registry {
             lost_timeout,
             own,
             evicted: 0,
+            paced: BTreeMap::new(),
         }
+    }
+
+    /// Set how time runs on `link` (`None`: as ours). When a held link runs again, the
+    /// components heard only there are as old as when it stopped.
+    pub fn set_pace(&mut self, link: LinkId, pace: Option<Pace>, now: Micros) {
+        let old = self.paced.get(&link).copied();
+        if let (Some(Pace::Held(since)), Some(Pace::Held(_))) = (old, pace) {
+            // Still held since then.
+            self.paced.insert(link, Pace::Held(since));
+            return;
+        }
+        if let Some(Pace::Held(since)) = old {
+            let stopped = now.saturating_sub(since);
+            let held: Vec<VehicleKey> = self
+                .vehicles
+                .iter()
+                .filter(|(_, v)| self.timeout_of(v).is_none())
+                .map(|(k, _)| *k)
+                .collect();
+            for k in held {
+                if let Some(v) = self.vehicles.get_mut(&k) {
+                    v.last_heard = (v.last_heard + stopped).min(now);
+                }
+            }
+        }
+        match pace {
+            Some(p) => self.paced.insert(link, p),
+            None => self.paced.remove(&link),
+        };
+    }
+
+    /// The lost timeout of `v`: stretched when every link it is heard on runs slow, none while
+    /// they all stand still.
+    fn timeout_of(&self, v: &Vehicle) -> Option<Micros> {
+        if self.paced.is_empty() || v.links.is_empty() {
+            return Some(self.lost_timeout);
+        }
+        let mut stretch: f64 = 1.0;
+        let mut running = false;
+        for l in &v.links {
+            match self.paced.get(l) {
+                None => return Some(self.lost_timeout),
+                Some(Pace::Held(_)) => {}
+                Some(Pace::Slow(f)) => {
+                    running = true;
+                    stretch = stretch.max(*f);
+                }
+            }
+        }
+        running.then_some((self.lost_timeout as f64 * stretch) as Micros)
     }
 
     pub fn get(&self, key: VehicleKey) -> Option<&Vehicle> {
@@ -306,6 +368,16 @@ impl Registry {
         }
     }
 
+    /// Time jumped on `link` (a replay seeked): the boot times heard there no longer follow
+    /// the ones before, so they are not taken for a reboot.
+    pub fn on_time_jump(&mut self, link: LinkId) {
+        for v in self.vehicles.values_mut() {
+            if v.links.contains(&link) {
+                v.last_boot_ms = None;
+            }
+        }
+    }
+
     /// The component's sequence count restarted (see `loss`) on some link. Where SYSTEM_TIME
     /// arrives, it alone decides; otherwise this is the sign, taken once per reboot however many
     /// links show it.
@@ -339,17 +411,28 @@ impl Registry {
         self.vehicles
             .values()
             .filter(|v| !v.lost)
-            .map(|v| v.last_heard + self.lost_timeout)
+            .filter_map(|v| Some(v.last_heard + self.timeout_of(v)?))
             .min()
     }
 
     /// Mark components lost whose last heartbeat is older than the timeout.
     pub fn tick(&mut self, now: Micros) -> Vec<VehicleEvent> {
-        let mut events = Vec::new();
-        for (key, v) in self.vehicles.iter_mut() {
-            if !v.lost && now.saturating_sub(v.last_heard) >= self.lost_timeout {
+        let lost: Vec<VehicleKey> = self
+            .vehicles
+            .iter()
+            .filter(|(_, v)| {
+                !v.lost
+                    && self
+                        .timeout_of(v)
+                        .is_some_and(|t| now.saturating_sub(v.last_heard) >= t)
+            })
+            .map(|(k, _)| *k)
+            .collect();
+        let mut events = Vec::with_capacity(lost.len());
+        for key in lost {
+            if let Some(v) = self.vehicles.get_mut(&key) {
                 v.lost = true;
-                events.push(VehicleEvent::Lost(*key));
+                events.push(VehicleEvent::Lost(key));
             }
         }
         events
@@ -495,6 +578,27 @@ mod tests {
         assert!(r.on_sequence_restart((1, 1), 10 * SECOND + 1).is_empty());
         assert_eq!(r.on_sequence_restart((1, 1), 60 * SECOND).len(), 1);
         assert_eq!(r.get((1, 1)).unwrap().reboots, 2);
+    }
+
+    #[test]
+    fn a_held_link_keeps_its_components_and_a_slow_one_stretches_the_timeout() {
+        let mut r = Registry::new((255, 190), 5 * SECOND);
+        r.on_heartbeat(0, (1, 1), &copter(false, 0), Version::V2, 0);
+        r.on_heartbeat(1, (2, 1), &copter(false, 0), Version::V2, 0);
+        // Link 0 held at 2 s: 1:1 is never lost meanwhile, 2:1 (link 1) is, after 5 s.
+        r.set_pace(0, Some(Pace::Held(2 * SECOND)), 2 * SECOND);
+        assert_eq!(r.next_deadline(), Some(5 * SECOND));
+        r.tick(60 * SECOND);
+        assert!(!r.get((1, 1)).unwrap().lost);
+        assert!(r.get((2, 1)).unwrap().lost);
+        assert_eq!(r.next_deadline(), None, "nothing to wake for while held");
+        // Running again at 60 s, slowly (×4): it was 2 s old when held, so lost 18 s on.
+        r.set_pace(0, Some(Pace::Slow(4.0)), 60 * SECOND);
+        assert_eq!(r.next_deadline(), Some(78 * SECOND));
+        r.tick(77 * SECOND);
+        assert!(!r.get((1, 1)).unwrap().lost);
+        r.tick(78 * SECOND);
+        assert!(r.get((1, 1)).unwrap().lost);
     }
 
     #[test]

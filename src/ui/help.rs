@@ -13,8 +13,9 @@ use crate::app::App;
 use crate::keymap::{Action, Mode};
 
 /// (keys, description) for every bound action of normal mode on the current screen, in the
-/// keymap's order.
+/// keymap's order (the replay keys only while there is a replay link).
 pub fn help_rows(app: &App) -> Vec<(String, &'static str)> {
+    let replaying = !app.replay_links().is_empty();
     app.keymap
         .bindings(Mode::Normal, app.ui.screen)
         .into_iter()
@@ -24,7 +25,7 @@ pub fn help_rows(app: &App) -> Vec<(String, &'static str)> {
             Action::Screen(i) => crate::keymap::SCREENS
                 .get(*i as usize)
                 .is_some_and(|n| crate::app::screen::by_name(n).is_some()),
-            _ => true,
+            a => replaying || !a.is_replay(),
         })
         .map(|(a, keys)| {
             let names: Vec<String> = keys.iter().map(|k| k.to_string()).collect();
@@ -44,8 +45,10 @@ const KEY_COLUMN_MAX: usize = 32;
 
 pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let rows = help_rows(app);
+    let replaying = !app.replay_links().is_empty();
     let commands: Vec<(String, &str)> = COMMANDS
         .iter()
+        .filter(|(name, _, _)| replaying || *name != "replay")
         .map(|(name, args, what)| (format!(":{name} {args}").trim_end().to_string(), *what))
         .collect();
     // A key column as wide as the keys and most commands; a longer command (`:param ...`) has

@@ -47,6 +47,29 @@ pub fn target_text(app: &App) -> String {
     }
 }
 
+/// The first replay link's state: `replay 00:12/01:22 ×2 paused`, `replay 01:22/01:22 end`
+/// (hours shown once the log is an hour long; no duration for a stream).
+pub fn replay_text(app: &App) -> Option<String> {
+    use crate::link::replay::{clock_text, speed_text};
+    let v = app.replay_view()?;
+    let st = &v.status;
+    let pos = v.position(app.now);
+    let long = st.duration.unwrap_or(pos).max(pos) >= 3600 * crate::clock::SECOND;
+    let mut t = format!("replay {}", clock_text(pos, long));
+    if let Some(d) = st.duration {
+        t += &format!("/{}", clock_text(d, long));
+    }
+    if st.ended {
+        t += " end";
+    } else {
+        t += &format!(" {}", speed_text(st.speed));
+        if st.paused {
+            t += " paused";
+        }
+    }
+    Some(t)
+}
+
 /// `q quit  ? help  tab focus ...` from the keymap in use on the screen shown, as many as fit
 /// in `width`.
 pub fn hints_text(app: &App, width: usize) -> String {
@@ -141,6 +164,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         })
         .unwrap_or_default();
     let mut target = target_text(app) + &progress;
+    let replay = replay_text(app).map(|r| r + "  ").unwrap_or_default();
     // The telemetry log, when there is one: name and size; shortened, then left out, when the
     // bar is short.
     let (mut log, log_style) = log_text(app, theme);
@@ -151,7 +175,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         } else {
             log.chars().count() + 2
         };
-        clock.len() + 2 + target.chars().count() + log_w + 4
+        clock.len() + 2 + replay.chars().count() + target.chars().count() + log_w + 4
     };
     if !log.is_empty() && width.saturating_sub(used(&target, &log)) < MIN_TAIL {
         log = app.recording.as_ref().map_or(String::new(), short_log_text);
@@ -179,6 +203,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let mut spans = vec![
         Span::styled(clock, theme.header()),
         Span::raw("  "),
+        Span::styled(replay, theme.header()),
         Span::styled(target, target_style),
     ];
     if !log.is_empty() {
