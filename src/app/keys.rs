@@ -167,6 +167,13 @@ impl App {
                 out.push(format!("replay {sub}"));
             }
         }
+        for w in ["wp", "fence", "rally"] {
+            for sub in ["load ", "save ", "upload", "download", "clear"] {
+                out.push(format!("{w} {sub}"));
+            }
+        }
+        out.push("wp set ".into());
+        out.push("wp start".into());
         out.push("route auto".into());
         for i in 0..self.links.len() {
             out.push(format!("route {i}"));
@@ -228,6 +235,7 @@ impl App {
             Command::Flight(action) => self.flight(action, None, fx),
             Command::Replay(cmd) => self.replay_control(cmd, fx).map(Some),
             Command::Param(cmd) => self.run_param(cmd, fx),
+            Command::Mission(cmd) => self.run_mission(cmd, fx),
             Command::Signing(cmd) => self.run_signing(cmd),
             Command::Route(link) => {
                 let key = self.target.ok_or("no target vehicle")?;
@@ -391,6 +399,13 @@ impl App {
             Action::InspectorRate | Action::InspectorFilter | Action::InspectorDetail => {
                 self.on_inspector_action(action)
             }
+            Action::MissionList
+            | Action::MissionSource
+            | Action::MissionDownload
+            | Action::MissionUpload
+            | Action::MissionStart
+            | Action::MissionSetCurrent
+            | Action::MissionGoto => self.on_mission_action(action, fx),
             Action::ReplayPause
             | Action::ReplayStep
             | Action::ReplayBack
@@ -444,6 +459,11 @@ impl App {
         }
         if self.ui.screen == "inspector" {
             self.move_inspector(step);
+            return;
+        }
+        if self.ui.screen == "mission" {
+            let n = self.mission_rows().len();
+            self.ui.mission.sel = clamp(self.ui.mission.sel, step, n);
             return;
         }
         if self.ui.screen == "commands" {

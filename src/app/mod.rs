@@ -8,6 +8,7 @@ pub mod input;
 pub mod inspector;
 mod keys;
 pub mod links;
+pub mod mission;
 pub mod notices;
 pub mod palette;
 pub mod params;
@@ -213,6 +214,8 @@ pub struct UiState {
     pub params: params::ParamView,
     /// The MAVLink Inspector.
     pub inspector: inspector::InspectorView,
+    /// The Mission screen and the mission files loaded.
+    pub mission: mission::MissionView,
 }
 
 impl Default for UiState {
@@ -233,6 +236,7 @@ impl Default for UiState {
             palette: None,
             params: params::ParamView::default(),
             inspector: inspector::InspectorView::default(),
+            mission: mission::MissionView::default(),
         }
     }
 }
@@ -475,6 +479,11 @@ impl App {
                     format!("could not save {}: {e}", path.display()),
                 ),
             },
+            Event::FileRead {
+                path,
+                purpose: params::FileUse::Mission(t),
+                result,
+            } => self.on_mission_file(path, t, result),
             Event::FileRead {
                 path,
                 purpose,

@@ -30,6 +30,10 @@ pub const SCREENS: &[Screen] = &[
         name: "inspector",
         title: "MAVLink Inspector",
     },
+    Screen {
+        name: "mission",
+        title: "Mission",
+    },
 ];
 
 /// The screen called `name`, if this build has it.

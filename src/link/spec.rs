@@ -455,7 +455,6 @@ fn tlog(input: &str, rest: &str) -> Result<LinkSpec, SpecError> {
     })
 }
 
-
 /// The same spec with the options `o`.
 fn with_options(spec: LinkSpec, o: LinkOptions) -> LinkSpec {
     let LinkOptions { hl, secure } = o;
