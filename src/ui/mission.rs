@@ -133,7 +133,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
                     .known(t)
                     .and_then(|k| k.items.iter().find(|i| i.seq == c.seq));
                 let pos = s.flight.position.as_ref().map(|p| p.value);
-                if let (Some(i), Some(p)) = (item, pos) {
+                if let (Some(i), Some(p)) = (item.filter(|_| !(ardupilot && c.seq == 0)), pos) {
                     if command_has_position(i.command) && (i.x != 0 || i.y != 0) && p.is_known() {
                         let (d, b) = distance_bearing((p.lat(), p.lon()), (i.param5(), i.param6()));
                         status.push(format!("next wp {d:.0} m at {b:.0}°"));
@@ -196,11 +196,13 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         frame.render_widget(Paragraph::new(Line::styled(hint, theme.dim())), table_area);
         return;
     }
+    // The marks belong to the vehicle's list: shown, or the file uploaded to it.
+    let live = t == MissionType::Mission && (view.shown == Shown::Vehicle || app.file_uploaded(t));
     let current = session
-        .filter(|_| view.shown == Shown::Vehicle && t == MissionType::Mission)
+        .filter(|_| live)
         .and_then(|s| s.mission.current.as_ref().map(|c| c.seq));
     let reached: Vec<u16> = session
-        .filter(|_| view.shown == Shown::Vehicle && t == MissionType::Mission)
+        .filter(|_| live)
         .map(|s| s.mission.reached().map(|(_, q)| q).collect())
         .unwrap_or_default();
     let visible = table_area.height.saturating_sub(1) as usize;
