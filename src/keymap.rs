@@ -219,6 +219,8 @@ pub enum Action {
     InspectorFilter,
     /// Inspector: the keys scroll the selected message's fields, or the list again.
     InspectorDetail,
+    /// Enter Fly mode (keyboard velocity nudges; esc leaves).
+    Fly,
     /// Mission screen: show the next list (mission, fence, rally).
     MissionList,
     /// Mission screen: show the vehicle's list or the loaded file's.
@@ -394,6 +396,11 @@ impl Action {
             Action::InspectorDetail,
             "inspector_detail",
             "the keys scroll the fields / the list",
+        ),
+        (
+            Action::Fly,
+            "fly",
+            "Fly mode: nudge a GUIDED vehicle with the keys (esc leaves)",
         ),
         (
             Action::MissionList,

@@ -25,6 +25,10 @@ impl App {
             self.on_confirm_key(key, fx);
             return;
         }
+        if self.nudge.active() && self.ui.mode == Mode::Normal {
+            self.on_fly_key(key, fx);
+            return;
+        }
         let action = self.keymap.lookup(self.ui.mode, self.ui.screen, &key);
         if self.ui.palette.is_some() && self.ui.mode == Mode::Edit {
             self.on_palette_key(key, action, fx);
@@ -391,6 +395,12 @@ impl App {
                 };
             }
             Action::ModeMenu => self.open_prompt_with("mode ", true),
+            Action::Fly => {
+                self.ui.message = match self.enter_fly() {
+                    Ok(t) => t.map(|t| (SEV_INFO, t)),
+                    Err(e) => Some((SEV_ERROR, e)),
+                };
+            }
             Action::Palette => self.open_palette(),
             Action::ParamFilter
             | Action::ParamEdit

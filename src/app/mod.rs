@@ -10,6 +10,7 @@ mod keys;
 pub mod links;
 pub mod mission;
 pub mod notices;
+pub mod nudge;
 pub mod palette;
 pub mod params;
 pub mod replay;
@@ -60,6 +61,9 @@ pub struct AppConfig {
     pub param_meta: Option<std::sync::Arc<crate::params::meta::MetaSet>>,
     /// MAVLink 2 signing (`--signing-key`); `None`: we do not sign, and take every frame.
     pub signing: Option<signing::SigningConfig>,
+    /// Fly mode's deadman: a nudge stops when no key of it has come for this long
+    /// (config `nudge_deadman`, seconds).
+    pub nudge_deadman: Micros,
 }
 
 impl Default for AppConfig {
@@ -76,6 +80,7 @@ impl Default for AppConfig {
             takeoff_alt: 10.0,
             param_meta: None,
             signing: None,
+            nudge_deadman: nudge::DEADMAN,
         }
     }
 }
@@ -96,6 +101,8 @@ pub enum Event {
         state: LinkState,
     },
     Key(Key),
+    /// A key was let go (terminals that report releases; `release KEY` in replay scripts).
+    KeyRelease(Key),
     /// The screen changed size.
     Resize,
     /// A link (or the queue between it and the core) dropped frames it could not hand on.
@@ -257,6 +264,8 @@ pub struct App {
     pub sessions: BTreeMap<VehicleKey, Session>,
     /// The parameter file last loaded or compared.
     pub param_file: Option<params::LoadedFile>,
+    /// Fly mode: keyboard velocity nudges of a GUIDED vehicle.
+    pub nudge: nudge::Nudge,
     /// Every message heard, per source: the Inspector's.
     pub inspector: inspector::MessageStore,
     /// Our signing key, timestamp clock and what `signing setup` waits for.
@@ -281,6 +290,7 @@ impl App {
             .collect();
         let vehicles = Registry::new((cfg.sysid, cfg.compid), cfg.lost_timeout);
         let signing = signing::SigningState::new(cfg.signing.as_ref());
+        let nudge = nudge::Nudge::new(cfg.nudge_deadman);
         Self {
             cfg,
             now: 0,
@@ -292,6 +302,7 @@ impl App {
             keymap: Keymap::default(),
             sessions: BTreeMap::new(),
             param_file: None,
+            nudge,
             inspector: inspector::MessageStore::default(),
             signing,
             recording: None,
@@ -341,6 +352,7 @@ impl App {
         for s in self.sessions.values() {
             at(s.next_deadline());
         }
+        at(self.nudge.next_deadline());
         t
     }
 
@@ -467,6 +479,7 @@ impl App {
             } => self.on_frames(link, frames, stats, &mut fx),
             Event::LinkState { link, state } => self.on_link_state(link, state),
             Event::Key(key) => self.on_key(key, &mut fx),
+            Event::KeyRelease(key) => self.on_key_release(key, &mut fx),
             Event::Resize => self.dirty = true,
             Event::FileWritten { path, error } if self.signing.is_state_file(&path) => {
                 self.signing_file_written(error)
@@ -499,6 +512,7 @@ impl App {
             Event::Output { out, status } => self.on_output(out, status),
             Event::ReplayStatus { link, status } => self.on_replay_status(link, status),
         }
+        self.poll_nudge(&mut fx);
         self.poll_sessions(&mut fx);
         fx
     }
@@ -756,7 +770,7 @@ impl App {
         ok(sys, self.cfg.sysid) && ok(comp, self.cfg.compid)
     }
 
-    fn on_vehicle_events(&mut self, events: Vec<VehicleEvent>, _fx: &mut Vec<Effect>) {
+    fn on_vehicle_events(&mut self, events: Vec<VehicleEvent>, fx: &mut Vec<Effect>) {
         for ev in events {
             match ev {
                 VehicleEvent::Found(key) => {
@@ -776,11 +790,17 @@ impl App {
                         self.target = Some(key);
                     }
                 }
-                VehicleEvent::Lost(key) => self.notice(
-                    SEV_WARNING,
-                    Some(key),
-                    format!("vehicle {}:{} lost (no heartbeat)", key.0, key.1),
-                ),
+                VehicleEvent::Lost(key) => {
+                    self.notice(
+                        SEV_WARNING,
+                        Some(key),
+                        format!("vehicle {}:{} lost (no heartbeat)", key.0, key.1),
+                    );
+                    if self.nudge.target == Some(key) {
+                        self.leave_fly(fx);
+                        self.notice(SEV_WARNING, Some(key), "Fly mode left: vehicle lost".into());
+                    }
+                }
                 VehicleEvent::Back(key) => self.notice(
                     SEV_NOTICE,
                     Some(key),
