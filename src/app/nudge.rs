@@ -15,7 +15,9 @@
 //! the vehicle is), `esc` leaves.
 
 use crate::clock::Micros;
-use crate::dialect::{MavFrame, MavMessage, PositionTargetTypemask, SET_POSITION_TARGET_LOCAL_NED_DATA};
+use crate::dialect::{
+    MavFrame, MavMessage, PositionTargetTypemask, SET_POSITION_TARGET_LOCAL_NED_DATA,
+};
 use crate::keymap::{Key, KeyCode};
 use crate::proto::vehicles::VehicleKey;
 
@@ -180,7 +182,12 @@ impl Nudge {
 
     /// A direction key came (pressed or repeated): the velocity goes at once when it changed,
     /// then at [`RATE_HZ`].
-    pub fn press(&mut self, now: Micros, axis: Axis, sign: f32) -> Option<(VehicleKey, MavMessage)> {
+    pub fn press(
+        &mut self,
+        now: Micros,
+        axis: Axis,
+        sign: f32,
+    ) -> Option<(VehicleKey, MavMessage)> {
         let key = self.target?;
         let before = self.velocity();
         self.held[idx(axis)] = Some((sign, now));
@@ -191,7 +198,12 @@ impl Nudge {
     }
 
     /// A key was let go (reported by the terminal): its axis stops at once.
-    pub fn release(&mut self, now: Micros, axis: Axis, sign: f32) -> Option<(VehicleKey, MavMessage)> {
+    pub fn release(
+        &mut self,
+        now: Micros,
+        axis: Axis,
+        sign: f32,
+    ) -> Option<(VehicleKey, MavMessage)> {
         let key = self.target?;
         match self.held[idx(axis)] {
             Some((s, _)) if s == sign => self.held[idx(axis)] = None,
@@ -378,7 +390,10 @@ impl App {
             }
             FlyKey::Speed(i) => {
                 self.nudge.set_speed(i);
-                Ok(Some(format!("nudge speed {:.0} m/s", self.nudge.speed_ms())))
+                Ok(Some(format!(
+                    "nudge speed {:.0} m/s",
+                    self.nudge.speed_ms()
+                )))
             }
             FlyKey::Move(axis, sign) => match self.guided_check(target, true, "nudge") {
                 Ok(()) => {
