@@ -19,7 +19,7 @@
 use std::path::PathBuf;
 
 use super::flight::{Confirm, Confirmed, FlightAction};
-use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
+use super::notices::{SEV_ERROR, SEV_INFO};
 use super::params::FileUse;
 use super::{App, Effect};
 use crate::dialect::{MavAutopilot, MavCmd};
@@ -688,7 +688,6 @@ impl App {
             Ok(None) => None,
             Err(e) => Some((SEV_ERROR, e)),
         };
-        let _ = SEV_WARNING;
     }
 }
 

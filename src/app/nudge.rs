@@ -21,6 +21,10 @@ use crate::dialect::{
 use crate::keymap::{Key, KeyCode};
 use crate::proto::vehicles::VehicleKey;
 
+use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
+use super::session::SessionOut;
+use super::{App, Effect};
+
 /// Velocity targets per second while a key is held.
 pub const RATE_HZ: u64 = 10;
 /// Between two velocity targets.
@@ -278,79 +282,6 @@ pub fn velocity_message(key: VehicleKey, now: Micros, v: [f32; 4]) -> MavMessage
     })
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn vel(m: &MavMessage) -> [f32; 4] {
-        match m {
-            MavMessage::SET_POSITION_TARGET_LOCAL_NED(d) => [d.vx, d.vy, d.vz, d.yaw_rate],
-            other => panic!("{other:?}"),
-        }
-    }
-
-    #[test]
-    fn the_mask_is_velocity_and_yaw_rate() {
-        assert_eq!(type_mask().bits(), TYPE_MASK);
-    }
-
-    #[test]
-    fn a_held_key_streams_at_10_hz_and_the_deadman_stops_it() {
-        let mut n = Nudge::new(800_000);
-        assert!(n.press(0, Axis::Forward, 1.0).is_none(), "not in Fly mode");
-        n.enter((1, 1));
-        let (_, m) = n.press(0, Axis::Forward, 1.0).unwrap();
-        assert_eq!(vel(&m), [2.0, 0.0, -0.0, 0.0]);
-        // Repeats at 30 ms do not send more than 10 Hz.
-        assert!(n.press(30_000, Axis::Forward, 1.0).is_none());
-        assert_eq!(n.next_deadline(), Some(100_000));
-        // Polled at its deadlines, the deadman stops it 0.8 s after the last key, not later.
-        let mut m2 = n.clone();
-        let mut last = None;
-        while let Some(d) = m2.next_deadline() {
-            if let Some((_, m)) = m2.poll(d) {
-                last = Some((d, vel(&m)));
-            }
-        }
-        assert_eq!(last, Some((830_001, [0.0; 4])));
-        let mut sends = 1;
-        let mut t = 100_000;
-        let mut stopped_at = None;
-        while t <= 3_000_000 {
-            if let Some((_, m)) = n.poll(t) {
-                sends += 1;
-                if vel(&m)[0] == 0.0 {
-                    stopped_at = Some(t);
-                    break;
-                }
-            }
-            t += 100_000;
-        }
-        // The last key at 30 ms: stopped at the first send more than 0.8 s after it.
-        assert_eq!(stopped_at, Some(900_000));
-        assert_eq!(sends, 10);
-        assert_eq!(n.next_deadline(), None);
-    }
-
-    #[test]
-    fn a_release_stops_at_once_and_leaving_sends_zero() {
-        let mut n = Nudge::default();
-        n.enter((1, 1));
-        n.set_speed(2);
-        n.press(0, Axis::Right, -1.0).unwrap();
-        let (_, m) = n.release(50_000, Axis::Right, -1.0).unwrap();
-        assert_eq!(vel(&m), [0.0, 0.0, -0.0, 0.0]);
-        assert_eq!(n.next_deadline(), None);
-        let (_, m) = n.leave(60_000).unwrap();
-        assert_eq!(vel(&m), [0.0; 4]);
-        assert!(!n.active());
-    }
-}
-
-use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
-use super::session::SessionOut;
-use super::{App, Effect};
-
 impl App {
     fn nudge_send(&mut self, out: Option<(VehicleKey, MavMessage)>, fx: &mut Vec<Effect>) {
         if let Some((key, msg)) = out {
@@ -481,5 +412,74 @@ impl App {
             }
         }
         Some(format!("FLY {dirs}{:.1} m/s", self.nudge.speed_ms()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn vel(m: &MavMessage) -> [f32; 4] {
+        match m {
+            MavMessage::SET_POSITION_TARGET_LOCAL_NED(d) => [d.vx, d.vy, d.vz, d.yaw_rate],
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn the_mask_is_velocity_and_yaw_rate() {
+        assert_eq!(type_mask().bits(), TYPE_MASK);
+    }
+
+    #[test]
+    fn a_held_key_streams_at_10_hz_and_the_deadman_stops_it() {
+        let mut n = Nudge::new(800_000);
+        assert!(n.press(0, Axis::Forward, 1.0).is_none(), "not in Fly mode");
+        n.enter((1, 1));
+        let (_, m) = n.press(0, Axis::Forward, 1.0).unwrap();
+        assert_eq!(vel(&m), [2.0, 0.0, -0.0, 0.0]);
+        // Repeats at 30 ms do not send more than 10 Hz.
+        assert!(n.press(30_000, Axis::Forward, 1.0).is_none());
+        assert_eq!(n.next_deadline(), Some(100_000));
+        // Polled at its deadlines, the deadman stops it 0.8 s after the last key, not later.
+        let mut m2 = n.clone();
+        let mut last = None;
+        while let Some(d) = m2.next_deadline() {
+            if let Some((_, m)) = m2.poll(d) {
+                last = Some((d, vel(&m)));
+            }
+        }
+        assert_eq!(last, Some((830_001, [0.0; 4])));
+        let mut sends = 1;
+        let mut t = 100_000;
+        let mut stopped_at = None;
+        while t <= 3_000_000 {
+            if let Some((_, m)) = n.poll(t) {
+                sends += 1;
+                if vel(&m)[0] == 0.0 {
+                    stopped_at = Some(t);
+                    break;
+                }
+            }
+            t += 100_000;
+        }
+        // The last key at 30 ms: stopped at the first send more than 0.8 s after it.
+        assert_eq!(stopped_at, Some(900_000));
+        assert_eq!(sends, 10);
+        assert_eq!(n.next_deadline(), None);
+    }
+
+    #[test]
+    fn a_release_stops_at_once_and_leaving_sends_zero() {
+        let mut n = Nudge::default();
+        n.enter((1, 1));
+        n.set_speed(2);
+        n.press(0, Axis::Right, -1.0).unwrap();
+        let (_, m) = n.release(50_000, Axis::Right, -1.0).unwrap();
+        assert_eq!(vel(&m), [0.0, 0.0, -0.0, 0.0]);
+        assert_eq!(n.next_deadline(), None);
+        let (_, m) = n.leave(60_000).unwrap();
+        assert_eq!(vel(&m), [0.0; 4]);
+        assert!(!n.active());
     }
 }
