@@ -193,6 +193,16 @@ fn verified_by_mission(id: u16) -> bool {
 }
 
 impl SimVehicle {
+    /// Whether the stored mission is stopped (not started), running or complete.
+    pub fn mission_run_state(&self) -> RunState {
+        self.auto.state
+    }
+
+    /// The mission's current (or last) navigation command, as MISSION_CURRENT reports it.
+    pub fn mission_current_seq(&self) -> Option<u16> {
+        self.auto.nav_index
+    }
+
     /// North/east of home (metres) of a latitude/longitude in degrees (flat earth).
     pub(super) fn ne_of(&self, lat: f64, lon: f64) -> (f64, f64) {
         let north = (lat - self.home.0) * 111_319.5;

@@ -24,6 +24,9 @@
 //!   delay (param1, whole seconds) but not its yaw (param4), altitudes become centimetres,
 //!   frames become GLOBAL / GLOBAL_RELATIVE_ALT / GLOBAL_TERRAIN_ALT, and a download gives back
 //!   exactly that. Item 0 of the mission reads as the home position (zeros until home is set).
+//! - a downloaded item has `current` = 1 when it is the navigation command being flown, as the
+//!   MAVLink spec says (ArduPilot's `get_item` compares the command *id* with that index, which
+//!   only matters when they happen to be equal; the sim does not copy that slip).
 //! - MIS_TOTAL, FENCE_TOTAL and RALLY_TOTAL follow the stores and are notified (PARAM_VALUE
 //!   index 65535) when they change, after the protocol message that caused it.
 //! - MISSION_ACK and MISSION_COUNT carry no opaque id, and MISSION_CURRENT no mission, fence or

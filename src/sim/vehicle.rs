@@ -216,7 +216,7 @@ pub mod mode {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum RtlPhase {
+pub(super) enum RtlPhase {
     Climb,
     Return,
     Descend,

@@ -7,6 +7,7 @@ The mission protocol as an independent implementation speaks it, over TCP in rea
   ArduCopter asks), the ACK ACCEPTED; MISSION_REQUEST_LIST / MISSION_REQUEST_INT bring back the
   same items (item 0 reads as home, frames come back without _INT, as ArduCopter stores them);
 - a 4-vertex inclusion fence and a rally point do the same round trip (mission_type 1 and 2);
+- MISSION_CURRENT carries total and mission_state (MAVLink 2 extensions);
 - an old-style MISSION_REQUEST is answered with a MISSION_ITEM whose lat/lon are degrees.
 Exits non-zero with a message on the first failed check; prints ALL OK at the end.
 """
@@ -114,6 +115,13 @@ for up, down in zip(items[1:], back[1:]):
             (up.command, up.x, up.y, up.z, up.param1, want_frame):
         fail(f"item {up.seq}: sent {up} got {down}")
 ok("mission downloaded equal")
+
+# MISSION_CURRENT with the MAVLink 2 extensions: 5 items besides home, not started, not AUTO.
+m.mav.command_long_send(1, 1, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 0, 42, 200000, 0, 0, 0, 0, 0)
+cur = m.recv_match(type="MISSION_CURRENT", blocking=True, timeout=3)
+if cur is None or (cur.seq, cur.total, cur.mission_state, cur.mission_mode) != (0, 5, 2, 0):
+    fail(f"MISSION_CURRENT {cur}")
+ok("MISSION_CURRENT total 5, NOT_STARTED")
 
 # Old-style request: MISSION_ITEM with degrees.
 m.mav.mission_request_send(1, 1, 2, mav.MAV_MISSION_TYPE_MISSION)
