@@ -50,6 +50,8 @@ pub struct FileConfig {
     pub lost_timeout: Option<f64>,
     /// `takeoff_alt`, in metres above home.
     pub takeoff_alt: Option<f64>,
+    /// `nudge_deadman`, in seconds: Fly mode stops a nudge when no key has come for this long.
+    pub nudge_deadman: Option<f64>,
     /// `links`: opened when no `--link` is given.
     pub links: Option<Vec<LinkSpec>>,
     /// `[streams]`: ArduPilot stream group id → Hz, for the groups the file names.
@@ -76,6 +78,9 @@ impl FileConfig {
         }
         if let Some(v) = self.takeoff_alt {
             cfg.takeoff_alt = v;
+        }
+        if let Some(v) = self.nudge_deadman {
+            cfg.nudge_deadman = seconds_to_micros(v);
         }
         self.apply_streams(&mut cfg.streams);
     }
@@ -225,7 +230,7 @@ impl Found {
     }
 }
 
-const KEYS: &str = "sysid, compid, lost_timeout, takeoff_alt, links, signing_key, \
+const KEYS: &str = "sysid, compid, lost_timeout, takeoff_alt, nudge_deadman, links, signing_key, \
                     signing_allow_unsigned_heartbeat, [streams]";
 
 /// Check a config file's `text`; `path` names it in errors. Every key is optional; unknown keys
@@ -280,6 +285,12 @@ pub fn load(path: &Path, text: &str) -> Result<FileConfig, ConfigError> {
                     "metres above home, more than 0 and at most 10000",
                     |v| number(v).filter(|a| a.is_finite() && *a > 0.0 && *a <= MAX_TAKEOFF_ALT),
                 )
+            }
+            "nudge_deadman" => {
+                cfg.nudge_deadman =
+                    found.check("nudge_deadman", value, "seconds from 0.1 to 5", |v| {
+                        number(v).filter(|s| s.is_finite() && (0.1..=5.0).contains(s))
+                    })
             }
             "links" => cfg.links = links(value, &mut found),
             // Refused without showing the value: it may be a secret.

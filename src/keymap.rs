@@ -219,6 +219,20 @@ pub enum Action {
     InspectorFilter,
     /// Inspector: the keys scroll the selected message's fields, or the list again.
     InspectorDetail,
+    /// Enter Fly mode (keyboard velocity nudges; esc leaves).
+    Fly,
+    /// Mission screen: show the next list (mission, fence, rally).
+    MissionList,
+    /// Mission screen: show the vehicle's list or the loaded file's.
+    MissionSource,
+    MissionDownload,
+    MissionUpload,
+    /// Start the mission (asks first).
+    MissionStart,
+    /// Make the selected item the current one.
+    MissionSetCurrent,
+    /// Fly to the selected item's position (GUIDED).
+    MissionGoto,
     // Replay links (`tlog:`), on every screen.
     /// Pause or resume.
     ReplayPause,
@@ -396,6 +410,46 @@ impl Action {
             Action::InspectorDetail,
             "inspector_detail",
             "the keys scroll the fields / the list",
+        ),
+        (
+            Action::Fly,
+            "fly",
+            "Fly mode: nudge a GUIDED vehicle with the keys (esc leaves)",
+        ),
+        (
+            Action::MissionList,
+            "mission_list",
+            "show the next list: mission, fence, rally",
+        ),
+        (
+            Action::MissionSource,
+            "mission_source",
+            "show the vehicle's list or the loaded file's",
+        ),
+        (
+            Action::MissionDownload,
+            "mission_download",
+            "download the list shown from the vehicle",
+        ),
+        (
+            Action::MissionUpload,
+            "mission_upload",
+            "upload the loaded file's list (asks first if it warns)",
+        ),
+        (
+            Action::MissionStart,
+            "mission_start",
+            "start the mission: AUTO, then MISSION_START (asks first)",
+        ),
+        (
+            Action::MissionSetCurrent,
+            "mission_set_current",
+            "make the selected item the current one",
+        ),
+        (
+            Action::MissionGoto,
+            "mission_goto",
+            "GUIDED: fly to the selected item (DO_REPOSITION)",
         ),
         (
             Action::ReplayPause,

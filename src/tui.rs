@@ -108,6 +108,8 @@ struct GuardState {
     out: Box<dyn Write + Send>,
     raw: bool,
     active: bool,
+    /// Key releases asked for (keyboard enhancement flags pushed): popped on restore.
+    enhanced: bool,
 }
 
 impl GuardState {
@@ -117,6 +119,9 @@ impl GuardState {
         }
         // Raw mode first: even if the writes fail the shell gets its line discipline back.
         let raw = if self.raw { disable_raw_mode() } else { Ok(()) };
+        if std::mem::take(&mut self.enhanced) {
+            let _ = crossterm::execute!(self.out, ct::PopKeyboardEnhancementFlags);
+        }
         crossterm::execute!(self.out, LeaveAlternateScreen, crossterm::cursor::Show)?;
         self.out.flush()?;
         raw
@@ -142,6 +147,7 @@ impl TerminalGuard {
             out,
             raw: raw_mode,
             active: true,
+            enhanced: false,
         }));
         {
             let state = Arc::clone(&state);
@@ -177,6 +183,18 @@ impl TerminalGuard {
                 crossterm::terminal::Clear(crossterm::terminal::ClearType::All),
                 crossterm::cursor::Hide
             )?;
+            // Key releases, where the terminal can report them (the kitty keyboard protocol):
+            // Fly mode stops a nudge the moment its key is let go.
+            if raw_mode && crossterm::terminal::supports_keyboard_enhancement().unwrap_or(false) {
+                crossterm::execute!(
+                    s.out,
+                    ct::PushKeyboardEnhancementFlags(
+                        ct::KeyboardEnhancementFlags::DISAMBIGUATE_ESCAPE_CODES
+                            | ct::KeyboardEnhancementFlags::REPORT_EVENT_TYPES
+                    )
+                )?;
+                s.enhanced = true;
+            }
         }
         Ok(guard)
     }
@@ -301,6 +319,12 @@ where
                 _ = self.signals.recv() => return Ok(None),
             };
             match ev {
+                Some(Ok(ct::Event::Key(k))) if k.kind == KeyEventKind::Release => {
+                    let pressed = ct::KeyEvent::new(k.code, k.modifiers);
+                    if let Some(key) = key_from_crossterm(pressed) {
+                        return Ok(Some(Event::KeyRelease(key)));
+                    }
+                }
                 Some(Ok(ct::Event::Key(k))) => {
                     if let Some(key) = key_from_crossterm(k) {
                         if let Some(r) = self.recorder.as_mut() {

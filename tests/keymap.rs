@@ -125,9 +125,9 @@ fn shipped(name: &str) -> String {
 #[test]
 fn every_unknown_action_and_key_is_listed_by_name() {
     let e = invalid(
-        "[bindings]\nquit = [\"q\", \"ctrl-qq\"]\nfly = [\"f\"]\nhover = [\"l\"]\nhelp = [\"hyper-h\"]\n",
+        "[bindings]\nquit = [\"q\", \"ctrl-qq\"]\ndive = [\"f\"]\nhover = [\"l\"]\nhelp = [\"hyper-h\"]\n",
     );
-    assert_eq!(e.actions, ["fly", "hover"]);
+    assert_eq!(e.actions, ["dive", "hover"]);
     assert_eq!(e.keys, ["ctrl-qq", "hyper-h"]);
     assert!(e.dups.is_empty());
     assert_eq!(e.more, 0);
@@ -140,7 +140,7 @@ fn every_unknown_action_and_key_is_listed_by_name() {
         "{msg}"
     );
     assert!(
-        msg.contains("\n  my.toml:3:1: unknown action `fly`"),
+        msg.contains("\n  my.toml:3:1: unknown action `dive`"),
         "{msg}"
     );
     assert!(
@@ -155,7 +155,7 @@ fn every_unknown_action_and_key_is_listed_by_name() {
 
 #[test]
 fn unknown_sections_screens_and_shapes_are_listed_all_at_once() {
-    let text = "[colours]\nx = 1\n[normal.map]\nquit = [\"q\"]\n[normal]\nfly = [\"f\"]\n\
+    let text = "[colours]\nx = 1\n[normal.map]\nquit = [\"q\"]\n[normal]\ndive = [\"f\"]\n\
                 [normal.overview]\nhelp = [\"hyper-h\"]\n[edit]\nsubmit = \"enter\"\n\
                 [prompt.more]\nsubmit = [\"enter\"]\n";
     let e = invalid(text);
@@ -169,7 +169,7 @@ fn unknown_sections_screens_and_shapes_are_listed_all_at_once() {
     assert!(m[0].contains("unknown section `colours`"), "{}", m[0]);
     assert!(m[1].contains("unknown screen `map`"), "{}", m[1]);
     assert!(m[1].contains("overview, parameters, commands"), "{}", m[1]);
-    assert!(m[2].contains("unknown action `fly`"), "{}", m[2]);
+    assert!(m[2].contains("unknown action `dive`"), "{}", m[2]);
     assert!(m[3].contains("unknown key `hyper-h`"), "{}", m[3]);
     assert!(m[4].contains("expected a list of key names"), "{}", m[4]);
     assert!(m[5].contains("[prompt] has no sub-sections"), "{}", m[5]);
@@ -438,6 +438,7 @@ fn keys_for_and_bindings_list_what_applies_in_file_order() {
         ("rtl", "R"),
         ("mode", "M"),
         ("palette", "ctrl-p"),
+        ("fly", "F"),
     ]);
     let replay = [
         ("replay_pause", "P"),
@@ -466,6 +467,7 @@ fn keys_for_and_bindings_list_what_applies_in_file_order() {
         ("param_edit", "enter"),
         ("param_fetch", "f"),
         ("param_only_diff", "d"),
+        ("fly", "F"),
     ]);
     parameters.extend(replay);
     assert_eq!(

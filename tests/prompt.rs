@@ -132,7 +132,7 @@ fn help_lists_the_keys_and_the_commands_and_q_closes_it() {
     let mut r = runner("sysid=1");
     common::keys(&mut r, &["?"]);
     assert_eq!(r.app.ui.mode, Mode::Help);
-    let s = common::screen(&r, 100, 50);
+    let s = common::screen(&r, 100, 90);
     assert!(s.contains("open the : command line"), "{s}");
     assert!(s.contains(":target SYSID[:COMPID]"), "{s}");
     common::keys(&mut r, &["q"]);
@@ -148,9 +148,11 @@ fn help_lists_the_keys_and_the_commands_and_q_closes_it() {
 #[test]
 fn screen_keys_switch_only_to_screens_that_exist() {
     let mut r = runner("sysid=1");
-    common::keys(&mut r, &["5"]);
+    common::keys(&mut r, &["6"]);
     assert_eq!(r.app.ui.screen, "overview");
-    assert!(status_line(&r).contains("no mission screen"));
+    assert!(status_line(&r).contains("no camera screen"));
+    common::keys(&mut r, &["5"]);
+    assert_eq!(r.app.ui.screen, "mission");
     common::keys(&mut r, &["2"]);
     assert_eq!(r.app.ui.screen, "parameters");
     common::keys(&mut r, &["1"]);

@@ -56,6 +56,8 @@ pub enum Confirmed {
     Params(Vec<(u8, String, f64)>),
     /// `signing setup` or `signing off`.
     Signing(super::signing::SigningAction),
+    /// A mission upload with warnings, a clear, a mission start.
+    Mission(super::mission::MissionAction),
 }
 
 /// Commands that need a confirmation whatever sends them.
@@ -216,6 +218,7 @@ impl App {
                 Confirmed::Flight(a) => self.carry_out(c.target, a, fx),
                 Confirmed::Params(p) => self.write_params(c.target, p, fx),
                 Confirmed::Signing(a) => self.carry_out_signing(c.target, a, fx),
+                Confirmed::Mission(a) => self.carry_out_mission(c.target, a, fx),
             };
             self.ui.message = match outcome {
                 Ok(Some(t)) => Some((SEV_INFO, t)),
@@ -348,7 +351,7 @@ impl App {
 
     /// DO_SET_MODE to mode `name` (SET_MODE if the vehicle says DO_SET_MODE is UNSUPPORTED),
     /// done when the heartbeat shows it.
-    fn mode_step(
+    pub(super) fn mode_step(
         &self,
         key: VehicleKey,
         autopilot: MavAutopilot,

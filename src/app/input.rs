@@ -211,6 +211,31 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
         "GUIDED, arm, take off (10 m above home by default)",
     ),
     ("land", "", "land"),
+    (
+        "goto",
+        "LAT LON [ALT]",
+        "GUIDED: fly to a point (DO_REPOSITION; ALT above home, default current)",
+    ),
+    (
+        "alt",
+        "METRES",
+        "GUIDED: climb/descend to METRES above home where it is",
+    ),
+    (
+        "wp",
+        "SUB …",
+        "mission: load, save FILE (WPL or .plan); upload, download, clear, set N, start",
+    ),
+    (
+        "fence",
+        "SUB …",
+        "geofence: load, save FILE; upload, download, clear",
+    ),
+    (
+        "rally",
+        "SUB …",
+        "rally points: load, save FILE; upload, download, clear",
+    ),
     ("rtl", "", "return to launch"),
     ("mode", "NAME", "change flight mode (tab lists the modes)"),
     (
@@ -280,6 +305,8 @@ pub enum Command {
     Replay(crate::link::replay::ReplayCmd),
     /// Operate the target's camera or gimbal.
     Camera(super::camera::CameraCmd),
+    /// Missions, fence, rally points; guided go-to and altitude.
+    Mission(super::mission::MissionCmd),
 }
 
 /// A MAV_CMD by name (`NAV_TAKEOFF`, `mav_cmd_nav_takeoff`, `takeoff` when only one matches
@@ -406,6 +433,9 @@ pub fn parse_command(line: &str, takeoff_alt: f64) -> Result<Command, String> {
         "rtl" => no_args(Command::Flight(FlightAction::Rtl)),
         "reboot" => no_args(Command::Flight(FlightAction::Reboot)),
         "param" => super::params::parse(rest).map(Command::Param),
+        "wp" | "fence" | "rally" => super::mission::parse(word, rest).map(Command::Mission),
+        "goto" => super::mission::parse_goto(rest).map(Command::Mission),
+        "alt" => super::mission::parse_alt(rest).map(Command::Mission),
         "signing" => {
             use super::signing::SigningCmd;
             match rest {

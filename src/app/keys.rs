@@ -25,6 +25,10 @@ impl App {
             self.on_confirm_key(key, fx);
             return;
         }
+        if self.nudge.active() && self.ui.mode == Mode::Normal {
+            self.on_fly_key(key, fx);
+            return;
+        }
         let action = self.keymap.lookup(self.ui.mode, self.ui.screen, &key);
         if self.ui.palette.is_some() && self.ui.mode == Mode::Edit {
             self.on_palette_key(key, action, fx);
@@ -167,6 +171,13 @@ impl App {
                 out.push(format!("replay {sub}"));
             }
         }
+        for w in ["wp", "fence", "rally"] {
+            for sub in ["load ", "save ", "upload", "download", "clear"] {
+                out.push(format!("{w} {sub}"));
+            }
+        }
+        out.push("wp set ".into());
+        out.push("wp start".into());
         out.push("route auto".into());
         for i in 0..self.links.len() {
             out.push(format!("route {i}"));
@@ -228,6 +239,7 @@ impl App {
             Command::Flight(action) => self.flight(action, None, fx),
             Command::Replay(cmd) => self.replay_control(cmd, fx).map(Some),
             Command::Param(cmd) => self.run_param(cmd, fx),
+            Command::Mission(cmd) => self.run_mission(cmd, fx),
             Command::Signing(cmd) => self.run_signing(cmd),
             Command::Camera(cmd) => self.run_camera(cmd, fx),
             Command::Route(link) => {
@@ -384,6 +396,12 @@ impl App {
                 };
             }
             Action::ModeMenu => self.open_prompt_with("mode ", true),
+            Action::Fly => {
+                self.ui.message = match self.enter_fly() {
+                    Ok(t) => t.map(|t| (SEV_INFO, t)),
+                    Err(e) => Some((SEV_ERROR, e)),
+                };
+            }
             Action::Palette => self.open_palette(),
             Action::ParamFilter
             | Action::ParamEdit
@@ -401,6 +419,13 @@ impl App {
             | Action::GimbalLeft
             | Action::GimbalRight
             | Action::GimbalCenter => self.on_camera_action(action, fx),
+            Action::MissionList
+            | Action::MissionSource
+            | Action::MissionDownload
+            | Action::MissionUpload
+            | Action::MissionStart
+            | Action::MissionSetCurrent
+            | Action::MissionGoto => self.on_mission_action(action, fx),
             Action::ReplayPause
             | Action::ReplayStep
             | Action::ReplayBack
@@ -454,6 +479,11 @@ impl App {
         }
         if self.ui.screen == "inspector" {
             self.move_inspector(step);
+            return;
+        }
+        if self.ui.screen == "mission" {
+            let n = self.mission_rows().len();
+            self.ui.mission.sel = clamp(self.ui.mission.sel, step, n);
             return;
         }
         if self.ui.screen == "commands" {

@@ -9,7 +9,9 @@ pub mod input;
 pub mod inspector;
 mod keys;
 pub mod links;
+pub mod mission;
 pub mod notices;
+pub mod nudge;
 pub mod palette;
 pub mod params;
 pub mod replay;
@@ -60,6 +62,9 @@ pub struct AppConfig {
     pub param_meta: Option<std::sync::Arc<crate::params::meta::MetaSet>>,
     /// MAVLink 2 signing (`--signing-key`); `None`: we do not sign, and take every frame.
     pub signing: Option<signing::SigningConfig>,
+    /// Fly mode's deadman: a nudge stops when no key of it has come for this long
+    /// (config `nudge_deadman`, seconds).
+    pub nudge_deadman: Micros,
 }
 
 impl Default for AppConfig {
@@ -76,6 +81,7 @@ impl Default for AppConfig {
             takeoff_alt: 10.0,
             param_meta: None,
             signing: None,
+            nudge_deadman: nudge::DEADMAN,
         }
     }
 }
@@ -96,6 +102,8 @@ pub enum Event {
         state: LinkState,
     },
     Key(Key),
+    /// A key was let go (terminals that report releases; `release KEY` in replay scripts).
+    KeyRelease(Key),
     /// The screen changed size.
     Resize,
     /// A link (or the queue between it and the core) dropped frames it could not hand on.
@@ -218,6 +226,8 @@ pub struct UiState {
     pub camera_sel: usize,
     /// The gimbal angles last asked for (pitch, yaw in degrees): the gimbal keys step from them.
     pub gimbal: (f64, f64),
+    /// The Mission screen and the mission files loaded.
+    pub mission: mission::MissionView,
 }
 
 impl Default for UiState {
@@ -240,6 +250,7 @@ impl Default for UiState {
             inspector: inspector::InspectorView::default(),
             camera_sel: 0,
             gimbal: (0.0, 0.0),
+            mission: mission::MissionView::default(),
         }
     }
 }
@@ -260,6 +271,8 @@ pub struct App {
     pub sessions: BTreeMap<VehicleKey, Session>,
     /// The parameter file last loaded or compared.
     pub param_file: Option<params::LoadedFile>,
+    /// Fly mode: keyboard velocity nudges of a GUIDED vehicle.
+    pub nudge: nudge::Nudge,
     /// Every message heard, per source: the Inspector's.
     pub inspector: inspector::MessageStore,
     /// Our signing key, timestamp clock and what `signing setup` waits for.
@@ -284,6 +297,7 @@ impl App {
             .collect();
         let vehicles = Registry::new((cfg.sysid, cfg.compid), cfg.lost_timeout);
         let signing = signing::SigningState::new(cfg.signing.as_ref());
+        let nudge = nudge::Nudge::new(cfg.nudge_deadman);
         Self {
             cfg,
             now: 0,
@@ -295,6 +309,7 @@ impl App {
             keymap: Keymap::default(),
             sessions: BTreeMap::new(),
             param_file: None,
+            nudge,
             inspector: inspector::MessageStore::default(),
             signing,
             recording: None,
@@ -344,6 +359,7 @@ impl App {
         for s in self.sessions.values() {
             at(s.next_deadline());
         }
+        at(self.nudge.next_deadline());
         t
     }
 
@@ -470,6 +486,7 @@ impl App {
             } => self.on_frames(link, frames, stats, &mut fx),
             Event::LinkState { link, state } => self.on_link_state(link, state),
             Event::Key(key) => self.on_key(key, &mut fx),
+            Event::KeyRelease(key) => self.on_key_release(key, &mut fx),
             Event::Resize => self.dirty = true,
             Event::FileWritten { path, error } if self.signing.is_state_file(&path) => {
                 self.signing_file_written(error)
@@ -482,6 +499,11 @@ impl App {
                     format!("could not save {}: {e}", path.display()),
                 ),
             },
+            Event::FileRead {
+                path,
+                purpose: params::FileUse::Mission(t),
+                result,
+            } => self.on_mission_file(path, t, result),
             Event::FileRead {
                 path,
                 purpose,
@@ -497,6 +519,7 @@ impl App {
             Event::Output { out, status } => self.on_output(out, status),
             Event::ReplayStatus { link, status } => self.on_replay_status(link, status),
         }
+        self.poll_nudge(&mut fx);
         self.poll_sessions(&mut fx);
         fx
     }
@@ -754,7 +777,7 @@ impl App {
         ok(sys, self.cfg.sysid) && ok(comp, self.cfg.compid)
     }
 
-    fn on_vehicle_events(&mut self, events: Vec<VehicleEvent>, _fx: &mut Vec<Effect>) {
+    fn on_vehicle_events(&mut self, events: Vec<VehicleEvent>, fx: &mut Vec<Effect>) {
         for ev in events {
             match ev {
                 VehicleEvent::Found(key) => {
@@ -774,11 +797,17 @@ impl App {
                         self.target = Some(key);
                     }
                 }
-                VehicleEvent::Lost(key) => self.notice(
-                    SEV_WARNING,
-                    Some(key),
-                    format!("vehicle {}:{} lost (no heartbeat)", key.0, key.1),
-                ),
+                VehicleEvent::Lost(key) => {
+                    self.notice(
+                        SEV_WARNING,
+                        Some(key),
+                        format!("vehicle {}:{} lost (no heartbeat)", key.0, key.1),
+                    );
+                    if self.nudge.target == Some(key) {
+                        self.leave_fly(fx);
+                        self.notice(SEV_WARNING, Some(key), "Fly mode left: vehicle lost".into());
+                    }
+                }
                 VehicleEvent::Back(key) => self.notice(
                     SEV_NOTICE,
                     Some(key),

@@ -37,6 +37,8 @@ pub enum FileUse {
     Load,
     /// Compare only.
     Diff,
+    /// A mission, fence or rally point file (`wp load`, …): WPL or `.plan`.
+    Mission(crate::mission::MissionType),
 }
 
 /// A file loaded or compared: its values mark the parameters that differ from it.

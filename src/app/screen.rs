@@ -31,6 +31,10 @@ pub const SCREENS: &[Screen] = &[
         title: "MAVLink Inspector",
     },
     Screen {
+        name: "mission",
+        title: "Mission",
+    },
+    Screen {
         name: "camera",
         title: "Camera",
     },

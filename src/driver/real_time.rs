@@ -374,6 +374,10 @@ impl Driver for RealTimeRunner {
         let _in_rt = self.rt.enter();
         self.inner.step(Event::Key(key));
     }
+    fn release(&mut self, key: Key) {
+        let _in_rt = self.rt.enter();
+        self.inner.step(Event::KeyRelease(key));
+    }
     fn now(&self) -> Micros {
         self.inner.now()
     }

@@ -31,6 +31,8 @@ pub trait Driver {
     fn advance_to(&mut self, t: Micros);
     /// A key pressed now.
     fn key(&mut self, key: Key);
+    /// A key let go now.
+    fn release(&mut self, key: Key);
     fn now(&self) -> Micros;
     fn quit_requested(&self) -> bool;
     fn app(&self) -> &App;
@@ -42,6 +44,9 @@ impl Driver for VirtualRunner {
     }
     fn key(&mut self, key: Key) {
         VirtualRunner::key(self, key)
+    }
+    fn release(&mut self, key: Key) {
+        self.step(Event::KeyRelease(key));
     }
     fn now(&self) -> Micros {
         self.now

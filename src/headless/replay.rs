@@ -108,6 +108,7 @@ pub fn run_script(
         runner.advance_to(timed.t);
         match &timed.step {
             Step::Key(k) => runner.key(*k),
+            Step::Release(k) => runner.release(*k),
             Step::Text(s) => {
                 for c in s.chars() {
                     runner.key(char_key(c));

@@ -4,6 +4,7 @@
 //! # comment
 //! 0.5  key tab
 //! 1.2  text "takeoff 10"     # each character as a key
+//! 1.5  release up            # a key let go (Fly mode stops at once)
 //! 2.0  snapshot after-takeoff
 //! 30   quit
 //! ```
@@ -21,6 +22,8 @@ use crate::keymap::Key;
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Step {
     Key(Key),
+    /// A key let go (as a terminal with key-release reports tells): stops a Fly mode nudge.
+    Release(Key),
     /// Typed text: each character is a key.
     Text(String),
     /// Render the screen and save it under this name.
@@ -181,7 +184,7 @@ impl Script {
                     }
                     Step::Text(s)
                 }
-                "key" => {
+                "key" | "release" => {
                     // The key name is the first word even when it is `#`.
                     let arg = arg.trim();
                     let (name, tail) = arg.split_once(char::is_whitespace).unwrap_or((arg, ""));
@@ -191,7 +194,12 @@ impl Script {
                     if name.is_empty() {
                         return Err(err("`key` needs a key name, e.g. `key tab`".into()));
                     }
-                    Step::Key(name.parse().map_err(|e| err(format!("{e}")))?)
+                    let k = name.parse().map_err(|e| err(format!("{e}")))?;
+                    if verb == "release" {
+                        Step::Release(k)
+                    } else {
+                        Step::Key(k)
+                    }
                 }
                 _ => {
                     let arg = strip_comment(arg).trim();
@@ -206,7 +214,7 @@ impl Script {
                         "quit" => return Err(err("`quit` takes no argument".into())),
                         other => {
                             return Err(err(format!(
-                                "unknown event `{other}` (key, text, snapshot, quit)"
+                                "unknown event `{other}` (key, release, text, snapshot, quit)"
                             )))
                         }
                     }

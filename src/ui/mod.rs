@@ -15,6 +15,7 @@ pub mod help;
 pub mod inspector;
 pub mod links;
 pub mod messages;
+pub mod mission;
 pub mod overview;
 pub mod palette;
 pub mod parameters;

@@ -4,7 +4,7 @@
 use ratatui::layout::Rect;
 use ratatui::Frame;
 
-use super::{camera, commands, inspector, overview, parameters, Theme};
+use super::{camera, commands, inspector, mission, overview, parameters, Theme};
 use crate::app::App;
 
 /// Draws a screen into the area above the status bar.
@@ -16,6 +16,7 @@ pub const REGISTRY: &[(&str, RenderFn)] = &[
     ("parameters", parameters::render),
     ("commands", commands::render),
     ("inspector", inspector::render),
+    ("mission", mission::render),
     ("camera", camera::render),
 ];
 

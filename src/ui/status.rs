@@ -164,7 +164,9 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         })
         .unwrap_or_default();
     let mut target = target_text(app) + &progress;
-    let replay = replay_text(app).map(|r| r + "  ").unwrap_or_default();
+    // Fly mode stands first, loud: the keys fly the vehicle.
+    let fly = app.fly_text().map(|f| f + "  ").unwrap_or_default();
+    let replay = fly.clone() + &replay_text(app).map(|r| r + "  ").unwrap_or_default();
     // The telemetry log, when there is one: name and size; shortened, then left out, when the
     // bar is short.
     let (mut log, log_style) = log_text(app, theme);
@@ -203,7 +205,8 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let mut spans = vec![
         Span::styled(clock, theme.header()),
         Span::raw("  "),
-        Span::styled(replay, theme.header()),
+        Span::styled(fly.clone(), theme.armed()),
+        Span::styled(replay[fly.len()..].to_string(), theme.header()),
         Span::styled(target, target_style),
     ];
     if !log.is_empty() {

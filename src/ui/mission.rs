@@ -1,0 +1,270 @@
+//! The Mission screen (`5`): the mission, the geofence or the rally points (a key switches), as
+//! the vehicle holds them or as a loaded file has them (said in the title), with the current
+//! item, the items reached, the distance to the current waypoint and a transfer's progress.
+
+use ratatui::layout::{Constraint, Rect};
+use ratatui::text::Line;
+use ratatui::widgets::{Block, Borders, Paragraph, Row, Table};
+use ratatui::Frame;
+
+use super::Theme;
+use crate::app::mission::Shown;
+use crate::app::App;
+use crate::dialect::MavAutopilot;
+use crate::keymap::{Action, Mode};
+use crate::mission::{command_has_position, MissionItem, MissionType};
+use crate::proto::telemetry::distance_bearing;
+
+fn num(v: f64) -> String {
+    if v.is_nan() {
+        "nan".into()
+    } else if v == v.trunc() && v.abs() < 1e9 {
+        format!("{v:.0}")
+    } else {
+        format!("{v:.2}")
+    }
+}
+
+/// `label=value` for the parameters 1-4 the command uses (the palette's labels).
+fn params_text(i: &MissionItem) -> String {
+    let mut out = Vec::new();
+    for (n, p) in i.params.iter().enumerate() {
+        let (label, units, _) = crate::proto::mav_cmds::param(i.command, n);
+        if label == "(unused)" {
+            continue;
+        }
+        if label.starts_with("param ") && *p == 0.0 {
+            continue;
+        }
+        let short: String = label.split_whitespace().collect::<Vec<_>>().join(" ");
+        out.push(format!("{short}={}{units}", num(*p as f64)));
+    }
+    out.join(" ")
+}
+
+pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
+    let view = &app.ui.mission;
+    let t = view.mission_type();
+    let session = app.target.and_then(|k| app.sessions.get(&k));
+    let ardupilot = app
+        .target
+        .and_then(|k| app.vehicles.get(k))
+        .is_none_or(|v| v.autopilot != MavAutopilot::MAV_AUTOPILOT_PX4);
+    let key = |a| {
+        app.keymap
+            .keys_for(Mode::Normal, "mission", a)
+            .first()
+            .map(|k| k.to_string())
+            .unwrap_or_default()
+    };
+    let lists: Vec<String> = MissionType::ALL
+        .iter()
+        .map(|lt| {
+            if *lt == t {
+                format!("[{}]", lt.name())
+            } else {
+                lt.name().to_string()
+            }
+        })
+        .collect();
+    let source = match view.shown {
+        Shown::File => match &view.files[t.index()] {
+            Some(f) if !f.errors.is_empty() => {
+                format!("file: {} ({} errors)", f.path, f.errors.len())
+            }
+            Some(f) if app.file_uploaded(t) => format!("file: {} (uploaded)", f.path),
+            Some(f) => format!("file: {} (not uploaded)", f.path),
+            None => "file: none loaded".into(),
+        },
+        Shown::Vehicle => match session.and_then(|s| s.mission.known(t)) {
+            Some(k) if session.is_some_and(|s| s.mission.changed_on_vehicle(t)) => format!(
+                "vehicle ({}, changed since)",
+                if k.downloaded {
+                    "downloaded"
+                } else {
+                    "uploaded"
+                }
+            ),
+            Some(k) => format!(
+                "vehicle ({})",
+                if k.downloaded {
+                    "downloaded"
+                } else {
+                    "uploaded"
+                }
+            ),
+            None => "vehicle (not downloaded)".into(),
+        },
+    };
+    let title = format!(
+        " {}  {}  {} list {} file/vehicle ",
+        lists.join(" "),
+        source,
+        key(Action::MissionList),
+        key(Action::MissionSource)
+    );
+    let block = Block::default()
+        .borders(Borders::ALL)
+        .border_style(theme.focus_border())
+        .title(title);
+    let inner = block.inner(area);
+    frame.render_widget(block, area);
+    if inner.height == 0 {
+        return;
+    }
+    // Status line: transfer, current item, distance to it.
+    let mut status = Vec::new();
+    if let Some(s) = session {
+        if let Some(p) = s.mission.progress() {
+            let total = p.total.map_or("?".into(), |n| n.to_string());
+            status.push(format!(
+                "{} {}: {}/{}",
+                p.mission_type.name(),
+                p.op.name(),
+                p.done,
+                total
+            ));
+        }
+        if t == MissionType::Mission {
+            if let Some(c) = &s.mission.current {
+                status.push(format!("current {} of {}", c.seq, c.total));
+                let item = s
+                    .mission
+                    .known(t)
+                    .and_then(|k| k.items.iter().find(|i| i.seq == c.seq));
+                let pos = s.flight.position.as_ref().map(|p| p.value);
+                if let (Some(i), Some(p)) = (item.filter(|_| !(ardupilot && c.seq == 0)), pos) {
+                    if command_has_position(i.command) && (i.x != 0 || i.y != 0) && p.is_known() {
+                        let (d, b) = distance_bearing((p.lat(), p.lon()), (i.param5(), i.param6()));
+                        status.push(format!("next wp {d:.0} m at {b:.0}°"));
+                    }
+                }
+            }
+            let reached: Vec<String> = s
+                .mission
+                .reached()
+                .map(|(_, seq)| seq.to_string())
+                .collect();
+            if !reached.is_empty() {
+                let tail = &reached[reached.len().saturating_sub(6)..];
+                status.push(format!("reached {}", tail.join(",")));
+            }
+        }
+        if let Some(r) = s.mission.last_refusal() {
+            status.push(format!(
+                "last refusal: {} {} {}",
+                r.mission_type.name(),
+                r.op.name(),
+                crate::proto::mission::result_name(r.result)
+            ));
+        }
+    } else {
+        status.push("no target vehicle".into());
+    }
+    if status.is_empty() {
+        status.push(format!(
+            "{} download  {} upload  {} start  {} set current  {} goto",
+            key(Action::MissionDownload),
+            key(Action::MissionUpload),
+            key(Action::MissionStart),
+            key(Action::MissionSetCurrent),
+            key(Action::MissionGoto)
+        ));
+    }
+    frame.render_widget(
+        Paragraph::new(Line::styled(status.join("  "), theme.header())),
+        Rect { height: 1, ..inner },
+    );
+    let table_area = Rect {
+        y: inner.y + 1,
+        height: inner.height.saturating_sub(1),
+        ..inner
+    };
+    let rows = app.mission_rows();
+    if rows.is_empty() {
+        let hint = match view.shown {
+            Shown::File => format!(
+                ": then {} load FILE (WPL or .plan)",
+                crate::app::mission::word(t)
+            ),
+            Shown::Vehicle => format!(
+                "nothing yet: {} downloads, or : then {} download",
+                key(Action::MissionDownload),
+                crate::app::mission::word(t)
+            ),
+        };
+        frame.render_widget(Paragraph::new(Line::styled(hint, theme.dim())), table_area);
+        return;
+    }
+    // The marks belong to the vehicle's list: shown, or the file uploaded to it.
+    let live = t == MissionType::Mission && (view.shown == Shown::Vehicle || app.file_uploaded(t));
+    let current = session
+        .filter(|_| live)
+        .and_then(|s| s.mission.current.as_ref().map(|c| c.seq));
+    let reached: Vec<u16> = session
+        .filter(|_| live)
+        .map(|s| s.mission.reached().map(|(_, q)| q).collect())
+        .unwrap_or_default();
+    let visible = table_area.height.saturating_sub(1) as usize;
+    let first = view.sel.saturating_sub(visible.saturating_sub(1));
+    let table_rows: Vec<Row> = rows
+        .iter()
+        .enumerate()
+        .skip(first)
+        .take(visible.max(1))
+        .map(|(n, i)| {
+            let mark = if Some(i.seq) == current {
+                ">"
+            } else if reached.contains(&i.seq) {
+                "✓"
+            } else {
+                " "
+            };
+            let home = t == MissionType::Mission && i.seq == 0 && ardupilot;
+            let name = if home {
+                "HOME".into()
+            } else {
+                i.command_name()
+            };
+            let positioned = command_has_position(i.command) || home;
+            let (lat, lon) = if positioned {
+                (format!("{:.7}", i.param5()), format!("{:.7}", i.param6()))
+            } else {
+                (String::new(), String::new())
+            };
+            let alt = if i.has_altitude() || home {
+                format!("{:.1} {}", i.z, i.alt_ref())
+            } else {
+                String::new()
+            };
+            let row = Row::new(vec![
+                format!("{mark}{}", i.seq),
+                name,
+                lat,
+                lon,
+                alt,
+                params_text(i),
+            ]);
+            if n == view.sel {
+                row.style(theme.selected())
+            } else if Some(i.seq) == current {
+                row.style(theme.good())
+            } else {
+                row
+            }
+        })
+        .collect();
+    let table = Table::new(
+        table_rows,
+        [
+            Constraint::Length(5),
+            Constraint::Length(16),
+            Constraint::Length(11),
+            Constraint::Length(12),
+            Constraint::Length(11),
+            Constraint::Min(10),
+        ],
+    )
+    .header(Row::new(vec!["SEQ", "COMMAND", "LAT", "LON", "ALT", "PARAMS"]).style(theme.header()));
+    frame.render_widget(table, table_area);
+}
