@@ -202,3 +202,25 @@ fn a_lost_image_captured_is_asked_for_again() {
     );
     assert!(cam.missing().is_empty());
 }
+
+#[test]
+fn formatting_the_storage_asks_first() {
+    // MAV_CMD_STORAGE_FORMAT (526), from the MAVLink common message set.
+    const STORAGE_FORMAT: u16 = 526;
+    let mut r = runner("camera=1");
+    command(&mut r, "camera format");
+    let screen = common::screen(&r, 80, 24);
+    assert!(
+        screen.contains("FORMAT the storage of camera 1:100"),
+        "{screen}"
+    );
+    common::keys(&mut r, &["n"]);
+    wait(&mut r, 1.0);
+    assert!(sent(&r, STORAGE_FORMAT).is_empty(), "no: nothing sent");
+    command(&mut r, "camera format");
+    common::keys(&mut r, &["y"]);
+    wait(&mut r, 2.0);
+    let f = sent(&r, STORAGE_FORMAT);
+    assert_eq!(f.len(), 1, "{f:?}");
+    assert_eq!(f[0].0, State::Done(0), "{f:?}");
+}

@@ -11,7 +11,7 @@ use crate::proto::camera::CameraAction;
 #[derive(Debug, Clone, PartialEq)]
 pub enum CameraCmd {
     Act(CameraAction),
-    /// `camera format` asks first; `camera format yes` goes ahead.
+    /// `camera format`: asks first (`y` formats).
     FormatAsk,
     /// Select the camera of this component id (or the Nth row, 1-based, when small).
     Select(u8),
@@ -60,7 +60,6 @@ pub fn parse(rest: &str) -> Result<CameraCmd, String> {
         ["zoom", z] => CameraCmd::Act(CameraAction::Zoom(num(z, 0.0, 100.0)?)),
         ["focus", f] => CameraCmd::Act(CameraAction::Focus(num(f, 0.0, 100.0)?)),
         ["format"] => CameraCmd::FormatAsk,
-        ["format", "yes"] => CameraCmd::Act(CameraAction::Format),
         ["select", n] => CameraCmd::Select(n.parse().map_err(|_| USAGE.to_string())?),
         _ => return Err(USAGE.into()),
     })
@@ -191,14 +190,33 @@ impl App {
             .ok_or_else(|| format!("no camera heard on {}:{}", key.0, key.1))?;
         let action = match cmd {
             CameraCmd::FormatAsk => {
-                return Ok(Some(format!(
-                    "formatting erases every image and video on camera {}:{compid}: type `camera format yes`",
-                    key.0
-                )))
+                self.ui.confirm = Some(super::flight::Confirm {
+                    text: format!(
+                        "FORMAT the storage of camera {}:{compid}? Every image and video on it is \
+                         erased. y = yes, any other key = no",
+                        key.0
+                    ),
+                    action: super::flight::Confirmed::Camera(compid, CameraAction::Format),
+                    target: key,
+                    key: None,
+                });
+                return Ok(None);
             }
             CameraCmd::Act(a) => a,
             _ => unreachable!(),
         };
+        self.camera_act(key, compid, action, fx)
+    }
+
+    /// Send `action` to camera `compid` of `key`, through its session's command queue.
+    pub(super) fn camera_act(
+        &mut self,
+        key: crate::proto::vehicles::VehicleKey,
+        compid: u8,
+        action: CameraAction,
+        fx: &mut Vec<Effect>,
+    ) -> Result<Option<String>, String> {
+        let now = self.now;
         let s = self.sessions.get_mut(&key).ok_or("no session")?;
         let (_, out) = s.camera_action(now, compid, &action)?;
         self.session_out(key, out, fx);

@@ -56,6 +56,8 @@ pub enum Confirmed {
     Params(Vec<(u8, String, f64)>),
     /// `signing setup` or `signing off`.
     Signing(super::signing::SigningAction),
+    /// A camera action that destroys something (storage format): the camera's component id.
+    Camera(u8, crate::proto::camera::CameraAction),
     /// A mission upload with warnings, a clear, a mission start.
     Mission(super::mission::MissionAction),
 }
@@ -219,6 +221,7 @@ impl App {
                 Confirmed::Params(p) => self.write_params(c.target, p, fx),
                 Confirmed::Signing(a) => self.carry_out_signing(c.target, a, fx),
                 Confirmed::Mission(a) => self.carry_out_mission(c.target, a, fx),
+                Confirmed::Camera(compid, a) => self.camera_act(c.target, compid, a, fx),
             };
             self.ui.message = match outcome {
                 Ok(Some(t)) => Some((SEV_INFO, t)),
