@@ -4,11 +4,12 @@
 
 mod common;
 
+use common::{command, sim, wait};
+
 use mavterm::app::AppConfig;
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::link::LinkSpec;
 use mavterm::proto::commands::State;
-use mavterm::sim::Sim;
 
 const SECOND: u64 = 1_000_000;
 
@@ -17,21 +18,6 @@ fn runner(query: &str) -> VirtualRunner {
     let mut r = VirtualRunner::from_specs(&[spec], AppConfig::default()).unwrap();
     r.advance_to(6 * SECOND);
     r
-}
-
-fn command(r: &mut VirtualRunner, line: &str) {
-    common::keys(r, &[":"]);
-    common::typed(r, line);
-    common::keys(r, &["enter"]);
-}
-
-fn wait(r: &mut VirtualRunner, secs: f64) {
-    let t = r.now() + (secs * SECOND as f64) as u64;
-    r.advance_to(t);
-}
-
-fn sim(r: &VirtualRunner) -> &Sim {
-    r.source(0).unwrap().as_any().downcast_ref::<Sim>().unwrap()
 }
 
 /// Commands sent to 1:100 with this command id, and what became of them.

@@ -4,11 +4,12 @@
 
 mod common;
 
+use common::{command, sim, wait};
+
 use mavterm::app::{App, AppConfig, Effect, Event};
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::keymap::Key;
 use mavterm::link::{FrameParser, LinkSpec, ParserStats};
-use mavterm::sim::Sim;
 use serde_json::json;
 
 const SECOND: u64 = 1_000_000;
@@ -19,21 +20,6 @@ fn runner(query: &str) -> VirtualRunner {
     // The sim's EKF uses GPS from 5 s: arming is allowed after that.
     r.advance_to(6 * SECOND);
     r
-}
-
-fn command(r: &mut VirtualRunner, line: &str) {
-    common::keys(r, &[":"]);
-    common::typed(r, line);
-    common::keys(r, &["enter"]);
-}
-
-fn wait(r: &mut VirtualRunner, secs: f64) {
-    let t = r.now() + (secs * SECOND as f64) as u64;
-    r.advance_to(t);
-}
-
-fn sim(r: &VirtualRunner) -> &Sim {
-    r.source(0).unwrap().as_any().downcast_ref::<Sim>().unwrap()
 }
 
 /// Guided, armed, at 10 m: on the sim and on our screen.

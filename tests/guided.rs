@@ -5,11 +5,12 @@
 
 mod common;
 
+use common::{command, sim, wait};
+
 use mavterm::app::{AppConfig, Effect, Event};
 use mavterm::driver::virtual_time::{Driver, VirtualRunner};
 use mavterm::keymap::Key;
 use mavterm::link::LinkSpec;
-use mavterm::sim::Sim;
 
 const SECOND: u64 = 1_000_000;
 const MS: u64 = 1_000;
@@ -19,21 +20,6 @@ fn runner() -> VirtualRunner {
     let mut r = VirtualRunner::from_specs(&[spec], AppConfig::default()).unwrap();
     r.advance_to(6 * SECOND);
     r
-}
-
-fn command(r: &mut VirtualRunner, line: &str) {
-    common::keys(r, &[":"]);
-    common::typed(r, line);
-    common::keys(r, &["enter"]);
-}
-
-fn wait(r: &mut VirtualRunner, secs: f64) {
-    let t = r.now() + (secs * SECOND as f64) as u64;
-    r.advance_to(t);
-}
-
-fn sim(r: &VirtualRunner) -> &Sim {
-    r.source(0).unwrap().as_any().downcast_ref::<Sim>().unwrap()
 }
 
 /// Horizontal speed of the sim's GUIDED velocity target (m/s), 0 when it has none.

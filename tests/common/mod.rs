@@ -288,3 +288,25 @@ pub fn stand_in(script: &str, args: &[std::ffi::OsString]) -> ChildGuard {
     assert_eq!(line.trim(), "listening", "{script} did not start");
     ChildGuard(child)
 }
+
+/// Type `line` at the `:` prompt and press enter.
+pub fn command(r: &mut mavterm::driver::virtual_time::VirtualRunner, line: &str) {
+    keys(r, &[":"]);
+    typed(r, line);
+    keys(r, &["enter"]);
+}
+
+/// Let `secs` seconds of virtual time pass.
+pub fn wait(r: &mut mavterm::driver::virtual_time::VirtualRunner, secs: f64) {
+    let t = r.now() + (secs * 1_000_000.0) as u64;
+    r.advance_to(t);
+}
+
+/// The simulator behind link 0.
+pub fn sim(r: &mavterm::driver::virtual_time::VirtualRunner) -> &mavterm::sim::Sim {
+    r.source(0)
+        .unwrap()
+        .as_any()
+        .downcast_ref::<mavterm::sim::Sim>()
+        .unwrap()
+}
