@@ -246,16 +246,24 @@ pub enum ReportFormat {
     Json,
 }
 
+/// Clap's message shows the value already (`invalid value 'X' for '--link <SPEC>': ...`): the
+/// spec error's own `link spec `X`: ` is left out.
 fn parse_spec(s: &str) -> Result<LinkSpec, String> {
-    s.parse::<LinkSpec>().map_err(|e| e.to_string())
+    s.parse::<LinkSpec>().map_err(|e| {
+        let e = e.to_string();
+        match e.strip_prefix(&format!("link spec `{s}`: ")) {
+            Some(rest) => rest.to_string(),
+            None => e,
+        }
+    })
 }
 
 /// An output: a link spec that reaches another ground station (not the sim nor a replay).
 fn parse_out_spec(s: &str) -> Result<LinkSpec, String> {
     match parse_spec(s)? {
-        LinkSpec::Sim { .. } | LinkSpec::Tlog { .. } => Err(format!(
-            "`{s}`: an output is a network or serial link (e.g. udpout:127.0.0.1:14550)"
-        )),
+        LinkSpec::Sim { .. } | LinkSpec::Tlog { .. } => {
+            Err("an output is a network or serial link (e.g. udpout:127.0.0.1:14550)".into())
+        }
         spec => Ok(spec),
     }
 }
@@ -264,9 +272,7 @@ fn parse_out_spec(s: &str) -> Result<LinkSpec, String> {
 fn parse_duration(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && (0.0..=31_536_000.0).contains(&v) => Ok(v),
-        _ => Err(format!(
-            "`{s}` is not a number of seconds from 0 to 31536000"
-        )),
+        _ => Err("expected seconds from 0 to 31536000".into()),
     }
 }
 
@@ -274,30 +280,30 @@ fn parse_duration(s: &str) -> Result<f64, String> {
 fn parse_lost_timeout(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && (0.1..=3600.0).contains(&v) => Ok(v),
-        _ => Err(format!("`{s}` is not a number of seconds from 0.1 to 3600")),
+        _ => Err("expected seconds from 0.1 to 3600".into()),
     }
 }
 
 /// The largest `--size` side: a screen bigger than any terminal is a typo.
 pub const MAX_SIZE: u16 = 1000;
 
-/// `--size WIDTHxHEIGHT`, each side from 1 to [`MAX_SIZE`].
+/// `--size WIDTHxHEIGHT`, each side from 1 to [`MAX_SIZE`]. (Clap's message shows the value.)
 fn parse_size(s: &str) -> Result<(u16, u16), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
-        .ok_or_else(|| format!("`{s}`: expected WIDTHxHEIGHT, e.g. 120x40"))?;
+        .ok_or_else(|| "expected WIDTHxHEIGHT, e.g. 120x40".to_string())?;
     let side = |name: &str, v: &str| -> Result<u16, String> {
         if v.is_empty() {
-            return Err(format!("`{s}`: {name} is missing"));
+            return Err(format!("{name} is missing"));
         }
         if !v.bytes().all(|b| b.is_ascii_digit()) {
-            return Err(format!("`{s}`: {name} `{v}` is not a whole number"));
+            return Err(format!("{name} `{v}` is not a whole number"));
         }
         // All digits: only too many of them can fail to parse.
         match v.parse::<u64>() {
-            Ok(0) => Err(format!("`{s}`: {name} must be at least 1")),
+            Ok(0) => Err(format!("{name} must be at least 1")),
             Ok(n) if n <= u64::from(MAX_SIZE) => Ok(n as u16),
-            _ => Err(format!("`{s}`: {name} {v} is over {MAX_SIZE}")),
+            _ => Err(format!("{name} {v} is over {MAX_SIZE}")),
         }
     };
     Ok((side("width", w)?, side("height", h)?))
@@ -335,7 +341,7 @@ mod tests {
         for (args, says) in [
             (&["--fps", "0"][..], "1..=120"),
             (&["--fps", "121"], "1..=120"),
-            (&["--lost-timeout", "0"], "from 0.1 to 3600"),
+            (&["--lost-timeout", "0"], "expected seconds from 0.1 to 3600"),
             (&["--lost-timeout", "3601"], "from 0.1 to 3600"),
             (&["--sysid", "0"], "1..=255"),
             (&["--compid", "0"], "1..=255"),
