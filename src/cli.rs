@@ -341,20 +341,40 @@ mod tests {
         for (args, says) in [
             (&["--fps", "0"][..], "1..=120"),
             (&["--fps", "121"], "1..=120"),
-            (&["--lost-timeout", "0"], "expected seconds from 0.1 to 3600"),
+            (
+                &["--lost-timeout", "0"],
+                "expected seconds from 0.1 to 3600",
+            ),
             (&["--lost-timeout", "3601"], "from 0.1 to 3600"),
             (&["--sysid", "0"], "1..=255"),
             (&["--compid", "0"], "1..=255"),
             (&["--size", "70000x10"], "width 70000 is over 1000"),
-            (&["sim", "--listen", "tcp:127.0.0.1:5760", "--vehicles", "300"], "1..=250"),
-            (&["sim", "--listen", "tcp:127.0.0.1:5760", "--vehicles", "0"], "1..=250"),
+            (
+                &["sim", "--listen", "tcp:127.0.0.1:5760", "--vehicles", "300"],
+                "1..=250",
+            ),
+            (
+                &["sim", "--listen", "tcp:127.0.0.1:5760", "--vehicles", "0"],
+                "1..=250",
+            ),
         ] {
             let e = parse(args).unwrap_err();
             let flag = args.iter().rev().nth(1).unwrap();
             assert!(e.contains(flag) && e.contains(says), "{args:?}: {e}");
         }
-        let c = parse(&["--fps", "120", "--lost-timeout", "0.1", "--size", "1000x1000"]).unwrap();
-        assert_eq!((c.fps, c.lost_timeout, c.size), (120, Some(0.1), (1000, 1000)));
+        let c = parse(&[
+            "--fps",
+            "120",
+            "--lost-timeout",
+            "0.1",
+            "--size",
+            "1000x1000",
+        ])
+        .unwrap();
+        assert_eq!(
+            (c.fps, c.lost_timeout, c.size),
+            (120, Some(0.1), (1000, 1000))
+        );
         let cfg = c.app_config(&FileConfig::default());
         assert_eq!(cfg.lost_timeout, 100_000);
     }

@@ -379,7 +379,11 @@ fn replay(
         edge.start_virtual(&mut runner);
         let outcome = run_script(&script, &mut runner, &opts, &mut stdout.lock());
         runner.finish_recording(); // also when stdout was closed: the log is kept whole
-        (outcome?, runner.app.report(), runner.app.all_links_stayed_down())
+        (
+            outcome?,
+            runner.app.report(),
+            runner.app.all_links_stayed_down(),
+        )
     } else {
         let mut runner = RealTimeRunner::start(rt.clone(), links, cfg);
         runner.app_mut().keymap = keymap;

@@ -72,7 +72,10 @@ fn report(o: &Output) -> serde_json::Value {
 fn values_that_cannot_work_are_refused_with_the_flag_and_the_range() {
     let home = Home::new();
     for (args, says) in [
-        (&["--fps", "0"][..], "invalid value '0' for '--fps <FPS>': 0 is not in 1..=120"),
+        (
+            &["--fps", "0"][..],
+            "invalid value '0' for '--fps <FPS>': 0 is not in 1..=120",
+        ),
         (
             &["--lost-timeout", "0"],
             "invalid value '0' for '--lost-timeout <SECONDS>': expected seconds from 0.1 to 3600",
@@ -101,16 +104,26 @@ fn values_that_cannot_work_are_refused_with_the_flag_and_the_range() {
 fn config_file_values_that_cannot_work_are_refused_where_they_are() {
     let home = Home::new();
     let cfg = home.file("c.toml", "lost_timeout = 0\nsysid = 0\n");
-    let o = home.run(&["--config", cfg.to_str().unwrap(), "--headless", "--report", "json"]);
+    let o = home.run(&[
+        "--config",
+        cfg.to_str().unwrap(),
+        "--headless",
+        "--report",
+        "json",
+    ]);
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{err}");
     let c = cfg.display();
     assert!(
-        err.contains(&format!("{c}:1:16: lost_timeout: expected seconds from 0.1 to 3600, found 0")),
+        err.contains(&format!(
+            "{c}:1:16: lost_timeout: expected seconds from 0.1 to 3600, found 0"
+        )),
         "{err}"
     );
     assert!(
-        err.contains(&format!("{c}:2:9: sysid: expected a system id from 1 to 255, found 0")),
+        err.contains(&format!(
+            "{c}:2:9: sysid: expected a system id from 1 to 255, found 0"
+        )),
         "{err}"
     );
     assert_eq!(err.matches("lost_timeout").count(), 1, "once: {err}");
@@ -138,7 +151,15 @@ fn the_report_says_which_mavterm_made_it_when_and_for_how_long() {
     let first = std::fs::read(&log).unwrap();
     let t0 = u64::from_be_bytes(first[..8].try_into().unwrap());
     let spec = format!("tlog:{}", log.display());
-    let o = home.run(&["--link", &spec, "--headless", "--report", "json", "--duration", "3"]);
+    let o = home.run(&[
+        "--link",
+        &spec,
+        "--headless",
+        "--report",
+        "json",
+        "--duration",
+        "3",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let r = report(&o);
     assert_eq!(r["version"], env!("CARGO_PKG_VERSION"));
@@ -159,7 +180,15 @@ fn a_report_where_every_link_stayed_down_fails_and_says_why() {
     let home = Home::new();
     let port = free_tcp_port(); // released: nothing listens there
     let spec = format!("tcp:127.0.0.1:{port}");
-    let o = home.run(&["--link", &spec, "--headless", "--report", "json", "--duration", "1"]);
+    let o = home.run(&[
+        "--link",
+        &spec,
+        "--headless",
+        "--report",
+        "json",
+        "--duration",
+        "1",
+    ]);
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{err}");
     // The report is printed all the same, with the reason in it.
@@ -200,7 +229,11 @@ fn a_closed_stdout_ends_the_run_quietly() {
     let mut out = child.stdout.take().unwrap();
     let mut first = [0u8; 64];
     out.read_exact(&mut first).unwrap();
-    assert!(first.starts_with(b"=== snapshot s0 at 0.1s"), "{:?}", String::from_utf8_lossy(&first));
+    assert!(
+        first.starts_with(b"=== snapshot s0 at 0.1s"),
+        "{:?}",
+        String::from_utf8_lossy(&first)
+    );
     drop(out); // as `| head -1` does
     let o = child.wait_with_output().unwrap();
     let err = stderr(&o);
@@ -216,9 +249,18 @@ fn errors_are_printed_once() {
     let missing = home.path("nope.toml");
     let m = missing.to_str().unwrap();
     for (args, reason) in [
-        (vec!["--headless", "--input", s, "--keymap", m], "No such file or directory"),
-        (vec!["--headless", "--input", m], "No such file or directory"),
-        (vec!["--headless", "--report", "json", "--config", m], "No such file or directory"),
+        (
+            vec!["--headless", "--input", s, "--keymap", m],
+            "No such file or directory",
+        ),
+        (
+            vec!["--headless", "--input", m],
+            "No such file or directory",
+        ),
+        (
+            vec!["--headless", "--report", "json", "--config", m],
+            "No such file or directory",
+        ),
         (
             vec!["--link", "tcp:nowhere", "--headless", "--report", "json"],
             "tcp:nowhere",
@@ -287,13 +329,19 @@ fn keymap_clashes_and_unknown_names_are_errors_that_teach() {
     assert_eq!(err.matches("key `n`").count(), 1, "{err}");
     // Unknown names: the valid ones are listed.
     let (_, err) = keymap_error(&home, "[normal]\ndive = [\"x\"]\nquit = [\"hyper-q\"]\n");
-    assert!(err.contains(":2:1: unknown action `dive` in [normal]"), "{err}");
+    assert!(
+        err.contains(":2:1: unknown action `dive` in [normal]"),
+        "{err}"
+    );
     assert!(err.contains(":3:9: unknown key `hyper-q`"), "{err}");
     assert!(
         err.contains("\nthe actions of [normal] and [normal.SCREEN]: arm, bottom,"),
         "{err}"
     );
-    assert!(err.contains("\nkey names: a character (a, A, ?, 1), space, enter,"), "{err}");
+    assert!(
+        err.contains("\nkey names: a character (a, A, ?, 1), space, enter,"),
+        "{err}"
+    );
 }
 
 /// The help teaches: examples, the defaults, the files, NO_COLOR; `sim --help` lists every
@@ -324,13 +372,31 @@ fn help_shows_examples_files_and_the_sim_options() {
     let o = home.run(&["sim", "--help"]);
     let help = stdout(&o);
     for key in [
-        "vehicles", "sysid", "loss", "dup", "reorder", "corrupt", "latency_ms", "seed", "params",
-        "baud", "state", "impair_in", "drop_cmd", "ftp", "mission_boot_ms", "camera", "camera_drop",
+        "vehicles",
+        "sysid",
+        "loss",
+        "dup",
+        "reorder",
+        "corrupt",
+        "latency_ms",
+        "seed",
+        "params",
+        "baud",
+        "state",
+        "impair_in",
+        "drop_cmd",
+        "ftp",
+        "mission_boot_ms",
+        "camera",
+        "camera_drop",
     ] {
         assert!(help.contains(&format!("\n  {key}=")), "{key}: {help}");
     }
     // An unknown option names the same set.
     let o = home.run(&["--link", "sim://?wind=3", "--headless", "--report", "json"]);
-    assert!(stderr(&o).contains("known options: vehicles, sysid, loss"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("known options: vehicles, sysid, loss"),
+        "{}",
+        stderr(&o)
+    );
 }
-

@@ -813,13 +813,30 @@ fn a_user_key_that_the_default_binds_to_another_action_is_an_error() {
     );
     // A screen section's key that the default binds in [normal]; and one in [prompt]; all at
     // once, top to bottom.
-    let e = layering_error("[normal.camera]\ncamera_shoot = [\"s\", \"A\"]\n[prompt]\nsubmit = [\"enter\", \"tab\"]\n");
+    let e = layering_error(
+        "[normal.camera]\ncamera_shoot = [\"s\", \"A\"]\n[prompt]\nsubmit = [\"enter\", \"tab\"]\n",
+    );
     assert_eq!(places(&e.problems), [(2, 22), (4, 20)], "{}", e.msg);
-    assert!(e.msg.starts_with("keymap user.toml: 2 problems:\n"), "{}", e.msg);
-    assert!(e.msg.contains("`A` is bound to `camera_shoot` here and to `arm`"), "{}", e.msg);
+    assert!(
+        e.msg.starts_with("keymap user.toml: 2 problems:\n"),
+        "{}",
+        e.msg
+    );
+    assert!(
+        e.msg
+            .contains("`A` is bound to `camera_shoot` here and to `arm`"),
+        "{}",
+        e.msg
+    );
     assert!(e.msg.contains("on the camera screen"), "{}", e.msg);
     assert!(e.msg.contains("`tab` is bound to `submit` here and to `complete` by the default keymap in [prompt]: in [prompt] both"), "{}", e.msg);
-    assert_eq!(e.dups, ["A (camera_shoot, arm) in [normal.camera]", "tab (submit, complete) in [prompt]"]);
+    assert_eq!(
+        e.dups,
+        [
+            "A (camera_shoot, arm) in [normal.camera]",
+            "tab (submit, complete) in [prompt]"
+        ]
+    );
 
     // Fine: the other action moved or unbound in the same file; the same action again; a key
     // in another mode; a key the default binds on another screen only.
@@ -837,7 +854,10 @@ fn a_user_key_that_the_default_binds_to_another_action_is_an_error() {
             .unwrap_or_else(|e| panic!("{ok:?}: {e}"));
         // What the file binds is what the key does.
         if ok.starts_with("[normal]\nquit") {
-            assert_eq!(km.lookup(Mode::Normal, "overview", &k("n")), Some(Action::Quit));
+            assert_eq!(
+                km.lookup(Mode::Normal, "overview", &k("n")),
+                Some(Action::Quit)
+            );
         }
     }
     // Through the loader, the error names the file.
@@ -853,13 +873,22 @@ fn a_user_key_that_the_default_binds_to_another_action_is_an_error() {
 
 #[test]
 fn unknown_actions_and_keys_list_the_valid_names() {
-    let e = invalid("[normal]\ndive = [\"f\"]\n[help]\nsubmit_it = [\"q\"]\n[edit]\nquit = [\"hyper-q\"]\n");
+    let e = invalid(
+        "[normal]\ndive = [\"f\"]\n[help]\nsubmit_it = [\"q\"]\n[edit]\nquit = [\"hyper-q\"]\n",
+    );
     assert_eq!(e.hints.len(), 3, "{:?}", e.hints);
     // Each list once, after the problems, sorted, wrapped.
     let normal = &e.hints[0];
-    assert!(normal.starts_with("the actions of [normal] and [normal.SCREEN]: arm, bottom, camera_mode,"), "{normal}");
+    assert!(
+        normal
+            .starts_with("the actions of [normal] and [normal.SCREEN]: arm, bottom, camera_mode,"),
+        "{normal}"
+    );
     for name in ["quit", "next_vehicle", "mission_goto", "screen_6", "cancel"] {
-        assert!(normal.contains(&format!(" {name},")) || normal.ends_with(&format!(" {name}")), "{name}: {normal}");
+        assert!(
+            normal.contains(&format!(" {name},")) || normal.ends_with(&format!(" {name}")),
+            "{name}: {normal}"
+        );
     }
     assert!(!normal.contains("cursor_left"), "{normal}");
     assert!(normal.lines().count() > 1, "wrapped: {normal}");
@@ -868,13 +897,28 @@ fn unknown_actions_and_keys_list_the_valid_names() {
         e.hints[1],
         "the actions of [help]: bottom, cancel, down, help, page_down, page_up, top, up"
     );
-    assert!(e.hints[2].starts_with("key names: a character (a, A, ?, 1), space, enter, esc, tab,"), "{}", e.hints[2]);
-    assert!(e.hints[2].contains("f1 to f24") && e.hints[2].contains("ctrl-x, alt-x"), "{}", e.hints[2]);
+    assert!(
+        e.hints[2].starts_with("key names: a character (a, A, ?, 1), space, enter, esc, tab,"),
+        "{}",
+        e.hints[2]
+    );
+    assert!(
+        e.hints[2].contains("f1 to f24") && e.hints[2].contains("ctrl-x, alt-x"),
+        "{}",
+        e.hints[2]
+    );
     assert!(e.msg.ends_with(&e.hints.join("\n")), "{}", e.msg);
     // The text line's actions, for [prompt] and [edit] alike.
     let e = invalid("[prompt]\nsend = [\"enter\"]\n");
-    assert!(e.hints[0].starts_with("the actions of [prompt] and [edit]: cancel, clear_line, complete,"), "{:?}", e.hints);
+    assert!(
+        e.hints[0].starts_with("the actions of [prompt] and [edit]: cancel, clear_line, complete,"),
+        "{:?}",
+        e.hints
+    );
     // A key name alone (as a replay script's) says the names too.
     let e = "hyper-q".parse::<Key>().unwrap_err().to_string();
-    assert!(e.contains("`hyper-q`") && e.contains("pagedown") && e.contains("f1 to f24"), "{e}");
+    assert!(
+        e.contains("`hyper-q`") && e.contains("pagedown") && e.contains("f1 to f24"),
+        "{e}"
+    );
 }

@@ -33,7 +33,11 @@ pub const OPTIONS: &[(&str, &str, &str)] = &[
         "10",
         "system id of the first vehicle, 1 to 254 [default: 1]",
     ),
-    ("loss", "0.1", "probability (0 to 1) that a frame sent is lost"),
+    (
+        "loss",
+        "0.1",
+        "probability (0 to 1) that a frame sent is lost",
+    ),
     ("dup", "0.01", "probability that a frame sent is sent twice"),
     (
         "reorder",
