@@ -110,12 +110,43 @@ fn main() -> ExitCode {
     }
 }
 
-/// The reader of stdout went away.
+/// Set when a write to stdout failed because its reader went away.
+static STDOUT_CLOSED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// The error is stdout's reader going away (not a broken pipe of a link or a GCS).
 fn broken_pipe(e: &anyhow::Error) -> bool {
-    e.chain().any(|c| {
-        c.downcast_ref::<std::io::Error>()
-            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
-    })
+    STDOUT_CLOSED.load(std::sync::atomic::Ordering::Relaxed)
+        && e.chain().any(|c| {
+            c.downcast_ref::<std::io::Error>()
+                .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+        })
+}
+
+/// Stdout, noting in [`STDOUT_CLOSED`] when its reader has gone.
+struct Stdout(std::io::StdoutLock<'static>);
+
+impl Stdout {
+    fn lock() -> Stdout {
+        Stdout(std::io::stdout().lock())
+    }
+
+    fn note<T>(r: std::io::Result<T>) -> std::io::Result<T> {
+        if let Err(e) = &r {
+            if e.kind() == std::io::ErrorKind::BrokenPipe {
+                STDOUT_CLOSED.store(true, std::sync::atomic::Ordering::Relaxed);
+            }
+        }
+        r
+    }
+}
+
+impl Write for Stdout {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        Stdout::note(self.0.write(buf))
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Stdout::note(self.0.flush())
+    }
 }
 
 /// `Error: MESSAGE`, then each cause whose text the lines before do not already say (an error
@@ -134,7 +165,7 @@ fn error_text(e: &anyhow::Error) -> String {
 
 /// Write one line to stdout, an error when nobody reads it any more.
 fn print_line(line: &str) -> Result<()> {
-    let mut out = std::io::stdout().lock();
+    let mut out = Stdout::lock();
     writeln!(out, "{line}")?;
     out.flush()?;
     Ok(())
@@ -372,12 +403,11 @@ fn replay(
         screens_dir: cli.screens.clone(),
         ..ReplayOptions::default()
     };
-    let stdout = std::io::stdout();
     let (outcome, report, down) = if all_virtual(links) && edge.outs.is_empty() {
         let mut runner = VirtualRunner::from_specs(links, cfg)?;
         runner.app.keymap = keymap;
         edge.start_virtual(&mut runner);
-        let outcome = run_script(&script, &mut runner, &opts, &mut stdout.lock());
+        let outcome = run_script(&script, &mut runner, &opts, &mut Stdout::lock());
         runner.finish_recording(); // also when stdout was closed: the log is kept whole
         (
             outcome?,
@@ -391,7 +421,7 @@ fn replay(
             let _in_rt = rt.enter();
             edge.start_real(&mut runner.inner);
         }
-        let outcome = run_script(&script, &mut runner, &opts, &mut stdout.lock());
+        let outcome = run_script(&script, &mut runner, &opts, &mut Stdout::lock());
         runner.inner.finish();
         save_signing(runner.app())?;
         let down = runner.app().all_links_stayed_down();
