@@ -11,7 +11,7 @@ use crate::link::LinkSpec;
 
 /// A terminal ground-control station for MAVLink vehicles.
 #[derive(Debug, Parser)]
-#[command(name = "mavterm", version, about)]
+#[command(name = "mavterm", version, about, after_help = after_help())]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Option<Command>,
@@ -43,15 +43,15 @@ pub struct Cli {
 
     /// Seconds without a heartbeat before a vehicle is shown lost [default: the config file's
     /// `lost_timeout`, else 5].
-    #[arg(long, value_name = "SECONDS", value_parser = parse_duration)]
+    #[arg(long, value_name = "SECONDS", value_parser = parse_lost_timeout)]
     pub lost_timeout: Option<f64>,
 
     /// Run without a terminal.
     #[arg(long)]
     pub headless: bool,
 
-    /// Headless: how long to run before reporting [default: to the end of the tlog: replays,
-    /// else 10 s].
+    /// Headless: how long to run, in seconds [default: 10; with --params-out, 300; with only
+    /// tlog: replays (and sim://), to the end of the logs].
     #[arg(long, value_name = "SECONDS", value_parser = parse_duration)]
     pub duration: Option<f64>,
 
@@ -74,7 +74,7 @@ pub struct Cli {
     #[arg(long, value_name = "FILE")]
     pub input: Option<PathBuf>,
 
-    /// Headless: screen size for replay, WIDTHxHEIGHT.
+    /// Headless: screen size for replay, WIDTHxHEIGHT (each from 1 to 1000).
     #[arg(long, value_name = "WxH", default_value = "120x40", value_parser = parse_size)]
     pub size: (u16, u16),
 
@@ -86,8 +86,8 @@ pub struct Cli {
     #[arg(long, value_name = "FILE")]
     pub keymap: Option<PathBuf>,
 
-    /// Highest redraw rate of the terminal UI.
-    #[arg(long, default_value_t = 10)]
+    /// Highest redraw rate of the terminal UI, in frames a second (1 to 120).
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=120))]
     pub fps: u32,
 
     /// Terminal UI: record the keys typed, in the replay format, to FILE.
@@ -130,17 +130,63 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Serve simulated vehicle(s) to any GCS, in real time, until Ctrl-C.
+    #[command(after_help = crate::sim::config::options_help())]
     Sim {
         /// Where to serve: tcp:ADDR:PORT (listen), udpin:ADDR:PORT, udpout:HOST:PORT.
         #[arg(long, value_parser = parse_spec)]
         listen: LinkSpec,
-        /// Number of vehicles (sysid 1, 2, ...).
-        #[arg(long)]
+        /// Number of vehicles, 1 to 250 (sysid 1, 2, ...).
+        #[arg(long, value_parser = clap::value_parser!(u8).range(1..=250))]
         vehicles: Option<u8>,
-        /// More sim options, as in sim://?OPTIONS (e.g. "loss=0.1&seed=7").
+        /// More sim options, as in sim://?OPTIONS (e.g. "loss=0.1&seed=7"); listed below.
         #[arg(long, default_value = "")]
         options: String,
     },
+}
+
+/// What `mavterm --help` shows after the options: examples, where the files are, the
+/// environment. The paths are this machine's (`$XDG_CONFIG_HOME` and `$XDG_DATA_HOME` move them).
+pub fn after_help() -> String {
+    let show = |p: Option<PathBuf>, fallback: &str| {
+        p.map_or_else(|| fallback.to_string(), |p| p.display().to_string())
+    };
+    let config = crate::paths::config_dir();
+    let in_config = |name: &str| {
+        show(
+            config.as_ref().map(|d| d.join(name)),
+            &format!("$XDG_CONFIG_HOME/mavterm/{name}"),
+        )
+    };
+    format!(
+        "Examples:
+  mavterm --link /dev/ttyUSB0,57600
+      a serial telemetry radio (SiK) at 57600 baud
+  mavterm --link tcp:127.0.0.1:5760
+      ArduPilot SITL (sim_vehicle.py serves MAVLink on TCP port 5760)
+  mavterm --link udpin:0.0.0.0:14550
+      what is sent to UDP port 14550 (a companion computer, MAVProxy, PX4 SITL)
+  mavterm --link udpin:0.0.0.0:14550 --headless --duration 10 --report json
+      no terminal: listen for 10 s, then print a JSON report on stdout
+  mavterm --link tlog:flight.tlog
+      replay a telemetry log
+  mavterm
+      the built-in simulated vehicle, sim:// (its options: mavterm sim --help)
+
+Files:
+  settings    {settings}  (or --config FILE)
+  keys        {keymap}  (or --keymap FILE)
+  metadata    {meta}  (or --param-meta FILE)
+  flight logs {logs}
+  ($XDG_CONFIG_HOME and $XDG_DATA_HOME move them.)
+
+Environment:
+  NO_COLOR    set and not empty: the terminal UI has no colours
+  RUST_LOG    what --log FILE records (default: info)",
+        settings = in_config("config.toml"),
+        keymap = in_config("keymap.toml"),
+        meta = in_config("param-meta.xml"),
+        logs = show(crate::paths::logs_dir(), "$XDG_DATA_HOME/mavterm/logs"),
+    )
 }
 
 impl Cli {
@@ -156,7 +202,7 @@ impl Cli {
             cfg.compid = v;
         }
         if let Some(s) = self.lost_timeout {
-            cfg.lost_timeout = seconds_to_micros(s.max(0.1));
+            cfg.lost_timeout = seconds_to_micros(s);
         }
         cfg
     }
@@ -200,16 +246,24 @@ pub enum ReportFormat {
     Json,
 }
 
+/// Clap's message shows the value already (`invalid value 'X' for '--link <SPEC>': ...`): the
+/// spec error's own `link spec `X`: ` is left out.
 fn parse_spec(s: &str) -> Result<LinkSpec, String> {
-    s.parse::<LinkSpec>().map_err(|e| e.to_string())
+    s.parse::<LinkSpec>().map_err(|e| {
+        let e = e.to_string();
+        match e.strip_prefix(&format!("link spec `{s}`: ")) {
+            Some(rest) => rest.to_string(),
+            None => e,
+        }
+    })
 }
 
 /// An output: a link spec that reaches another ground station (not the sim nor a replay).
 fn parse_out_spec(s: &str) -> Result<LinkSpec, String> {
     match parse_spec(s)? {
-        LinkSpec::Sim { .. } | LinkSpec::Tlog { .. } => Err(format!(
-            "`{s}`: an output is a network or serial link (e.g. udpout:127.0.0.1:14550)"
-        )),
+        LinkSpec::Sim { .. } | LinkSpec::Tlog { .. } => {
+            Err("an output is a network or serial link (e.g. udpout:127.0.0.1:14550)".into())
+        }
         spec => Ok(spec),
     }
 }
@@ -218,24 +272,110 @@ fn parse_out_spec(s: &str) -> Result<LinkSpec, String> {
 fn parse_duration(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && (0.0..=31_536_000.0).contains(&v) => Ok(v),
-        _ => Err(format!(
-            "`{s}` is not a number of seconds from 0 to 31536000"
-        )),
+        _ => Err("expected seconds from 0 to 31536000".into()),
     }
 }
 
+/// `--lost-timeout`: seconds from 0.1 to 3600, as the config file's `lost_timeout`.
+fn parse_lost_timeout(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && (0.1..=3600.0).contains(&v) => Ok(v),
+        _ => Err("expected seconds from 0.1 to 3600".into()),
+    }
+}
+
+/// The largest `--size` side: a screen bigger than any terminal is a typo.
+pub const MAX_SIZE: u16 = 1000;
+
+/// `--size WIDTHxHEIGHT`, each side from 1 to [`MAX_SIZE`]. (Clap's message shows the value.)
 fn parse_size(s: &str) -> Result<(u16, u16), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
-        .ok_or_else(|| format!("size `{s}`: expected WIDTHxHEIGHT, e.g. 120x40"))?;
-    let w: u16 = w
-        .parse()
-        .map_err(|_| format!("size `{s}`: width `{w}` is not a number"))?;
-    let h: u16 = h
-        .parse()
-        .map_err(|_| format!("size `{s}`: height `{h}` is not a number"))?;
-    if w == 0 || h == 0 {
-        return Err(format!("size `{s}`: width and height must be at least 1"));
+        .ok_or_else(|| "expected WIDTHxHEIGHT, e.g. 120x40".to_string())?;
+    let side = |name: &str, v: &str| -> Result<u16, String> {
+        if v.is_empty() {
+            return Err(format!("{name} is missing"));
+        }
+        if !v.bytes().all(|b| b.is_ascii_digit()) {
+            return Err(format!("{name} `{v}` is not a whole number"));
+        }
+        // All digits: only too many of them can fail to parse.
+        match v.parse::<u64>() {
+            Ok(0) => Err(format!("{name} must be at least 1")),
+            Ok(n) if n <= u64::from(MAX_SIZE) => Ok(n as u16),
+            _ => Err(format!("{name} {v} is over {MAX_SIZE}")),
+        }
+    };
+    Ok((side("width", w)?, side("height", h)?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn size_sides_are_1_to_1000_and_say_what_is_wrong() {
+        assert_eq!(parse_size("120x40"), Ok((120, 40)));
+        assert_eq!(parse_size("1000X1"), Ok((1000, 1)));
+        for (arg, says) in [
+            ("70000x10", "width 70000 is over 1000"),
+            ("10x1001", "height 1001 is over 1000"),
+            ("99999999999999999999999x1", "is over 1000"),
+            ("0x5", "width must be at least 1"),
+            ("12x", "height is missing"),
+            ("ax5", "width `a` is not a whole number"),
+            ("-1x5", "not a whole number"),
+            ("120", "expected WIDTHxHEIGHT"),
+        ] {
+            let e = parse_size(arg).unwrap_err();
+            assert!(e.contains(says), "{arg}: {e}");
+        }
     }
-    Ok((w, h))
+
+    #[test]
+    fn values_that_cannot_work_are_refused_by_flag() {
+        let parse = |args: &[&str]| {
+            Cli::try_parse_from(std::iter::once("mavterm").chain(args.iter().copied()))
+                .map_err(|e| e.to_string())
+        };
+        for (args, says) in [
+            (&["--fps", "0"][..], "1..=120"),
+            (&["--fps", "121"], "1..=120"),
+            (
+                &["--lost-timeout", "0"],
+                "expected seconds from 0.1 to 3600",
+            ),
+            (&["--lost-timeout", "3601"], "from 0.1 to 3600"),
+            (&["--sysid", "0"], "1..=255"),
+            (&["--compid", "0"], "1..=255"),
+            (&["--size", "70000x10"], "width 70000 is over 1000"),
+            (
+                &["sim", "--listen", "tcp:127.0.0.1:5760", "--vehicles", "300"],
+                "1..=250",
+            ),
+            (
+                &["sim", "--listen", "tcp:127.0.0.1:5760", "--vehicles", "0"],
+                "1..=250",
+            ),
+        ] {
+            let e = parse(args).unwrap_err();
+            let flag = args.iter().rev().nth(1).unwrap();
+            assert!(e.contains(flag) && e.contains(says), "{args:?}: {e}");
+        }
+        let c = parse(&[
+            "--fps",
+            "120",
+            "--lost-timeout",
+            "0.1",
+            "--size",
+            "1000x1000",
+        ])
+        .unwrap();
+        assert_eq!(
+            (c.fps, c.lost_timeout, c.size),
+            (120, Some(0.1), (1000, 1000))
+        );
+        let cfg = c.app_config(&FileConfig::default());
+        assert_eq!(cfg.lost_timeout, 100_000);
+    }
 }

@@ -153,6 +153,18 @@ impl fmt::Display for Section {
     }
 }
 
+impl Section {
+    /// The input mode this section's bindings apply in.
+    pub fn mode(self) -> Mode {
+        match self {
+            Section::Normal | Section::Screen(_) => Mode::Normal,
+            Section::Help => Mode::Help,
+            Section::Prompt => Mode::Prompt,
+            Section::Edit => Mode::Edit,
+        }
+    }
+}
+
 /// Everything a key can be bound to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Action {
@@ -504,6 +516,51 @@ impl Action {
         ),
     ];
 
+    /// The actions of the text line (`[prompt]` and `[edit]`).
+    const TEXT_LINE: &'static [Action] = &[
+        Action::Submit,
+        Action::Cancel,
+        Action::CursorLeft,
+        Action::CursorRight,
+        Action::LineStart,
+        Action::LineEnd,
+        Action::DeleteBack,
+        Action::DeleteForward,
+        Action::DeleteWord,
+        Action::ClearLine,
+        Action::HistoryPrev,
+        Action::HistoryNext,
+        Action::Complete,
+    ];
+
+    /// The actions of the key help (`[help]`): scrolling, and closing it.
+    const HELP: &'static [Action] = &[
+        Action::Help,
+        Action::Cancel,
+        Action::Up,
+        Action::Down,
+        Action::PageUp,
+        Action::PageDown,
+        Action::Top,
+        Action::Bottom,
+    ];
+
+    /// The names of the actions that do something in `mode`, sorted: what an unknown action's
+    /// message lists.
+    pub fn names_for(mode: Mode) -> Vec<&'static str> {
+        let mut names: Vec<&'static str> = Action::ALL
+            .iter()
+            .filter(|(a, _, _)| match mode {
+                Mode::Help => Action::HELP.contains(a),
+                Mode::Prompt | Mode::Edit => Action::TEXT_LINE.contains(a),
+                Mode::Normal => *a == Action::Cancel || !Action::TEXT_LINE.contains(a),
+            })
+            .map(|(_, n, _)| *n)
+            .collect();
+        names.sort_unstable();
+        names
+    }
+
     /// True for the actions that control replay links.
     pub fn is_replay(self) -> bool {
         matches!(
@@ -545,8 +602,13 @@ impl Action {
 
 /// A key name that means nothing to us.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown key `{0}` (try a, ?, tab, backtab, enter, esc, space, up, pageup, home, f1, ctrl-x, alt-x)")]
+#[error("unknown key `{0}` (key names: {KEY_NAMES})")]
 pub struct KeyParseError(pub String);
+
+/// What a key may be called, for messages.
+pub const KEY_NAMES: &str = "a character (a, A, ?, 1), space, enter, esc, tab, backtab, \
+     backspace, delete, up, down, left, right, pageup, pagedown, home, end, f1 to f24; with \
+     ctrl- or alt- before (ctrl-x, alt-x, alt-up), or shift- before a letter or tab";
 
 impl FromStr for Key {
     type Err = KeyParseError;
@@ -681,6 +743,9 @@ pub struct InvalidKeymap {
     pub problems: Vec<Problem>,
     /// How many more problems there were.
     pub more: usize,
+    /// The names that would have been right, for unknown actions and keys: one paragraph each,
+    /// shown once after the problems.
+    pub hints: Vec<String>,
 }
 
 /// One problem: `keymap FILE:LINE:COL: message`. Several: a count, then one `FILE:LINE:COL:
@@ -689,15 +754,19 @@ impl fmt::Display for InvalidKeymap {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let origin = &self.origin;
         if let ([p], 0) = (self.problems.as_slice(), self.more) {
-            return write!(f, "keymap {origin}:{}:{}: {}", p.line, p.col, p.message);
+            write!(f, "keymap {origin}:{}:{}: {}", p.line, p.col, p.message)?;
+        } else {
+            let total = self.problems.len() + self.more;
+            write!(f, "keymap {origin}: {total} problems:")?;
+            for p in &self.problems {
+                write!(f, "\n  {origin}:{}:{}: {}", p.line, p.col, p.message)?;
+            }
+            if self.more > 0 {
+                write!(f, "\n  … and {} more", self.more)?;
+            }
         }
-        let total = self.problems.len() + self.more;
-        write!(f, "keymap {origin}: {total} problems:")?;
-        for p in &self.problems {
-            write!(f, "\n  {origin}:{}:{}: {}", p.line, p.col, p.message)?;
-        }
-        if self.more > 0 {
-            write!(f, "\n  … and {} more", self.more)?;
+        for hint in &self.hints {
+            write!(f, "\n{hint}")?;
         }
         Ok(())
     }
@@ -740,6 +809,8 @@ struct Bindings {
     /// Every bound key once, in the order the file listed them: the first key of an action is
     /// its hint.
     order: Vec<Key>,
+    /// Where the file bound each key (1-based line and column), for layering errors.
+    at: BTreeMap<Key, (usize, usize)>,
 }
 
 impl Bindings {
@@ -770,6 +841,8 @@ struct Collector {
     unknown_keys: Vec<String>,
     /// (section the clash is in, key) → actions.
     clashes: BTreeMap<(Section, Key), BTreeSet<Action>>,
+    /// The modes of the sections unknown actions were found in.
+    unknown_action_modes: BTreeSet<Mode>,
 }
 
 impl Collector {
@@ -792,6 +865,53 @@ fn by_pos<'d, 'i>(t: &'d toml::de::DeTable<'i>) -> Vec<DeEntry<'d, 'i>> {
 
 fn screen_list() -> String {
     SCREENS.join(", ")
+}
+
+/// `text` in lines of at most [`HINT_WIDTH`] characters (longer words stay whole), each after
+/// the first indented by four spaces.
+fn wrap(text: &str) -> String {
+    let mut out = String::new();
+    let mut col = 0;
+    for word in text.split(' ').filter(|w| !w.is_empty()) {
+        let n = word.chars().count();
+        if col > 0 && col + 1 + n > HINT_WIDTH {
+            out.push_str("\n   ");
+            col = 3;
+        }
+        if col > 0 {
+            out.push(' ');
+            col += 1;
+        }
+        out.push_str(word);
+        col += n;
+    }
+    out
+}
+
+/// The width hints are wrapped to.
+const HINT_WIDTH: usize = 96;
+
+/// The hints for a file's unknown actions (by the modes they were in) and keys.
+fn hints(unknown_action_modes: &BTreeSet<Mode>, unknown_keys: bool) -> Vec<String> {
+    let mut out: Vec<String> = unknown_action_modes
+        .iter()
+        .filter(|m| **m != Mode::Edit || !unknown_action_modes.contains(&Mode::Prompt))
+        .map(|m| {
+            let sections = match m {
+                Mode::Normal => "[normal] and [normal.SCREEN]",
+                Mode::Help => "[help]",
+                Mode::Prompt | Mode::Edit => "[prompt] and [edit]",
+            };
+            wrap(&format!(
+                "the actions of {sections}: {}",
+                Action::names_for(*m).join(", ")
+            ))
+        })
+        .collect();
+    if unknown_keys {
+        out.push(wrap(&format!("key names: {KEY_NAMES}")));
+    }
+    out
 }
 
 impl Keymap {
@@ -824,6 +944,7 @@ impl Keymap {
             unknown_actions: Vec::new(),
             unknown_keys: Vec::new(),
             clashes: BTreeMap::new(),
+            unknown_action_modes: BTreeSet::new(),
         };
 
         type Entry<'d, 'i> = (
@@ -913,6 +1034,7 @@ impl Keymap {
                 }
                 None => {
                     c.unknown_actions.push(name.get_ref().to_string());
+                    c.unknown_action_modes.insert(section.mode());
                     c.add(
                         name.span().start,
                         format!("unknown action `{}` in {section}", name.get_ref()),
@@ -943,9 +1065,10 @@ impl Keymap {
                 };
                 let key = match kname.parse::<Key>() {
                     Ok(key) => key,
-                    Err(e) => {
+                    Err(_) => {
+                        // The key names are listed once, after the problems.
                         c.unknown_keys.push(kname.to_string());
-                        c.add(item.span().start, e.to_string());
+                        c.add(item.span().start, format!("unknown key `{kname}`"));
                         continue;
                     }
                 };
@@ -968,6 +1091,11 @@ impl Keymap {
                         );
                     }
                 }
+            }
+        }
+        for ((section, key), at) in &first_at {
+            if let Some(b) = km.sections.get_mut(section) {
+                b.at.insert(*key, index.line_col(*at));
             }
         }
         // Normal mode on a screen sees `[normal]` and `[normal.SCREEN]` together.
@@ -1032,6 +1160,7 @@ impl Keymap {
                 }
             })
             .collect();
+        let hints = hints(&c.unknown_action_modes, !c.unknown_keys.is_empty());
         Err(KeymapError::Invalid(Box::new(InvalidKeymap {
             origin: origin.to_string(),
             unknown_actions: c.unknown_actions,
@@ -1039,6 +1168,7 @@ impl Keymap {
             duplicate_keys,
             problems,
             more,
+            hints,
         })))
     }
 
@@ -1051,9 +1181,109 @@ impl Keymap {
         Keymap::from_toml(&text, &path.display().to_string())
     }
 
-    /// The default keymap with the user's file at `path` layered on top.
+    /// The default keymap with the user's file at `path` layered on top (see
+    /// [`Keymap::layered`]).
     pub fn load(path: &Path) -> Result<Keymap, KeymapError> {
-        Ok(Keymap::default().with_overrides(&Keymap::from_file(path)?))
+        Keymap::default().layered(&Keymap::from_file(path)?, &path.display().to_string())
+    }
+
+    /// `self` (the default keymap) with the user's file `over` on top, as
+    /// [`Keymap::with_overrides`] layers them, refusing every key that would then do two things:
+    /// one `over` binds to an action while `self` binds it, in the same mode and on the same
+    /// screen, to another action that `over` does not list (`quit = ["n"]` over the default
+    /// `next_vehicle = ["n"]`). `origin` names `over` in the errors, which point at its lines.
+    pub fn layered(self, over: &Keymap, origin: &str) -> Result<Keymap, KeymapError> {
+        let empty = Bindings::default();
+        let over_normal = over.sections.get(&Section::Normal).unwrap_or(&empty);
+        // What stays of `self`: the actions `over` lists lose their keys here (the way to move
+        // or unbind a default key).
+        let mut base = self.clone();
+        for (section, mine) in base.sections.iter_mut() {
+            let theirs = over.sections.get(section).unwrap_or(&empty);
+            let inherited = matches!(section, Section::Screen(_));
+            mine.remove_where(|_, a| {
+                theirs.listed.contains(a) || (inherited && over_normal.listed.contains(a))
+            });
+        }
+        // The sections seen together: normal mode on each screen, and each other mode.
+        let contexts: Vec<(Vec<Section>, Option<&str>)> = SCREENS
+            .iter()
+            .enumerate()
+            .map(|(i, s)| (vec![Section::Screen(i), Section::Normal], Some(*s)))
+            .chain(
+                [Section::Help, Section::Prompt, Section::Edit]
+                    .into_iter()
+                    .map(|s| (vec![s], None)),
+            )
+            .collect();
+        // (their section, key, our section, our action) → (their action, screens).
+        type Clash<'s> = BTreeMap<(Section, Key, Section, Action), (Action, Vec<&'s str>)>;
+        let mut clashes: Clash = BTreeMap::new();
+        for (chain, screen) in &contexts {
+            for theirs_at in chain {
+                let Some(theirs) = over.sections.get(theirs_at) else {
+                    continue;
+                };
+                for (key, action) in &theirs.keys {
+                    for ours_at in chain {
+                        let Some(ours) = base.sections.get(ours_at).and_then(|b| b.keys.get(key))
+                        else {
+                            continue;
+                        };
+                        if ours != action {
+                            let e = clashes
+                                .entry((*theirs_at, *key, *ours_at, *ours))
+                                .or_insert((*action, Vec::new()));
+                            e.1.extend(*screen);
+                        }
+                    }
+                }
+            }
+        }
+        if clashes.is_empty() {
+            return Ok(self.with_overrides(over));
+        }
+        let mut problems = Vec::new();
+        let mut duplicate_keys = Vec::new();
+        for ((theirs_at, key, ours_at, ours), (theirs, screens)) in clashes {
+            let (line, col) = over
+                .sections
+                .get(&theirs_at)
+                .and_then(|b| b.at.get(&key))
+                .copied()
+                .unwrap_or((1, 1));
+            let (ours, theirs) = (ours.name(), theirs.name());
+            let context = match theirs_at.mode() {
+                Mode::Normal if screens.len() == SCREENS.len() => "on every screen".to_string(),
+                Mode::Normal => format!("on the {} screen", screens.join(", ")),
+                _ => format!("in {theirs_at}"),
+            };
+            problems.push(Problem {
+                line,
+                col,
+                message: format!(
+                    "key `{key}` is bound to `{theirs}` here and to `{ours}` by the default \
+                     keymap in {ours_at}: {context} both would apply; give `{ours}` other keys \
+                     (or none: `{ours} = []`) in {ours_at} of this file"
+                ),
+            });
+            duplicate_keys.push(match theirs_at {
+                Section::Normal => format!("{key} ({theirs}, {ours})"),
+                s => format!("{key} ({theirs}, {ours}) in {s}"),
+            });
+        }
+        problems.sort_by_key(|p| (p.line, p.col));
+        let more = problems.len().saturating_sub(MAX_PROBLEMS);
+        problems.truncate(MAX_PROBLEMS);
+        Err(KeymapError::Invalid(Box::new(InvalidKeymap {
+            origin: origin.to_string(),
+            unknown_actions: Vec::new(),
+            unknown_keys: Vec::new(),
+            duplicate_keys,
+            problems,
+            more,
+            hints: Vec::new(),
+        })))
     }
 
     /// The keymap to run with: `explicit` (`--keymap FILE`, must exist) or else the user's

@@ -1,5 +1,7 @@
 //! The `mavterm` binary: argument parsing, logging, and choosing a front end.
 
+use std::io::Write;
+use std::process::ExitCode;
 use std::time::Duration;
 
 use anyhow::{bail, Context, Result};
@@ -94,8 +96,92 @@ fn load_param_meta(cli: &Cli) -> Result<Option<std::sync::Arc<mavterm::params::m
     Ok(Some(std::sync::Arc::new(meta)))
 }
 
-fn main() -> Result<()> {
+/// Errors are printed once, on stderr; a closed stdout (`mavterm ... | head -1`) ends the run
+/// quietly with status 0, as `head`'s users expect.
+fn main() -> ExitCode {
     let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) if broken_pipe(&e) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("{}", error_text(&e));
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Set when a write to stdout failed because its reader went away.
+static STDOUT_CLOSED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// The error is stdout's reader going away (not a broken pipe of a link or a GCS).
+fn broken_pipe(e: &anyhow::Error) -> bool {
+    STDOUT_CLOSED.load(std::sync::atomic::Ordering::Relaxed)
+        && e.chain().any(|c| {
+            c.downcast_ref::<std::io::Error>()
+                .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+        })
+}
+
+/// Stdout, noting in [`STDOUT_CLOSED`] when its reader has gone.
+struct Stdout(std::io::StdoutLock<'static>);
+
+impl Stdout {
+    fn lock() -> Stdout {
+        Stdout(std::io::stdout().lock())
+    }
+
+    fn note<T>(r: std::io::Result<T>) -> std::io::Result<T> {
+        if let Err(e) = &r {
+            if e.kind() == std::io::ErrorKind::BrokenPipe {
+                STDOUT_CLOSED.store(true, std::sync::atomic::Ordering::Relaxed);
+            }
+        }
+        r
+    }
+}
+
+impl Write for Stdout {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        Stdout::note(self.0.write(buf))
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Stdout::note(self.0.flush())
+    }
+}
+
+/// `Error: MESSAGE`, then each cause whose text the lines before do not already say (an error
+/// that shows its source, e.g. `keymap FILE: No such file`, is not followed by the same cause
+/// again).
+fn error_text(e: &anyhow::Error) -> String {
+    let mut text = format!("Error: {e}");
+    for cause in e.chain().skip(1) {
+        let cause = cause.to_string();
+        if !text.contains(&cause) {
+            text.push_str(&format!("\nCaused by: {cause}"));
+        }
+    }
+    text
+}
+
+/// Write one line to stdout, an error when nobody reads it any more.
+fn print_line(line: &str) -> Result<()> {
+    let mut out = Stdout::lock();
+    writeln!(out, "{line}")?;
+    out.flush()?;
+    Ok(())
+}
+
+/// Print the headless report; then refuse a run in which no link ever came up (the report is
+/// printed all the same, for the reasons in it).
+fn print_report(app: &mavterm::app::App) -> Result<()> {
+    print_line(&serde_json::to_string(&app.report())?)?;
+    if let Some(why) = app.all_links_stayed_down() {
+        bail!("{why}");
+    }
+    Ok(())
+}
+
+fn run(cli: Cli) -> Result<()> {
     init_logging(cli.log.as_deref())?;
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
@@ -129,7 +215,17 @@ fn main() -> Result<()> {
     let file = mavterm::config::load_user(cli.config.as_deref())?;
     let links = cli.links(&file);
     let cfg = app_config(&cli, &file, !cli.headless || !all_virtual(&links))?;
-    let keymap = Keymap::load_user(cli.keymap.as_deref())?;
+    // A run that reads no keys (a headless report, a parameter download) does not need the
+    // keymap: a broken one is a warning there, and the default is used.
+    let reads_keys = !cli.headless || cli.input.is_some();
+    let keymap = match Keymap::load_user(cli.keymap.as_deref()) {
+        Ok(k) => k,
+        Err(e) if !reads_keys => {
+            eprintln!("warning: {e}\n(this run reads no keys: the default keymap is used)");
+            Keymap::default()
+        }
+        Err(e) => return Err(e.into()),
+    };
     let edge = Edge {
         tlog: cli.tlog_target(&links),
         outs: cli.outs.clone(),
@@ -168,8 +264,7 @@ fn main() -> Result<()> {
             ))
         };
         save_signing(&app)?;
-        println!("{}", serde_json::to_string(&app.report())?);
-        return Ok(());
+        return print_report(&app);
     }
     if cli.input.is_some() || cli.report.is_some() {
         bail!("--input and --report need --headless");
@@ -308,14 +403,17 @@ fn replay(
         screens_dir: cli.screens.clone(),
         ..ReplayOptions::default()
     };
-    let stdout = std::io::stdout();
-    let (outcome, report) = if all_virtual(links) && edge.outs.is_empty() {
+    let (outcome, report, down) = if all_virtual(links) && edge.outs.is_empty() {
         let mut runner = VirtualRunner::from_specs(links, cfg)?;
         runner.app.keymap = keymap;
         edge.start_virtual(&mut runner);
-        let outcome = run_script(&script, &mut runner, &opts, &mut stdout.lock())?;
-        runner.finish_recording();
-        (outcome, runner.app.report())
+        let outcome = run_script(&script, &mut runner, &opts, &mut Stdout::lock());
+        runner.finish_recording(); // also when stdout was closed: the log is kept whole
+        (
+            outcome?,
+            runner.app.report(),
+            runner.app.all_links_stayed_down(),
+        )
     } else {
         let mut runner = RealTimeRunner::start(rt.clone(), links, cfg);
         runner.app_mut().keymap = keymap;
@@ -323,19 +421,24 @@ fn replay(
             let _in_rt = rt.enter();
             edge.start_real(&mut runner.inner);
         }
-        let outcome = run_script(&script, &mut runner, &opts, &mut stdout.lock());
+        let outcome = run_script(&script, &mut runner, &opts, &mut Stdout::lock());
         runner.inner.finish();
         save_signing(runner.app())?;
-        (outcome?, runner.app().report())
+        let down = runner.app().all_links_stayed_down();
+        (outcome?, runner.app().report(), down)
     };
+    let reported = cli.report.is_some();
     if let Some(ReportFormat::Json) = cli.report {
-        println!("{}", serde_json::to_string(&report)?);
+        print_line(&serde_json::to_string(&report)?)?;
     }
     if !outcome.completed {
         bail!(
             "the script stopped after {} of its steps (the app quit early)",
             outcome.steps_run
         );
+    }
+    if let (true, Some(why)) = (reported, down) {
+        bail!("{why}");
     }
     Ok(())
 }

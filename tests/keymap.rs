@@ -86,6 +86,7 @@ struct Invalid {
     dups: Vec<String>,
     problems: Vec<Problem>,
     more: usize,
+    hints: Vec<String>,
     msg: String,
 }
 
@@ -99,6 +100,7 @@ fn invalid(text: &str) -> Invalid {
             dups: e.duplicate_keys,
             problems: e.problems,
             more: e.more,
+            hints: e.hints,
             msg,
         },
         other => panic!("{other:?}"),
@@ -540,12 +542,14 @@ fn many_problems_are_capped_and_counted() {
     assert_eq!(e.problems[49].line, 51);
     assert_eq!(e.problems[49].message, "unknown action `a49` in [normal]");
     assert!(e.msg.starts_with("keymap my.toml: 50000 problems:\n"));
+    // The problems, the count of the rest, then the actions of [normal] once.
+    let (problems, hint) = e.msg.split_once("\n  … and 49950 more\n").unwrap();
+    assert_eq!(problems.lines().count(), 1 + 50);
     assert!(
-        e.msg.ends_with("\n  … and 49950 more"),
-        "{}",
-        &e.msg[e.msg.len() - 80..]
+        hint.starts_with("the actions of [normal] and [normal.SCREEN]: arm, bottom,"),
+        "{hint}"
     );
-    assert_eq!(e.msg.lines().count(), 1 + 50 + 1);
+    assert_eq!(e.hints.len(), 1);
 
     // A large file (about 6 MB), two problems per line, still listed top to bottom.
     let lines = 200_000;
@@ -570,14 +574,16 @@ fn many_problems_are_capped_and_counted() {
 fn user_file_is_layered_on_the_default() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("keymap.toml");
-    // A legacy file: [bindings] means [normal].
+    // A legacy file: [bindings] means [normal]. `n` is the default's `next_vehicle` key: the
+    // file moves that action to `N` before taking `n`.
     std::fs::write(
         &path,
-        "[bindings]\nquit = [\"ctrl-q\"]\nhelp = []\nfocus_next = [\"n\"]\n",
+        "[bindings]\nquit = [\"ctrl-q\"]\nhelp = []\nfocus_next = [\"n\"]\nnext_vehicle = [\"N\"]\n",
     )
     .unwrap();
     let km = Keymap::load(&path).unwrap();
     let ov = |s: &str| km.lookup(Mode::Normal, "overview", &k(s));
+    assert_eq!(ov("N"), Some(Action::NextVehicle));
     // Listed actions replace their default keys...
     assert_eq!(
         km.keys_for(Mode::Normal, "overview", Action::Quit),
@@ -589,11 +595,12 @@ fn user_file_is_layered_on_the_default() {
             .is_empty(),
         "`help = []` unbinds"
     );
-    // ...a key taken by the override leaves its old action...
+    // ...a key the file gives another action leaves its old one...
     assert_eq!(ov("n"), Some(Action::FocusNext));
-    assert!(km
-        .keys_for(Mode::Normal, "overview", Action::NextVehicle)
-        .is_empty());
+    assert_eq!(
+        km.keys_for(Mode::Normal, "overview", Action::NextVehicle),
+        keys(&["N"])
+    );
     // ...also where the default bound the action in [normal.overview]...
     assert_eq!(ov("tab"), None, "focus_next was listed");
     // ...and the rest keep their defaults.
@@ -760,4 +767,158 @@ fn shipped_keymaps_have_no_collisions() {
         // And the loader agrees.
         Keymap::from_toml(&text, file).unwrap_or_else(|e| panic!("{e}"));
     }
+}
+
+/// The error of layering the user file `text` over the default keymap.
+fn layering_error(text: &str) -> Invalid {
+    let user = Keymap::from_toml(text, "user.toml").unwrap_or_else(|e| panic!("{e}"));
+    let e = Keymap::default().layered(&user, "user.toml").unwrap_err();
+    let msg = e.to_string();
+    let KeymapError::Invalid(e) = e else {
+        panic!("{e:?}")
+    };
+    Invalid {
+        actions: e.unknown_actions,
+        keys: e.unknown_keys,
+        dups: e.duplicate_keys,
+        problems: e.problems,
+        more: e.more,
+        hints: e.hints,
+        msg,
+    }
+}
+
+#[test]
+fn a_user_key_that_the_default_binds_to_another_action_is_an_error() {
+    // The issue's case: `n` is the default's next_vehicle key in [normal].
+    let e = layering_error("[normal]\nquit = [\"q\", \"n\"]\n");
+    assert_eq!(e.dups, ["n (quit, next_vehicle)"]);
+    assert_eq!(places(&e.problems), [(2, 14)]);
+    assert_eq!(
+        e.msg,
+        "keymap user.toml:2:14: key `n` is bound to `quit` here and to `next_vehicle` by the \
+         default keymap in [normal]: on every screen both would apply; give `next_vehicle` other \
+         keys (or none: `next_vehicle = []`) in [normal] of this file"
+    );
+    assert!(e.actions.is_empty() && e.keys.is_empty() && e.hints.is_empty());
+    // A key of [normal] that a screen of the default binds: on that screen only.
+    let e = layering_error("[normal]\nhelp = [\"g\", \"?\"]\n");
+    assert_eq!(e.dups, ["g (help, mission_goto)"]);
+    assert!(
+        e.msg.contains(
+            "to `mission_goto` by the default keymap in [normal.mission]: on the mission screen"
+        ),
+        "{}",
+        e.msg
+    );
+    // A screen section's key that the default binds in [normal]; and one in [prompt]; all at
+    // once, top to bottom.
+    let e = layering_error(
+        "[normal.camera]\ncamera_shoot = [\"s\", \"A\"]\n[prompt]\nsubmit = [\"enter\", \"tab\"]\n",
+    );
+    assert_eq!(places(&e.problems), [(2, 22), (4, 20)], "{}", e.msg);
+    assert!(
+        e.msg.starts_with("keymap user.toml: 2 problems:\n"),
+        "{}",
+        e.msg
+    );
+    assert!(
+        e.msg
+            .contains("`A` is bound to `camera_shoot` here and to `arm`"),
+        "{}",
+        e.msg
+    );
+    assert!(e.msg.contains("on the camera screen"), "{}", e.msg);
+    assert!(e.msg.contains("`tab` is bound to `submit` here and to `complete` by the default keymap in [prompt]: in [prompt] both"), "{}", e.msg);
+    assert_eq!(
+        e.dups,
+        [
+            "A (camera_shoot, arm) in [normal.camera]",
+            "tab (submit, complete) in [prompt]"
+        ]
+    );
+
+    // Fine: the other action moved or unbound in the same file; the same action again; a key
+    // in another mode; a key the default binds on another screen only.
+    for ok in [
+        "[normal]\nquit = [\"n\"]\nnext_vehicle = [\"N\"]\n",
+        "[normal]\nquit = [\"n\"]\nnext_vehicle = []\n",
+        "[normal]\nnext_vehicle = [\"n\", \"j\"]\n",
+        "[help]\ncancel = [\"n\"]\n",
+        "[normal.overview]\ntoggle_expand = [\"g\"]\n",
+        "[normal.mission]\nmission_goto = [\"o\"]\n[normal]\ntop = [\"g\"]\n",
+    ] {
+        let user = Keymap::from_toml(ok, "ok.toml").unwrap_or_else(|e| panic!("{e}"));
+        let km = Keymap::default()
+            .layered(&user, "ok.toml")
+            .unwrap_or_else(|e| panic!("{ok:?}: {e}"));
+        // What the file binds is what the key does.
+        if ok.starts_with("[normal]\nquit") {
+            assert_eq!(
+                km.lookup(Mode::Normal, "overview", &k("n")),
+                Some(Action::Quit)
+            );
+        }
+    }
+    // Through the loader, the error names the file.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("keymap.toml");
+    std::fs::write(&path, "[normal]\nquit = [\"n\"]\n").unwrap();
+    let e = Keymap::load(&path).unwrap_err().to_string();
+    assert!(
+        e.starts_with(&format!("keymap {}:2:9: key `n`", path.display())),
+        "{e}"
+    );
+}
+
+#[test]
+fn unknown_actions_and_keys_list_the_valid_names() {
+    let e = invalid(
+        "[normal]\ndive = [\"f\"]\n[help]\nsubmit_it = [\"q\"]\n[edit]\nquit = [\"hyper-q\"]\n",
+    );
+    assert_eq!(e.hints.len(), 3, "{:?}", e.hints);
+    // Each list once, after the problems, sorted, wrapped.
+    let normal = &e.hints[0];
+    assert!(
+        normal
+            .starts_with("the actions of [normal] and [normal.SCREEN]: arm, bottom, camera_mode,"),
+        "{normal}"
+    );
+    for name in ["quit", "next_vehicle", "mission_goto", "screen_6", "cancel"] {
+        assert!(
+            normal.contains(&format!(" {name},")) || normal.ends_with(&format!(" {name}")),
+            "{name}: {normal}"
+        );
+    }
+    assert!(!normal.contains("cursor_left"), "{normal}");
+    assert!(normal.lines().count() > 1, "wrapped: {normal}");
+    assert!(normal.lines().all(|l| l.chars().count() <= 96), "{normal}");
+    assert_eq!(
+        e.hints[1],
+        "the actions of [help]: bottom, cancel, down, help, page_down, page_up, top, up"
+    );
+    assert!(
+        e.hints[2].starts_with("key names: a character (a, A, ?, 1), space, enter, esc, tab,"),
+        "{}",
+        e.hints[2]
+    );
+    assert!(
+        e.hints[2].contains("f1 to f24") && e.hints[2].contains("ctrl-x, alt-x"),
+        "{}",
+        e.hints[2]
+    );
+    assert!(e.msg.ends_with(&e.hints.join("\n")), "{}", e.msg);
+    // The text line's actions, for [prompt] and [edit] alike.
+    let e = invalid("[prompt]\nsend = [\"enter\"]\n");
+    assert!(
+        e.hints[0].starts_with("the actions of [prompt] and [edit]: cancel, clear_line, complete,"),
+        "{:?}",
+        e.hints
+    );
+    // A key name alone (as a replay script's) says the names too.
+    let e = "hyper-q".parse::<Key>().unwrap_err().to_string();
+    assert!(
+        e.contains("`hyper-q`") && e.contains("pagedown") && e.contains("f1 to f24"),
+        "{e}"
+    );
 }

@@ -21,6 +21,9 @@
 //! bad_signature,replayed,too_old,rejected}`.
 //! `outputs[].{spec,state,reason,sent,received,dropped}`: the forwarding outputs (`--out`);
 //! `recording.{path,bytes,dropped,error}` (null when not recording): the telemetry log.
+//! `version` (mavterm's), `start` (RFC 3339: the wall-clock time the run started; a replay's is
+//! its log's start, a `sim://` run on the virtual clock has a fixed one) and `duration_s` (how
+//! long the run lasted, in seconds of its clock).
 
 use serde_json::{json, Value};
 
@@ -41,6 +44,23 @@ fn round2(v: f64) -> f64 {
 }
 
 impl App {
+    /// `all links stayed down: SPEC (REASON), ...` when no link has ever been up (nothing could
+    /// be heard, whatever the report says): a headless report then ends in failure.
+    pub fn all_links_stayed_down(&self) -> Option<String> {
+        if self.links.is_empty() || self.links.iter().any(|l| l.was_up) {
+            return None;
+        }
+        let each: Vec<String> = self
+            .links
+            .iter()
+            .map(|l| match &l.state {
+                LinkState::Down(why) => format!("{} ({why})", l.spec),
+                LinkState::Connecting | LinkState::Up => format!("{} (never connected)", l.spec),
+            })
+            .collect();
+        Some(format!("all links stayed down: {}", each.join(", ")))
+    }
+
     /// The report as a JSON value.
     pub fn report(&self) -> Value {
         let now = self.now;
@@ -261,6 +281,9 @@ impl App {
             })
         });
         json!({
+            "version": env!("CARGO_PKG_VERSION"),
+            "start": self.cfg.epoch.to_rfc3339_opts(chrono::SecondsFormat::Micros, true),
+            "duration_s": now as f64 / 1e6,
             "links": links,
             "vehicles": vehicles,
             "params": params,

@@ -59,6 +59,10 @@ pub enum ScriptError {
     Parse { line: usize, message: String },
 }
 
+/// The latest time a script may name: a day. A replay is run to its last event, so a later time
+/// is a typo (or a wall-clock time), not a session anyone means to wait for.
+pub const MAX_SCRIPT_SECS: Micros = 86_400 * SECOND;
+
 /// Seconds as written in scripts (`1.5`, `30`) to microseconds, exactly (no float rounding).
 pub fn parse_secs(s: &str) -> Option<Micros> {
     let (whole, frac) = s.split_once('.').unwrap_or((s, ""));
@@ -162,6 +166,12 @@ impl Script {
                 .ok_or_else(|| err(format!("expected `SECONDS EVENT`, got `{trimmed}`")))?;
             let t = parse_secs(time)
                 .ok_or_else(|| err(format!("`{time}` is not a time in seconds (e.g. 1.5)")))?;
+            if t > MAX_SCRIPT_SECS {
+                return Err(err(format!(
+                    "time {time} s is over a day ({} s): times are seconds from the start",
+                    MAX_SCRIPT_SECS / SECOND
+                )));
+            }
             if let Some(prev) = steps.last() {
                 if prev.step == Step::Quit {
                     return Err(err(format!("event after `quit` (line {})", prev.line)));
@@ -267,6 +277,8 @@ mod tests {
             ("1 key a b\n", 1, "unexpected `b`"),
             ("1 key\n", 1, "needs a key name"),
             ("\n\n1.1234567 key a", 3, "not a time"),
+            ("1 key a\n86400.000001 key b\n", 2, "over a day"),
+            ("1764345600 quit\n", 1, "over a day (86400 s)"),
         ] {
             match Script::parse(text) {
                 Err(ScriptError::Parse { line: l, message }) => {

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 /// Why the simulator could not be configured or served. Each message names the offending part.
 #[derive(Debug, thiserror::Error)]
 pub enum SimError {
-    #[error("sim option `{key}`: unknown option; known options: {KNOWN_KEYS}")]
+    #[error("sim option `{key}`: unknown option; known options: {}", known_keys())]
     UnknownKey { key: String },
     #[error("sim option `{key}`: bad value `{value}`: {why}")]
     BadValue {
@@ -20,8 +20,103 @@ pub enum SimError {
     Io(#[from] std::io::Error),
 }
 
-/// Listed in the unknown-key error so the operator sees what is accepted.
-pub const KNOWN_KEYS: &str = "vehicles, sysid, loss, dup, reorder, corrupt, latency_ms, seed, params, baud, state, impair_in, drop_cmd, ftp, mission_boot_ms, camera, camera_drop";
+/// Every `sim://?` option: its name, an example value, and what it does. Listed by the
+/// unknown-option error and by `mavterm sim --help`; a unit test parses every example.
+pub const OPTIONS: &[(&str, &str, &str)] = &[
+    (
+        "vehicles",
+        "3",
+        "vehicles, 1 to 250, system ids sysid, sysid+1, ... [default: 1]",
+    ),
+    (
+        "sysid",
+        "10",
+        "system id of the first vehicle, 1 to 254 [default: 1]",
+    ),
+    (
+        "loss",
+        "0.1",
+        "probability (0 to 1) that a frame sent is lost",
+    ),
+    ("dup", "0.01", "probability that a frame sent is sent twice"),
+    (
+        "reorder",
+        "0.02",
+        "probability that a frame sent swaps with the next",
+    ),
+    (
+        "corrupt",
+        "0.001",
+        "probability that a frame sent has a bit flipped (a CRC error)",
+    ),
+    ("latency_ms", "50", "one-way delay of every frame, in ms"),
+    ("seed", "7", "seed of every random choice [default: 1]"),
+    (
+        "params",
+        "1300",
+        "parameters, 0 to 65534 [default: 0, the real ArduCopter set of 1,354]",
+    ),
+    (
+        "baud",
+        "57600",
+        "a radio link: paces bytes, PARAM_VALUE and MAVFTP as on a UART",
+    ),
+    (
+        "state",
+        "FILE",
+        "parameter store, loaded at start and rewritten after each PARAM_SET",
+    ),
+    (
+        "impair_in",
+        "1",
+        "apply loss and corruption to the bytes from the GCS too",
+    ),
+    (
+        "drop_cmd",
+        "512:2,400:1",
+        "ignore the first N copies of command ID (ID:N,...): tests resends",
+    ),
+    ("ftp", "0", "a firmware without MAVFTP"),
+    (
+        "mission_boot_ms",
+        "2000",
+        "refuse mission uploads for the first MS ms, as a booting ArduCopter",
+    ),
+    (
+        "camera",
+        "1",
+        "a camera on each vehicle (compid 100: image, video, survey; a gimbal)",
+    ),
+    (
+        "camera_drop",
+        "3",
+        "lose the camera's first CAMERA_IMAGE_CAPTURED for image N",
+    ),
+];
+
+/// The option names, comma-separated, for messages.
+pub fn known_keys() -> String {
+    OPTIONS
+        .iter()
+        .map(|(k, _, _)| *k)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// `mavterm sim --help`'s list of options: `NAME=EXAMPLE`, then what it does on the next line
+/// (short enough for an 80-column terminal).
+pub fn options_help() -> String {
+    let mut out = String::from("Options (--options, or sim://?NAME=VALUE&...):\n");
+    for (k, v, what) in OPTIONS {
+        out.push_str(&format!("  {k}={v}\n      {what}\n"));
+    }
+    out.push_str(
+        "\nExamples:\n  mavterm sim --listen tcp:127.0.0.1:5760\n  \
+         mavterm sim --listen udpout:127.0.0.1:14550 --vehicles 3 --options \"loss=0.1&seed=7\"\n  \
+         mavterm --link \"sim://?vehicles=2&camera=1\"",
+    );
+    out
+}
 
 /// How many vehicles, which ids, and how bad the simulated link is.
 #[derive(Debug, Clone, PartialEq)]
@@ -260,6 +355,28 @@ impl SimConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_listed_option_parses_its_example_and_changes_the_config() {
+        for (key, example, _) in OPTIONS {
+            let c = SimConfig::from_query(&format!("{key}={example}"))
+                .unwrap_or_else(|e| panic!("{key}={example}: {e}"));
+            assert_ne!(c, SimConfig::default(), "{key}={example} changes nothing");
+        }
+        let e = SimConfig::from_query("wind=3").unwrap_err().to_string();
+        assert!(e.contains("`wind`"), "{e}");
+        for (key, _, _) in OPTIONS {
+            assert!(e.contains(key), "{key} not listed: {e}");
+        }
+        let help = options_help();
+        for (key, example, what) in OPTIONS {
+            assert!(
+                help.contains(&format!("\n  {key}={example}\n      {what}\n")),
+                "{help}"
+            );
+            assert!(6 + what.chars().count() <= 80, "{key}: fits 80 columns");
+        }
+    }
 
     #[test]
     fn empty_query_is_default() {
