@@ -464,9 +464,15 @@ impl<B: Backend + Send, C: Clock + Send> TerminalFrontend<B, C>
 where
     B::Error: Into<io::Error>,
 {
-    /// Forget what is on the screen: the next draw writes every cell.
+    /// Forget what is on the screen (the guard cleared it when it took the terminal back): the
+    /// next draw writes every cell. Not `Terminal::clear`, which asks the terminal for the cursor
+    /// position and fails on terminals that do not answer: the buffer ratatui compares with is
+    /// made blank instead (flushing a blank buffer, then swapping it in as the last frame).
     fn forget_screen(&mut self) -> io::Result<()> {
-        self.terminal.clear().map_err(Into::into)
+        self.terminal.current_buffer_mut().reset();
+        self.terminal.flush().map_err(Into::into)?;
+        self.terminal.swap_buffers();
+        Ok(())
     }
 
     fn record(

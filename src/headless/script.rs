@@ -261,9 +261,11 @@ impl Script {
                         }
                         "quit" if arg.is_empty() => Step::Quit,
                         "quit" => return Err(err("`quit` takes no argument".into())),
-                        other => return Err(err(format!(
+                        other => {
+                            return Err(err(format!(
                             "unknown event `{other}` (key, release, text, snapshot, resize, quit)"
-                        ))),
+                        )))
+                        }
                     }
                 }
             };
