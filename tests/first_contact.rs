@@ -348,18 +348,49 @@ fn recorded_session_replays_to_the_same_screen() {
     );
 }
 
-/// Ctrl-Z under a job-control shell: mavterm gives the terminal back (leaves the alternate
-/// screen) and stops (state T); `fg` continues it, it takes the screen again and draws it all;
-/// `q` then quits with status 0.
-#[test]
-fn ctrl_z_suspends_and_fg_restores_the_screen() {
+/// The pid of the process whose command line holds `marker`.
+fn pid_of(marker: &str) -> u32 {
+    let start = Instant::now();
+    loop {
+        for e in std::fs::read_dir("/proc").unwrap().flatten() {
+            let Ok(pid) = e.file_name().to_string_lossy().parse::<u32>() else {
+                continue;
+            };
+            let cmdline = std::fs::read(e.path().join("cmdline")).unwrap_or_default();
+            let cmdline = String::from_utf8_lossy(&cmdline);
+            if cmdline.starts_with(&*mavterm().to_string_lossy()) && cmdline.contains(marker) {
+                return pid;
+            }
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(10),
+            "no process with {marker}"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// The state letter of `pid` (`T` stopped, `S` sleeping, `R` running).
+fn proc_state(pid: u32) -> String {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap();
+    let state = stat.rsplit_once(") ").unwrap().1.split(' ').next().unwrap();
+    state.to_string()
+}
+
+/// mavterm run by a job-control shell (interactive bash) in a pty; `stop` suspends it (Ctrl-Z
+/// typed, or a SIGTSTP from outside). It must give the terminal back (leave the alternate screen)
+/// and stop (state T); the shell's `fg` continues it, and it takes the screen again and draws it
+/// all; `q` then quits with status 0.
+fn suspend_and_fg(stop: impl FnOnce(&mut Pty, u32)) {
     let dir = tempfile::tempdir().unwrap();
     let job = dir.path().join("job.sh");
+    let marker = dir.path().join("suspend.log");
     std::fs::write(
         &job,
         format!(
-            "{} --link 'sim://?seed=1' --no-tlog\necho STOPPED; jobs -p\nread _\nfg\necho FG-STATUS=$?\n",
-            mavterm().display()
+            "{} --link 'sim://?seed=1' --no-tlog --log {}\necho STOPPED; jobs -p\nread _\nfg\necho FG-STATUS=$?\n",
+            mavterm().display(),
+            marker.display()
         ),
     )
     .unwrap();
@@ -367,7 +398,8 @@ fn ctrl_z_suspends_and_fg_restores_the_screen() {
     let mut pty = Pty::spawn(&cmd, dir.path());
     let mut at = pty.wait_for(0, ENTER_ALT);
     at = pty.wait_for(at, "1:1");
-    pty.send(&[0x1a]); // Ctrl-Z
+    let pid = pid_of(&marker.to_string_lossy());
+    stop(&mut pty, pid);
     let stopped = pty.wait_for(at, "STOPPED");
     let left = pty.text()[at..stopped].rfind(LEAVE_ALT);
     assert!(
@@ -375,16 +407,12 @@ fn ctrl_z_suspends_and_fg_restores_the_screen() {
         "the screen was given back first: {:?}",
         &pty.text()[at..]
     );
-    // The job's pid, from `jobs -p`, is stopped.
+    // The shell's job is this mavterm, and it is stopped.
     let pid_line = pty.wait_for(stopped, "\n");
     let pid_end = pty.wait_for(pid_line + 1, "\n");
-    let pid: u32 = pty.text()[pid_line + 1..pid_end]
-        .trim()
-        .parse()
-        .unwrap_or_else(|_| panic!("no pid after STOPPED: {:?}", &pty.text()[stopped..]));
-    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap();
-    let state = stat.rsplit_once(") ").unwrap().1.split(' ').next().unwrap();
-    assert_eq!(state, "T", "stopped: {stat}");
+    let job_pid = pty.text()[pid_line + 1..pid_end].trim().to_string();
+    assert_eq!(job_pid, pid.to_string(), "{:?}", &pty.text()[stopped..]);
+    assert_eq!(proc_state(pid), "T");
 
     let before_fg = pty.len();
     pty.send(b"\n"); // `read` returns, the shell runs `fg`
@@ -392,9 +420,27 @@ fn ctrl_z_suspends_and_fg_restores_the_screen() {
     // Everything drawn again, not only what changed: the pane titles come back.
     pty.wait_for(back, "Vehicles");
     pty.wait_for(back, "Messages");
+    assert_ne!(proc_state(pid), "T");
     std::thread::sleep(Duration::from_millis(300));
     let before_q = pty.len();
     pty.send(b"q");
     pty.wait_for(before_q, "FG-STATUS=0");
     pty.wait_exit();
+}
+
+#[test]
+fn ctrl_z_suspends_and_fg_restores_the_screen() {
+    suspend_and_fg(|pty, _| pty.send(&[0x1a]));
+}
+
+/// `kill -TSTP` from outside (raw mode means the terminal never sends it) suspends the same way.
+#[test]
+fn sigtstp_from_outside_suspends_the_same_way() {
+    suspend_and_fg(|_, pid| {
+        let st = Command::new("kill")
+            .args(["-TSTP", &pid.to_string()])
+            .status()
+            .unwrap();
+        assert!(st.success());
+    });
 }
