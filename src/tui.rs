@@ -224,12 +224,6 @@ impl TerminalGuard {
         Ok(guard)
     }
 
-    /// Give the terminal back, stop the process as Ctrl-Z in a shell does (SIGTSTP), and once
-    /// continued (`fg`) take the terminal again. The caller redraws everything afterwards.
-    pub fn suspend(&self) -> io::Result<()> {
-        suspend_state(&self.state)
-    }
-
     /// A handle the front end keeps to suspend and refresh the terminal this guard owns.
     fn handle(&self) -> GuardHandle {
         GuardHandle(Arc::clone(&self.state))
@@ -249,6 +243,8 @@ fn lock_state(state: &Mutex<GuardState>) -> std::sync::MutexGuard<'_, GuardState
     state.lock().unwrap_or_else(|p| p.into_inner())
 }
 
+/// Give the terminal back, stop the process as Ctrl-Z in a shell does (SIGTSTP), and once
+/// continued (`fg`) take the terminal again. The caller redraws everything afterwards.
 fn suspend_state(state: &Mutex<GuardState>) -> io::Result<()> {
     let was_active = {
         let mut s = lock_state(state);
