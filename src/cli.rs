@@ -74,9 +74,10 @@ pub struct Cli {
     #[arg(long, value_name = "FILE")]
     pub input: Option<PathBuf>,
 
-    /// Headless: screen size for replay, WIDTHxHEIGHT (each from 1 to 1000).
-    #[arg(long, value_name = "WxH", default_value = "120x40", value_parser = parse_size)]
-    pub size: (u16, u16),
+    /// Headless: screen size for replay, WIDTHxHEIGHT, each from 1 to 1000 [default: the
+    /// script's `# size` line (as --record writes it), else 120x40].
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    pub size: Option<(u16, u16)>,
 
     /// Headless: directory for `snapshot NAME` screens (default: stdout).
     #[arg(long, value_name = "DIR")]
@@ -90,7 +91,9 @@ pub struct Cli {
     #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=120))]
     pub fps: u32,
 
-    /// Terminal UI: record the keys typed, in the replay format, to FILE.
+    /// Terminal UI: record the session to FILE as a replay script (`# link` and `# size` header
+    /// lines, the keys pressed and let go, resizes, then `snapshot final` and `quit`);
+    /// `--headless --input FILE` replays it on those links at that size.
     #[arg(long, value_name = "FILE")]
     pub record: Option<PathBuf>,
 

@@ -169,6 +169,8 @@ impl Section {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Action {
     Quit,
+    /// Give the terminal back and stop (as Ctrl-Z does in a shell); `fg` resumes.
+    Suspend,
     FocusNext,
     FocusPrev,
     Up,
@@ -279,6 +281,11 @@ impl Action {
     /// order the help popup lists them.
     pub const ALL: &'static [(Action, &'static str, &'static str)] = &[
         (Action::Quit, "quit", "quit mavterm"),
+        (
+            Action::Suspend,
+            "suspend",
+            "suspend mavterm to the shell (fg resumes it)",
+        ),
         (Action::Help, "help", "show/hide key help"),
         (
             Action::Cancel,

@@ -200,20 +200,34 @@ fn run(cli: Cli) -> Result<()> {
             None => options.clone(),
         };
         let cfg = mavterm::sim::SimConfig::from_query(&query)?;
-        eprintln!(
-            "mavterm sim: serving {} vehicle(s) on {listen}; Ctrl-C to stop",
-            cfg.vehicles
-        );
         return rt.block_on(async {
+            // Bound first: "serving" is said only of a socket that is there.
+            let bound = mavterm::sim::server::bind(listen).await?;
+            eprintln!(
+                "mavterm sim: serving {} simulated ArduCopter V{} vehicle(s) on {listen}; Ctrl-C to stop",
+                cfg.vehicles,
+                mavterm::sim::ARDUCOPTER_VERSION
+            );
             tokio::select! {
-                r = mavterm::sim::serve(listen, cfg) => r.map_err(anyhow::Error::from),
+                r = mavterm::sim::server::serve_bound(bound, cfg) => r.map_err(anyhow::Error::from),
                 _ = tokio::signal::ctrl_c() => Ok(()),
             }
         });
     }
 
     let file = mavterm::config::load_user(cli.config.as_deref())?;
-    let links = cli.links(&file);
+    // A replay script, loaded first: its `# link` lines (from --record) are the links when no
+    // --link is given.
+    let script = match (&cli.input, cli.headless) {
+        (Some(input), true) => Some(Script::load(input)?),
+        _ => None,
+    };
+    let links = match &script {
+        Some(s) if cli.links.is_empty() && !s.links.is_empty() => {
+            script_links(s, cli.input.as_deref())?
+        }
+        _ => cli.links(&file),
+    };
     let cfg = app_config(&cli, &file, !cli.headless || !all_virtual(&links))?;
     // A run that reads no keys (a headless report, a parameter download) does not need the
     // keymap: a broken one is a warning there, and the default is used.
@@ -237,8 +251,8 @@ fn run(cli: Cli) -> Result<()> {
         if let Some(out) = &cli.params_out {
             return params_out(&cli, cfg, out, &links, &edge, rt.handle());
         }
-        if let Some(input) = &cli.input {
-            return replay(&cli, cfg, input, &links, &edge, keymap, rt.handle());
+        if let Some(script) = &script {
+            return replay(&cli, cfg, script, &links, &edge, keymap, rt.handle());
         }
         let Some(ReportFormat::Json) = cli.report else {
             bail!("--headless needs --report json or --input FILE");
@@ -381,6 +395,19 @@ fn params_out(
     }
 }
 
+/// A script's `# link SPEC` lines as links.
+fn script_links(script: &Script, path: Option<&std::path::Path>) -> Result<Vec<LinkSpec>> {
+    let name = path.map(|p| p.display().to_string()).unwrap_or_default();
+    script
+        .links
+        .iter()
+        .map(|(line, spec)| {
+            spec.parse::<LinkSpec>()
+                .map_err(|e| anyhow::anyhow!("{name} line {line}: link `{spec}`: {e}"))
+        })
+        .collect()
+}
+
 /// `--headless --input FILE`: replay recorded input on a virtual clock; exit 0 only if the script
 /// ran to its end.
 /// With only `sim://` and `tlog:` links the run is on a virtual clock (fast, deterministic);
@@ -388,18 +415,20 @@ fn params_out(
 fn replay(
     cli: &Cli,
     cfg: AppConfig,
-    input: &std::path::Path,
+    script: &Script,
     links: &[LinkSpec],
     edge: &Edge,
     keymap: Keymap,
     rt: &tokio::runtime::Handle,
 ) -> Result<()> {
-    let script = Script::load(input)?;
     if let Some(dir) = &cli.screens {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
     let opts = ReplayOptions {
-        size: cli.size,
+        size: cli
+            .size
+            .or(script.size)
+            .unwrap_or(mavterm::headless::replay::DEFAULT_SIZE),
         screens_dir: cli.screens.clone(),
         ..ReplayOptions::default()
     };
@@ -407,7 +436,7 @@ fn replay(
         let mut runner = VirtualRunner::from_specs(links, cfg)?;
         runner.app.keymap = keymap;
         edge.start_virtual(&mut runner);
-        let outcome = run_script(&script, &mut runner, &opts, &mut Stdout::lock());
+        let outcome = run_script(script, &mut runner, &opts, &mut Stdout::lock());
         runner.finish_recording(); // also when stdout was closed: the log is kept whole
         (
             outcome?,
@@ -421,7 +450,7 @@ fn replay(
             let _in_rt = rt.enter();
             edge.start_real(&mut runner.inner);
         }
-        let outcome = run_script(&script, &mut runner, &opts, &mut Stdout::lock());
+        let outcome = run_script(script, &mut runner, &opts, &mut Stdout::lock());
         runner.inner.finish();
         save_signing(runner.app())?;
         let down = runner.app().all_links_stayed_down();
@@ -457,6 +486,7 @@ async fn terminal(
     let opts = TuiOptions {
         fps: cli.fps,
         record: cli.record.clone(),
+        links: links.iter().map(ToString::to_string).collect(),
         theme: Theme::from_env(),
     };
     let app = run_terminal(rt, opts).await?;

@@ -2,7 +2,9 @@
 //!
 //! The terminal is put back (alternate screen left, cursor shown, raw mode off) on every way
 //! out: normal return, error, Ctrl-C, SIGTERM, SIGHUP, SIGQUIT, SIGINT, and panic (a panic hook
-//! restores first, then runs the previous hook so the message lands on a sane screen). Redraws
+//! restores first, then runs the previous hook so the message lands on a sane screen). Ctrl-Z (the
+//! `suspend` action; raw mode turns it into a key) and a `kill -TSTP` give the terminal back and
+//! stop the process as a shell expects; `fg` (SIGCONT) takes it again and redraws it all. Redraws
 //! happen only when the core says something changed (`App::take_dirty`), at most `fps` times a
 //! second, so an idle screen writes nothing between clock ticks; the loop itself is the driver's
 //! (`driver::real_time`), woken by keys, frames and the core's deadlines, never by polling.
@@ -23,7 +25,7 @@ use ratatui::Terminal;
 use crate::app::{App, Event};
 use crate::clock::{Clock, Micros, SECOND};
 use crate::driver::real_time::{Frontend, RealTime};
-use crate::headless::script::key_line;
+use crate::headless::script::{format_secs, key_line};
 use crate::keymap::{Key, KeyCode};
 use crate::ui::{self, Theme};
 
@@ -32,8 +34,10 @@ use crate::ui::{self, Theme};
 pub struct TuiOptions {
     /// Most redraws per second.
     pub fps: u32,
-    /// Append the operator's keys to this file in the replay script format.
+    /// Write the operator's keys to this file in the replay script format.
     pub record: Option<PathBuf>,
+    /// The links of the session, for the recording's `# link` lines.
+    pub links: Vec<String>,
     pub theme: Theme,
 }
 
@@ -42,6 +46,7 @@ impl Default for TuiOptions {
         Self {
             fps: 10,
             record: None,
+            links: Vec::new(),
             theme: Theme::default(),
         }
     }
@@ -110,9 +115,44 @@ struct GuardState {
     active: bool,
     /// Key releases asked for (keyboard enhancement flags pushed): popped on restore.
     enhanced: bool,
+    /// The terminal reports key releases: asked for again when the terminal is taken back.
+    can_enhance: bool,
 }
 
 impl GuardState {
+    /// Raw mode, the alternate screen cleared, the cursor hidden, key releases asked for where
+    /// the terminal reports them.
+    fn enter(&mut self) -> io::Result<()> {
+        self.active = true;
+        if self.raw {
+            enable_raw_mode()?; // on error, drop restores what was done
+        }
+        crossterm::execute!(
+            self.out,
+            EnterAlternateScreen,
+            crossterm::terminal::Clear(crossterm::terminal::ClearType::All),
+            crossterm::cursor::Hide
+        )?;
+        if self.can_enhance {
+            self.enhance()?;
+        }
+        Ok(())
+    }
+
+    /// Key releases, where the terminal can report them (the kitty keyboard protocol): Fly mode
+    /// stops a nudge the moment its key is let go.
+    fn enhance(&mut self) -> io::Result<()> {
+        crossterm::execute!(
+            self.out,
+            ct::PushKeyboardEnhancementFlags(
+                ct::KeyboardEnhancementFlags::DISAMBIGUATE_ESCAPE_CODES
+                    | ct::KeyboardEnhancementFlags::REPORT_EVENT_TYPES
+            )
+        )?;
+        self.enhanced = true;
+        Ok(())
+    }
+
     fn restore(&mut self) -> io::Result<()> {
         if !std::mem::take(&mut self.active) {
             return Ok(());
@@ -148,6 +188,7 @@ impl TerminalGuard {
             raw: raw_mode,
             active: true,
             enhanced: false,
+            can_enhance: false,
         }));
         {
             let state = Arc::clone(&state);
@@ -174,38 +215,95 @@ impl TerminalGuard {
         let guard = TerminalGuard { state, prev_hook };
         {
             let mut s = guard.lock();
-            if raw_mode {
-                enable_raw_mode()?; // on error, drop restores what was done
-            }
-            crossterm::execute!(
-                s.out,
-                EnterAlternateScreen,
-                crossterm::terminal::Clear(crossterm::terminal::ClearType::All),
-                crossterm::cursor::Hide
-            )?;
-            // Key releases, where the terminal can report them (the kitty keyboard protocol):
-            // Fly mode stops a nudge the moment its key is let go.
+            s.enter()?;
             if raw_mode && crossterm::terminal::supports_keyboard_enhancement().unwrap_or(false) {
-                crossterm::execute!(
-                    s.out,
-                    ct::PushKeyboardEnhancementFlags(
-                        ct::KeyboardEnhancementFlags::DISAMBIGUATE_ESCAPE_CODES
-                            | ct::KeyboardEnhancementFlags::REPORT_EVENT_TYPES
-                    )
-                )?;
-                s.enhanced = true;
+                s.can_enhance = true;
+                s.enhance()?;
             }
         }
         Ok(guard)
     }
 
+    /// A handle the front end keeps to suspend and refresh the terminal this guard owns.
+    fn handle(&self) -> GuardHandle {
+        GuardHandle(Arc::clone(&self.state))
+    }
+
     fn lock(&self) -> std::sync::MutexGuard<'_, GuardState> {
-        self.state.lock().unwrap_or_else(|p| p.into_inner())
+        lock_state(&self.state)
     }
 
     /// Put the terminal back now (idempotent); reports errors that `Drop` would swallow.
     pub fn restore(&self) -> io::Result<()> {
         self.lock().restore()
+    }
+}
+
+fn lock_state(state: &Mutex<GuardState>) -> std::sync::MutexGuard<'_, GuardState> {
+    state.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// Give the terminal back, stop the process as Ctrl-Z in a shell does (SIGTSTP), and once
+/// continued (`fg`) take the terminal again. The caller redraws everything afterwards.
+fn suspend_state(state: &Mutex<GuardState>) -> io::Result<()> {
+    let was_active = {
+        let mut s = lock_state(state);
+        let was = s.active;
+        s.restore()?;
+        was
+    };
+    stop_self();
+    if was_active {
+        lock_state(state).enter()?;
+    }
+    Ok(())
+}
+
+/// Stop this process with SIGTSTP's default action (a handler for an outside `kill -TSTP` is set
+/// aside for the moment and put back), returning once it is continued. In an orphaned process
+/// group (no job-control shell above us) the kernel discards the signal and this returns at once.
+#[cfg(unix)]
+fn stop_self() {
+    // SAFETY: plain libc calls on this process's own signal disposition, with initialised
+    // `sigaction` values; the previous disposition is put back before returning.
+    unsafe {
+        let mut dfl: libc::sigaction = std::mem::zeroed();
+        dfl.sa_sigaction = libc::SIG_DFL;
+        libc::sigemptyset(&mut dfl.sa_mask);
+        let mut old: libc::sigaction = std::mem::zeroed();
+        let saved = libc::sigaction(libc::SIGTSTP, &dfl, &mut old) == 0;
+        libc::raise(libc::SIGTSTP);
+        if saved {
+            libc::sigaction(libc::SIGTSTP, &old, std::ptr::null_mut());
+        }
+    }
+}
+
+#[cfg(not(unix))]
+fn stop_self() {}
+
+/// The guard's state, for the front end: suspend (Ctrl-Z, SIGTSTP) and take the terminal back
+/// after an outside stop (SIGCONT).
+struct GuardHandle(Arc<Mutex<GuardState>>);
+
+impl GuardHandle {
+    fn suspend(&self) -> io::Result<()> {
+        suspend_state(&self.0)
+    }
+
+    /// After a stop we did not see coming (`kill -STOP`): the shell may have put the tty back in
+    /// cooked mode and drawn on the screen; raw mode and the alternate screen again.
+    fn retake(&self) -> io::Result<()> {
+        let mut s = lock_state(&self.0);
+        if !s.active {
+            return Ok(());
+        }
+        if s.raw {
+            // crossterm skips enabling when it believes raw mode is on: off, then on again.
+            let _ = disable_raw_mode();
+            enable_raw_mode()?;
+        }
+        crossterm::execute!(s.out, EnterAlternateScreen, crossterm::cursor::Hide)
     }
 }
 
@@ -220,36 +318,62 @@ impl Drop for TerminalGuard {
     }
 }
 
-/// Writes the operator's keys as a replay script.
+/// Writes the session as a replay script: a header naming the links and the terminal size
+/// (which `--headless --input` uses when none are given), the keys pressed and let go, the
+/// terminal's resizes, and at the end a `snapshot final` then `quit`, so that replaying it shows
+/// the screens the operator saw.
 struct Recorder {
     path: PathBuf,
     file: File,
 }
 
 impl Recorder {
-    fn create(path: &Path) -> Result<Recorder, TuiError> {
+    fn create(path: &Path, links: &[String], size: (u16, u16)) -> Result<Recorder, TuiError> {
         let err = |source| TuiError::Record {
             path: path.to_path_buf(),
             source,
         };
         let mut file = File::create(path).map_err(err)?;
-        writeln!(
-            file,
-            "# mavterm key recording: replay with --headless --input FILE"
-        )
-        .map_err(err)?;
+        let mut head = format!(
+            "# mavterm {} recording: replay with mavterm --headless --input FILE\n",
+            env!("CARGO_PKG_VERSION")
+        );
+        for l in links {
+            head.push_str(&format!("# link {l}\n"));
+        }
+        head.push_str(&format!("# size {}x{}\n", size.0, size.1));
+        file.write_all(head.as_bytes()).map_err(err)?;
         Ok(Recorder {
             path: path.to_path_buf(),
             file,
         })
     }
 
-    fn key(&mut self, t: Micros, key: Key) -> Result<(), TuiError> {
-        // Line by line, so a crash keeps everything typed before it.
-        writeln!(self.file, "{}", key_line(t, key)).map_err(|source| TuiError::Record {
+    /// One line, written at once, so a crash keeps everything typed before it.
+    fn line(&mut self, line: &str) -> Result<(), TuiError> {
+        writeln!(self.file, "{line}").map_err(|source| TuiError::Record {
             path: self.path.clone(),
             source,
         })
+    }
+
+    fn key(&mut self, t: Micros, key: Key) -> Result<(), TuiError> {
+        self.line(&key_line(t, key))
+    }
+
+    fn release(&mut self, t: Micros, key: Key) -> Result<(), TuiError> {
+        self.line(&format!("{} release {key}", format_secs(t)))
+    }
+
+    fn resize(&mut self, t: Micros, size: (u16, u16)) -> Result<(), TuiError> {
+        self.line(&format!("{} resize {}x{}", format_secs(t), size.0, size.1))
+    }
+
+    /// The end: the last screen, then quit.
+    fn finish(&mut self, t: Micros) -> Result<(), TuiError> {
+        let t = format_secs(t);
+        self.line(&format!("{t} snapshot final"))?;
+        self.line(&format!("{t} quit"))
     }
 }
 
@@ -261,6 +385,12 @@ struct TerminalFrontend<B: Backend, C: Clock> {
     events: crossterm::event::EventStream,
     signals: Signals,
     recorder: Option<Recorder>,
+    /// A key pressed, written once the core has handled it: the key that quits is not written
+    /// (the recording ends with `snapshot final` and `quit` instead, which a replay can go past).
+    pending_key: Option<(Micros, Key)>,
+    /// When the quit key was pressed (the recording's end).
+    quit_at: Option<Micros>,
+    guard: GuardHandle,
     theme: Theme,
     clock: C,
     period: Micros,
@@ -269,10 +399,22 @@ struct TerminalFrontend<B: Backend, C: Clock> {
 
 /// The signals that end a session with the terminal restored: SIGTERM, SIGHUP (the SSH
 /// connection dropped), SIGQUIT and SIGINT (raw mode turns Ctrl-C into a key; a `kill -INT`
-/// still arrives as a signal).
+/// still arrives as a signal); and SIGTSTP (a `kill -TSTP`: suspend as Ctrl-Z does) and SIGCONT
+/// (continued after a stop: take the terminal back and redraw).
 struct Signals {
     #[cfg(unix)]
-    all: Vec<tokio::signal::unix::Signal>,
+    end: Vec<tokio::signal::unix::Signal>,
+    #[cfg(unix)]
+    stop: tokio::signal::unix::Signal,
+    #[cfg(unix)]
+    cont: tokio::signal::unix::Signal,
+}
+
+/// What a signal asks of the session.
+enum SignalAsk {
+    End,
+    Stop,
+    Continued,
 }
 
 impl Signals {
@@ -286,23 +428,57 @@ impl Signals {
                 SignalKind::quit(),
                 SignalKind::interrupt(),
             ];
-            let all = kinds.into_iter().map(signal).collect::<io::Result<_>>()?;
-            Ok(Signals { all })
+            let end = kinds.into_iter().map(signal).collect::<io::Result<_>>()?;
+            let stop = signal(SignalKind::from_raw(libc::SIGTSTP))?;
+            let cont = signal(SignalKind::from_raw(libc::SIGCONT))?;
+            Ok(Signals { end, stop, cont })
         }
         #[cfg(not(unix))]
         Ok(Signals {})
     }
 
     /// Resolves when any of the signals arrives.
-    async fn recv(&mut self) {
+    async fn recv(&mut self) -> SignalAsk {
         #[cfg(unix)]
         {
-            let futs = self.all.iter_mut().map(|s| Box::pin(s.recv()));
-            let _ = futures_util::future::select_all(futs).await;
+            let futs = self.end.iter_mut().map(|s| Box::pin(s.recv()));
+            tokio::select! {
+                _ = futures_util::future::select_all(futs) => SignalAsk::End,
+                _ = self.stop.recv() => SignalAsk::Stop,
+                _ = self.cont.recv() => SignalAsk::Continued,
+            }
         }
         #[cfg(not(unix))]
         {
             let _ = tokio::signal::ctrl_c().await;
+            SignalAsk::End
+        }
+    }
+}
+
+impl<B: Backend + Send, C: Clock + Send> TerminalFrontend<B, C>
+where
+    B::Error: Into<io::Error>,
+{
+    /// Forget what is on the screen (the guard cleared it when it took the terminal back): the
+    /// next draw writes every cell. Not `Terminal::clear`, which asks the terminal for the cursor
+    /// position and fails on terminals that do not answer: the buffer ratatui compares with is
+    /// made blank instead (flushing a blank buffer, then swapping it in as the last frame).
+    fn forget_screen(&mut self) -> io::Result<()> {
+        self.terminal.current_buffer_mut().reset();
+        self.terminal.flush().map_err(Into::into)?;
+        self.terminal.swap_buffers();
+        Ok(())
+    }
+
+    fn record(
+        &mut self,
+        f: impl FnOnce(&mut Recorder, Micros) -> Result<(), TuiError>,
+    ) -> io::Result<()> {
+        let now = self.clock.now();
+        match self.recorder.as_mut() {
+            Some(r) => f(r, now).map_err(io::Error::other),
+            None => Ok(()),
         }
     }
 }
@@ -316,24 +492,38 @@ where
         loop {
             let ev = tokio::select! {
                 ev = self.events.next() => ev,
-                _ = self.signals.recv() => return Ok(None),
+                ask = self.signals.recv() => match ask {
+                    SignalAsk::End => return Ok(None),
+                    SignalAsk::Stop => {
+                        self.guard.suspend()?;
+                        self.forget_screen()?;
+                        return Ok(Some(Event::Resize)); // redraw it all
+                    }
+                    SignalAsk::Continued => {
+                        self.guard.retake()?;
+                        self.forget_screen()?;
+                        return Ok(Some(Event::Resize));
+                    }
+                },
             };
             match ev {
                 Some(Ok(ct::Event::Key(k))) if k.kind == KeyEventKind::Release => {
                     let pressed = ct::KeyEvent::new(k.code, k.modifiers);
                     if let Some(key) = key_from_crossterm(pressed) {
+                        self.record(|r, t| r.release(t, key))?;
                         return Ok(Some(Event::KeyRelease(key)));
                     }
                 }
                 Some(Ok(ct::Event::Key(k))) => {
                     if let Some(key) = key_from_crossterm(k) {
-                        if let Some(r) = self.recorder.as_mut() {
-                            r.key(self.clock.now(), key).map_err(io::Error::other)?;
-                        }
+                        self.pending_key = Some((self.clock.now(), key));
                         return Ok(Some(Event::Key(key)));
                     }
                 }
-                Some(Ok(ct::Event::Resize(..))) => return Ok(Some(Event::Resize)),
+                Some(Ok(ct::Event::Resize(w, h))) => {
+                    self.record(|r, t| r.resize(t, (w, h)))?;
+                    return Ok(Some(Event::Resize));
+                }
                 Some(Ok(_)) => {}
                 Some(Err(e)) => return Err(e),
                 None => return Ok(None),
@@ -351,6 +541,23 @@ where
     }
 
     fn after(&mut self, app: &mut App, now: Micros) -> io::Result<()> {
+        if let Some((t, key)) = self.pending_key.take() {
+            if app.quit {
+                self.quit_at = Some(t);
+            } else if let Some(r) = self.recorder.as_mut() {
+                r.key(t, key).map_err(io::Error::other)?;
+            }
+        }
+        if std::mem::take(&mut app.suspend) {
+            self.guard.suspend()?;
+            self.forget_screen()?;
+            self.terminal
+                .draw(|f| ui::render_with(app, f, &self.theme))
+                .map_err(Into::into)?;
+            app.take_dirty();
+            self.last_draw = Some(now);
+            return Ok(());
+        }
         if self.last_draw.is_some_and(|t| now < t + self.period) && app.is_dirty() {
             return Ok(()); // drawn moments ago: draw at wake_at
         }
@@ -368,7 +575,12 @@ pub async fn run_terminal<C: Clock + Clone + Send>(
     mut rt: RealTime<C>,
     opts: TuiOptions,
 ) -> Result<App, TuiError> {
-    let recorder = opts.record.as_deref().map(Recorder::create).transpose()?;
+    let size = crossterm::terminal::size().unwrap_or((80, 24));
+    let recorder = opts
+        .record
+        .as_deref()
+        .map(|p| Recorder::create(p, &opts.links, size))
+        .transpose()?;
     let guard = TerminalGuard::enter()?;
     // No `terminal.clear()`: it asks the terminal for the cursor position, which fails (times
     // out) on terminals that do not answer; the guard already cleared the alternate screen.
@@ -378,18 +590,27 @@ pub async fn run_terminal<C: Clock + Clone + Send>(
         events: crossterm::event::EventStream::new(),
         signals: Signals::new()?,
         recorder,
+        pending_key: None,
+        quit_at: None,
+        guard: guard.handle(),
         theme: opts.theme,
         clock: rt.clock(),
         period: SECOND / u64::from(opts.fps.clamp(1, 120)),
         last_draw: None,
     };
     let result = rt.run(None, &mut front).await;
+    let end = front.quit_at.unwrap_or_else(|| front.clock.now());
+    let recorded = match front.recorder.as_mut() {
+        Some(r) => r.finish(end),
+        None => Ok(()),
+    };
     drop(front);
     let restored = guard.restore();
     // The telemetry log written out and flushed, whichever way the loop ended (an error too).
     rt.finish();
     restored?;
     result?;
+    recorded?;
     Ok(rt.app)
 }
 
@@ -402,25 +623,59 @@ mod tests {
         use crate::headless::script::{Script, Step};
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("keys.txt");
-        let mut r = Recorder::create(&path).unwrap();
+        let links = vec![
+            "sim://?seed=1".to_string(),
+            "udpin:0.0.0.0:14550".to_string(),
+        ];
+        let mut r = Recorder::create(&path, &links, (100, 30)).unwrap();
         let keys = ["tab", "ctrl-p", "#", "space", "?", "backtab"];
         for (i, k) in keys.iter().enumerate() {
             r.key(520_000 + i as u64 * 1_000, k.parse().unwrap())
                 .unwrap();
         }
+        r.release(530_000, "up".parse().unwrap()).unwrap();
+        r.resize(540_000, (80, 24)).unwrap();
+        r.finish(2_500_000).unwrap();
         drop(r);
         let text = std::fs::read_to_string(&path).unwrap();
+        let head: Vec<&str> = text.lines().take(4).collect();
+        assert_eq!(
+            head,
+            [
+                format!(
+                    "# mavterm {} recording: replay with mavterm --headless --input FILE",
+                    env!("CARGO_PKG_VERSION")
+                )
+                .as_str(),
+                "# link sim://?seed=1",
+                "# link udpin:0.0.0.0:14550",
+                "# size 100x30"
+            ]
+        );
         assert!(text.contains("\n0.52 key tab\n"), "{text}");
+        assert!(
+            text.ends_with("\n0.53 release up\n0.54 resize 80x24\n2.5 snapshot final\n2.5 quit\n"),
+            "{text}"
+        );
         let script = Script::load(&path).unwrap();
+        assert_eq!(script.size, Some((100, 30)));
+        assert_eq!(
+            script.links.iter().map(|l| l.1.clone()).collect::<Vec<_>>(),
+            links
+        );
         let back: Vec<(Micros, Step)> = script.steps.into_iter().map(|s| (s.t, s.step)).collect();
-        let want: Vec<(Micros, Step)> = keys
+        let mut want: Vec<(Micros, Step)> = keys
             .iter()
             .enumerate()
             .map(|(i, k)| (520_000 + i as u64 * 1_000, Step::Key(k.parse().unwrap())))
             .collect();
+        want.push((530_000, Step::Release("up".parse().unwrap())));
+        want.push((540_000, Step::Resize(80, 24)));
+        want.push((2_500_000, Step::Snapshot("final".into())));
+        want.push((2_500_000, Step::Quit));
         assert_eq!(back, want);
         assert!(matches!(
-            Recorder::create(&dir.path().join("no/such/dir.txt")),
+            Recorder::create(&dir.path().join("no/such/dir.txt"), &[], (80, 24)),
             Err(TuiError::Record { .. })
         ));
     }

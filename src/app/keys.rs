@@ -326,6 +326,8 @@ impl App {
                 self.quit = true;
                 fx.push(Effect::Quit);
             }
+            // The terminal front end stops the process (headless runs have nothing to suspend).
+            Action::Suspend => self.suspend = true,
             Action::FocusNext => self.ui.focus = Pane::ALL[(focus_idx + 1) % Pane::ALL.len()],
             Action::FocusPrev => {
                 self.ui.focus = Pane::ALL[(focus_idx + Pane::ALL.len() - 1) % Pane::ALL.len()]

@@ -286,6 +286,9 @@ pub struct App {
     dirty: bool,
     last_drawn_sec: u64,
     pub quit: bool,
+    /// The operator asked to suspend (Ctrl-Z): the terminal front end takes it, gives the
+    /// terminal back and stops the process until `fg`.
+    pub suspend: bool,
 }
 
 impl App {
@@ -319,6 +322,7 @@ impl App {
             dirty: true,
             last_drawn_sec: 0,
             quit: false,
+            suspend: false,
         }
     }
 

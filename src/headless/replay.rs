@@ -94,6 +94,7 @@ pub fn run_script(
             source,
         })?;
     }
+    let mut size = opts.size;
     let mut outcome = ReplayOutcome {
         completed: false,
         steps_run: 0,
@@ -114,8 +115,9 @@ pub fn run_script(
                     runner.key(char_key(c));
                 }
             }
+            Step::Resize(w, h) => size = (*w, *h),
             Step::Snapshot(name) => {
-                let text = screen_text(runner.app(), opts.size, &opts.theme);
+                let text = screen_text(runner.app(), size, &opts.theme);
                 match &opts.screens_dir {
                     Some(dir) => {
                         let path = dir.join(format!("{name}.txt"));
@@ -123,7 +125,7 @@ pub fn run_script(
                             .map_err(|source| ReplayError::Screen { path, source })?;
                     }
                     None => {
-                        let (w, h) = opts.size;
+                        let (w, h) = size;
                         writeln!(
                             out,
                             "=== snapshot {name} at {}s ({w}x{h}) ===",

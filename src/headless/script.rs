@@ -2,13 +2,18 @@
 //!
 //! ```text
 //! # comment
+//! # link sim://?seed=1          # header: the links to replay on
+//! # size 100x30                 # header: the screen size
 //! 0.5  key tab
 //! 1.2  text "takeoff 10"     # each character as a key
 //! 1.5  release up            # a key let go (Fly mode stops at once)
+//! 1.8  resize 120x40           # the terminal was resized
 //! 2.0  snapshot after-takeoff
 //! 30   quit
 //! ```
 //!
+//! The header comments `# link SPEC` (one per link) and `# size WxH` are what `--record` writes;
+//! `--headless --input` uses them when no `--link` or `--size` is given on its command line.
 //! Times are seconds from the start (decimal, up to microseconds), never decreasing. `#` starts a
 //! comment only at the beginning of a line or after whitespace, so `key #` still means the `#`
 //! key. The same format is written by the terminal's `--record`, so a session can be replayed.
@@ -28,6 +33,8 @@ pub enum Step {
     Text(String),
     /// Render the screen and save it under this name.
     Snapshot(String),
+    /// The screen is now this size (width, height): the terminal was resized.
+    Resize(u16, u16),
     /// End the replay here.
     Quit,
 }
@@ -45,6 +52,10 @@ pub struct Timed {
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Script {
     pub steps: Vec<Timed>,
+    /// `# link SPEC` header lines: (line, spec as written).
+    pub links: Vec<(usize, String)>,
+    /// `# size WxH` header line.
+    pub size: Option<(u16, u16)>,
 }
 
 /// Why a script was refused: the line and what is wrong with it.
@@ -123,6 +134,23 @@ fn quoted(s: &str) -> Result<(String, &str), String> {
     Err("unterminated text: missing closing \"".into())
 }
 
+/// `WxH` with both at least 1.
+pub fn parse_size(s: &str) -> Option<(u16, u16)> {
+    let (w, h) = s.split_once(['x', 'X'])?;
+    let (w, h): (u16, u16) = (w.parse().ok()?, h.parse().ok()?);
+    (w > 0 && h > 0).then_some((w, h))
+}
+
+/// A header comment `# link SPEC` or `# size WxH` (one word after the keyword; any other
+/// comment is free text): (keyword, value).
+fn header(comment: &str) -> Option<(&str, &str)> {
+    let rest = comment.strip_prefix('#')?.trim();
+    let (keyword, value) = rest.split_once(char::is_whitespace)?;
+    let value = value.trim();
+    let header = matches!(keyword, "link" | "size") && !value.contains(char::is_whitespace);
+    header.then_some((keyword, value))
+}
+
 /// Drop a trailing `# comment` that follows whitespace.
 fn strip_comment(s: &str) -> &str {
     let mut prev_ws = true;
@@ -154,10 +182,23 @@ impl Script {
 
     pub fn parse(text: &str) -> Result<Script, ScriptError> {
         let mut steps: Vec<Timed> = Vec::new();
+        let mut links = Vec::new();
+        let mut size = None;
         for (i, raw) in text.lines().enumerate() {
             let line = i + 1;
             let err = |message: String| ScriptError::Parse { line, message };
             let trimmed = raw.trim();
+            match header(trimmed) {
+                Some(("link", spec)) => links.push((line, spec.to_string())),
+                Some((_, wxh)) => {
+                    size = Some(parse_size(wxh).ok_or_else(|| {
+                        err(format!(
+                            "`# size {wxh}`: expected WIDTHxHEIGHT, e.g. 120x40"
+                        ))
+                    })?);
+                }
+                None => {}
+            }
             if trimmed.is_empty() || trimmed.starts_with('#') {
                 continue;
             }
@@ -220,19 +261,27 @@ impl Script {
                                 "snapshot name `{arg}`: use letters, digits, `-`, `_`, `.`"
                             )))
                         }
+                        "resize" => {
+                            let (w, h) = parse_size(arg).ok_or_else(|| {
+                                err(format!(
+                                    "resize `{arg}`: expected WIDTHxHEIGHT, e.g. 120x40"
+                                ))
+                            })?;
+                            Step::Resize(w, h)
+                        }
                         "quit" if arg.is_empty() => Step::Quit,
                         "quit" => return Err(err("`quit` takes no argument".into())),
                         other => {
                             return Err(err(format!(
-                                "unknown event `{other}` (key, release, text, snapshot, quit)"
-                            )))
+                            "unknown event `{other}` (key, release, text, snapshot, resize, quit)"
+                        )))
                         }
                     }
                 }
             };
             steps.push(Timed { t, step, line });
         }
-        Ok(Script { steps })
+        Ok(Script { steps, links, size })
     }
 }
 
@@ -279,6 +328,9 @@ mod tests {
             ("\n\n1.1234567 key a", 3, "not a time"),
             ("1 key a\n86400.000001 key b\n", 2, "over a day"),
             ("1764345600 quit\n", 1, "over a day (86400 s)"),
+            ("1 resize 80\n", 1, "resize `80`"),
+            ("1 resize 0x24\n", 1, "resize `0x24`"),
+            ("# size big\n1 key a\n", 1, "`# size big`"),
         ] {
             match Script::parse(text) {
                 Err(ScriptError::Parse { line: l, message }) => {
@@ -288,6 +340,26 @@ mod tests {
                 other => panic!("{text:?}: {other:?}"),
             }
         }
+    }
+
+    #[test]
+    fn header_comments_and_resize() {
+        let s = Script::parse(
+            "# mavterm 0.1.0 recording\n# link sim://?seed=1\n# link tlog:a.tlog\n\
+             # size 100x30\n# size of the screen: a comment, not a header\n\
+             1 resize 80x24\n2 snapshot final\n2 quit\n",
+        )
+        .unwrap();
+        assert_eq!(
+            s.links,
+            vec![
+                (2, "sim://?seed=1".to_string()),
+                (3, "tlog:a.tlog".to_string())
+            ]
+        );
+        assert_eq!(s.size, Some((100, 30)));
+        assert_eq!(s.steps[0].step, Step::Resize(80, 24));
+        assert_eq!(s.steps.len(), 3);
     }
 
     #[test]

@@ -16,6 +16,11 @@ pub enum SimError {
     },
     #[error("sim server: cannot listen on `{0}`: use tcp:ADDR:PORT, tcpin:ADDR:PORT, udpin:ADDR:PORT or udpout:HOST:PORT")]
     UnsupportedListen(String),
+    #[error("sim server: cannot listen on {spec}: {source}")]
+    Listen {
+        spec: String,
+        source: std::io::Error,
+    },
     #[error("sim server: {0}")]
     Io(#[from] std::io::Error),
 }

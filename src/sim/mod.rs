@@ -11,6 +11,19 @@
 //! `mavftp` (FTP server), `impair` (link), `mission` (mission, fence and rally stores and their
 //! protocol), `auto` (AUTO flying the mission), `guided` (SET_POSITION_TARGET_* in GUIDED).
 
+/// The ArduCopter version the sim's parameter set (`assets/sim/copter-params.parm`) and its
+/// behaviour come from: the real captures in tests/data were made with ArduCopter V4.7.0-dev
+/// (its parameters say `MAV_SYSID`, the name that replaced `SYSID_THISMAV`). One place for it:
+/// the boot banner STATUSTEXT, AUTOPILOT_VERSION and `mavterm sim`'s first line use it.
+macro_rules! arducopter_version {
+    () => {
+        "4.7.0-dev"
+    };
+}
+
+/// [`arducopter_version!`] as a constant: "4.7.0-dev".
+pub const ARDUCOPTER_VERSION: &str = arducopter_version!();
+
 pub mod auto;
 pub mod camera;
 pub mod config;

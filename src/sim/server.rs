@@ -30,40 +30,72 @@ fn host_port(host: &str, port: u16) -> String {
     }
 }
 
-/// Serve the simulated vehicle(s) on `listen` until the future is dropped or Ctrl-C.
-pub async fn serve(listen: &LinkSpec, cfg: SimConfig) -> Result<(), SimError> {
+/// A socket the sim can serve on, bound (or, for `udpout:`, its peer resolved) before anything
+/// says it is serving.
+#[derive(Debug)]
+pub enum Bound {
+    Tcp(TcpListener),
+    /// A UDP socket and, for `udpout:`, the fixed peer.
+    Udp(UdpSocket, Option<SocketAddr>),
+}
+
+/// Bind `listen`; the error names the spec (`cannot listen on tcp:127.0.0.1:5760: Address in
+/// use`).
+pub async fn bind(listen: &LinkSpec) -> Result<Bound, SimError> {
+    let named = |source: std::io::Error| SimError::Listen {
+        spec: listen.to_string(),
+        source,
+    };
     match listen {
         LinkSpec::TcpClient { host, port, .. }
         | LinkSpec::TcpServer {
             addr: host, port, ..
         } => {
-            let listener = TcpListener::bind(host_port(host, *port)).await?;
-            serve_tcp(listener, cfg).await
+            let listener = TcpListener::bind(host_port(host, *port))
+                .await
+                .map_err(named)?;
+            Ok(Bound::Tcp(listener))
         }
         LinkSpec::UdpIn { addr, port, .. } => {
-            let sock = UdpSocket::bind(host_port(addr, *port)).await?;
-            serve_udp(sock, None, cfg).await
+            let sock = UdpSocket::bind(host_port(addr, *port))
+                .await
+                .map_err(named)?;
+            Ok(Bound::Udp(sock, None))
         }
         LinkSpec::UdpOut { host, port, .. } => {
             let peer = tokio::net::lookup_host(host_port(host, *port))
-                .await?
+                .await
+                .map_err(named)?
                 .next()
                 .ok_or_else(|| {
-                    std::io::Error::new(
+                    named(std::io::Error::new(
                         std::io::ErrorKind::NotFound,
                         format!("cannot resolve {host}"),
-                    )
+                    ))
                 })?;
             let bind = if peer.is_ipv6() {
                 "[::]:0"
             } else {
                 "0.0.0.0:0"
             };
-            let sock = UdpSocket::bind(bind).await?;
-            serve_udp(sock, Some(peer), cfg).await
+            let sock = UdpSocket::bind(bind).await.map_err(named)?;
+            Ok(Bound::Udp(sock, Some(peer)))
         }
         other => Err(SimError::UnsupportedListen(other.to_string())),
     }
+}
+
+/// Serve on a socket [`bind`] made, until the future is dropped or Ctrl-C.
+pub async fn serve_bound(bound: Bound, cfg: SimConfig) -> Result<(), SimError> {
+    match bound {
+        Bound::Tcp(listener) => serve_tcp(listener, cfg).await,
+        Bound::Udp(sock, peer) => serve_udp(sock, peer, cfg).await,
+    }
+}
+
+/// Serve the simulated vehicle(s) on `listen` until the future is dropped or Ctrl-C.
+pub async fn serve(listen: &LinkSpec, cfg: SimConfig) -> Result<(), SimError> {
+    serve_bound(bind(listen).await?, cfg).await
 }
 
 fn now(clock: &RealClock) -> Micros {

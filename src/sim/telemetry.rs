@@ -7,10 +7,16 @@ use super::vehicle::{mode, Out, SimVehicle};
 use crate::dialect::*;
 use crate::wire::mavftp::FtpPacket;
 
-/// What the banner calls the firmware.
-pub const FIRMWARE_STRING: &str = "ArduCopter V4.5.7 (sim)";
-/// flight_sw_version: major, minor, patch, FIRMWARE_VERSION_TYPE_OFFICIAL (255).
-pub const FLIGHT_SW_VERSION: u32 = (4 << 24) | (5 << 16) | (7 << 8) | 255;
+/// What the banner calls the firmware: the ArduCopter version the parameter set comes from
+/// ([`super::ARDUCOPTER_VERSION`]), "(sim)" where a real build puts its git hash.
+pub const FIRMWARE_STRING: &str = concat!("ArduCopter V", arducopter_version!(), " (sim)");
+/// flight_sw_version as that build sends it: major, minor, patch, then the version type
+/// (FIRMWARE_VERSION_TYPE_DEV = 0 for a `-dev` build; the capture's AUTOPILOT_VERSION says
+/// 0x04070000).
+#[allow(clippy::identity_op)] // the fields spelled out, zeros too
+pub const FLIGHT_SW_VERSION: u32 = (4 << 24) | (7 << 16) | (0 << 8) | FIRMWARE_VERSION_TYPE_DEV;
+/// MAVLink's FIRMWARE_VERSION_TYPE_DEV.
+const FIRMWARE_VERSION_TYPE_DEV: u32 = 0;
 /// Unix time the simulated GPS reports at boot (2024-01-01T00:00:00Z), fixed for determinism.
 pub const GPS_EPOCH_US: u64 = 1_704_067_200_000_000;
 

@@ -284,7 +284,7 @@ fn boots_with_heartbeat_and_banner_streams_off() {
     assert_eq!(hb[0].base_mode.bits(), 81, "ArduCopter STABILIZE disarmed");
     assert_eq!(hb[0].system_status, MavState::MAV_STATE_STANDBY);
     let texts: Vec<String> = g.texts().into_iter().map(|t| t.1).collect();
-    assert_eq!(texts[0], "ArduCopter V4.5.7 (sim)");
+    assert_eq!(texts[0], "ArduCopter V4.7.0-dev (sim)");
     assert!(texts.contains(&"Frame: QUAD/PLUS".to_string()));
     assert!(texts.contains(&"ArduPilot Ready".to_string()));
     assert!(g.frames.iter().all(|f| matches!(
@@ -829,7 +829,7 @@ fn streams_and_message_interval() {
     assert!(av
         .capabilities
         .contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FTP));
-    assert_eq!(av.flight_sw_version >> 8, 0x040507);
+    assert_eq!(av.flight_sw_version >> 8, 0x040700);
     assert_eq!(
         g.command(
             MavCmd::MAV_CMD_REQUEST_MESSAGE,
@@ -1403,8 +1403,8 @@ fn autopilot_version_answers() {
         })
         .remove(0);
     assert_eq!(av.capabilities.bits(), 64495);
-    // 4.5.7, FIRMWARE_VERSION_TYPE_OFFICIAL.
-    assert_eq!(av.flight_sw_version, 0x0405_07FF);
+    // 4.7.0, FIRMWARE_VERSION_TYPE_DEV, as the capture's (pymavlink: 67567616).
+    assert_eq!(av.flight_sw_version, 0x0407_0000);
     let n = g.frames.len();
     assert_eq!(
         g.command(cmd, [0.0; 7], 0),
@@ -1743,10 +1743,8 @@ fn unknown_custom_modes_refused() {
     );
 }
 
-/// The real ArduCopter session (tests/data/copter-flight.vehicle.tlog): every refused arm is
-/// COMMAND_ACK 400 FAILED followed by its "Arm: " texts; the simulator keeps that order.
-#[test]
-fn arm_refusal_is_ack_then_arm_text_like_the_capture() {
+/// The frames of the real ArduCopter session, tests/data/copter-flight.vehicle.tlog.
+fn flight_capture() -> Vec<crate::wire::Frame> {
     let tlog = include_bytes!("../../tests/data/copter-flight.vehicle.tlog");
     let mut parser = FrameParser::new();
     let mut frames = Vec::new();
@@ -1759,8 +1757,75 @@ fn arm_refusal_is_ack_then_arm_text_like_the_capture() {
         frames.extend(parser.parse_all(&tlog[pos..pos + flen]));
         pos += flen;
     }
+    frames
+}
+
+/// The sim introduces itself as the ArduCopter its parameters come from: the capture's banner
+/// version ("ArduCopter V4.7.0-dev (hash)"), its AUTOPILOT_VERSION flight_sw_version, and a
+/// parameter set that names the system id `MAV_SYSID` (4.7) as the capture's download does, not
+/// `SYSID_THISMAV` (4.6 and before).
+#[test]
+fn banner_version_and_params_are_the_captures() {
+    let real = flight_capture();
+    let real_banner = real
+        .iter()
+        .find_map(|f| match &f.message {
+            Some(MavMessage::STATUSTEXT(t)) => {
+                let s = t.text.to_str().unwrap_or_default().to_string();
+                s.starts_with("ArduCopter V").then_some(s)
+            }
+            _ => None,
+        })
+        .expect("the capture's banner");
+    let (real_version, _hash) = real_banner.split_once(" (").unwrap();
+    let real_sw = real
+        .iter()
+        .find_map(|f| match &f.message {
+            Some(MavMessage::AUTOPILOT_VERSION(a)) => Some(a.flight_sw_version),
+            _ => None,
+        })
+        .expect("the capture's AUTOPILOT_VERSION");
+
+    let mut g = Gcs::new("");
+    g.run_until(1_000_000);
+    let texts: Vec<String> = g.texts().into_iter().map(|t| t.1).collect();
+    assert!(
+        texts[0].starts_with(&format!("{real_version} (")),
+        "{texts:?} vs {real_banner}"
+    );
+    assert_eq!(
+        g.command(
+            MavCmd::MAV_CMD_REQUEST_MESSAGE,
+            [148.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            0
+        ),
+        MAV_RESULT_ACCEPTED
+    );
+    let sw = g
+        .msgs_since(0, |m| match m {
+            MavMessage::AUTOPILOT_VERSION(a) => Some(a.flight_sw_version),
+            _ => None,
+        })
+        .remove(0);
+    assert_eq!(sw, real_sw, "{sw:#x} vs the capture's {real_sw:#x}");
+
+    let captured = include_str!("../../tests/data/copter-params.parm");
+    let has = |text: &str, name: &str| {
+        text.lines()
+            .any(|l| l.split_whitespace().next() == Some(name))
+    };
+    assert!(has(captured, "MAV_SYSID") && !has(captured, "SYSID_THISMAV"));
+    let ours = super::params::ParamTable::copter(0);
+    assert!(ours.index_of("MAV_SYSID").is_some());
+    assert!(ours.index_of("SYSID_THISMAV").is_none());
+}
+
+/// The real ArduCopter session (tests/data/copter-flight.vehicle.tlog): every refused arm is
+/// COMMAND_ACK 400 FAILED followed by its "Arm: " texts; the simulator keeps that order.
+#[test]
+fn arm_refusal_is_ack_then_arm_text_like_the_capture() {
     let real = Gcs {
-        frames,
+        frames: flight_capture(),
         ..Gcs::new("")
     }
     .events_since(0);
