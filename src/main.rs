@@ -385,7 +385,10 @@ fn params_out(
             }
             bail!("{missing} of {count} parameters missing")
         }
-        (Progress::NoVehicle, _) => bail!("no autopilot heard"),
+        (Progress::NoVehicle, _) => match app.all_links_stayed_down() {
+            Some(why) => bail!("no autopilot heard: {why}"),
+            None => bail!("no autopilot heard"),
+        },
         (Progress::Running { got, count, .. }, _) => bail!(
             "timed out with {} parameters missing",
             count.map_or("all".to_string(), |c| (c as usize)

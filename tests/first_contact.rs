@@ -201,6 +201,26 @@ fn a_report_where_every_link_stayed_down_fails_and_says_why() {
         err.trim(),
         format!("Error: all links stayed down: {spec} ({reason})"),
     );
+    // A parameter download says so too.
+    let out = home.path("p.parm");
+    let o = home.run(&[
+        "--link",
+        &spec,
+        "--headless",
+        "--params-out",
+        out.to_str().unwrap(),
+        "--duration",
+        "1",
+    ]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains(&format!(
+            "Error: no autopilot heard: all links stayed down: {spec} ({reason})"
+        )),
+        "{err}"
+    );
+    assert!(!out.exists());
 }
 
 #[test]
