@@ -409,6 +409,7 @@ fn keys_for_and_bindings_list_what_applies_in_file_order() {
     };
     let common = [
         ("quit", "q ctrl-c"),
+        ("suspend", "ctrl-z"),
         ("help", "? f1"),
         ("cancel", "esc"),
         ("prompt", ":"),

@@ -110,7 +110,8 @@ if av is None:
 # The real ArduCopter 4.x announces exactly these bits (tests/data/copter-flight.vehicle.tlog).
 if av.capabilities != 64495 or not av.capabilities & mav.MAV_PROTOCOL_CAPABILITY_FTP:
     fail(f"capabilities {av.capabilities}")
-if av.flight_sw_version >> 16 != 0x0405:
+# 4.7.0 dev (FIRMWARE_VERSION_TYPE_DEV), as the captured ArduCopter V4.7.0-dev says.
+if av.flight_sw_version != 0x04070000:
     fail(f"flight_sw_version {av.flight_sw_version:#x}")
 
 # FTP is there: an open of the parameter file is acknowledged (then closed again).
