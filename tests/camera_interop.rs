@@ -221,7 +221,19 @@ fn a_pymavlink_camera_over_udp_is_discovered_and_shoots() {
     let script = dir.path().join("script.txt");
     std::fs::write(&script, "5 key 6\n5.2 key s\n7 snapshot camera\n7.5 quit\n").unwrap();
     let screens = dir.path().join("screens");
-    // mavterm listens first; the camera sends to it.
+    // The camera first (its heartbeats go nowhere until mavterm listens), so that however slowly
+    // Python starts on a busy machine, the script's times count from a camera already there.
+    let _cam = common::stand_in(
+        "fake_camera.py",
+        &[
+            "--port".into(),
+            port.to_string().into(),
+            "--log-out".into(),
+            log.clone().into(),
+            "--duration".into(),
+            "20".into(),
+        ],
+    );
     let mut run = std::process::Command::new(common::mavterm())
         .args([
             "--link",
@@ -237,18 +249,6 @@ fn a_pymavlink_camera_over_udp_is_discovered_and_shoots() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    std::thread::sleep(std::time::Duration::from_millis(300));
-    let _cam = common::stand_in(
-        "fake_camera.py",
-        &[
-            "--port".into(),
-            port.to_string().into(),
-            "--log-out".into(),
-            log.clone().into(),
-            "--duration".into(),
-            "20".into(),
-        ],
-    );
     let status = run.wait().unwrap();
     let mut err = String::new();
     use std::io::Read;
