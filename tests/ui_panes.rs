@@ -79,15 +79,23 @@ fn full_screen() {
     }
 }
 
+/// The help's text at 80 columns, its lines joined with single spaces (wrapped descriptions
+/// whole again).
+fn help_text(app: &App) -> String {
+    let lines = ui::help::help_lines(app, 78);
+    let words: Vec<&str> = lines.iter().flat_map(|l| l.0.split_whitespace()).collect();
+    words.join(" ")
+}
+
 #[test]
 fn help_popup_lists_every_binding_of_the_active_keymap() {
     let mut d = common::scene();
     d.key(21 * mavterm::clock::SECOND, "?");
     assert_eq!(d.app.ui.mode, Mode::Help);
-    for (w, h) in SIZES {
+    for (w, h) in ISSUE_SIZES {
         insta::assert_snapshot!(format!("help_{w}x{h}"), draw(&d.app, w, h, ui::render));
     }
-    let text = draw(&d.app, 200, 60, ui::render);
+    let text = help_text(&d.app);
     for (action, _, desc) in mavterm::keymap::Action::ALL {
         // The replay keys are listed only while there is a replay link (none here).
         if action.is_replay() {
@@ -116,7 +124,7 @@ fn help_popup_lists_every_binding_of_the_active_keymap() {
     let vim =
         mavterm::keymap::Keymap::from_toml(include_str!("../keymaps/vim.toml"), "vim").unwrap();
     d.app.keymap = mavterm::keymap::Keymap::default().with_overrides(&vim);
-    let text = draw(&d.app, 200, 60, ui::render);
+    let text = help_text(&d.app);
     assert!(text.contains("k, up"), "{text}");
 }
 
@@ -578,4 +586,108 @@ fn messages_follow_the_newest_until_scrolled_back_and_end_follows_again() {
     let text = pane(&d.app, 80, h, ui::messages::render);
     assert!(newest(&text).ends_with("four"), "{text}");
     assert!(!text.contains("paused"), "{text}");
+}
+
+/// Every screen's help, for every width from 20 to 200 columns.
+#[test]
+fn every_help_line_fits_and_nothing_is_cut() {
+    let mut d = common::scene();
+    for screen in mavterm::keymap::SCREENS {
+        d.app.ui.screen = mavterm::app::screen::by_name(screen).unwrap().name;
+        for inner in [18, 38, 58, 78] {
+            let lines = ui::help::help_lines(&d.app, inner);
+            for (l, _) in &lines {
+                assert!(l.chars().count() <= inner, "{screen} at {inner}: {l:?}");
+                // No `…` but the Parameters marks' own and the commands' `ARGS …`.
+                let own = l.contains("… edit sent") || l.contains(" …");
+                assert!(!l.contains('…') || own, "{l:?}");
+            }
+            // Every description is there in full, its words in order.
+            // (A word longer than the column is cut in pieces: compared without spaces.)
+            let all: String = lines.iter().flat_map(|l| l.0.split_whitespace()).collect();
+            for g in ui::help::help_groups(&d.app) {
+                for (keys, desc) in &g.rows {
+                    if inner >= 38 {
+                        let want: String = desc.split_whitespace().collect();
+                        assert!(all.contains(&want), "{screen} at {inner}: {desc}");
+                        let keys: String = keys.split_whitespace().collect();
+                        assert!(all.contains(&keys), "{screen}: {keys}");
+                    }
+                }
+            }
+        }
+        // Drawn at 80 columns and wider, the popup is at most 80 wide: no line is cut at 80.
+        for w in [80u16, 120, 200] {
+            d.app.ui.mode = Mode::Help;
+            let text = draw(&d.app, w, 60, ui::render);
+            let top = text.lines().find(|l| l.contains("┌ Keys")).unwrap();
+            let popup: String = top[top.find("┌ Keys").unwrap()..]
+                .chars()
+                .scan(false, |done, c| {
+                    let keep = !*done;
+                    *done |= c == '┐';
+                    keep.then_some(c)
+                })
+                .collect();
+            assert!(popup.ends_with('┐'), "{popup}");
+            assert!(popup.chars().count() <= 80, "{screen} at {w}: {popup}");
+        }
+    }
+}
+
+#[test]
+fn help_lists_keys_everywhere_first_then_the_screen_then_flight() {
+    let d = common::scene();
+    let groups = ui::help::help_groups(&d.app);
+    let headings: Vec<&str> = groups.iter().map(|g| g.heading.as_str()).collect();
+    assert_eq!(
+        headings,
+        [
+            "Everywhere",
+            "Overview screen",
+            "Flying the target",
+            "Commands (: opens the prompt)"
+        ]
+    );
+    let descs = |i: usize| -> Vec<&str> { groups[i].rows.iter().map(|r| r.1).collect() };
+    let everywhere = descs(0);
+    assert_eq!(everywhere[0], "show the overview screen");
+    assert_eq!(everywhere.last(), Some(&"quit mavterm"));
+    let pos = |d: &str| everywhere.iter().position(|x| *x == d).unwrap();
+    assert!(pos("show the camera screen") < pos("move the selection up"));
+    assert!(pos("move the selection up") < pos("open the : command line"));
+    assert!(pos("open the : command line") < pos("show/hide key help"));
+    let overview: Vec<&str> = groups[1].rows.iter().map(|r| r.0.as_str()).collect();
+    assert_eq!(
+        overview,
+        ["tab", "backtab", "enter, space", "s", "S", "v", "V"]
+    );
+    let flight: Vec<&str> = groups[2].rows.iter().map(|r| r.0.as_str()).collect();
+    assert_eq!(flight, ["A", "D", "T", "L", "R", "M", "F"]);
+}
+
+#[test]
+fn help_footer_names_the_scroll_keys_and_any_other_key_closes() {
+    let mut d = common::scene();
+    let t = d.app.now;
+    d.key(t, "?");
+    let text = draw(&d.app, 80, 24, ui::render);
+    assert!(
+        text.contains("up down pageup pagedown home end scroll; other keys close"),
+        "{text}"
+    );
+    // A scroll key scrolls and keeps the help open; esc, ?, q, a letter all close it.
+    d.key(t, "pagedown");
+    assert_eq!(d.app.ui.mode, Mode::Help);
+    assert!(draw(&d.app, 80, 24, ui::render).contains("┌ Keys (11/"));
+    d.key(t, "esc");
+    assert_eq!(d.app.ui.mode, Mode::Normal);
+    for k in ["?", "q", "z", "enter", "1", "tab"] {
+        d.key(t, "?");
+        assert_eq!(d.app.ui.mode, Mode::Help);
+        d.key(t, k);
+        assert_eq!(d.app.ui.mode, Mode::Normal, "{k}");
+        assert!(!d.app.quit, "{k}");
+        assert_eq!(d.app.ui.screen, "overview", "{k}");
+    }
 }
