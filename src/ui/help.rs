@@ -13,6 +13,7 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Borders, Clear, Paragraph};
 use ratatui::Frame;
 
+use super::inspector::wrap_words as wrap;
 use super::Theme;
 use crate::app::input::COMMANDS;
 use crate::app::App;
@@ -166,32 +167,6 @@ pub enum LineKind {
     /// A row: its first `n` characters are keys.
     Row(usize),
     Note,
-}
-
-/// `text` in lines of at most `width` characters, broken between words (a word longer than a
-/// line is cut into pieces).
-fn wrap(text: &str, width: usize) -> Vec<String> {
-    let width = width.max(1);
-    let mut lines = Vec::new();
-    let mut cur = String::new();
-    for word in text.split_whitespace() {
-        let n = cur.chars().count();
-        if n > 0 && n + 1 + word.chars().count() > width {
-            lines.push(std::mem::take(&mut cur));
-        }
-        if !cur.is_empty() {
-            cur.push(' ');
-        }
-        cur.push_str(word);
-        while cur.chars().count() > width {
-            lines.push(cur.chars().take(width).collect());
-            cur = cur.chars().skip(width).collect();
-        }
-    }
-    if !cur.is_empty() || lines.is_empty() {
-        lines.push(cur);
-    }
-    lines
 }
 
 /// The help's lines for a popup `inner_w` columns wide inside its borders: every line at most
