@@ -168,10 +168,15 @@ impl Cli {
         cfg
     }
 
+    /// Times shown in UTC: `--utc`, else the config file's `utc`.
+    pub fn wants_utc(&self, file: &FileConfig) -> bool {
+        self.utc || file.utc == Some(true)
+    }
+
     /// The zone times are shown in: UTC with `--utc` or the config file's `utc = true`, else the
     /// local zone (`chrono::Local`: `TZ`, else /etc/localtime) as it is at `at`.
     pub fn display_zone(&self, file: &FileConfig, at: DateTime<Utc>) -> DisplayZone {
-        if self.utc || file.utc == Some(true) {
+        if self.wants_utc(file) {
             DisplayZone::utc()
         } else {
             local_zone(at)

@@ -134,7 +134,7 @@ fn main() -> Result<()> {
     let edge = Edge {
         tlog: cli.tlog_target(&links),
         outs: cli.outs.clone(),
-        utc: cli.utc || file.utc == Some(true),
+        utc: cli.wants_utc(&file),
     };
     // Forwarding is to ground stations in real time: `sim://` then runs on the wall clock too.
     let virtual_clock = all_virtual(&links) && edge.outs.is_empty();
