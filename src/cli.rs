@@ -4,7 +4,10 @@ use std::path::PathBuf;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
+use chrono::{DateTime, Offset, TimeZone, Utc};
+
 use crate::app::AppConfig;
+use crate::clock::DisplayZone;
 use crate::config::{seconds_to_micros, FileConfig};
 use crate::driver::record::TlogTarget;
 use crate::link::LinkSpec;
@@ -123,6 +126,10 @@ pub struct Cli {
     #[arg(long, conflicts_with = "tlog")]
     pub no_tlog: bool,
 
+    /// Show times (status bar, messages, replays) in UTC, not in the local time zone
+    /// [default: the config file's `utc`, else local time].
+    #[arg(long)]
+    pub utc: bool,
     /// Forward every frame heard, unchanged, to another ground station, and what it sends to
     /// the vehicles, as MAVProxy's --out (repeatable). The forms of --link; `udpout:HOST:PORT`
     /// and `tcpin:ADDR:PORT` are typical.
@@ -210,6 +217,21 @@ impl Cli {
         cfg
     }
 
+    /// Times shown in UTC: `--utc`, else the config file's `utc`.
+    pub fn wants_utc(&self, file: &FileConfig) -> bool {
+        self.utc || file.utc == Some(true)
+    }
+
+    /// The zone times are shown in: UTC with `--utc` or the config file's `utc = true`, else the
+    /// local zone (`chrono::Local`: `TZ`, else /etc/localtime) as it is at `at`.
+    pub fn display_zone(&self, file: &FileConfig, at: DateTime<Utc>) -> DisplayZone {
+        if self.wants_utc(file) {
+            DisplayZone::utc()
+        } else {
+            local_zone(at)
+        }
+    }
+
     /// Where to record the telemetry log, if anywhere (see `--tlog`): `Err` when the default
     /// applies but there is no data directory to put it in.
     pub fn tlog_target(&self, links: &[LinkSpec]) -> Result<Option<TlogTarget>, String> {
@@ -242,6 +264,16 @@ impl Cli {
             }],
         }
     }
+}
+
+/// The local time zone (`chrono::Local`) as it is at `at` (its offset then, daylight saving
+/// time included), labelled with that offset.
+pub fn local_zone(at: DateTime<Utc>) -> DisplayZone {
+    DisplayZone::fixed(
+        chrono::Local
+            .offset_from_utc_datetime(&at.naive_utc())
+            .fix(),
+    )
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -376,7 +408,7 @@ mod tests {
         .unwrap();
         assert_eq!(
             (c.fps, c.lost_timeout, c.size),
-            (120, Some(0.1), (1000, 1000))
+            (120, Some(0.1), Some((1000, 1000)))
         );
         let cfg = c.app_config(&FileConfig::default());
         assert_eq!(cfg.lost_timeout, 100_000);

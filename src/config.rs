@@ -62,6 +62,8 @@ pub struct FileConfig {
     pub signing_key: Option<String>,
     /// `signing_allow_unsigned_heartbeat`.
     pub signing_allow_unsigned_heartbeat: Option<bool>,
+    /// `utc`: show times in UTC, not local time.
+    pub utc: Option<bool>,
 }
 
 impl FileConfig {
@@ -231,7 +233,7 @@ impl Found {
 }
 
 const KEYS: &str = "sysid, compid, lost_timeout, takeoff_alt, nudge_deadman, links, signing_key, \
-                    signing_allow_unsigned_heartbeat, [streams]";
+                    signing_allow_unsigned_heartbeat, utc, [streams]";
 
 /// Check a config file's `text`; `path` names it in errors. Every key is optional; unknown keys
 /// and bad values are refused, all of them at once, each with its line and column.
@@ -313,6 +315,7 @@ pub fn load(path: &Path, text: &str) -> Result<FileConfig, ConfigError> {
                     |v| v.as_bool(),
                 )
             }
+            "utc" => cfg.utc = found.check("utc", value, "true or false", |v| v.as_bool()),
             "streams" => streams(value, &mut found, &mut cfg),
             other => found.add(
                 key.span().start,
@@ -513,6 +516,15 @@ mod tests {
         );
         let p = problems("signing_allow_unsigned_heartbeat = 1\n");
         assert!(p[0].2.contains("true or false"), "{p:?}");
+    }
+
+    #[test]
+    fn utc_is_true_or_false() {
+        let f = load(Path::new("c.toml"), "utc = true\n").unwrap();
+        assert_eq!(f.utc, Some(true));
+        let p = problems("utc = \"yes\"\n");
+        assert_eq!((p[0].0, p[0].1), (1, 7), "{p:?}");
+        assert!(p[0].2.contains("utc: expected true or false"), "{p:?}");
     }
 
     #[test]

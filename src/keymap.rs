@@ -274,6 +274,14 @@ pub enum Action {
     GimbalLeft,
     GimbalRight,
     GimbalCenter,
+    /// Messages pane: show only more severe messages (all, INFO+, NOTICE+, WARN+, ERROR+).
+    MsgSeverity,
+    /// Messages pane: the severity filter's step back.
+    MsgSeverityBack,
+    /// Messages pane: show one vehicle's messages (all, the target's, each system id).
+    MsgVehicle,
+    /// Messages pane: the vehicle filter's step back.
+    MsgVehicleBack,
 }
 
 impl Action {
@@ -520,6 +528,26 @@ impl Action {
             Action::GimbalCenter,
             "gimbal_center",
             "gimbal: level, straight ahead",
+        ),
+        (
+            Action::MsgSeverity,
+            "msg_severity",
+            "messages: only more severe (all, INFO+, NOTICE+, WARN+, ERROR+)",
+        ),
+        (
+            Action::MsgSeverityBack,
+            "msg_severity_back",
+            "messages: less severe too (the step back)",
+        ),
+        (
+            Action::MsgVehicle,
+            "msg_vehicle",
+            "messages: one vehicle's (all, the target's, each sysid)",
+        ),
+        (
+            Action::MsgVehicleBack,
+            "msg_vehicle_back",
+            "messages: the vehicle filter's step back",
         ),
     ];
 

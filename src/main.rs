@@ -46,6 +46,7 @@ fn app_config(cli: &Cli, file: &FileConfig, wall_clock: bool) -> Result<AppConfi
     Ok(AppConfig {
         param_meta: load_param_meta(cli)?,
         signing: load_signing(cli, file, wall_clock)?,
+        zone: cli.display_zone(file, chrono::Utc::now()),
         ..cli.app_config(file)
     })
 }
@@ -243,6 +244,7 @@ fn run(cli: Cli) -> Result<()> {
     let edge = Edge {
         tlog: cli.tlog_target(&links),
         outs: cli.outs.clone(),
+        utc: cli.wants_utc(&file),
     };
     // Forwarding is to ground stations in real time: `sim://` then runs on the wall clock too.
     let virtual_clock = all_virtual(&links) && edge.outs.is_empty();
@@ -290,6 +292,8 @@ fn run(cli: Cli) -> Result<()> {
 struct Edge {
     tlog: Result<Option<TlogTarget>, String>,
     outs: Vec<LinkSpec>,
+    /// Times shown in UTC (`--utc`, config `utc`), else in local time.
+    utc: bool,
 }
 
 impl Edge {
@@ -302,8 +306,12 @@ impl Edge {
         r.forward(&self.outs);
     }
 
-    /// On the virtual clock: recording only (forwarding runs on the wall clock).
+    /// On the virtual clock: recording only (forwarding runs on the wall clock). Local time is
+    /// shown as it was at the run's start (a tlog's first record), daylight saving included.
     fn start_virtual(&self, r: &mut VirtualRunner) {
+        if !self.utc {
+            r.app.cfg.zone = mavterm::cli::local_zone(r.app.cfg.epoch);
+        }
         match &self.tlog {
             Ok(Some(t)) => r.record(t),
             Ok(None) => {}

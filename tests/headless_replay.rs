@@ -1,5 +1,7 @@
 //! Headless replay against the simulated vehicle on the virtual clock.
 
+mod common;
+
 use mavterm::app::{AppConfig, Pane};
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::headless::replay::{run_script, run_script_on_specs, ReplayError, ReplayOptions};
@@ -133,4 +135,85 @@ fn replay_on_specs_builds_the_runner_and_refuses_real_links() {
     )
     .unwrap_err();
     assert!(matches!(e, ReplayError::Runner(_)), "{e}");
+}
+
+/// The last line (the status bar) of each snapshot the binary prints, run headless at 80x24
+/// with `script` on `link`, `args` added and `TZ` set to `tz` (a POSIX TZ string, which needs
+/// no time-zone database).
+fn status_lines(link: &str, args: &[&str], tz: &str, script: &str) -> Vec<String> {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("script.txt");
+    std::fs::write(&input, script).unwrap();
+    let out = std::process::Command::new(common::mavterm())
+        .args(["--link", link, "--headless", "--size", "80x24", "--input"])
+        .arg(&input)
+        .args(args)
+        .env("TZ", tz)
+        .env("XDG_CONFIG_HOME", dir.path()) // no user config file
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+        .split("=== snapshot ")
+        .skip(1)
+        .map(|s| s.trim_end().lines().last().unwrap_or("").to_string())
+        .collect()
+}
+
+#[test]
+fn the_clock_shows_local_time_with_its_offset_unless_utc() {
+    // The virtual clock starts at 2026-01-01 12:00:00 UTC.
+    let at_1s = "1 snapshot s\n2 quit\n";
+    let ist = status_lines("sim://?seed=1", &[], "IST-5:30", at_1s);
+    assert!(ist[0].starts_with("17:30:01 +05:30  "), "{ist:?}");
+    let utc = status_lines("sim://?seed=1", &["--utc"], "IST-5:30", at_1s);
+    assert!(utc[0].starts_with("12:00:01 UTC  "), "{utc:?}");
+    // The config file's `utc = true` does the same.
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("config.toml");
+    std::fs::write(&config, "utc = true\n").unwrap();
+    let args = ["--config", config.to_str().unwrap()];
+    let from_file = status_lines("sim://?seed=1", &args, "IST-5:30", at_1s);
+    assert!(from_file[0].starts_with("12:00:01 UTC  "), "{from_file:?}");
+    // West of Greenwich; and the offset of the day shown: January is winter time in New York.
+    let ny = status_lines("sim://?seed=1", &[], "EST5EDT,M3.2.0,M11.1.0", at_1s);
+    assert!(ny[0].starts_with("07:00:01 -05:00  "), "{ny:?}");
+}
+
+#[test]
+fn a_replay_shows_the_recordings_own_time_in_the_zone_of_its_day() {
+    // The log's first record, from its tlog timestamp (8 bytes big-endian µs since 1970).
+    let path = common::test_path("data/copter-flight.vehicle.tlog");
+    let head = std::fs::read(&path).unwrap();
+    let t0 = u64::from_be_bytes(head[..8].try_into().unwrap());
+    let link = format!("tlog:{}", path.display());
+    let when = |off_s: i64, offset_h: i64| {
+        let t = chrono::DateTime::from_timestamp_micros(t0 as i64).unwrap()
+            + chrono::Duration::seconds(off_s + offset_h * 3600);
+        t.format("%H:%M:%S").to_string()
+    };
+    // One second in, then 10 s further on (`]` seeks): the recording's time moves with the log.
+    let script = "1 snapshot a\n1.5 key ]\n2 snapshot b\n3 quit\n";
+    let utc = status_lines(&link, &["--utc"], "UTC0", script);
+    assert!(
+        utc[0].starts_with(&format!("{} UTC  ", when(1, 0))),
+        "{utc:?}"
+    );
+    assert!(utc[0].contains("replay 00:01/"), "{utc:?}");
+    assert!(
+        utc[1].starts_with(&format!("{} UTC  ", when(12, 0))),
+        "{utc:?}"
+    );
+    assert!(utc[1].contains("replay 00:12/"), "{utc:?}");
+    // Sydney: the log (late November) is in daylight saving time, +11:00.
+    let syd = status_lines(&link, &[], "AEST-10AEDT,M10.1.0,M4.1.0/3", script);
+    assert!(
+        syd[0].starts_with(&format!("{} +11:00  ", when(1, 11))),
+        "{syd:?}"
+    );
 }

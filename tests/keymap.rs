@@ -452,6 +452,12 @@ fn keys_for_and_bindings_list_what_applies_in_file_order() {
         ("replay_faster", "+ ="),
     ];
     overview.extend(replay);
+    overview.extend([
+        ("msg_severity", "s"),
+        ("msg_severity_back", "S"),
+        ("msg_vehicle", "v"),
+        ("msg_vehicle_back", "V"),
+    ]);
     assert_eq!(
         names(km.bindings(Mode::Normal, "overview")),
         pairs(&overview)

@@ -79,15 +79,23 @@ fn full_screen() {
     }
 }
 
+/// The help's text at 80 columns, its lines joined with single spaces (wrapped descriptions
+/// whole again).
+fn help_text(app: &App) -> String {
+    let lines = ui::help::help_lines(app, 78);
+    let words: Vec<&str> = lines.iter().flat_map(|l| l.0.split_whitespace()).collect();
+    words.join(" ")
+}
+
 #[test]
 fn help_popup_lists_every_binding_of_the_active_keymap() {
     let mut d = common::scene();
     d.key(21 * mavterm::clock::SECOND, "?");
     assert_eq!(d.app.ui.mode, Mode::Help);
-    for (w, h) in SIZES {
+    for (w, h) in ISSUE_SIZES {
         insta::assert_snapshot!(format!("help_{w}x{h}"), draw(&d.app, w, h, ui::render));
     }
-    let text = draw(&d.app, 200, 60, ui::render);
+    let text = help_text(&d.app);
     for (action, _, desc) in mavterm::keymap::Action::ALL {
         // The replay keys are listed only while there is a replay link (none here).
         if action.is_replay() {
@@ -116,7 +124,7 @@ fn help_popup_lists_every_binding_of_the_active_keymap() {
     let vim =
         mavterm::keymap::Keymap::from_toml(include_str!("../keymaps/vim.toml"), "vim").unwrap();
     d.app.keymap = mavterm::keymap::Keymap::default().with_overrides(&vim);
-    let text = draw(&d.app, 200, 60, ui::render);
+    let text = help_text(&d.app);
     assert!(text.contains("k, up"), "{text}");
 }
 
@@ -201,7 +209,7 @@ fn scrolling_messages_moves_the_window() {
     d.key(d.app.now, "up");
     let after = pane(&d.app, 80, 5, ui::messages::render);
     assert!(!after.contains("Crash: Disarming"), "{after}");
-    assert!(after.contains("2 newer below"), "{after}");
+    assert!(after.contains("paused ↓ 2 newer"), "{after}");
 }
 
 #[test]
@@ -373,15 +381,313 @@ fn scrolling_back_does_not_hide_the_newest_when_all_messages_fit() {
     let after = pane(&d.app, 80, 24, ui::messages::render);
     assert_eq!(after, before);
     assert!(after.contains("Crash: Disarming"), "{after}");
-    assert!(!after.contains("newer below"), "{after}");
+    assert!(!after.contains("paused"), "{after}");
     // One row short of fitting: scrolling goes back by at most that one line.
     let h = len as u16 + 1; // borders + all but one line
     let text = pane(&d.app, 80, h, ui::messages::render);
-    assert!(text.contains("1 newer below"), "{text}");
+    assert!(text.contains("paused ↓ 1 newer"), "{text}");
     assert!(!text.contains("Crash: Disarming"), "{text}");
     assert!(text.contains("link udpin:0.0.0.0:14550 up"), "{text}");
     d.key(d.app.now, "end");
     let text = pane(&d.app, 80, h, ui::messages::render);
     assert!(text.contains("Crash: Disarming"), "{text}");
     assert!(!text.contains("link udpin:0.0.0.0:14550 up"), "{text}");
+}
+
+const ISSUE_SIZES: [(u16, u16); 3] = [(60, 20), (80, 24), (200, 60)];
+
+/// The scene with the Messages pane focused by its keys.
+fn messages_focused() -> common::Drive {
+    let mut d = common::scene();
+    let t = d.app.now;
+    d.key(t, "tab");
+    d.key(t, "tab");
+    assert_eq!(d.app.ui.focus, Pane::Messages);
+    d
+}
+
+/// The text lines of the Messages pane (`HH:MM:SS SEV source text`), borders dropped.
+fn message_lines(text: &str) -> Vec<String> {
+    text.lines()
+        .map(|l| l.trim_matches(|c| c == '│' || c == '┃' || c == ' '))
+        .filter(|l| l.len() > 9 && l.as_bytes()[2] == b':' && l.as_bytes()[5] == b':')
+        .map(str::to_string)
+        .collect()
+}
+
+#[test]
+fn messages_filter_by_severity_from_keys() {
+    let mut d = messages_focused();
+    let t = d.app.now;
+    // all -> INFO+ -> NOTICE+ -> WARN+: of the scene's 17 messages, 7 are WARN or worse
+    // (RFC-5424 severities 0 to 4): EMERG, CRIT, ERROR x2, WARN x3.
+    for _ in 0..3 {
+        d.key(t, "s");
+    }
+    for (w, h) in ISSUE_SIZES {
+        insta::assert_snapshot!(
+            format!("messages_warn_{w}x{h}"),
+            draw(&d.app, w, h, ui::render)
+        );
+    }
+    let text = pane(&d.app, 80, 24, ui::messages::render);
+    let lines = message_lines(&text);
+    assert!(text.contains("Messages (7 of 17) WARN+"), "{text}");
+    assert_eq!(lines.len(), 7, "{text}");
+    for l in &lines {
+        let sev = l.split_whitespace().nth(1).unwrap();
+        assert!(
+            ["EMERG", "ALERT", "CRIT", "ERROR", "WARN"].contains(&sev),
+            "{l}"
+        );
+    }
+    // ERROR+ drops the warnings; once more wraps round to all; `S` steps back.
+    d.key(t, "s");
+    let text = pane(&d.app, 80, 24, ui::messages::render);
+    assert!(text.contains("(4 of 17) ERROR+"), "{text}");
+    assert!(!text.contains("Battery 1 is low"), "{text}");
+    d.key(t, "s");
+    assert!(pane(&d.app, 80, 24, ui::messages::render).contains("Messages (17) "));
+    d.key(t, "S");
+    assert!(pane(&d.app, 80, 24, ui::messages::render).contains("(4 of 17) ERROR+"));
+}
+
+#[test]
+fn messages_filter_by_vehicle_from_keys() {
+    let mut d = messages_focused();
+    let t = d.app.now;
+    // all -> the target's (1:1, so system 1: the copter and its gimbal 1:154).
+    d.key(t, "v");
+    for (w, h) in ISSUE_SIZES {
+        insta::assert_snapshot!(
+            format!("messages_target_{w}x{h}"),
+            draw(&d.app, w, h, ui::render)
+        );
+    }
+    let text = pane(&d.app, 80, 24, ui::messages::render);
+    assert!(text.contains("target 1"), "{text}");
+    let lines = message_lines(&text);
+    assert_eq!(lines.len(), 8, "{text}");
+    for l in &lines {
+        let src = l.split_whitespace().nth(2).unwrap();
+        assert!(src.starts_with("1:"), "{l}");
+    }
+    // The target filter follows the target: on 2:1 it shows system 2's.
+    d.key(t, "n");
+    let text = pane(&d.app, 80, 24, ui::messages::render);
+    assert!(text.contains("target 2"), "{text}");
+    assert!(message_lines(&text)
+        .iter()
+        .all(|l| l.split_whitespace().nth(2) == Some("2:1")));
+    // Then each system id heard (1, 2, 3, 255), then all again; `V` steps back.
+    for sys in ["1", "2", "3", "255"] {
+        d.key(t, "v");
+        let text = pane(&d.app, 80, 24, ui::messages::render);
+        assert!(text.contains(&format!(" sys {sys} ")), "{text}");
+        let prefix = format!("{sys}:");
+        assert!(message_lines(&text).iter().all(|l| l
+            .split_whitespace()
+            .nth(2)
+            .unwrap()
+            .starts_with(&prefix)));
+    }
+    d.key(t, "v");
+    assert!(pane(&d.app, 80, 24, ui::messages::render).contains("Messages (17) "));
+    d.key(t, "V");
+    assert!(pane(&d.app, 80, 24, ui::messages::render).contains(" sys 255 "));
+    // Both filters at once.
+    d.key(t, "s");
+    d.key(t, "s");
+    d.key(t, "s");
+    let text = pane(&d.app, 80, 24, ui::messages::render);
+    assert!(text.contains("(1 of 17) WARN+ sys 255"), "{text}");
+}
+
+#[test]
+fn message_filter_keys_need_the_messages_pane_focused() {
+    let mut d = common::scene();
+    let t = d.app.now;
+    assert_eq!(d.app.ui.focus, Pane::Vehicles);
+    d.key(t, "s");
+    d.key(t, "v");
+    let text = pane(&d.app, 80, 24, ui::messages::render);
+    assert!(text.contains("Messages (17) "), "{text}");
+    let status = pane(&d.app, 80, 1, ui::status::render);
+    assert!(status.contains("focus the Messages pane"), "{status}");
+}
+
+#[test]
+fn messages_follow_the_newest_until_scrolled_back_and_end_follows_again() {
+    use mavterm::dialect::MavSeverity::*;
+    let mut d = messages_focused();
+    let h = 8; // 6 lines of 17
+    let newest = |text: &str| message_lines(text).last().cloned().unwrap();
+    let text = pane(&d.app, 80, h, ui::messages::render);
+    assert!(newest(&text).contains("Crash: Disarming"), "{text}");
+    // A new message while following: it is the bottom line.
+    let mut t = d.app.now + 1000;
+    d.send(t, 0, (1, 1), &common::statustext(MAV_SEVERITY_INFO, "one"));
+    let text = pane(&d.app, 80, h, ui::messages::render);
+    assert!(newest(&text).ends_with("one"), "{text}");
+    assert!(!text.contains("paused"), "{text}");
+    // Scrolled back two lines: the view stays on the same lines while messages come.
+    d.key(t, "up");
+    d.key(t, "up");
+    let paused = pane(&d.app, 80, h, ui::messages::render);
+    assert!(paused.contains("paused ↓ 2 newer"), "{paused}");
+    let view = message_lines(&paused);
+    for text in ["two", "three"] {
+        t += 1000;
+        d.send(t, 0, (1, 1), &common::statustext(MAV_SEVERITY_INFO, text));
+    }
+    let text = pane(&d.app, 80, h, ui::messages::render);
+    assert_eq!(message_lines(&text), view, "{text}");
+    assert!(text.contains("paused ↓ 4 newer"), "{text}");
+    for (w, hh) in ISSUE_SIZES {
+        // The 200x60 pane holds every message: nothing to scroll back there, so it follows.
+        insta::assert_snapshot!(
+            format!("messages_paused_{w}x{hh}"),
+            draw(&d.app, w, hh, ui::render)
+        );
+    }
+    // A message the filter hides does not count.
+    t += 1000;
+    d.send(
+        t,
+        0,
+        (1, 1),
+        &common::statustext(MAV_SEVERITY_DEBUG, "hidden"),
+    );
+    d.key(t, "s"); // INFO+: a new filter follows the newest again
+    let text = pane(&d.app, 80, h, ui::messages::render);
+    assert!(newest(&text).ends_with("three"), "{text}");
+    d.key(t, "up");
+    t += 1000;
+    d.send(
+        t,
+        0,
+        (1, 1),
+        &common::statustext(MAV_SEVERITY_DEBUG, "hidden too"),
+    );
+    let text = pane(&d.app, 80, h, ui::messages::render);
+    assert!(text.contains("paused ↓ 1 newer"), "{text}");
+    // `end` follows again: the newest is the bottom line.
+    d.key(t, "end");
+    let text = pane(&d.app, 80, h, ui::messages::render);
+    assert!(newest(&text).ends_with("three"), "{text}");
+    assert!(!text.contains("paused"), "{text}");
+    // Scrolling down to the bottom follows again too.
+    d.key(t, "pageup");
+    d.key(t, "down");
+    assert!(pane(&d.app, 80, h, ui::messages::render).contains("paused"));
+    d.key(t, "pagedown");
+    t += 1000;
+    d.send(t, 0, (1, 1), &common::statustext(MAV_SEVERITY_INFO, "four"));
+    let text = pane(&d.app, 80, h, ui::messages::render);
+    assert!(newest(&text).ends_with("four"), "{text}");
+    assert!(!text.contains("paused"), "{text}");
+}
+
+/// Every screen's help, for every width from 20 to 200 columns.
+#[test]
+fn every_help_line_fits_and_nothing_is_cut() {
+    let mut d = common::scene();
+    for screen in mavterm::keymap::SCREENS {
+        d.app.ui.screen = mavterm::app::screen::by_name(screen).unwrap().name;
+        for inner in [18, 38, 58, 78] {
+            let lines = ui::help::help_lines(&d.app, inner);
+            for (l, _) in &lines {
+                assert!(l.chars().count() <= inner, "{screen} at {inner}: {l:?}");
+                // No `…` but the Parameters marks' own and the commands' `ARGS …`.
+                let own = l.contains("… edit sent") || l.contains(" …");
+                assert!(!l.contains('…') || own, "{l:?}");
+            }
+            // Every description is there in full, its words in order.
+            // (A word longer than the column is cut in pieces: compared without spaces.)
+            let all: String = lines.iter().flat_map(|l| l.0.split_whitespace()).collect();
+            for g in ui::help::help_groups(&d.app) {
+                for (keys, desc) in &g.rows {
+                    if inner >= 38 {
+                        let want: String = desc.split_whitespace().collect();
+                        assert!(all.contains(&want), "{screen} at {inner}: {desc}");
+                        let keys: String = keys.split_whitespace().collect();
+                        assert!(all.contains(&keys), "{screen}: {keys}");
+                    }
+                }
+            }
+        }
+        // Drawn at 80 columns and wider, the popup is at most 80 wide: no line is cut at 80.
+        for w in [80u16, 120, 200] {
+            d.app.ui.mode = Mode::Help;
+            let text = draw(&d.app, w, 60, ui::render);
+            let top = text.lines().find(|l| l.contains("┌ Keys")).unwrap();
+            let popup: String = top[top.find("┌ Keys").unwrap()..]
+                .chars()
+                .scan(false, |done, c| {
+                    let keep = !*done;
+                    *done |= c == '┐';
+                    keep.then_some(c)
+                })
+                .collect();
+            assert!(popup.ends_with('┐'), "{popup}");
+            assert!(popup.chars().count() <= 80, "{screen} at {w}: {popup}");
+        }
+    }
+}
+
+#[test]
+fn help_lists_keys_everywhere_first_then_the_screen_then_flight() {
+    let d = common::scene();
+    let groups = ui::help::help_groups(&d.app);
+    let headings: Vec<&str> = groups.iter().map(|g| g.heading.as_str()).collect();
+    assert_eq!(
+        headings,
+        [
+            "Everywhere",
+            "Overview screen",
+            "Flying the target",
+            "Commands (: opens the prompt)"
+        ]
+    );
+    let descs = |i: usize| -> Vec<&str> { groups[i].rows.iter().map(|r| r.1).collect() };
+    let everywhere = descs(0);
+    assert_eq!(everywhere[0], "show the overview screen");
+    assert_eq!(everywhere.last(), Some(&"quit mavterm"));
+    let pos = |d: &str| everywhere.iter().position(|x| *x == d).unwrap();
+    assert!(pos("show the camera screen") < pos("move the selection up"));
+    assert!(pos("move the selection up") < pos("open the : command line"));
+    assert!(pos("open the : command line") < pos("show/hide key help"));
+    let overview: Vec<&str> = groups[1].rows.iter().map(|r| r.0.as_str()).collect();
+    assert_eq!(
+        overview,
+        ["tab", "backtab", "enter, space", "s", "S", "v", "V"]
+    );
+    let flight: Vec<&str> = groups[2].rows.iter().map(|r| r.0.as_str()).collect();
+    assert_eq!(flight, ["A", "D", "T", "L", "R", "M", "F"]);
+}
+
+#[test]
+fn help_footer_names_the_scroll_keys_and_any_other_key_closes() {
+    let mut d = common::scene();
+    let t = d.app.now;
+    d.key(t, "?");
+    let text = draw(&d.app, 80, 24, ui::render);
+    assert!(
+        text.contains("up down pageup pagedown home end scroll; other keys close"),
+        "{text}"
+    );
+    // A scroll key scrolls and keeps the help open; esc, ?, q, a letter all close it.
+    d.key(t, "pagedown");
+    assert_eq!(d.app.ui.mode, Mode::Help);
+    assert!(draw(&d.app, 80, 24, ui::render).contains("┌ Keys (11/"));
+    d.key(t, "esc");
+    assert_eq!(d.app.ui.mode, Mode::Normal);
+    for k in ["?", "q", "z", "enter", "1", "tab"] {
+        d.key(t, "?");
+        assert_eq!(d.app.ui.mode, Mode::Help);
+        d.key(t, k);
+        assert_eq!(d.app.ui.mode, Mode::Normal, "{k}");
+        assert!(!d.app.quit, "{k}");
+        assert_eq!(d.app.ui.screen, "overview", "{k}");
+    }
 }

@@ -355,6 +355,10 @@ impl App {
                     }
                 }
             }
+            Action::MsgSeverity
+            | Action::MsgSeverityBack
+            | Action::MsgVehicle
+            | Action::MsgVehicleBack => self.on_message_filter(action),
             Action::NextVehicle => self.cycle_target(true),
             Action::PrevVehicle => self.cycle_target(false),
             Action::Help => self.open_help(),
@@ -501,12 +505,7 @@ impl App {
                 self.ui.vehicle_sel = clamp(self.ui.vehicle_sel, step, self.vehicles.len())
             }
             Pane::Links => self.ui.link_sel = clamp(self.ui.link_sel, step, self.links.len()),
-            Pane::Messages => {
-                // Up scrolls back in history.
-                let max = self.notices.len().saturating_sub(1);
-                self.ui.msg_scroll =
-                    (self.ui.msg_scroll as isize - step).clamp(0, max as isize) as usize;
-            }
+            Pane::Messages => self.scroll_messages(step),
         }
     }
 }

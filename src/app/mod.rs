@@ -9,6 +9,7 @@ pub mod input;
 pub mod inspector;
 mod keys;
 pub mod links;
+pub mod messages;
 pub mod mission;
 pub mod notices;
 pub mod nudge;
@@ -50,6 +51,9 @@ pub struct AppConfig {
     pub links: Vec<String>,
     /// Wall-clock time at `now == 0`, for display only.
     pub epoch: DateTime<Utc>,
+    /// The zone times are shown in (status bar, messages): UTC unless the edge resolved the
+    /// local one (`--utc` keeps UTC).
+    pub zone: crate::clock::DisplayZone,
     /// Ask vehicles for telemetry when first heard.
     pub request_streams: bool,
     /// Download an autopilot's parameters when first heard.
@@ -75,6 +79,7 @@ impl Default for AppConfig {
             lost_timeout: DEFAULT_LOST_TIMEOUT,
             links: Vec::new(),
             epoch: DateTime::<Utc>::UNIX_EPOCH,
+            zone: crate::clock::DisplayZone::utc(),
             request_streams: true,
             fetch_params: true,
             streams: crate::proto::rates::StreamRates::default(),
@@ -197,8 +202,11 @@ pub struct UiState {
     pub link_sel: usize,
     /// Selected row in the vehicles pane.
     pub vehicle_sel: usize,
-    /// Lines scrolled back from the newest message.
+    /// Messages shown below the Messages pane's view: 0 = following the newest (see
+    /// [`messages`]).
     pub msg_scroll: usize,
+    /// Which messages the Messages pane shows.
+    pub msg_filter: messages::MsgFilter,
     /// What keys do now: browse (normal), read the key help, type a command or a value.
     pub mode: Mode,
     /// The screen shown: a name from [`screen::SCREENS`].
@@ -237,6 +245,7 @@ impl Default for UiState {
             link_sel: 0,
             vehicle_sel: 0,
             msg_scroll: 0,
+            msg_filter: messages::MsgFilter::default(),
             mode: Mode::Normal,
             screen: screen::SCREENS[0].name,
             prompt: input::Prompt::default(),
@@ -326,9 +335,31 @@ impl App {
         }
     }
 
-    /// Wall-clock time of a core time, for display.
-    pub fn wall(&self, t: Micros) -> DateTime<Utc> {
+    /// Wall-clock time of a core time, in the zone times are shown in.
+    pub fn wall(&self, t: Micros) -> DateTime<chrono::FixedOffset> {
+        self.cfg.zone.at(self.instant(t))
+    }
+
+    /// The instant of a core time: `epoch + t`.
+    fn instant(&self, t: Micros) -> DateTime<Utc> {
         self.cfg.epoch + chrono::Duration::microseconds(t as i64)
+    }
+
+    /// The time shown as now: during a tlog replay the recording's own time (the replay's log
+    /// time on the clock of the recording), else the wall clock.
+    pub fn shown_instant(&self) -> DateTime<Utc> {
+        self.replay_view()
+            .and_then(|v| {
+                let start = v.status.start?;
+                let at = start.saturating_add(v.position(self.now));
+                DateTime::<Utc>::from_timestamp_micros(at.min(i64::MAX as u64) as i64)
+            })
+            .unwrap_or_else(|| self.instant(self.now))
+    }
+
+    /// [`Self::shown_instant`] in the zone times are shown in.
+    pub fn shown_time(&self) -> DateTime<chrono::FixedOffset> {
+        self.cfg.zone.at(self.shown_instant())
     }
 
     /// True when something on screen changed and has not been drawn (without clearing it).
@@ -467,12 +498,15 @@ impl App {
     }
 
     fn notice(&mut self, severity: u8, source: Option<(u8, u8)>, text: String) {
-        self.notices.push(Notice {
+        let n = Notice {
             t: self.now,
+            at: self.shown_instant(),
             severity,
             source,
             text,
-        });
+        };
+        self.on_new_notice(&n);
+        self.notices.push(n);
         self.dirty = true;
     }
 

@@ -21,6 +21,8 @@ pub const SEV_INFO: u8 = 6;
 #[derive(Debug, Clone, PartialEq)]
 pub struct Notice {
     pub t: Micros,
+    /// The time shown for it: the wall clock's, or during a replay the recording's.
+    pub at: chrono::DateTime<chrono::Utc>,
     pub severity: u8,
     /// The sender for STATUSTEXT; `None` for mavterm's own notices.
     pub source: Option<(u8, u8)>,

@@ -120,6 +120,9 @@ pub enum ReplayCmd {
 pub struct ReplayStatus {
     /// Log time now: µs since the log's first record.
     pub position: Micros,
+    /// When the first record was recorded, µs since the Unix epoch (its tlog timestamp), when
+    /// there is a record: log time `p` was recorded at `start + p`.
+    pub start: Option<u64>,
     /// Log time of the last record, when known (a file; not a stream).
     pub duration: Option<Micros>,
     pub speed: ReplaySpeed,
@@ -202,6 +205,7 @@ mod tests {
     fn position_moves_at_speed_and_stops_at_the_end() {
         let st = ReplayStatus {
             position: 10 * SECOND,
+            start: None,
             duration: Some(20 * SECOND),
             speed: ReplaySpeed::new(2.0).unwrap(),
             paused: false,

@@ -414,6 +414,7 @@ impl TlogSource {
     fn status(&self, now: Micros) -> ReplayStatus {
         ReplayStatus {
             position: self.log_now(now),
+            start: (self.next.is_some() || self.emitted > 0).then_some(self.t0),
             duration: self.duration,
             speed: self.speed,
             paused: self.paused,

@@ -1,112 +1,294 @@
-//! The key help (`?`): every binding of the current mode and screen with its action's
+//! The key help (`?`): every binding of normal mode on the current screen with its action's
 //! description, generated from the keymap so it is never out of date, then the prompt's
-//! commands. Scrolls when it does not fit; any other key closes it.
+//! commands. Any key closes it, `q` and `esc` included; only its scroll keys (the `[help]`
+//! section's up, down, page and home/end keys, named in its last line) scroll it instead.
+//!
+//! Order: the keys that work everywhere (screens 1–6, moving around, the target, the prompt and
+//! the palette, help, quit), then the current screen's own keys, then flying the target, then
+//! the replay keys (while replaying), then anything else bound, then the commands. The popup is
+//! at most 80 columns wide: a description that does not fit is wrapped, never cut.
 
 use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Borders, Clear, Paragraph};
 use ratatui::Frame;
 
-use super::{ellipsize, Theme};
+use super::inspector::wrap_words as wrap;
+use super::Theme;
 use crate::app::input::COMMANDS;
 use crate::app::App;
-use crate::keymap::{Action, Mode};
+use crate::keymap::{Action, Mode, Section, SCREENS};
 
-/// (keys, description) for every bound action of normal mode on the current screen, in the
-/// keymap's order (the replay keys only while there is a replay link).
-pub fn help_rows(app: &App) -> Vec<(String, &'static str)> {
+/// The widest the popup gets, borders included.
+pub const MAX_WIDTH: u16 = 80;
+
+/// Widest key or command kept on one line with its description.
+const KEY_COLUMN_MAX: usize = 24;
+
+/// The keys that work on every screen, in the order listed.
+const GLOBAL: &[Action] = &[
+    Action::Screen(0),
+    Action::Screen(1),
+    Action::Screen(2),
+    Action::Screen(3),
+    Action::Screen(4),
+    Action::Screen(5),
+    Action::Up,
+    Action::Down,
+    Action::PageUp,
+    Action::PageDown,
+    Action::Top,
+    Action::Bottom,
+    Action::NextVehicle,
+    Action::PrevVehicle,
+    Action::Prompt,
+    Action::Palette,
+    Action::Cancel,
+    Action::Help,
+    Action::Suspend,
+    Action::Quit,
+];
+
+/// Flying the target vehicle, in the order listed.
+const FLIGHT: &[Action] = &[
+    Action::Arm,
+    Action::Disarm,
+    Action::Takeoff,
+    Action::Land,
+    Action::Rtl,
+    Action::ModeMenu,
+    Action::Fly,
+];
+
+/// The Parameters screen's marks, below its keys.
+const PARAM_MARKS: &str = "marks: * changed since the download, ≠ differs from the loaded \
+file, … edit sent, ✓ confirmed by the vehicle, ✗ failed (why: in the detail pane)";
+
+/// A group of the help: a heading and its (keys, description) rows.
+pub struct HelpGroup {
+    pub heading: String,
+    pub rows: Vec<(String, &'static str)>,
+    /// A note below the rows.
+    pub note: Option<&'static str>,
+}
+
+/// The help's groups for normal mode on the current screen, in the order shown (see the module
+/// doc). The replay keys only while there is a replay link; number keys of screens this build
+/// does not have are left out.
+pub fn help_groups(app: &App) -> Vec<HelpGroup> {
     let replaying = !app.replay_links().is_empty();
-    app.keymap
-        .bindings(Mode::Normal, app.ui.screen)
+    let screen = app.ui.screen;
+    let bound: Vec<(Action, String)> = app
+        .keymap
+        .bindings(Mode::Normal, screen)
         .into_iter()
         .filter(|(_, keys)| !keys.is_empty())
         .filter(|(a, _)| match a {
-            // Number keys of screens this build does not have yet are not worth a line.
-            Action::Screen(i) => crate::keymap::SCREENS
+            Action::Screen(i) => SCREENS
                 .get(*i as usize)
                 .is_some_and(|n| crate::app::screen::by_name(n).is_some()),
             a => replaying || !a.is_replay(),
         })
         .map(|(a, keys)| {
             let names: Vec<String> = keys.iter().map(|k| k.to_string()).collect();
-            (names.join(", "), a.description())
+            (a, names.join(", "))
         })
-        .collect()
+        .collect();
+    let mut taken = vec![false; bound.len()];
+    let mut take = |pick: &dyn Fn(Action) -> bool, order: Option<&[Action]>| {
+        let mut idx: Vec<usize> = (0..bound.len())
+            .filter(|&i| !taken[i] && pick(bound[i].0))
+            .collect();
+        if let Some(order) = order {
+            idx.sort_by_key(|&i| order.iter().position(|a| *a == bound[i].0));
+        }
+        idx.into_iter()
+            .map(|i| {
+                taken[i] = true;
+                (bound[i].1.clone(), bound[i].0.description())
+            })
+            .collect::<Vec<_>>()
+    };
+    let on_screen: Vec<Action> = SCREENS
+        .iter()
+        .position(|s| *s == screen)
+        .map(|i| {
+            app.keymap
+                .section(Section::Screen(i))
+                .into_iter()
+                .map(|(_, a)| a)
+                .collect()
+        })
+        .unwrap_or_default();
+    let title = crate::app::screen::by_name(screen).map_or(screen, |s| s.title);
+    let mut groups = vec![
+        HelpGroup {
+            heading: "Everywhere".into(),
+            rows: take(&|a| GLOBAL.contains(&a), Some(GLOBAL)),
+            note: None,
+        },
+        HelpGroup {
+            heading: format!("{title} screen"),
+            rows: take(&|a| on_screen.contains(&a), None),
+            note: (screen == "parameters").then_some(PARAM_MARKS),
+        },
+        HelpGroup {
+            heading: "Flying the target".into(),
+            rows: take(&|a| FLIGHT.contains(&a), Some(FLIGHT)),
+            note: None,
+        },
+        HelpGroup {
+            heading: "Replay (tlog: links)".into(),
+            rows: take(&|a| a.is_replay(), None),
+            note: None,
+        },
+    ];
+    groups.push(HelpGroup {
+        heading: "Other keys".into(),
+        rows: take(&|_| true, None),
+        note: None,
+    });
+    groups.retain(|g| !g.rows.is_empty());
+    groups.push(HelpGroup {
+        heading: "Commands (: opens the prompt)".into(),
+        rows: COMMANDS
+            .iter()
+            .filter(|(name, _, _)| replaying || *name != "replay")
+            .map(|(name, args, what)| (format!(":{name} {args}").trim_end().to_string(), *what))
+            .collect(),
+        note: None,
+    });
+    groups
 }
 
-/// The Parameters screen's marks, below its keys.
-const PARAM_MARKS: [&str; 2] = [
-    "marks: * changed since the download  ≠ differs from the loaded file",
-    "       … edit sent  ✓ confirmed by the vehicle  ✗ failed (why: in the detail pane)",
-];
+/// What a help line is, for its style.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LineKind {
+    Heading,
+    /// A row: its first `n` characters are keys.
+    Row(usize),
+    Note,
+}
 
-/// Widest key or command kept on one line with its description.
-const KEY_COLUMN_MAX: usize = 32;
-
-pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
-    let rows = help_rows(app);
-    let replaying = !app.replay_links().is_empty();
-    let commands: Vec<(String, &str)> = COMMANDS
-        .iter()
-        .filter(|(name, _, _)| replaying || *name != "replay")
-        .map(|(name, args, what)| (format!(":{name} {args}").trim_end().to_string(), *what))
-        .collect();
-    // A key column as wide as the keys and most commands; a longer command (`:param ...`) has
-    // its description on the line below.
-    let key_w = rows
-        .iter()
-        .chain(&commands)
-        .map(|r| r.0.chars().count())
-        .filter(|n| *n <= KEY_COLUMN_MAX)
-        .max()
-        .unwrap_or(0);
-    let desc_w = rows
-        .iter()
-        .chain(&commands)
-        .map(|r| r.1.chars().count())
-        .max()
-        .unwrap_or(0);
-    let long_w = rows
-        .iter()
-        .chain(&commands)
-        .map(|r| r.0.chars().count())
-        .max()
-        .unwrap_or(0);
-    let want_w = (key_w + desc_w + 2).max(long_w) as u16 + 2; // gap, borders
-    let w = want_w.min(area.width);
-    let inner_w = (w as usize).saturating_sub(2);
-    let line = |keys: &str, desc: &str| {
-        let desc_room = inner_w.saturating_sub(key_w + 2);
-        if keys.chars().count() > key_w {
-            return vec![
-                Line::styled(ellipsize(keys, inner_w), theme.header()),
-                Line::from(vec![
-                    Span::raw(" ".repeat(key_w + 2)),
-                    Span::raw(ellipsize(desc, desc_room)),
-                ]),
-            ];
-        }
-        vec![Line::from(vec![
-            Span::styled(format!("{keys:<key_w$}"), theme.header()),
-            Span::raw("  "),
-            Span::raw(ellipsize(desc, desc_room)),
-        ])]
+/// The help's lines for a popup `inner_w` columns wide inside its borders: every line at most
+/// `inner_w` characters, nothing cut (descriptions wrap under their own column).
+pub fn help_lines(app: &App, inner_w: usize) -> Vec<(String, LineKind)> {
+    let groups = help_groups(app);
+    // One key column for the keys, another for the commands (the last group).
+    let column = |gs: &[HelpGroup]| {
+        gs.iter()
+            .flat_map(|g| &g.rows)
+            .map(|r| r.0.chars().count())
+            .filter(|n| *n <= KEY_COLUMN_MAX)
+            .max()
+            .unwrap_or(0)
+            .min(inner_w / 3)
     };
-    let mut lines: Vec<Line> = rows.iter().flat_map(|(k, d)| line(k, d)).collect();
-    if app.ui.screen == "parameters" {
-        for l in PARAM_MARKS {
-            lines.push(Line::styled(ellipsize(l, inner_w), theme.dim()));
+    let (key_groups, command_group) = groups.split_at(groups.len().saturating_sub(1));
+    let (keys_w, commands_w) = (column(key_groups), column(command_group));
+    let mut out = Vec::new();
+    for (i, g) in groups.iter().enumerate() {
+        let key_w = if i + 1 == groups.len() {
+            commands_w
+        } else {
+            keys_w
+        };
+        let indent = key_w + 2;
+        // Too narrow for two columns: each description goes under its keys.
+        let two_columns = inner_w >= indent + 16;
+        if i > 0 {
+            out.push((String::new(), LineKind::Note));
+        }
+        for l in wrap(&g.heading, inner_w) {
+            out.push((l, LineKind::Heading));
+        }
+        for (keys, desc) in &g.rows {
+            let n = keys.chars().count();
+            if two_columns && n <= key_w {
+                for (j, d) in wrap(desc, inner_w - indent).into_iter().enumerate() {
+                    if j == 0 {
+                        out.push((format!("{keys:<key_w$}  {d}"), LineKind::Row(n)));
+                    } else {
+                        out.push((format!("{:indent$}{d}", ""), LineKind::Row(0)));
+                    }
+                }
+                continue;
+            }
+            for k in wrap(keys, inner_w) {
+                let n = k.chars().count();
+                out.push((k, LineKind::Row(n)));
+            }
+            let (pad, room) = if two_columns {
+                (indent, inner_w - indent)
+            } else {
+                (2.min(inner_w / 4), inner_w - 2.min(inner_w / 4))
+            };
+            for d in wrap(desc, room) {
+                out.push((format!("{:pad$}{d}", ""), LineKind::Row(0)));
+            }
+        }
+        if let Some(note) = g.note {
+            for l in wrap(note, inner_w) {
+                out.push((l, LineKind::Note));
+            }
         }
     }
-    lines.push(Line::styled("commands (: opens the prompt)", theme.dim()));
-    lines.extend(commands.iter().flat_map(|(k, d)| line(k, d)));
-    let footer = Line::styled("any other key closes this help", theme.dim());
-    let h = (lines.len() as u16 + 3).min(area.height);
-    let body_rows = (h as usize).saturating_sub(3);
+    out
+}
+
+/// The last line's text: which keys scroll the help (those of the `[help]` section), and that
+/// any other key closes it (`q` too: it does not quit from here).
+pub fn footer_text(app: &App) -> String {
+    let scroll: Vec<String> = [
+        Action::Up,
+        Action::Down,
+        Action::PageUp,
+        Action::PageDown,
+        Action::Top,
+        Action::Bottom,
+    ]
+    .iter()
+    .flat_map(|a| app.keymap.keys_for(Mode::Help, app.ui.screen, *a))
+    .map(|k| k.to_string())
+    .collect();
+    if scroll.is_empty() {
+        "any key closes this help".into()
+    } else {
+        format!("{} scroll; other keys close", scroll.join(" "))
+    }
+}
+
+pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
+    let max_w = area.width.min(MAX_WIDTH);
+    let inner_w = (max_w as usize).saturating_sub(2);
+    let mut lines = help_lines(app, inner_w);
+    // As narrow as the text allows.
+    let text_w = lines.iter().map(|l| l.0.chars().count()).max().unwrap_or(0);
+    let footer = wrap(&footer_text(app), inner_w);
+    let footer_w = footer.iter().map(|l| l.chars().count()).max().unwrap_or(0);
+    let w = ((text_w.max(footer_w) + 2) as u16).min(max_w);
+    let body_rows = (area.height as usize).saturating_sub(2 + footer.len());
     let max_scroll = lines.len().saturating_sub(body_rows);
     let scroll = app.ui.help_scroll.min(max_scroll);
-    let mut shown: Vec<Line> = lines.into_iter().skip(scroll).take(body_rows).collect();
-    shown.push(footer);
+    let h = ((lines.len().min(body_rows) + footer.len() + 2) as u16).min(area.height);
+    let style = |kind: LineKind, text: String| -> Line {
+        match kind {
+            LineKind::Heading => Line::styled(text, theme.header()),
+            LineKind::Note => Line::styled(text, theme.dim()),
+            LineKind::Row(n) => {
+                let keys: String = text.chars().take(n).collect();
+                let rest: String = text.chars().skip(n).collect();
+                Line::from(vec![Span::styled(keys, theme.header()), Span::raw(rest)])
+            }
+        }
+    };
+    let mut shown: Vec<Line> = lines
+        .drain(..)
+        .skip(scroll)
+        .take(body_rows)
+        .map(|(t, k)| style(k, t))
+        .collect();
+    shown.extend(footer.into_iter().map(|l| Line::styled(l, theme.dim())));
     let popup = Rect::new(
         area.x + (area.width - w) / 2,
         area.y + (area.height - h) / 2,

@@ -353,7 +353,7 @@ fn field_lines(fields: &[(String, String)], width: usize) -> Vec<String> {
 }
 
 /// `text` in lines of `width`, broken between words (a word longer than a line is cut).
-fn wrap_words(text: &str, width: usize) -> Vec<String> {
+pub(super) fn wrap_words(text: &str, width: usize) -> Vec<String> {
     let width = width.max(1);
     let mut lines = Vec::new();
     let mut cur = String::new();

@@ -1,7 +1,9 @@
 //! The messages pane: STATUSTEXT and mavterm's own notices, oldest at the top, newest at the
-//! bottom. Each line: `HH:MM:SS SEVERITY source text`, coloured by severity (the label is there
-//! for NO_COLOR). `msg_scroll` lines back from the newest, applied only to lines that do not fit
-//! (at most `len - visible`); the title says when scrolled.
+//! bottom. Each line: `HH:MM:SS SEVERITY source text` (the time in the zone the status bar
+//! names; a replay's messages at the recording's time), coloured by severity (the label is there
+//! for NO_COLOR). Only the messages passing the pane's filters are shown, the filters named in
+//! the title. It follows the newest unless scrolled back (`msg_scroll` lines below the view,
+//! applied only to lines that do not fit); the title then says `paused` and how many are below.
 
 use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
@@ -14,7 +16,7 @@ use crate::app::{App, Pane};
 
 /// One message as plain text.
 pub fn notice_text(app: &App, n: &Notice) -> (String, String, String, String) {
-    let time = app.wall(n.t).format("%H:%M:%S").to_string();
+    let time = app.cfg.zone.at(n.at).format("%H:%M:%S").to_string();
     let source = match n.source {
         Some((s, c)) => format!("{s}:{c}"),
         None => "mavterm".to_string(),
@@ -22,39 +24,50 @@ pub fn notice_text(app: &App, n: &Notice) -> (String, String, String, String) {
     (time, n.severity_name().to_string(), source, n.text.clone())
 }
 
+/// The title's counts and state: ` (17)`, ` (5 of 17) WARN+ sys 1`, and while scrolled back
+/// ` paused ↓ 3 newer` (the lines below the view; `end` follows the newest again).
+pub fn title_text(app: &App, shown: usize, below: usize) -> String {
+    let total = app.notices.len();
+    let f = &app.ui.msg_filter;
+    let mut t = if f.is_active() {
+        format!(" ({shown} of {total}) {}", f.label(app.target))
+    } else {
+        format!(" ({total})")
+    };
+    if below > 0 {
+        t += &format!(" paused ↓ {below} newer");
+    }
+    t
+}
+
 pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
-    let len = app.notices.len();
+    let notices = app.shown_notices();
+    let len = notices.len();
     let visible = pane_block(app, Pane::Messages, String::new(), theme)
         .inner(area)
         .height as usize;
     // Scrolling back only applies to lines that do not fit: when everything fits, the newest
     // stays in view; and the window never scrolls past the oldest line at the top.
     let scroll = app.ui.msg_scroll.min(len.saturating_sub(visible.max(1)));
-    let extra = if scroll > 0 {
-        format!(" ({len}, {scroll} newer below)")
-    } else {
-        format!(" ({len})")
-    };
-    let block = pane_block(app, Pane::Messages, extra, theme);
+    let block = pane_block(app, Pane::Messages, title_text(app, len, scroll), theme);
     let inner = block.inner(area);
     frame.render_widget(block, area);
     if visible == 0 {
         return;
     }
     if len == 0 {
-        frame.render_widget(
-            Paragraph::new(Line::styled("no messages", theme.dim())),
-            inner,
-        );
+        let empty = if app.notices.is_empty() {
+            "no messages"
+        } else {
+            "no messages pass the filter"
+        };
+        frame.render_widget(Paragraph::new(Line::styled(empty, theme.dim())), inner);
         return;
     }
     let end = len - scroll;
     let start = end.saturating_sub(visible);
-    let lines: Vec<Line> = app
-        .notices
+    let lines: Vec<Line> = notices[start..end]
         .iter()
-        .skip(start)
-        .take(end - start)
         .map(|n| {
             let (time, sev, source, text) = notice_text(app, n);
             let style = theme.severity(n.severity);

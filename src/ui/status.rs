@@ -70,6 +70,16 @@ pub fn replay_text(app: &App) -> Option<String> {
     Some(t)
 }
 
+/// `14:03:27 UTC`, `14:03:27 +05:30`: the time shown as now (during a tlog replay the
+/// recording's) in the zone times are shown in, and that zone.
+pub fn clock_text(app: &App) -> String {
+    format!(
+        "{} {}",
+        app.shown_time().format("%H:%M:%S"),
+        app.cfg.zone.label
+    )
+}
+
 /// `q quit  ? help  tab focus ...` from the keymap in use on the screen shown, as many as fit
 /// in `width`.
 pub fn hints_text(app: &App, width: usize) -> String {
@@ -146,7 +156,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         }
         _ => {}
     }
-    let clock = app.wall(app.now).format("%H:%M:%S").to_string();
+    let clock = clock_text(app);
     let target_style = match app.target.and_then(|k| app.vehicles.get(k)) {
         Some(v) if v.lost => theme.alert(),
         Some(v) if v.armed() => theme.armed(),
