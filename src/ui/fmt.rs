@@ -1,7 +1,171 @@
-//! Numbers and durations that fit a column: exact when they fit, abbreviated (`24.9k`, `1.2M`)
-//! when they do not, never cut. Any value fits a column of 4 or more characters.
+//! Text, numbers and durations that fit a column. Text too wide is cut and ends with `…`
+//! ([`fit`], the one place text is cut, by display width); numbers are exact when they fit,
+//! abbreviated (`24.9k`, `1.2M`) when they do not, never cut: any value fits a column of 4 or
+//! more characters. Lists longer than their pane say so ([`list_more`]), and table columns share
+//! a width so that text columns get what the fixed ones leave ([`share`]).
 
-use super::ellipsize;
+use std::borrow::Cow;
+
+use unicode_width::{UnicodeWidthChar, UnicodeWidthStr};
+
+/// Columns `s` takes on a terminal.
+pub fn width(s: &str) -> usize {
+    UnicodeWidthStr::width(s)
+}
+
+/// `s` in at most `width` terminal columns: as it is if it fits, else cut and ending with `…`
+/// (which takes one column), so a cut always shows. Wide characters are never split.
+pub fn fit(s: &str, width: usize) -> Cow<'_, str> {
+    if UnicodeWidthStr::width(s) <= width {
+        return Cow::Borrowed(s);
+    }
+    if width == 0 {
+        return Cow::Borrowed("");
+    }
+    let mut out = String::with_capacity(width + 2);
+    let mut used = 0;
+    for c in s.chars() {
+        let w = c.width().unwrap_or(0);
+        if used + w > width - 1 {
+            break;
+        }
+        used += w;
+        out.push(c);
+    }
+    out.push('…');
+    Cow::Owned(out)
+}
+
+/// `text` in lines of at most `width` columns, broken at spaces; a word wider than a line is
+/// broken where the line ends.
+pub fn wrap(text: &str, width: usize) -> Vec<String> {
+    let width = width.max(1);
+    let mut lines = vec![String::new()];
+    let mut used = 0;
+    for word in text.split(' ') {
+        let ww = self::width(word);
+        let line = lines.last_mut().expect("never empty");
+        if used > 0 && used + 1 + ww <= width {
+            line.push(' ');
+            line.push_str(word);
+            used += 1 + ww;
+            continue;
+        }
+        if used > 0 || (word.is_empty() && !line.is_empty()) {
+            lines.push(String::new());
+            used = 0;
+        }
+        for c in word.chars() {
+            let cw = c.width().unwrap_or(0);
+            if used + cw > width {
+                lines.push(String::new());
+                used = 0;
+            }
+            lines.last_mut().expect("never empty").push(c);
+            used += cw;
+        }
+    }
+    lines
+}
+
+/// What a list shows of its rows when not all fit: `6 of 12, ↓ 6 more`, with `↑ 3 more` when
+/// rows are hidden above too. `None` when every row is shown.
+pub fn list_more(first_shown: usize, shown: usize, total: usize) -> Option<String> {
+    let shown = shown.min(total.saturating_sub(first_shown));
+    if shown >= total {
+        return None;
+    }
+    let below = total - first_shown - shown;
+    let mut s = format!("{shown} of {total}");
+    if first_shown > 0 {
+        s.push_str(&format!(", ↑ {first_shown} more"));
+    }
+    if below > 0 {
+        s.push_str(&format!(", ↓ {below} more"));
+    }
+    Some(s)
+}
+
+/// The first row to show of a list of `total` rows in a window `visible` rows high so that row
+/// `sel` is on screen: the window starts at the top, and the selection goes down to its last row
+/// before the list scrolls with it.
+pub fn scroll_offset(sel: usize, visible: usize, total: usize) -> usize {
+    let visible = visible.max(1);
+    sel.min(total.saturating_sub(1))
+        .saturating_sub(visible - 1)
+        .min(total.saturating_sub(visible))
+}
+
+/// A table column: the width it needs at least, the width that shows all of its text, and
+/// whether it takes what is left once every column has its full width.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Col {
+    pub min: usize,
+    pub want: usize,
+    pub fill: bool,
+}
+
+impl Col {
+    /// A column that is always `w` wide.
+    pub fn fixed(w: usize) -> Self {
+        Col {
+            min: w,
+            want: w,
+            fill: false,
+        }
+    }
+
+    /// A text column: at least `min`, up to the widest of `texts` (or `min`).
+    pub fn text<'a>(min: usize, texts: impl IntoIterator<Item = &'a str>) -> Self {
+        let want = texts.into_iter().map(width).max().unwrap_or(0).max(min);
+        Col {
+            min,
+            want,
+            fill: false,
+        }
+    }
+
+    /// Also take what is left over.
+    pub fn fill(self) -> Self {
+        Col { fill: true, ..self }
+    }
+}
+
+/// Widths of `cols` in `total` columns with `spacing` between them: every column its `min`,
+/// then what is left to the columns short of their `want`, in order of `priority` (indices;
+/// columns not listed come last, left to right), then what is still left to the `fill` columns,
+/// shared evenly. When even the minimums do not fit, the last columns get less (down to 0): the
+/// caller fits its text to the widths returned, so any cut shows.
+pub fn share(cols: &[Col], total: usize, spacing: usize, priority: &[usize]) -> Vec<usize> {
+    let n = cols.len();
+    let mut left = total.saturating_sub(spacing * n.saturating_sub(1));
+    let mut w = vec![0; n];
+    for (i, c) in cols.iter().enumerate() {
+        w[i] = c.min.min(left);
+        left -= w[i];
+    }
+    let order: Vec<usize> = priority
+        .iter()
+        .copied()
+        .filter(|&i| i < n)
+        .chain((0..n).filter(|i| !priority.contains(i)))
+        .collect();
+    for i in order {
+        let more = cols[i].want.saturating_sub(w[i]).min(left);
+        w[i] += more;
+        left -= more;
+    }
+    let fills: Vec<usize> = (0..n).filter(|&i| cols[i].fill).collect();
+    if !fills.is_empty() {
+        let each = left / fills.len();
+        let mut extra = left % fills.len();
+        for i in fills {
+            w[i] += each + usize::from(extra > 0);
+            extra = extra.saturating_sub(1);
+        }
+    }
+    w
+}
 
 /// Decimal multipliers and their suffixes.
 const UNITS: [(f64, char); 6] = [
@@ -78,7 +242,7 @@ fn abbreviate(x: f64, width: usize) -> String {
             shortest = Some(s);
         }
     }
-    ellipsize(&shortest.unwrap_or_else(|| format!("{x:.0}")), width)
+    fit(&shortest.unwrap_or_else(|| format!("{x:.0}")), width).into_owned()
 }
 
 /// Whole seconds as a compact duration: `42s`, `10m40s`, `3h07m`, `2d05h`.
@@ -101,7 +265,7 @@ pub fn pad_row(
     width: usize,
     style: ratatui::style::Style,
 ) {
-    let so_far: usize = spans.iter().map(|s| s.content.chars().count()).sum();
+    let so_far: usize = spans.iter().map(|s| self::width(&s.content)).sum();
     if so_far < width {
         spans.push(ratatui::text::Span::styled(
             " ".repeat(width - so_far),
