@@ -36,8 +36,8 @@ pub fn fit(s: &str, width: usize) -> Cow<'_, str> {
     Cow::Owned(out)
 }
 
-/// `text` in lines of at most `width` columns, broken at spaces; a word wider than a line is
-/// broken where the line ends.
+/// `text` in lines of at most `width` columns, broken at spaces; a word wider than a line
+/// follows on the line it starts on and is broken where each line ends.
 pub fn wrap(text: &str, width: usize) -> Vec<String> {
     let width = width.max(1);
     let mut lines = vec![String::new()];
@@ -51,9 +51,14 @@ pub fn wrap(text: &str, width: usize) -> Vec<String> {
             used += 1 + ww;
             continue;
         }
-        if used > 0 || (word.is_empty() && !line.is_empty()) {
+        if used > 0 && ww <= width {
+            // The word fits a line of its own: it starts the next.
             lines.push(String::new());
             used = 0;
+        } else if used > 0 && used < width {
+            // Longer than any line: it follows on this one and breaks where it ends.
+            line.push(' ');
+            used += 1;
         }
         for c in word.chars() {
             let cw = c.width().unwrap_or(0);
@@ -94,6 +99,32 @@ pub fn scroll_offset(sel: usize, visible: usize, total: usize) -> usize {
     sel.min(total.saturating_sub(1))
         .saturating_sub(visible - 1)
         .min(total.saturating_sub(visible))
+}
+
+/// The first row to show of a list of `total` rows in a window `visible` rows high that keeps
+/// row `sel` in the middle (as the Parameters and Inspector lists do), the window never past
+/// the end.
+pub fn centred_offset(sel: usize, visible: usize, total: usize) -> usize {
+    sel.saturating_sub(visible / 2)
+        .min(total.saturating_sub(visible))
+}
+
+/// The widths a ratatui `Table` gives columns of `constraints` in `width` columns with
+/// `spacing` between them (its default layout), so cells can be fitted to them beforehand:
+/// a `Table` clips text silently.
+pub fn table_widths(
+    constraints: &[ratatui::layout::Constraint],
+    width: u16,
+    spacing: u16,
+) -> Vec<usize> {
+    use ratatui::layout::{Flex, Layout, Rect};
+    Layout::horizontal(constraints.iter().copied())
+        .flex(Flex::Start)
+        .spacing(spacing)
+        .split(Rect::new(0, 0, width, 1))
+        .iter()
+        .map(|r| r.width as usize)
+        .collect()
 }
 
 /// A table column: the width it needs at least, the width that shows all of its text, and

@@ -263,7 +263,7 @@ fn link_name(id: usize, l: &LinkStatus, short: &str) -> String {
     text
 }
 
-/// The selected link in full, under the table: `1 tcp:127.0.0.1:5761  down: Connection refused
+/// The selected link in full, under the table: `» 1 tcp:127.0.0.1:5761  down: Connection refused
 /// (os error 111) …`, wrapped in at most `max_lines` lines of `width`; the last ends with `…` when
 /// even those are not enough.
 fn detail_lines<'a>(
@@ -273,7 +273,7 @@ fn detail_lines<'a>(
     max_lines: usize,
     theme: &Theme,
 ) -> Vec<Line<'a>> {
-    let text = format!("{id} {}  {}", l.spec, l.state.label());
+    let text = format!("» {id} {}  {}", l.spec, l.state.label());
     let mut lines = fmt::wrap(&text, width);
     if lines.len() > max_lines {
         let rest = lines.split_off(max_lines.saturating_sub(1));
