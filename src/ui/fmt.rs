@@ -146,11 +146,11 @@ impl Col {
         }
     }
 
-    /// A text column: at least `min`, up to the widest of `texts` (or `min`).
+    /// A text column as wide as the widest of `texts`, and at least `min` of that.
     pub fn text<'a>(min: usize, texts: impl IntoIterator<Item = &'a str>) -> Self {
-        let want = texts.into_iter().map(width).max().unwrap_or(0).max(min);
+        let want = texts.into_iter().map(width).max().unwrap_or(0);
         Col {
-            min,
+            min: min.min(want),
             want,
             fill: false,
         }

@@ -157,7 +157,7 @@ fn state_style(state: &LinkState, theme: &Theme) -> Style {
 
 /// A link's name in two parts: a short one that comes first and is never the part cut (the
 /// scheme and port of a network link, `serial:` and the device's file name, `sim`, `tlog:` and
-/// the file name), and the rest of the spec (host, baud, options), which may be.
+/// `tlog`), and the rest of the spec (host, baud, options, file name), which may be.
 fn name_parts(spec: &str) -> (String, String, bool) {
     let base = |p: &str| p.rsplit('/').next().unwrap_or(p).to_string();
     match spec.parse::<LinkSpec>() {
@@ -171,15 +171,15 @@ fn name_parts(spec: &str) -> (String, String, bool) {
             false,
         ),
         Ok(LinkSpec::Sim { query }) => ("sim".into(), query, false),
-        Ok(LinkSpec::Tlog { path, .. }) => (format!("tlog:{}", base(&path)), String::new(), false),
+        Ok(LinkSpec::Tlog { path, .. }) => ("tlog".into(), base(&path), false),
         Err(_) => (spec.to_string(), String::new(), false),
     }
 }
 
 /// Each link's short name, as the Links and Vehicles panes show it, telling the links apart:
 /// `udpin:14550`, `tcp:5760` (with `@HOST` when two links share scheme and port),
-/// `serial:ttyUSB0`, `tlog:flight.tlog`, `sim` (with the options that differ when there are
-/// several: `sim?seed=2`); a name still shared gets `#ID`.
+/// `serial:ttyUSB0`, `tlog`, `sim` (with the options that differ when there are several:
+/// `sim?seed=2`); a name still shared (two tlogs, two identical sims) gets `#ID`: `tlog#3`.
 pub fn short_names(app: &App) -> Vec<String> {
     let parts: Vec<(String, String, bool)> =
         app.links.iter().map(|l| name_parts(&l.spec)).collect();
@@ -251,10 +251,8 @@ fn link_name(id: usize, l: &LinkStatus, short: &str) -> String {
     let mut text = format!("{mark}{id} {short}");
     let said = short != base;
     if !rest.is_empty() && !(said && net) && !(said && base == "sim") {
-        text.push(' ');
-        if base == "sim" {
-            text.push('?');
-        }
+        // `sim?vehicles=2&seed=7`, `tcp:5760 127.0.0.1`.
+        text.push(if base == "sim" { '?' } else { ' ' });
         text.push_str(&rest);
     }
     if !options.is_empty() {

@@ -130,15 +130,23 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         ),
     ]);
     if !narrow {
-        cols.push((Column::Status, "STATUS", text_col(4, "STATUS", &statuses)));
+        cols.push((Column::Status, "STATUS", text_col(6, "STATUS", &statuses)));
     }
+    // "lost 13s ago" when there is room, "lost 13s" (and the title) at least.
     let ages = texts(&|v| age_text(v, app.now, AGE_W as usize));
-    cols.push((Column::Age, "LAST HB", text_col(4, "LAST HB", &ages)));
+    let short_ages = texts(&|v| age_text(v, app.now, AGE_W as usize - 1));
+    let age_min = short_ages.iter().map(|a| fmt::width(a)).max().unwrap_or(0);
+    cols.push((
+        Column::Age,
+        "LAST HB",
+        text_col(age_min.max(7), "LAST HB", &ages),
+    ));
     if !narrow {
         cols.push((Column::Hz, "HZ", fmt::Col::fixed(HZ_W as usize)));
     }
     cols.extend([
-        (Column::Link, link_head, text_col(4, link_head, &link_names)),
+        // At least a network link's short name (`udpin:14550`).
+        (Column::Link, link_head, text_col(11, link_head, &link_names)),
         (Column::Flags, "FLAGS", flags_col.fill()),
     ]);
     // Who gets room first when there is not enough: what an operator must see.
@@ -146,13 +154,13 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         Column::Id,
         Column::Mode,
         Column::Armed,
-        Column::Age,
         Column::Type,
-        Column::Link,
-        Column::Flags,
         Column::Status,
+        Column::Link,
+        Column::Age,
         Column::Hz,
         Column::Autopilot,
+        Column::Flags,
     ];
     let priority: Vec<usize> = order
         .iter()
@@ -205,7 +213,8 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
                 Column::Link => cut(&link_names[i], Column::Link),
                 Column::Flags => {
                     let fw = width_of(Column::Flags);
-                    let text = if fmt::width(&flags[i]) <= fw {
+                    // The words, cut if need be, when there is room to read them; else short.
+                    let text = if fmt::width(&flags[i]) <= fw || fw >= 24 {
                         flags[i].clone()
                     } else {
                         flags_text(v, false)
