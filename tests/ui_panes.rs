@@ -354,7 +354,12 @@ fn vehicles_pane_fits_long_ages_and_marks_cut_text() {
     let row = cells(&text, "1:1 ");
     assert_eq!(
         row[row.len() - 4..],
-        ["lost", "10m40s", "1.0", "udpin:14550,tcp:5760,serial:ttyUSB0"],
+        [
+            "lost",
+            "10m40s",
+            "1.0",
+            "udpin:14550,tcp:5760,serial:ttyUSB0"
+        ],
         "{text}"
     );
     assert!(text.contains("GCS SYSID! CLASH: 255:1 heard as"), "{text}");

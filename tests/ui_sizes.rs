@@ -64,14 +64,14 @@ fn overview_shows_the_selected_link_in_full_and_tells_links_apart() {
         // The detail line: the full spec, then the full state with its reason (wrapped when
         // narrow).
         assert!(
-            words(&text).contains(&format!(
-                "» 1 tcp:127.0.0.1:5761 down: {}",
-                common::REFUSED
-            )),
+            words(&text).contains(&format!("» 1 tcp:127.0.0.1:5761 down: {}", common::REFUSED)),
             "{w}x{h}:\n{text}"
         );
         // The port comes right after the scheme, before the host that may be cut.
-        assert!(line_with(&text, " 1 tcp:5761 ").contains("down: "), "{text}");
+        assert!(
+            line_with(&text, " 1 tcp:5761 ").contains("down: "),
+            "{text}"
+        );
         // The two simulators differ only in their seed, and so do their names.
         assert!(text.contains("+2 sim?seed=1 "), "{w}x{h}:\n{text}");
         assert!(line_with(&text, " 2:1 ").contains(" sim?seed=2 "), "{text}");
@@ -98,7 +98,10 @@ fn cut_text_ends_with_an_ellipsis_at_every_width() {
         let text = screen(&d.app, w, 40);
         // Every word of a vehicle row that starts like a type, mode or arming state is the
         // whole word or a cut one that says so.
-        for line in text.lines().filter(|l| l.contains("2:1 ") || l.contains("4:1 ")) {
+        for line in text
+            .lines()
+            .filter(|l| l.contains("2:1 ") || l.contains("4:1 "))
+        {
             for word in line.split_whitespace() {
                 for full in [
                     "QUADROTOR",
@@ -149,10 +152,7 @@ fn long_lists_say_how_many_more_and_scroll_with_the_selection() {
     }
     assert_eq!(d.app.ui.vehicle_sel, 5);
     for (w, h) in SIZES {
-        insta::assert_snapshot!(
-            format!("vehicles_scrolled_{w}x{h}"),
-            screen(&d.app, w, h)
-        );
+        insta::assert_snapshot!(format!("vehicles_scrolled_{w}x{h}"), screen(&d.app, w, h));
     }
     let text = screen(&d.app, 80, 24);
     assert!(text.contains("5 of 12, ↑ 1 more, ↓ 6 more"), "{text}");
@@ -182,8 +182,9 @@ fn links_list_says_how_many_more() {
     assert!(!text.contains(" 1 tcp:5761"), "{text}");
     // The detail line names the serial port in full, broken where the line ends.
     assert!(
-        compact(&text)
-            .contains("»4serial:/dev/serial/by-id/usb-ArduPilot_fmuv3_1E0042-if00:115200connecting"),
+        compact(&text).contains(
+            "»4serial:/dev/serial/by-id/usb-ArduPilot_fmuv3_1E0042-if00:115200connecting"
+        ),
         "{text}"
     );
 }
@@ -231,7 +232,10 @@ fn vehicles_link_column_shows_the_links_short_names() {
             assert!(row.contains(" udpin:14550,sim?seed=1 "), "{w}x{h}: {row}");
         } else {
             let cell = row.split(" udpin:14550").nth(1).unwrap();
-            assert!(cell.starts_with(",sim?se") || cell.starts_with('…'), "{row}");
+            assert!(
+                cell.starts_with(",sim?se") || cell.starts_with('…'),
+                "{row}"
+            );
             assert!(cell.contains('…'), "{w}x{h}: {row}");
         }
         assert!(line_with(&text, " 2:1 ").contains(" sim?seed=2"), "{text}");

@@ -375,6 +375,87 @@ mod tests {
     }
 
     #[test]
+    fn fit_cuts_by_display_width_and_shows_the_cut() {
+        assert_eq!(fit("QUADROTOR", 9), "QUADROTOR");
+        assert_eq!(fit("QUADROTOR", 7), "QUADRO…");
+        assert_eq!(fit("QUADROTOR", 1), "…");
+        assert_eq!(fit("QUADROTOR", 0), "");
+        // Wide characters take two columns and are never split.
+        assert_eq!(fit("高度計", 6), "高度計");
+        assert_eq!(fit("高度計", 5), "高度…");
+        assert_eq!(fit("高度計", 4), "高…");
+        assert_eq!(width(&fit("高度計", 4)), 3);
+        assert!(matches!(fit("up", 10), Cow::Borrowed(_)));
+    }
+
+    #[test]
+    fn list_more_counts_what_is_hidden_above_and_below() {
+        assert_eq!(list_more(0, 6, 12).as_deref(), Some("6 of 12, ↓ 6 more"));
+        assert_eq!(
+            list_more(3, 6, 12).as_deref(),
+            Some("6 of 12, ↑ 3 more, ↓ 3 more")
+        );
+        assert_eq!(list_more(6, 6, 12).as_deref(), Some("6 of 12, ↑ 6 more"));
+        // A window taller than what is left shows only what is left.
+        assert_eq!(list_more(8, 6, 12).as_deref(), Some("4 of 12, ↑ 8 more"));
+        assert_eq!(list_more(0, 12, 12), None);
+        assert_eq!(list_more(0, 20, 3), None);
+        assert_eq!(list_more(0, 0, 0), None);
+    }
+
+    #[test]
+    fn scrolling_keeps_the_selection_in_the_window() {
+        // 12 rows, 5 shown: the window moves once the selection passes its last row.
+        assert_eq!(scroll_offset(0, 5, 12), 0);
+        assert_eq!(scroll_offset(4, 5, 12), 0);
+        assert_eq!(scroll_offset(5, 5, 12), 1);
+        assert_eq!(scroll_offset(11, 5, 12), 7);
+        assert_eq!(scroll_offset(30, 5, 12), 7);
+        assert_eq!(scroll_offset(3, 0, 12), 3);
+        assert_eq!(scroll_offset(0, 5, 0), 0);
+        // Centred, never past the end.
+        assert_eq!(centred_offset(0, 5, 12), 0);
+        assert_eq!(centred_offset(6, 5, 12), 4);
+        assert_eq!(centred_offset(11, 5, 12), 7);
+        assert_eq!(centred_offset(2, 20, 12), 0);
+    }
+
+    #[test]
+    fn wrap_breaks_at_spaces_and_long_words_where_lines_end() {
+        assert_eq!(
+            wrap("down: Connection refused (os error 111)", 17),
+            ["down: Connection", "refused (os error", "111)"]
+        );
+        assert_eq!(wrap("a  b", 10), ["a  b"]);
+        assert_eq!(
+            wrap("» 4 serial:/dev/ttyACM0", 12),
+            ["» 4 serial:/", "dev/ttyACM0"]
+        );
+        for line in wrap("x 0123456789abcdef y", 4) {
+            assert!(width(&line) <= 4, "{line}");
+        }
+    }
+
+    #[test]
+    fn share_gives_minimums_then_wants_in_priority_then_fills() {
+        let cols = [
+            Col::fixed(3),
+            Col::text(4, ["QUADROTOR"]),
+            Col::text(4, ["STABILIZE"]),
+            Col::text(0, ["CLASH!"]).fill(),
+        ];
+        // Room for everything: the rest goes to the fill column.
+        assert_eq!(share(&cols, 40, 1, &[]), [3, 9, 9, 16]);
+        // Short: minimums, then column 2 before column 1.
+        assert_eq!(share(&cols, 20, 1, &[2, 1]), [3, 5, 9, 0]);
+        assert_eq!(share(&cols, 20, 1, &[]), [3, 9, 5, 0]);
+        // Not even the minimums: the last columns get less.
+        assert_eq!(share(&cols, 8, 1, &[]), [3, 2, 0, 0]);
+        // A text column wants no more than its widest text.
+        assert_eq!(Col::text(11, ["sim"]).min, 3);
+    }
+
+    #[test]
     fn durations() {
         assert_eq!(duration(0), "0s");
         assert_eq!(duration(59), "59s");

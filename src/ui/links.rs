@@ -11,10 +11,10 @@ use ratatui::widgets::{Cell, Paragraph, Row, Table, TableState};
 use ratatui::Frame;
 
 use super::{ellipsize, fmt, pane_block, selected_style, Theme};
-use crate::link::LinkSpec;
 use crate::app::links::{loss_pct, LinkState, LinkStatus};
 use crate::app::signing::SigningCounts;
 use crate::app::{App, Pane};
+use crate::link::LinkSpec;
 
 /// The signing line under a source row: `signed 120 · unsigned 5 · bad sig 3 · replayed 1 ·
 /// rejected 9` with a key; without one, signed frames are unchecked.
@@ -249,8 +249,9 @@ fn link_name(id: usize, l: &LinkStatus, short: &str) -> String {
         options.push("secure=1");
     }
     let mut text = format!("{mark}{id} {short}");
-    let said = short != base;
-    if !rest.is_empty() && !(said && net) && !(said && base == "sim") {
+    // A name made distinct (`tcp:5760@HOST`, `sim?seed=2`) already says the rest.
+    let said = short != base && (net || base == "sim");
+    if !rest.is_empty() && !said {
         // `sim?vehicles=2&seed=7`, `tcp:5760 127.0.0.1`.
         text.push(if base == "sim" { '?' } else { ' ' });
         text.push_str(&rest);
@@ -528,4 +529,55 @@ fn render_outputs(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         Row::new(vec!["OUTPUT", "STATE", "SENT", "RECEIVED", "DROPPED"]).style(theme.header());
     let table = Table::new(rows, widths).header(header).column_spacing(1);
     frame.render_widget(table, area);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::app::AppConfig;
+
+    fn names(links: &[&str]) -> Vec<String> {
+        let app = App::new(AppConfig {
+            links: links.iter().map(|s| s.to_string()).collect(),
+            ..AppConfig::default()
+        });
+        short_names(&app)
+    }
+
+    #[test]
+    fn short_names_put_the_port_first_and_tell_links_apart() {
+        assert_eq!(
+            names(&[
+                "udpin:0.0.0.0:14550",
+                "tcp:127.0.0.1:5760",
+                "serial:/dev/ttyUSB0:57600",
+                "tlog:logs/flight.tlog",
+                "sim://",
+            ]),
+            ["udpin:14550", "tcp:5760", "serial:ttyUSB0", "tlog", "sim"]
+        );
+        // Same scheme and port: the host tells them apart.
+        assert_eq!(
+            names(&[
+                "tcp:10.0.0.1:5760",
+                "tcp:10.0.0.2:5760",
+                "udpout:10.0.0.1:5760"
+            ]),
+            ["tcp:5760@10.0.0.1", "tcp:5760@10.0.0.2", "udpout:5760"]
+        );
+        // Simulators: the options that differ; none differ: the link id.
+        assert_eq!(
+            names(&["sim://?vehicles=1&seed=1", "sim://?vehicles=1&seed=2"]),
+            ["sim?seed=1", "sim?seed=2"]
+        );
+        assert_eq!(
+            names(&[
+                "sim://?seed=1",
+                "sim://?seed=1",
+                "tlog:a.tlog",
+                "tlog:b.tlog"
+            ]),
+            ["sim#0", "sim#1", "tlog#2", "tlog#3"]
+        );
+    }
 }

@@ -274,7 +274,8 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             }
         })
         .collect();
-    let table = Table::new(table_rows, widths)
-    .header(Row::new(vec!["SEQ", "COMMAND", "LAT", "LON", "ALT", "PARAMS"]).style(theme.header()));
+    let table = Table::new(table_rows, widths).header(
+        Row::new(vec!["SEQ", "COMMAND", "LAT", "LON", "ALT", "PARAMS"]).style(theme.header()),
+    );
     frame.render_widget(table, table_area);
 }

@@ -85,9 +85,8 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             .collect::<Vec<_>>()
             .join(",")
     };
-    let texts = |f: &dyn Fn(&Vehicle) -> String| -> Vec<String> {
-        vehicles.iter().map(|v| f(v)).collect()
-    };
+    let texts =
+        |f: &dyn Fn(&Vehicle) -> String| -> Vec<String> { vehicles.iter().map(|v| f(v)).collect() };
     let (ids, types, autopilots, modes, statuses, link_names, flags) = (
         texts(&|v| format!("{}:{}", v.sysid, v.compid)),
         texts(&|v| v.type_name()),
@@ -146,7 +145,11 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     }
     cols.extend([
         // At least a network link's short name (`udpin:14550`).
-        (Column::Link, link_head, text_col(11, link_head, &link_names)),
+        (
+            Column::Link,
+            link_head,
+            text_col(11, link_head, &link_names),
+        ),
         (Column::Flags, "FLAGS", flags_col.fill()),
     ]);
     // Who gets room first when there is not enough: what an operator must see.
