@@ -242,3 +242,24 @@ fn vehicles_link_column_shows_the_links_short_names() {
         assert!(line_with(&text, " 3:1 ").contains(" udpin:14550"), "{text}");
     }
 }
+
+#[test]
+fn spare_height_goes_to_the_lists_that_have_rows() {
+    // 20 vehicles on 3 links, and (notices cleared) nothing for the Messages pane to show.
+    let mut d = common::many(20, 1);
+    d.app.notices = Default::default();
+    let text = screen(&d.app, 200, 60);
+    insta::assert_snapshot!("many_vehicles_200x60", text);
+    // The Vehicles pane's share (40% of the body, 19 rows) is short of 20 vehicles and a header;
+    // what Messages does not need makes up for it.
+    assert!(text.contains(" 20:1 "), "{text}");
+    assert!(!text.contains("of 20"), "{text}");
+    // At 80x24 too: more than the 5 rows of its share.
+    let text = screen(&d.app, 80, 24);
+    let shown = text.lines().filter(|l| l.contains("QUADROTOR")).count();
+    assert!(shown > 5, "{shown} rows:\n{text}");
+    assert!(
+        text.contains(&format!("{shown} of 20, ↓ {} more", 20 - shown)),
+        "{text}"
+    );
+}
