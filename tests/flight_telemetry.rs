@@ -175,8 +175,9 @@ fn overview_with_the_flight_pane_mid_flight() {
     // At 80x24 the other panes still show their rows.
     let text = screen(&r.app, 80, 24);
     assert!(text.contains("> 1:1 QUADROTOR"), "{text}");
+    assert!(text.contains("+0 tlog copter-flight.…"), "{text}");
     assert!(
-        text.contains("+0 tlog copter-flight.vehicle.tlog"),
+        text.contains("» 0 tlog:tests/data/copter-flight.vehicle.tlog  up"),
         "{text}"
     );
     // The capture's 41 texts, the vehicle found, 16 values the vehicle changed (calibrations at
