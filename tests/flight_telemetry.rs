@@ -174,8 +174,12 @@ fn overview_with_the_flight_pane_mid_flight() {
     insta::assert_snapshot!("flight_overview_200x60", screen(&r.app, 200, 60));
     // At 80x24 the other panes still show their rows.
     let text = screen(&r.app, 80, 24);
-    assert!(text.contains("> 1:1     QUADROTOR"), "{text}");
-    assert!(text.contains("+0 tlog:"), "{text}");
+    assert!(text.contains("> 1:1 QUADROTOR"), "{text}");
+    assert!(text.contains("+0 tlog copter-flight.…"), "{text}");
+    assert!(
+        text.contains("» 0 tlog:tests/data/copter-flight.vehicle.tlog  up"),
+        "{text}"
+    );
     // The capture's 41 texts, the vehicle found, 16 values the vehicle changed (calibrations at
     // boot, the mission count), told at DEBUG; nothing of ours: a replay link is asked for no
     // streams and no parameters (it could not answer).

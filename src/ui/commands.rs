@@ -68,11 +68,42 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         vec!["TIME", "COMMAND", "PARAMS", "RESULT", "RTT"]
     })
     .style(theme.header());
+    // Inside the borders, under the column titles; the window follows the selection.
+    let total = s.commands.entries().len();
+    let visible = area.height.saturating_sub(3) as usize;
+    let first = super::fmt::scroll_offset(app.ui.cmd_sel, visible, total);
+    let block = match super::fmt::list_more(first, visible, total) {
+        Some(more) => block.title_bottom(Line::from(format!(" {more} "))),
+        None => block,
+    };
+    let widths: Vec<Constraint> = if wide {
+        vec![
+            Constraint::Length(8),
+            Constraint::Length(26),
+            Constraint::Length(6),
+            Constraint::Min(30),
+            Constraint::Length(5),
+            Constraint::Min(20),
+            Constraint::Length(7),
+        ]
+    } else {
+        vec![
+            Constraint::Length(8),
+            Constraint::Length(20),
+            Constraint::Min(14),
+            Constraint::Min(14),
+            Constraint::Length(6),
+        ]
+    };
+    // Cells fitted to their columns, so a cut shows (`…`).
+    let cw = super::fmt::table_widths(&widths, area.width.saturating_sub(2), 1);
     let rows: Vec<Row> = s
         .commands
         .entries()
         .rev()
         .enumerate()
+        .skip(first)
+        .take(visible.max(1))
         .map(|(i, e)| {
             let t = app.wall(e.first_sent).format("%H:%M:%S").to_string();
             let params = e
@@ -107,6 +138,11 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             } else {
                 vec![t, e.spec.name(), params, result, rtt]
             };
+            let cells: Vec<String> = cells
+                .iter()
+                .zip(&cw)
+                .map(|(c, &w)| super::fmt::fit(c, w).into_owned())
+                .collect();
             let row = Row::new(cells).style(style(e, theme));
             if i == app.ui.cmd_sel {
                 row.style(style(e, theme).patch(theme.selected()))
@@ -115,24 +151,5 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             }
         })
         .collect();
-    let widths: Vec<Constraint> = if wide {
-        vec![
-            Constraint::Length(8),
-            Constraint::Length(26),
-            Constraint::Length(6),
-            Constraint::Min(30),
-            Constraint::Length(5),
-            Constraint::Min(20),
-            Constraint::Length(7),
-        ]
-    } else {
-        vec![
-            Constraint::Length(8),
-            Constraint::Length(20),
-            Constraint::Min(14),
-            Constraint::Min(14),
-            Constraint::Length(6),
-        ]
-    };
     frame.render_widget(Table::new(rows, widths).header(header).block(block), area);
 }

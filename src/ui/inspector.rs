@@ -174,6 +174,12 @@ fn render_list(
             theme,
         ));
     if !rows.is_empty() {
+        // A line of column titles above the rows.
+        let list_h = block.inner(area).height.saturating_sub(1) as usize;
+        let first = super::fmt::centred_offset(sel, list_h, rows.len());
+        if let Some(more) = super::fmt::list_more(first, list_h, rows.len()) {
+            block = block.title_bottom(Line::from(format!(" {more} ")));
+        }
         block =
             block.title_bottom(Line::from(format!(" {}/{} ", sel + 1, rows.len())).right_aligned());
     }
@@ -223,9 +229,7 @@ fn render_list(
     }
     let mut lines = vec![Line::styled(ellipsize(&head, w), theme.header())];
     let list_h = h - 1;
-    let offset = sel
-        .saturating_sub(list_h / 2)
-        .min(rows.len().saturating_sub(list_h));
+    let offset = super::fmt::centred_offset(sel, list_h, rows.len());
     let editing = match &app.ui.inspector.editing {
         Some(InspectEdit::Rate(k)) if app.ui.mode == Mode::Edit => Some(*k),
         _ => None,

@@ -14,6 +14,7 @@ use super::{ellipsize, fmt, pane_block, selected_style, Theme};
 use crate::app::links::{loss_pct, LinkState, LinkStatus};
 use crate::app::signing::SigningCounts;
 use crate::app::{App, Pane};
+use crate::link::LinkSpec;
 
 /// The signing line under a source row: `signed 120 · unsigned 5 · bad sig 3 · replayed 1 ·
 /// rejected 9` with a key; without one, signed frames are unchecked.
@@ -111,30 +112,17 @@ fn counts<'a>(
 }
 
 fn link_row<'a>(
-    id: usize,
     l: &LinkStatus,
     now: u64,
     theme: &Theme,
-    (spec_w, state_w): (usize, usize),
+    (name, name_w, state_w): (&str, usize, usize),
     w: &Widths,
-) -> Row<'a> {
+) -> Vec<Cell<'a>> {
     let (fps, bps) = l.rate.rates(now);
     let (dup, reord) = l.sources.values().fold((0, 0), |(d, r), s| {
         (d + s.seq.duplicates, r + s.seq.reordered)
     });
     let totals = l.totals();
-    let mark = if l.sources.is_empty() {
-        " "
-    } else if l.expanded {
-        "-"
-    } else {
-        "+"
-    };
-    let state_style = match l.state {
-        LinkState::Up => theme.good(),
-        LinkState::Connecting => theme.dim(),
-        LinkState::Down(_) => theme.alert(),
-    };
     let crc_style = if l.parser.crc_errors > 0 {
         theme.alert()
     } else {
@@ -145,10 +133,10 @@ fn link_row<'a>(
         crc_style,
     ));
     let mut cells = vec![
-        Cell::from(ellipsize(&format!("{mark}{id} {}", l.spec), spec_w)),
+        Cell::from(fmt::fit(name, name_w).into_owned()),
         Cell::from(Span::styled(
-            ellipsize(&l.state.label(), state_w),
-            state_style,
+            fmt::fit(&l.state.label(), state_w).into_owned(),
+            state_style(&l.state, theme),
         )),
         Cell::from(rate(fps, w[0])),
         Cell::from(rate(bps, w[1])),
@@ -156,8 +144,155 @@ fn link_row<'a>(
         Cell::from(pct(loss_pct(totals))),
     ];
     cells.extend(counts(w, crc, totals.0, totals.1, dup, reord));
-    Row::new(cells)
+    cells
 }
+
+fn state_style(state: &LinkState, theme: &Theme) -> Style {
+    match state {
+        LinkState::Up => theme.good(),
+        LinkState::Connecting => theme.dim(),
+        LinkState::Down(_) => theme.alert(),
+    }
+}
+
+/// A link's name in two parts: a short one that comes first and is never the part cut (the
+/// scheme and port of a network link, `serial:` and the device's file name, `sim`, `tlog:` and
+/// `tlog`), and the rest of the spec (host, baud, options, file name), which may be.
+fn name_parts(spec: &str) -> (String, String, bool) {
+    let base = |p: &str| p.rsplit('/').next().unwrap_or(p).to_string();
+    match spec.parse::<LinkSpec>() {
+        Ok(LinkSpec::UdpIn { addr, port, .. }) => (format!("udpin:{port}"), addr, true),
+        Ok(LinkSpec::UdpOut { host, port, .. }) => (format!("udpout:{port}"), host, true),
+        Ok(LinkSpec::TcpClient { host, port, .. }) => (format!("tcp:{port}"), host, true),
+        Ok(LinkSpec::TcpServer { addr, port, .. }) => (format!("tcpin:{port}"), addr, true),
+        Ok(LinkSpec::Serial { path, baud, .. }) => (
+            format!("serial:{}", base(&path)),
+            baud.map_or(String::new(), |b| b.to_string()),
+            false,
+        ),
+        Ok(LinkSpec::Sim { query }) => ("sim".into(), query, false),
+        Ok(LinkSpec::Tlog { path, .. }) => ("tlog".into(), base(&path), false),
+        Err(_) => (spec.to_string(), String::new(), false),
+    }
+}
+
+/// Each link's short name, as the Links and Vehicles panes show it, telling the links apart:
+/// `udpin:14550`, `tcp:5760` (with `@HOST` when two links share scheme and port),
+/// `serial:ttyUSB0`, `tlog`, `sim` (with the options that differ when there are several:
+/// `sim?seed=2`); a name still shared (two tlogs, two identical sims) gets `#ID`: `tlog#3`.
+pub fn short_names(app: &App) -> Vec<String> {
+    let parts: Vec<(String, String, bool)> =
+        app.links.iter().map(|l| name_parts(&l.spec)).collect();
+    let opts = |q: &str| -> Vec<String> {
+        q.split('&')
+            .filter(|o| !o.is_empty())
+            .map(str::to_string)
+            .collect()
+    };
+    let sims: Vec<Vec<String>> = parts
+        .iter()
+        .filter(|p| p.0 == "sim")
+        .map(|p| opts(&p.1))
+        .collect();
+    let mut names: Vec<String> = parts
+        .iter()
+        .map(|(short, rest, _)| {
+            if short != "sim" || sims.len() < 2 {
+                return short.clone();
+            }
+            let differ: Vec<String> = opts(rest)
+                .into_iter()
+                .filter(|o| !sims.iter().all(|s| s.contains(o)))
+                .collect();
+            if differ.is_empty() {
+                short.clone()
+            } else {
+                format!("sim?{}", differ.join("&"))
+            }
+        })
+        .collect();
+    let shared = |names: &[String], i: usize| names.iter().filter(|n| **n == names[i]).count() > 1;
+    let with_host: Vec<bool> = (0..names.len())
+        .map(|i| parts[i].2 && shared(&names, i))
+        .collect();
+    for (i, host) in with_host.into_iter().enumerate() {
+        if host {
+            names[i] = format!("{}@{}", names[i], parts[i].1);
+        }
+    }
+    let with_id: Vec<bool> = (0..names.len()).map(|i| shared(&names, i)).collect();
+    for (i, id) in with_id.into_iter().enumerate() {
+        if id {
+            names[i] = format!("{}#{i}", names[i]);
+        }
+    }
+    names
+}
+
+/// The LINK cell's text: expand mark, id, short name, then the rest of the spec when the short
+/// name does not already say it.
+fn link_name(id: usize, l: &LinkStatus, short: &str) -> String {
+    let mark = if l.sources.is_empty() {
+        " "
+    } else if l.expanded {
+        "-"
+    } else {
+        "+"
+    };
+    let (base, rest, net) = name_parts(&l.spec);
+    let spec: Option<LinkSpec> = l.spec.parse().ok();
+    let mut options = Vec::new();
+    if spec.as_ref().is_some_and(|s| s.high_latency()) {
+        options.push("hl=1");
+    }
+    if spec.as_ref().is_some_and(|s| s.secure()) {
+        options.push("secure=1");
+    }
+    let mut text = format!("{mark}{id} {short}");
+    // A name made distinct (`tcp:5760@HOST`, `sim?seed=2`) already says the rest.
+    let said = short != base && (net || base == "sim");
+    if !rest.is_empty() && !said {
+        // `sim?vehicles=2&seed=7`, `tcp:5760 127.0.0.1`.
+        text.push(if base == "sim" { '?' } else { ' ' });
+        text.push_str(&rest);
+    }
+    if !options.is_empty() {
+        text.push_str(&format!(" ?{}", options.join("&")));
+    }
+    text
+}
+
+/// The selected link in full, under the table: `» 1 tcp:127.0.0.1:5761  down: Connection refused
+/// (os error 111) …`, wrapped in at most `max_lines` lines of `width`; the last ends with `…` when
+/// even those are not enough.
+fn detail_lines<'a>(
+    id: usize,
+    l: &LinkStatus,
+    width: usize,
+    max_lines: usize,
+    theme: &Theme,
+) -> Vec<Line<'a>> {
+    let text = format!("» {id} {}  {}", l.spec, l.state.label());
+    let mut lines = fmt::wrap(&text, width);
+    if lines.len() > max_lines {
+        let rest = lines.split_off(max_lines.saturating_sub(1));
+        let last = fmt::fit(&rest.join(" "), width).into_owned();
+        lines.push(last);
+        lines.truncate(max_lines);
+    }
+    let style = match l.state {
+        LinkState::Down(_) => theme.alert(),
+        _ => Style::default(),
+    };
+    lines.into_iter().map(|t| Line::styled(t, style)).collect()
+}
+
+/// Inner width below which the 10 s loss and the LOST, DUP and REO counts are left out, so that
+/// the link's name and state keep room.
+const NARROW: u16 = 70;
+
+/// Numeric columns shown narrow: F/S, B/S, LOSS, CRC, RX.
+const NARROW_SHOWN: [bool; 9] = [true, true, false, true, true, true, false, false, false];
 
 pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let key = app.signing.key.is_some();
@@ -166,36 +301,96 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     } else {
         format!(" ({})", app.links.len())
     };
-    let block = pane_block(app, Pane::Links, title, theme);
+    let mut block = pane_block(app, Pane::Links, title, theme);
     let mut inner = block.inner(area);
-    frame.render_widget(block, area);
     let outputs = &app.outputs.list;
+    let mut outputs_area = None;
     if !outputs.is_empty() && inner.height >= 4 {
         // The outputs' header and rows below the links, which keep their header and a row.
         let want = (outputs.len() as u16).saturating_add(1);
         let h = want.min(inner.height - 2);
-        let bottom = Rect {
+        outputs_area = Some(Rect {
+            y: inner.y + inner.height - h,
+            height: h,
+            ..inner
+        });
+        inner.height -= h;
+    }
+    // The selected link in full under the table, when the table keeps its header and a row.
+    let sel_link = app.ui.link_sel.min(app.links.len().saturating_sub(1));
+    let mut detail = None;
+    if let Some(l) = app.links.get(sel_link) {
+        let room = inner.height.saturating_sub(2) as usize;
+        let lines = detail_lines(sel_link, l, inner.width as usize, room.min(2), theme);
+        let h = (lines.len() as u16).min(room as u16);
+        let at = Rect {
             y: inner.y + inner.height - h,
             height: h,
             ..inner
         };
         inner.height -= h;
-        render_outputs(app, frame, bottom, theme);
+        detail = Some((lines, at));
     }
+    let narrow = inner.width < NARROW;
     let cols = columns(inner.width >= 120);
     let w: Widths = cols.map(|c| c.1);
-    let fixed: u16 = cols.iter().map(|c| c.1 + 1).sum::<u16>() + 1;
-    let rest = inner.width.saturating_sub(fixed) as usize;
-    // Spec and state share what the numbers leave; the spec gets more.
-    let state_w = (rest * 2 / 5).clamp(4, 40);
-    let spec_w = rest.saturating_sub(state_w).clamp(4, 48);
-    let mut widths = vec![
-        Constraint::Length(spec_w as u16),
-        Constraint::Length(state_w as u16),
+    let shown: Vec<bool> = (0..9).map(|i| !narrow || NARROW_SHOWN[i]).collect();
+    let short = short_names(app);
+    let names: Vec<String> = app
+        .links
+        .iter()
+        .enumerate()
+        .map(|(i, l)| link_name(i, l, &short[i]))
+        .collect();
+    let states: Vec<String> = app.links.iter().map(|l| l.state.label()).collect();
+    // The name and the state take what the numbers leave: first the short names (up to 16
+    // columns) and 10 of the state (`down: Con…`), then all of the state, then all of the name.
+    let heads: Vec<String> = app
+        .links
+        .iter()
+        .enumerate()
+        .map(|(i, _)| format!("  {i} {}", short[i]))
+        .collect();
+    let head_w = heads.iter().map(|h| fmt::width(h)).max().unwrap_or(0);
+    let name_col = fmt::Col::text(4, names.iter().map(|s| s.as_str()).chain(["LINK"]));
+    let state_col = fmt::Col::text(5, states.iter().map(|s| s.as_str()).chain(["STATE"]));
+    let mut spec: Vec<fmt::Col> = vec![
+        fmt::Col {
+            min: head_w.clamp(4, 16).min(name_col.want),
+            ..name_col
+        },
+        fmt::Col {
+            min: state_col.want.min(10),
+            ..state_col
+        },
     ];
-    widths.extend(cols.iter().map(|c| Constraint::Length(c.1)));
-    let mut header = vec!["LINK", "STATE"];
-    header.extend(cols.iter().map(|c| c.0));
+    spec.extend(
+        cols.iter()
+            .zip(&shown)
+            .filter(|c| *c.1)
+            .map(|c| fmt::Col::fixed(c.0 .1 as usize)),
+    );
+    let sw = fmt::share(&spec, inner.width as usize, 1, &[1, 0]);
+    let (name_w, state_w) = (sw[0], sw[1]);
+    let widths: Vec<Constraint> = sw.iter().map(|&x| Constraint::Length(x as u16)).collect();
+    let keep = |cells: Vec<Cell<'static>>| -> Vec<Cell<'static>> {
+        cells
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| *i < 2 || shown[*i - 2])
+            .map(|c| c.1)
+            .collect()
+    };
+    let mut header = vec![
+        fmt::fit("LINK", name_w).into_owned(),
+        fmt::fit("STATE", state_w).into_owned(),
+    ];
+    header.extend(
+        cols.iter()
+            .zip(&shown)
+            .filter(|c| *c.1)
+            .map(|c| c.0 .0.to_string()),
+    );
 
     let now = app.now;
     let mut rows = Vec::new();
@@ -204,17 +399,18 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     // Table row index of each link, for the selection highlight.
     let mut sel_row = 0;
     for (i, l) in app.links.iter().enumerate() {
-        if i == app.ui.link_sel {
+        if i == sel_link {
             sel_row = rows.len();
         }
-        rows.push(link_row(i, l, now, theme, (spec_w, state_w), &w));
+        let cells = link_row(l, now, theme, (&names[i], name_w, state_w), &w);
+        rows.push(Row::new(keep(cells)));
         if !l.expanded {
             continue;
         }
         for ((sys, comp), s) in &l.sources {
             let q = &s.seq;
             let mut cells = vec![
-                Cell::from(ellipsize(&format!("   └ {sys}:{comp}"), spec_w)),
+                Cell::from(fmt::fit(&format!("   └ {sys}:{comp}"), name_w).into_owned()),
                 Cell::from(""),
                 Cell::from(""),
                 Cell::from(""),
@@ -229,7 +425,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
                 q.duplicates,
                 q.reordered,
             ));
-            rows.push(Row::new(cells).style(theme.dim()));
+            rows.push(Row::new(keep(cells)).style(theme.dim()));
             if key || s.signing.any_signing() {
                 overlays.push((rows.len(), signing_line(&s.signing, key, theme)));
                 rows.push(Row::new(vec![Cell::from("")]));
@@ -242,13 +438,28 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             theme.dim(),
         ))]));
     }
+    // Every row is one line high, under a one-line header; the window follows the selection.
+    let visible = inner.height.saturating_sub(1) as usize;
+    let total = rows.len();
+    let first = fmt::scroll_offset(sel_row, visible, total);
+    if let Some(more) = fmt::list_more(first, visible, total) {
+        block = block.title_bottom(Line::from(format!(" {more} ")));
+    }
+    frame.render_widget(block, area);
+    if let Some(bottom) = outputs_area {
+        render_outputs(app, frame, bottom, theme);
+    }
+    if let Some((lines, at)) = detail {
+        frame.render_widget(Paragraph::new(lines), at);
+    }
     let table = Table::new(rows, widths)
         .header(Row::new(header).style(theme.header()))
         .column_spacing(1)
         .row_highlight_style(selected_style(app, Pane::Links, theme));
-    let mut state = TableState::default().with_selected((!app.links.is_empty()).then_some(sel_row));
+    let mut state = TableState::default()
+        .with_offset(first)
+        .with_selected((!app.links.is_empty()).then_some(sel_row));
     frame.render_stateful_widget(table, inner, &mut state);
-    // Every row is one line high, under a one-line header.
     let first = state.offset();
     for (row, line) in overlays {
         let Some(y) = row
@@ -318,4 +529,55 @@ fn render_outputs(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         Row::new(vec!["OUTPUT", "STATE", "SENT", "RECEIVED", "DROPPED"]).style(theme.header());
     let table = Table::new(rows, widths).header(header).column_spacing(1);
     frame.render_widget(table, area);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::app::AppConfig;
+
+    fn names(links: &[&str]) -> Vec<String> {
+        let app = App::new(AppConfig {
+            links: links.iter().map(|s| s.to_string()).collect(),
+            ..AppConfig::default()
+        });
+        short_names(&app)
+    }
+
+    #[test]
+    fn short_names_put_the_port_first_and_tell_links_apart() {
+        assert_eq!(
+            names(&[
+                "udpin:0.0.0.0:14550",
+                "tcp:127.0.0.1:5760",
+                "serial:/dev/ttyUSB0:57600",
+                "tlog:logs/flight.tlog",
+                "sim://",
+            ]),
+            ["udpin:14550", "tcp:5760", "serial:ttyUSB0", "tlog", "sim"]
+        );
+        // Same scheme and port: the host tells them apart.
+        assert_eq!(
+            names(&[
+                "tcp:10.0.0.1:5760",
+                "tcp:10.0.0.2:5760",
+                "udpout:10.0.0.1:5760"
+            ]),
+            ["tcp:5760@10.0.0.1", "tcp:5760@10.0.0.2", "udpout:5760"]
+        );
+        // Simulators: the options that differ; none differ: the link id.
+        assert_eq!(
+            names(&["sim://?vehicles=1&seed=1", "sim://?vehicles=1&seed=2"]),
+            ["sim?seed=1", "sim?seed=2"]
+        );
+        assert_eq!(
+            names(&[
+                "sim://?seed=1",
+                "sim://?seed=1",
+                "tlog:a.tlog",
+                "tlog:b.tlog"
+            ]),
+            ["sim#0", "sim#1", "tlog#2", "tlog#3"]
+        );
+    }
 }

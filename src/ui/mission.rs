@@ -103,11 +103,18 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         key(Action::MissionList),
         key(Action::MissionSource)
     );
-    let block = Block::default()
+    let mut block = Block::default()
         .borders(Borders::ALL)
         .border_style(theme.focus_border())
         .title(title);
     let inner = block.inner(area);
+    // Below the status line and the column titles, the rows; the window follows the selection.
+    let rows = app.mission_rows();
+    let visible = inner.height.saturating_sub(2) as usize;
+    let first = super::fmt::scroll_offset(view.sel, visible, rows.len());
+    if let Some(more) = super::fmt::list_more(first, visible, rows.len()) {
+        block = block.title_bottom(Line::from(format!(" {more} ")));
+    }
     frame.render_widget(block, area);
     if inner.height == 0 {
         return;
@@ -180,7 +187,6 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         height: inner.height.saturating_sub(1),
         ..inner
     };
-    let rows = app.mission_rows();
     if rows.is_empty() {
         let hint = match view.shown {
             Shown::File => format!(
@@ -205,8 +211,16 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         .filter(|_| live)
         .map(|s| s.mission.reached().map(|(_, q)| q).collect())
         .unwrap_or_default();
-    let visible = table_area.height.saturating_sub(1) as usize;
-    let first = view.sel.saturating_sub(visible.saturating_sub(1));
+    let widths = [
+        Constraint::Length(5),
+        Constraint::Length(16),
+        Constraint::Length(11),
+        Constraint::Length(12),
+        Constraint::Length(11),
+        Constraint::Min(10),
+    ];
+    // Cells fitted to their columns, so a cut shows (`…`).
+    let cw = super::fmt::table_widths(&widths, table_area.width, 1);
     let table_rows: Vec<Row> = rows
         .iter()
         .enumerate()
@@ -237,14 +251,20 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             } else {
                 String::new()
             };
-            let row = Row::new(vec![
+            let cells = [
                 format!("{mark}{}", i.seq),
                 name,
                 lat,
                 lon,
                 alt,
                 params_text(i),
-            ]);
+            ];
+            let row = Row::new(
+                cells
+                    .iter()
+                    .zip(&cw)
+                    .map(|(c, &w)| super::fmt::fit(c, w).into_owned()),
+            );
             if n == view.sel {
                 row.style(theme.selected())
             } else if Some(i.seq) == current {
@@ -254,17 +274,8 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             }
         })
         .collect();
-    let table = Table::new(
-        table_rows,
-        [
-            Constraint::Length(5),
-            Constraint::Length(16),
-            Constraint::Length(11),
-            Constraint::Length(12),
-            Constraint::Length(11),
-            Constraint::Min(10),
-        ],
-    )
-    .header(Row::new(vec!["SEQ", "COMMAND", "LAT", "LON", "ALT", "PARAMS"]).style(theme.header()));
+    let table = Table::new(table_rows, widths).header(
+        Row::new(vec!["SEQ", "COMMAND", "LAT", "LON", "ALT", "PARAMS"]).style(theme.header()),
+    );
     frame.render_widget(table, table_area);
 }

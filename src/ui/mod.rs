@@ -4,7 +4,8 @@
 //! Layout: the screen shown (`screens`, one file each; `1` is the Overview of `overview.rs`) above
 //! a one-line status bar, which becomes the `:` prompt while a command is typed; the command
 //! palette, the key help and a confirmation pop up over both. Nothing here can panic on any size:
-//! every rectangle is clipped to the frame.
+//! every rectangle is clipped to the frame; below [`MIN_SIZE`] the screen just says it is too
+//! small and what it needs.
 
 pub mod camera;
 pub mod commands;
@@ -47,6 +48,10 @@ pub fn render_with(app: &App, frame: &mut Frame, theme: &Theme) {
     if area.width == 0 || area.height == 0 {
         return;
     }
+    if area.width < MIN_SIZE.0 || area.height < MIN_SIZE.1 {
+        too_small(frame, area, theme);
+        return;
+    }
     let status_area = Rect {
         y: area.y + area.height - 1,
         height: 1,
@@ -63,6 +68,30 @@ pub fn render_with(app: &App, frame: &mut Frame, theme: &Theme) {
         help::render(app, frame, area, theme);
     }
     confirm::render(app, frame, area, theme);
+}
+
+/// The smallest terminal (columns, rows) the screens are drawn in: below it, the Overview's
+/// tables cannot show a vehicle's mode and arming state or a link's name and state, nor the
+/// panes a row each. Smaller terminals get [`too_small`] instead of a garbled screen.
+pub const MIN_SIZE: (u16, u16) = (60, 16);
+
+/// `terminal too small: 50×14, need 60×16`, centred, wrapped to the width there is.
+fn too_small(frame: &mut Frame, area: Rect, theme: &Theme) {
+    let text = format!(
+        "terminal too small: {}×{}, need {}×{}",
+        area.width, area.height, MIN_SIZE.0, MIN_SIZE.1
+    );
+    let lines: Vec<ratatui::text::Line> = fmt::wrap(&text, area.width as usize)
+        .into_iter()
+        .map(|l| ratatui::text::Line::styled(l, theme.alert()).centered())
+        .collect();
+    let h = (lines.len() as u16).min(area.height);
+    let at = Rect {
+        y: area.y + (area.height - h) / 2,
+        height: h,
+        ..area
+    };
+    frame.render_widget(ratatui::widgets::Paragraph::new(lines), at);
 }
 
 /// The bordered block every pane sits in; the focused pane's border stands out (colour and a
@@ -122,15 +151,8 @@ pub fn render_to_buffer(app: &App, width: u16, height: u16, theme: &Theme) -> Bu
     terminal.backend().buffer().clone()
 }
 
-/// Shorten `s` to at most `max` characters, marking the cut with `…`.
+/// Shorten `s` to at most `max` terminal columns, marking the cut with `…` ([`fmt::fit`],
+/// owned).
 pub fn ellipsize(s: &str, max: usize) -> String {
-    if s.chars().count() <= max {
-        return s.to_string();
-    }
-    if max == 0 {
-        return String::new();
-    }
-    let mut t: String = s.chars().take(max - 1).collect();
-    t.push('…');
-    t
+    fmt::fit(s, max).into_owned()
 }

@@ -35,8 +35,8 @@ pub fn render(app: &App, frame: &mut Frame, body: Rect, theme: &Theme) {
     }
 }
 
-/// Rows a fixed-size pane would like, borders included: its rows, but at most ~40% of the body.
-fn wanted_height(app: &App, pane: Pane, avail: u16) -> u16 {
+/// Rows a pane would like, borders included: all its rows.
+fn full_height(app: &App, pane: Pane) -> u16 {
     let rows = match pane {
         Pane::Vehicles => app.vehicles.len().max(1) + 1, // + header
         Pane::Links => {
@@ -51,12 +51,23 @@ fn wanted_height(app: &App, pane: Pane, avail: u16) -> u16 {
                 0 => 0,
                 n => n + 1,
             };
-            app.links.len().max(1) + sources + 1 + outputs
+            // + header, + the selected link's detail line.
+            app.links.len().max(1) + sources + 2 + outputs
         }
-        Pane::Messages => 1,
+        Pane::Messages => app.notices.len().max(1),
     };
-    let rows = rows.min(u16::MAX as usize / 2) as u16;
-    (rows + 2).min((avail * 2 / 5).max(MIN_FULL + 1))
+    (rows.min(u16::MAX as usize / 2) as u16) + 2
+}
+
+/// Rows a list pane gets at first: all its rows, but at most ~40% of the body (the Messages
+/// pane takes the rest, or what it leaves).
+fn wanted_height(app: &App, pane: Pane, avail: u16) -> u16 {
+    match pane {
+        Pane::Messages => MIN_FULL,
+        Pane::Vehicles => full_height(app, pane).min((avail * 2 / 5).max(MIN_FULL + 1)),
+        // The links' share, and a line for the selected link's detail.
+        Pane::Links => full_height(app, pane).min((avail * 2 / 5).max(MIN_FULL + 1) + 1),
+    }
 }
 
 /// Smallest height a pane is drawn in full (borders and one row).
@@ -104,8 +115,20 @@ fn layout(app: &App, body: Rect) -> Vec<(Pane, Rect, bool)> {
             plan[i].1 = 0;
         }
     }
-    // Whatever is left over goes to messages if shown in full, else to the focused pane.
-    let spare = (avail as u32).saturating_sub(total(&plan)) as u16;
+    // What the messages do not need goes to the lists short of their rows, in turn; whatever
+    // is still left goes to messages if shown in full, else to the focused pane.
+    let mut spare = (avail as u32).saturating_sub(total(&plan)) as u16;
+    let msg_need = plan
+        .iter()
+        .find(|x| x.0 == Pane::Messages && x.2)
+        .map_or(0, |x| full_height(app, Pane::Messages).saturating_sub(x.1));
+    let mut give = spare.saturating_sub(msg_need);
+    for x in plan.iter_mut().filter(|x| x.0 != Pane::Messages && x.2) {
+        let more = full_height(app, x.0).saturating_sub(x.1).min(give);
+        x.1 += more;
+        give -= more;
+        spare -= more;
+    }
     let grow = plan
         .iter()
         .position(|x| x.0 == Pane::Messages && x.2)

@@ -450,6 +450,12 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         .border_style(theme.focus_border())
         .title(head);
     if !rows.is_empty() {
+        // A line of column titles above the rows.
+        let list_h = block.inner(list_area).height.saturating_sub(1) as usize;
+        let first = super::fmt::centred_offset(sel, list_h, rows.len());
+        if let Some(more) = super::fmt::list_more(first, list_h, rows.len()) {
+            block = block.title_bottom(Line::from(format!(" {more} ")));
+        }
         block =
             block.title_bottom(Line::from(format!(" {}/{} ", sel + 1, rows.len())).right_aligned());
     }
@@ -534,9 +540,7 @@ fn render_list(
     }
     // One line of column titles, then the rows; the selection kept in the middle.
     let list_h = h.saturating_sub(1);
-    let offset = sel
-        .saturating_sub(list_h / 2)
-        .min(rows.len().saturating_sub(list_h));
+    let offset = super::fmt::centred_offset(sel, list_h, rows.len());
     let visible: Vec<(&String, &Param, Option<&ParamMeta>)> = rows
         .iter()
         .skip(offset)

@@ -1,8 +1,11 @@
 //! The vehicles pane: one row per component heard by heartbeat.
 //!
 //! The target is marked `>`; lost components are dimmed with "lost Ns ago"; a sysid clash or a
-//! component using our GCS sysid is flagged in red (and in words, for NO_COLOR). Narrow screens
-//! drop the autopilot column and abbreviate flags.
+//! component using our GCS sysid is flagged in red (and in words, for NO_COLOR). Text columns
+//! get the width their text needs when there is room; text cut to fit ends with `…`. Narrow
+//! screens drop the autopilot column, then the status and the rate, and abbreviate flags. LINK names the links
+//! a component is heard on by the Links pane's short names; a list longer than the pane says so
+//! in the bottom border (`5 of 12, ↓ 7 more`) and scrolls with the selection.
 
 use ratatui::layout::{Constraint, Rect};
 use ratatui::style::Style;
@@ -10,12 +13,14 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Cell, Paragraph, Row, Table, TableState};
 use ratatui::Frame;
 
-use super::{ellipsize, fmt, pane_block, selected_style, Theme};
+use super::{ellipsize, fmt, links, pane_block, selected_style, Theme};
 use crate::app::{App, Pane};
 use crate::proto::vehicles::Vehicle;
 
 /// Inner width from which every column is shown.
 const WIDE: u16 = 110;
+/// Inner width below which the STATUS and HZ columns are dropped.
+const NARROW: u16 = 70;
 /// Width of the LAST HB column.
 const AGE_W: u16 = 12;
 /// Width of the HZ column.
@@ -55,42 +60,135 @@ pub fn flags_text(v: &Vehicle, wide: bool) -> String {
 }
 
 pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
-    let block = pane_block(
+    let mut block = pane_block(
         app,
         Pane::Vehicles,
         format!(" ({})", app.vehicles.len()),
         theme,
     );
     let inner = block.inner(area);
-    frame.render_widget(block, area);
     if app.vehicles.is_empty() {
+        frame.render_widget(block, area);
         let p = Paragraph::new(Line::styled("no vehicles heard yet", theme.dim()));
         frame.render_widget(p, inner);
         return;
     }
     let wide = inner.width >= WIDE;
-    let links_w = if wide { 5 } else { 4 };
-    // (header, width) of every column but the last (FLAGS), which takes what is left.
-    let mut cols = vec![("", 1), ("ID", 7), ("TYPE", if wide { 12 } else { 10 })];
+    // Below this width the status and the rate go, to leave the other columns room.
+    let narrow = inner.width < NARROW;
+    let short = links::short_names(app);
+    let vehicles: Vec<&Vehicle> = app.vehicles.iter().collect();
+    let link_text = |v: &Vehicle| -> String {
+        v.links
+            .iter()
+            .map(|&l| short.get(l).cloned().unwrap_or_else(|| l.to_string()))
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    let texts =
+        |f: &dyn Fn(&Vehicle) -> String| -> Vec<String> { vehicles.iter().map(|v| f(v)).collect() };
+    let (ids, types, autopilots, modes, statuses, link_names, flags) = (
+        texts(&|v| format!("{}:{}", v.sysid, v.compid)),
+        texts(&|v| v.type_name()),
+        texts(&|v| v.autopilot_name()),
+        texts(&|v| v.mode_name()),
+        texts(&|v| v.status_name()),
+        texts(&link_text),
+        texts(&|v| flags_text(v, wide)),
+    );
+    let text_col = |min: usize, head: &str, t: &[String]| {
+        fmt::Col::text(min, t.iter().map(|s| s.as_str()).chain([head]))
+    };
+    let link_head = if wide { "LINKS" } else { "LINK" };
+    // Flags need room for at least an abbreviated one; none, just what is left.
+    let any_flags = flags.iter().any(|f| !f.is_empty());
+    let flags_col = text_col(if any_flags { 6 } else { 0 }, "FLAGS", &flags);
+    // (column, header, texts); FLAGS takes what is left.
+    let mut cols: Vec<(Column, &str, fmt::Col)> = vec![
+        (Column::Mark, "", fmt::Col::fixed(1)),
+        (Column::Id, "ID", text_col(2, "ID", &ids)),
+        (Column::Type, "TYPE", text_col(4, "TYPE", &types)),
+    ];
     if wide {
-        cols.push(("AUTOPILOT", 13));
+        cols.push((
+            Column::Autopilot,
+            "AUTOPILOT",
+            text_col(4, "AUTOPILOT", &autopilots),
+        ));
     }
     cols.extend([
-        ("MODE", if wide { 12 } else { 9 }),
-        ("ARMED", 8),
-        ("STATUS", if wide { 11 } else { 8 }),
-        ("LAST HB", AGE_W),
-        ("HZ", HZ_W),
-        (if wide { "LINKS" } else { "LINK" }, links_w),
+        (Column::Mode, "MODE", text_col(4, "MODE", &modes)),
+        (
+            Column::Armed,
+            "ARMED",
+            fmt::Col {
+                min: 5,
+                want: 8,
+                fill: false,
+            },
+        ),
     ]);
-    let used: u16 = cols.iter().map(|c| c.1 + 1).sum();
-    let flags_w = inner.width.saturating_sub(used).max(5) as usize;
-    let mut header: Vec<&str> = cols.iter().map(|c| c.0).collect();
-    header.push("FLAGS");
-    let mut widths: Vec<Constraint> = cols.iter().map(|c| Constraint::Length(c.1)).collect();
-    widths.push(Constraint::Min(5));
+    if !narrow {
+        cols.push((Column::Status, "STATUS", text_col(6, "STATUS", &statuses)));
+    }
+    // "lost 13s ago" when there is room, "lost 13s" (and the title) at least.
+    let ages = texts(&|v| age_text(v, app.now, AGE_W as usize));
+    let short_ages = texts(&|v| age_text(v, app.now, AGE_W as usize - 1));
+    let age_min = short_ages.iter().map(|a| fmt::width(a)).max().unwrap_or(0);
+    cols.push((
+        Column::Age,
+        "LAST HB",
+        text_col(age_min.max(7), "LAST HB", &ages),
+    ));
+    if !narrow {
+        cols.push((Column::Hz, "HZ", fmt::Col::fixed(HZ_W as usize)));
+    }
+    cols.extend([
+        // At least a network link's short name (`udpin:14550`).
+        (
+            Column::Link,
+            link_head,
+            text_col(11, link_head, &link_names),
+        ),
+        (Column::Flags, "FLAGS", flags_col.fill()),
+    ]);
+    // Who gets room first when there is not enough: what an operator must see.
+    let order = [
+        Column::Id,
+        Column::Mode,
+        Column::Armed,
+        Column::Type,
+        Column::Status,
+        Column::Link,
+        Column::Age,
+        Column::Hz,
+        Column::Autopilot,
+        Column::Flags,
+    ];
+    let priority: Vec<usize> = order
+        .iter()
+        .filter_map(|c| cols.iter().position(|x| x.0 == *c))
+        .collect();
+    let spec: Vec<fmt::Col> = cols.iter().map(|c| c.2).collect();
+    let w = fmt::share(&spec, inner.width as usize, 1, &priority);
+    let width_of = |c: Column| cols.iter().position(|x| x.0 == c).map_or(0, |i| w[i]);
+    let header: Vec<Cell> = cols
+        .iter()
+        .zip(&w)
+        .map(|(c, &cw)| match c.0 {
+            // An empty column too narrow for its title: no title rather than `…`.
+            Column::Flags if !any_flags && cw < fmt::width(c.1) => Cell::from(""),
+            _ => Cell::from(fmt::fit(c.1, cw).into_owned()),
+        })
+        .collect();
+    let widths: Vec<Constraint> = w.iter().map(|&x| Constraint::Length(x as u16)).collect();
 
-    let rows = app.vehicles.iter().map(|v| {
+    // The rows below the header; the list scrolls with the selection.
+    let visible = inner.height.saturating_sub(1) as usize;
+    let total = vehicles.len();
+    let sel = app.ui.vehicle_sel.min(total - 1);
+    let first = fmt::scroll_offset(sel, visible, total);
+    let rows = vehicles.iter().enumerate().map(|(i, v)| {
         let key = (v.sysid, v.compid);
         let is_target = app.target == Some(key);
         let base = if v.lost {
@@ -98,35 +196,39 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         } else {
             Style::default()
         };
-        let mut cells: Vec<Cell> = vec![
-            Cell::from(if is_target { ">" } else { " " }),
-            Cell::from(format!("{}:{}", v.sysid, v.compid)),
-            Cell::from(ellipsize(&v.type_name(), if wide { 12 } else { 10 })),
-        ];
-        if wide {
-            cells.push(Cell::from(ellipsize(&v.autopilot_name(), 13)));
-        }
-        let armed = if v.armed() {
-            Cell::from(Span::styled(
-                "ARMED",
-                if v.lost { base } else { theme.armed() },
-            ))
-        } else {
-            Cell::from("disarmed")
-        };
-        cells.extend([
-            Cell::from(ellipsize(&v.mode_name(), if wide { 12 } else { 9 })),
-            armed,
-            Cell::from(ellipsize(&v.status_name(), if wide { 11 } else { 8 })),
-            Cell::from(age_text(v, app.now, AGE_W as usize)),
-            Cell::from(fmt::real(v.heartbeat_hz(), 1, HZ_W as usize)),
-        ]);
-        let links: Vec<String> = v.links.iter().map(|l| l.to_string()).collect();
-        cells.push(Cell::from(ellipsize(&links.join(","), links_w as usize)));
-        cells.push(Cell::from(Span::styled(
-            ellipsize(&flags_text(v, wide), flags_w),
-            theme.alert(),
-        )));
+        let cut = |t: &str, c: Column| Cell::from(fmt::fit(t, width_of(c)).into_owned());
+        let cells: Vec<Cell> = cols
+            .iter()
+            .map(|c| match c.0 {
+                Column::Mark => Cell::from(if is_target { ">" } else { " " }),
+                Column::Id => cut(&ids[i], Column::Id),
+                Column::Type => cut(&types[i], Column::Type),
+                Column::Autopilot => cut(&autopilots[i], Column::Autopilot),
+                Column::Mode => cut(&modes[i], Column::Mode),
+                Column::Armed if v.armed() => Cell::from(Span::styled(
+                    fmt::fit("ARMED", width_of(Column::Armed)).into_owned(),
+                    if v.lost { base } else { theme.armed() },
+                )),
+                Column::Armed => cut("disarmed", Column::Armed),
+                Column::Status => cut(&statuses[i], Column::Status),
+                Column::Age => Cell::from(age_text(v, app.now, width_of(Column::Age))),
+                Column::Hz => Cell::from(fmt::real(v.heartbeat_hz(), 1, HZ_W as usize)),
+                Column::Link => cut(&link_names[i], Column::Link),
+                Column::Flags => {
+                    let fw = width_of(Column::Flags);
+                    // The words, cut if need be, when there is room to read them; else short.
+                    let text = if fmt::width(&flags[i]) <= fw || fw >= 24 {
+                        flags[i].clone()
+                    } else {
+                        flags_text(v, false)
+                    };
+                    Cell::from(Span::styled(
+                        fmt::fit(&text, fw).into_owned(),
+                        theme.alert(),
+                    ))
+                }
+            })
+            .collect();
         let style = if is_target && !v.lost {
             base.add_modifier(ratatui::style::Modifier::BOLD)
         } else {
@@ -134,10 +236,32 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         };
         Row::new(cells).style(style)
     });
+    if let Some(more) = fmt::list_more(first, visible, total) {
+        block = block.title_bottom(Line::from(format!(" {more} ")));
+    }
+    frame.render_widget(block, area);
     let table = Table::new(rows, widths)
         .header(Row::new(header).style(theme.header()))
         .column_spacing(1)
         .row_highlight_style(selected_style(app, Pane::Vehicles, theme));
-    let mut state = TableState::default().with_selected(Some(app.ui.vehicle_sel));
+    let mut state = TableState::default()
+        .with_offset(first)
+        .with_selected(Some(sel));
     frame.render_stateful_widget(table, inner, &mut state);
+}
+
+/// The columns of the pane.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Column {
+    Mark,
+    Id,
+    Type,
+    Autopilot,
+    Mode,
+    Armed,
+    Status,
+    Age,
+    Hz,
+    Link,
+    Flags,
 }

@@ -294,3 +294,43 @@ pub fn counting_terminal(
     .unwrap();
     (term, out)
 }
+
+/// The links of [`first_contact`]: a listening UDP port, a TCP client to a closed port, two
+/// simulators told apart only by their seed, and a serial port.
+pub const FIRST_CONTACT_LINKS: [&str; 5] = [
+    "udpin:0.0.0.0:14550",
+    "tcp:127.0.0.1:5761",
+    "sim://?vehicles=1&seed=1",
+    "sim://?vehicles=1&seed=2",
+    "serial:/dev/serial/by-id/usb-ArduPilot_fmuv3_1E0042-if00:115200",
+];
+
+/// What connecting to a closed TCP port says on Linux.
+pub const REFUSED: &str = "Connection refused (os error 111) while connecting to 127.0.0.1:5761";
+
+/// First contact at t = 10 s: twelve vehicles (more than an 80x24 Overview lists) on links 0, 2
+/// and 3, a copter in STABILIZE, a down TCP link with a long reason, two `sim://` links that
+/// differ only in their seed.
+pub fn first_contact() -> Drive {
+    let mut d = Drive::new(&FIRST_CONTACT_LINKS);
+    d.link_state(0, 0, LinkState::Up);
+    d.link_state(0, 1, LinkState::Down(REFUSED.into()));
+    d.link_state(0, 2, LinkState::Up);
+    d.link_state(0, 3, LinkState::Up);
+    d.link_state(0, 4, LinkState::Connecting);
+    for s in 0..=10u64 {
+        let t = s * SECOND;
+        for v in 1..=12u8 {
+            let link = [0, 2, 3][v as usize % 3];
+            let msg = if v % 4 == 0 {
+                plane(false, 11)
+            } else {
+                // Mode 0 is STABILIZE on ArduCopter.
+                copter(v == 1, if v == 1 { 4 } else { 0 })
+            };
+            d.send(t + v as u64 * 1000, link, (v, 1), &msg);
+        }
+    }
+    d.tick(10 * SECOND + 500_000);
+    d
+}
