@@ -27,7 +27,6 @@ pub const STORAGE_INFORMATION: u32 = 261;
 pub const CAMERA_CAPTURE_STATUS: u32 = 262;
 pub const CAMERA_IMAGE_CAPTURED: u32 = 263;
 pub const VIDEO_STREAM_INFORMATION: u32 = 269;
-pub const GIMBAL_DEVICE_ATTITUDE_STATUS: u32 = 285;
 
 pub const CMD_REQUEST_MESSAGE: u16 = 512;
 pub const CMD_REQUEST_CAMERA_INFORMATION: u16 = 521;
@@ -35,7 +34,6 @@ pub const CMD_STORAGE_FORMAT: u16 = 526;
 pub const CMD_SET_CAMERA_MODE: u16 = 530;
 pub const CMD_SET_CAMERA_ZOOM: u16 = 531;
 pub const CMD_SET_CAMERA_FOCUS: u16 = 532;
-pub const CMD_DO_GIMBAL_MANAGER_PITCHYAW: u16 = 1000;
 pub const CMD_IMAGE_START_CAPTURE: u16 = 2000;
 pub const CMD_IMAGE_STOP_CAPTURE: u16 = 2001;
 pub const CMD_VIDEO_START_CAPTURE: u16 = 2500;
@@ -102,35 +100,35 @@ pub fn mode_name(mode: u8) -> &'static str {
 }
 
 /// A payload with the zeros MAVLink 2 cut restored.
-struct P(Vec<u8>);
+pub(crate) struct P(Vec<u8>);
 
 impl P {
-    fn new(payload: &[u8], len: usize) -> P {
+    pub(crate) fn new(payload: &[u8], len: usize) -> P {
         let mut v = payload.to_vec();
         if v.len() < len {
             v.resize(len, 0);
         }
         P(v)
     }
-    fn u8(&self, o: usize) -> u8 {
+    pub(crate) fn u8(&self, o: usize) -> u8 {
         self.0[o]
     }
-    fn u16(&self, o: usize) -> u16 {
+    pub(crate) fn u16(&self, o: usize) -> u16 {
         u16::from_le_bytes([self.0[o], self.0[o + 1]])
     }
-    fn u32(&self, o: usize) -> u32 {
+    pub(crate) fn u32(&self, o: usize) -> u32 {
         u32::from_le_bytes(self.0[o..o + 4].try_into().unwrap_or_default())
     }
-    fn i32(&self, o: usize) -> i32 {
+    pub(crate) fn i32(&self, o: usize) -> i32 {
         self.u32(o) as i32
     }
-    fn u64(&self, o: usize) -> u64 {
+    pub(crate) fn u64(&self, o: usize) -> u64 {
         u64::from_le_bytes(self.0[o..o + 8].try_into().unwrap_or_default())
     }
-    fn f32(&self, o: usize) -> f32 {
+    pub(crate) fn f32(&self, o: usize) -> f32 {
         f32::from_bits(self.u32(o))
     }
-    fn text(&self, o: usize, n: usize) -> String {
+    pub(crate) fn text(&self, o: usize, n: usize) -> String {
         let b = &self.0[o..o + n];
         let end = b.iter().position(|&c| c == 0).unwrap_or(n);
         String::from_utf8_lossy(&b[..end]).trim().to_string()
@@ -413,8 +411,6 @@ impl CameraAction {
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct CameraSet {
     pub cameras: BTreeMap<u8, Camera>,
-    /// The last GIMBAL_DEVICE_ATTITUDE_STATUS: (component, roll, pitch, yaw in degrees).
-    pub gimbal: Option<(u8, f32, f32, f32)>,
 }
 
 impl CameraSet {
@@ -429,20 +425,6 @@ impl CameraSet {
         payload: &[u8],
     ) -> Vec<(u8, String)> {
         let mut notes = Vec::new();
-        if id == GIMBAL_DEVICE_ATTITUDE_STATUS {
-            let p = P::new(payload, 49);
-            let (w, x, y, z) = (p.f32(4), p.f32(8), p.f32(12), p.f32(16));
-            let roll = (2.0 * (w * x + y * z)).atan2(1.0 - 2.0 * (x * x + y * y));
-            let pitch = (2.0 * (w * y - z * x)).clamp(-1.0, 1.0).asin();
-            let yaw = (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z));
-            self.gimbal = Some((
-                from,
-                roll.to_degrees(),
-                pitch.to_degrees(),
-                yaw.to_degrees(),
-            ));
-            return notes;
-        }
         if hb_type == Some(MAV_TYPE_CAMERA) && !self.cameras.contains_key(&from) {
             self.cameras.insert(from, Camera::new(from));
             return notes;
@@ -871,26 +853,5 @@ mod tests {
         assert!(s.action(100, &CameraAction::VideoStart).is_ok());
         let e = s.action(100, &CameraAction::Zoom(50.0)).unwrap_err();
         assert!(e.contains("HAS_BASIC_ZOOM"), "{e}");
-    }
-
-    #[test]
-    fn gimbal_attitude_is_read_as_degrees() {
-        // Pitch -30°, yaw 45° (ZYX): q = qz(45°) * qy(-30°).
-        let (p, y) = ((-30f32).to_radians() / 2.0, 45f32.to_radians() / 2.0);
-        let q = [
-            p.cos() * y.cos(),
-            -p.sin() * y.sin(),
-            p.sin() * y.cos(),
-            p.cos() * y.sin(),
-        ];
-        let mut payload = vec![0u8; 40];
-        for (i, v) in q.iter().enumerate() {
-            payload[4 + 4 * i..8 + 4 * i].copy_from_slice(&v.to_le_bytes());
-        }
-        let mut s = CameraSet::default();
-        s.on_message(0, 154, GIMBAL_DEVICE_ATTITUDE_STATUS, None, &payload);
-        let (from, roll, pitch, yaw) = s.gimbal.unwrap();
-        assert_eq!(from, 154);
-        assert!(roll.abs() < 0.01 && (pitch + 30.0).abs() < 0.01 && (yaw - 45.0).abs() < 0.01);
     }
 }

@@ -21,7 +21,7 @@ pub enum SimError {
 }
 
 /// Listed in the unknown-key error so the operator sees what is accepted.
-pub const KNOWN_KEYS: &str = "vehicles, sysid, loss, dup, reorder, corrupt, latency_ms, seed, params, baud, state, impair_in, drop_cmd, ftp, mission_boot_ms, camera, camera_drop";
+pub const KNOWN_KEYS: &str = "vehicles, sysid, loss, dup, reorder, corrupt, latency_ms, seed, params, baud, state, impair_in, drop_cmd, ftp, mission_boot_ms, camera, camera_drop, gimbal";
 
 /// How many vehicles, which ids, and how bad the simulated link is.
 #[derive(Debug, Clone, PartialEq)]
@@ -66,6 +66,9 @@ pub struct SimConfig {
     pub camera: bool,
     /// `camera_drop=N`: the camera's first CAMERA_IMAGE_CAPTURED of image N is lost.
     pub camera_drop: Option<i32>,
+    /// `gimbal=1`: each autopilot has a mount (AP_Mount, gimbal manager on its own component,
+    /// [`super::gimbal`]); `None`: as `camera` (a camera on a gimbal), `gimbal=0` none.
+    pub gimbal: Option<bool>,
 }
 
 impl Default for SimConfig {
@@ -88,6 +91,7 @@ impl Default for SimConfig {
             mission_boot_ms: 0,
             camera: false,
             camera_drop: None,
+            gimbal: None,
         }
     }
 }
@@ -228,6 +232,7 @@ impl SimConfig {
                     c.mission_boot_ms = num(key, value, "milliseconds (a whole number)")?
                 }
                 "camera" => c.camera = flag(key, value)?,
+                "gimbal" => c.gimbal = Some(flag(key, value)?),
                 "camera_drop" => {
                     c.camera_drop = Some(
                         value
