@@ -348,6 +348,11 @@ pub struct SimVehicle {
 }
 
 impl SimVehicle {
+    /// The mount (`gimbal=1`), as it stands.
+    pub fn mount(&self) -> Option<&super::gimbal::SimMount> {
+        self.mount.as_ref()
+    }
+
     /// The vehicle's parameter table, as it stands (for tests to compare against).
     pub fn params(&self) -> &ParamTable {
         &self.params
