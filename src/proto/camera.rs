@@ -48,6 +48,10 @@ pub const HOLE_TRIES: u32 = 3;
 pub const HOLE_RETRY: Micros = 3 * SECOND;
 /// After a CAMERA_INFORMATION request finished without the message, the wait before 521.
 pub const FALLBACK_WAIT: Micros = SECOND;
+/// VIDEO_STREAM_INFORMATION (all streams, param2 = 0) is asked this many times at most, this
+/// long after a request that brought none.
+pub const STREAM_TRIES: u32 = 3;
+pub const STREAM_RETRY: Micros = 3 * SECOND;
 
 /// CAMERA_CAP_FLAGS, bit by bit, as the common dialect names them.
 pub const CAP_FLAGS: &[(u32, &str)] = &[
@@ -286,6 +290,9 @@ pub struct Camera {
     pending: VecDeque<(u16, [f64; 7])>,
     /// Sequence number of the next single-image capture (IMAGE_START_CAPTURE param4).
     next_seq: u32,
+    /// VIDEO_STREAM_INFORMATION requests so far, and when to ask again.
+    stream_asks: u32,
+    stream_next: Option<Micros>,
 }
 
 impl Camera {
@@ -303,6 +310,8 @@ impl Camera {
             asked: BTreeMap::new(),
             pending: VecDeque::new(),
             next_seq: 1,
+            stream_asks: 0,
+            stream_next: None,
         };
         c.request(CAMERA_INFORMATION, 0.0);
         c
@@ -455,6 +464,7 @@ impl CameraSet {
                     c.request(CAMERA_CAPTURE_STATUS, 0.0);
                     if info.has(CAP_VIDEO_STREAM) {
                         c.request(VIDEO_STREAM_INFORMATION, 0.0);
+                        c.stream_asks = 1;
                     }
                 }
                 c.discovery = Discovery::Found;
@@ -558,6 +568,12 @@ impl CameraSet {
                     ),
                 ));
             }
+            CMD_REQUEST_MESSAGE
+                if params[0] == VIDEO_STREAM_INFORMATION as f64 && c.streams.is_empty() =>
+            {
+                // None came (lost, or refused): asked again, a bounded number of times.
+                c.stream_next = (c.stream_asks < STREAM_TRIES).then_some(now + STREAM_RETRY);
+            }
             CMD_SET_CAMERA_MODE | CMD_SET_CAMERA_ZOOM | CMD_SET_CAMERA_FOCUS if accepted => {
                 c.request(CAMERA_SETTINGS, 0.0);
             }
@@ -582,6 +598,13 @@ impl CameraSet {
             if c.hole_deadline().is_some_and(|t| now >= t) {
                 c.find_holes(now);
             }
+            if c.stream_next.is_some_and(|t| now >= t) {
+                c.stream_next = None;
+                if c.streams.is_empty() {
+                    c.stream_asks += 1;
+                    c.request(VIDEO_STREAM_INFORMATION, 0.0);
+                }
+            }
             if let Discovery::FallbackAt(t) = c.discovery {
                 if now >= t && c.info.is_none() {
                     c.discovery = Discovery::Legacy;
@@ -602,7 +625,7 @@ impl CameraSet {
                     Discovery::FallbackAt(t) => Some(t),
                     _ => None,
                 };
-                [fallback, c.hole_deadline()]
+                [fallback, c.hole_deadline(), c.stream_next]
             })
             .flatten()
             .min()
@@ -853,5 +876,32 @@ mod tests {
         assert!(s.action(100, &CameraAction::VideoStart).is_ok());
         let e = s.action(100, &CameraAction::Zoom(50.0)).unwrap_err();
         assert!(e.contains("HAS_BASIC_ZOOM"), "{e}");
+    }
+
+    #[test]
+    fn video_streams_are_asked_again_when_none_came() {
+        let mut s = CameraSet::default();
+        s.on_message(0, 100, 259, None, &info_payload(CAP_VIDEO_STREAM));
+        let ask = [269.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        for _ in 0..3 {
+            s.sent(100); // settings, storage, status
+        }
+        assert_eq!(s.heads(), vec![(100, 512, ask)], "all streams: param2 = 0");
+        let mut t = SECOND;
+        for n in 1..=STREAM_TRIES {
+            s.sent(100);
+            s.on_finished(t, 100, 512, &ask, true);
+            if n == STREAM_TRIES {
+                break;
+            }
+            s.poll(t + STREAM_RETRY - 1);
+            assert!(s.heads().is_empty());
+            t += STREAM_RETRY;
+            s.poll(t);
+            assert_eq!(s.heads(), vec![(100, 512, ask)], "ask {}", n + 1);
+        }
+        assert_eq!(s.next_deadline(), None, "bounded");
+        s.poll(t + 60 * SECOND);
+        assert!(s.heads().is_empty());
     }
 }
