@@ -203,7 +203,7 @@ impl Session {
         }
         // Gimbals: the autopilot and any gimbal component may be a gimbal manager.
         if hb_type.is_some() || (280..=285).contains(&id) {
-            let ap = from == self.key.1;
+            let ap = self.key.1;
             let notes = self.gimbals.on_message(now, from, id, hb_type, ap, payload);
             self.gimbals.poll(now);
             out.extend(notes.into_iter().map(|(s, t)| SessionOut::Notice(s, t)));
@@ -285,7 +285,17 @@ impl Session {
         yaw: f64,
         us: (u8, u8),
     ) -> Result<(u64, Vec<SessionOut>), String> {
-        let (compid, command, params) = self.gimbals.point(sel, pitch, yaw, us)?;
+        let (compid, command, params) = match self.gimbals.point(sel, pitch, yaw, us) {
+            Ok(c) => c,
+            Err(why) if self.gimbals.usable().is_empty() => {
+                // None known: ask the autopilot, the usual manager (not the pointing itself).
+                self.gimbals.ask_autopilot(now, self.key.1);
+                return Err(format!(
+                    "{why}; asking the autopilot for GIMBAL_MANAGER_INFORMATION"
+                ));
+            }
+            Err(why) => return Err(why),
+        };
         let spec = CommandSpec {
             target: (self.key.0, compid),
             command,
@@ -441,9 +451,23 @@ impl Session {
     fn drive(&mut self, now: Micros, outs: Vec<CmdOut>) -> Vec<SessionOut> {
         let mut out = Vec::new();
         let mut seq_events = Vec::new();
-        for o in outs {
+        // The gimbal discovery asks every autopilot (most have no mount): their outcomes stay on
+        // the Commands screen instead of a notice each.
+        let quiet: Vec<bool> = outs
+            .iter()
+            .enumerate()
+            .map(|(i, o)| match (o, outs.get(i + 1)) {
+                (CmdOut::Notice(..), Some(CmdOut::Finished(id))) => self
+                    .commands
+                    .get(*id)
+                    .is_some_and(|e| crate::proto::gimbal::is_discovery(e.spec.command, &e.spec.params)),
+                _ => false,
+            })
+            .collect();
+        for (o, quiet) in outs.into_iter().zip(quiet) {
             match o {
                 CmdOut::Send(m) => out.push(SessionOut::Send(m)),
+                CmdOut::Notice(..) if quiet => {}
                 CmdOut::Notice(s, t) => out.push(SessionOut::Notice(s, t)),
                 CmdOut::Finished(id) => {
                     if let Some(e) = self.commands.get(id) {

@@ -6,12 +6,15 @@
 //! gimbal device it runs (`gimbal_device_id`: the device's component id, or 1–6 for a gimbal
 //! that is not a MAVLink component, ArduPilot's `instance + 1`).
 //!
-//! - Discovery, as QGroundControl's GimbalController: the autopilot is asked when its heartbeat
-//!   is first heard, and so is any component whose HEARTBEAT says MAV_TYPE_GIMBAL or that sends
-//!   GIMBAL_MANAGER_STATUS (or GIMBAL_DEVICE_ATTITUDE_STATUS for a device 1–6, which names its
-//!   manager). A request that finishes without the information is asked again after
-//!   [`INFO_RETRY`], [`INFO_TRIES`] times in all (an autopilot without a mount answers ACCEPTED
-//!   and sends nothing).
+//! - Discovery, after QGroundControl's GimbalController: a component is asked when it shows it
+//!   may be a manager: its HEARTBEAT says MAV_TYPE_GIMBAL, or it sends GIMBAL_MANAGER_STATUS, or
+//!   GIMBAL_DEVICE_ATTITUDE_STATUS for a device 1–6 (which names it the manager: ArduPilot with a
+//!   mount streams that in EXTRA3, which mavterm asks for). A device that is its own component
+//!   (id 0 in the attitude) gets the autopilot asked; so does the operator pointing while no
+//!   manager is known. An autopilot without any sign of a gimbal is not asked (most have none;
+//!   QGroundControl asks every component). A request that finishes without the information is
+//!   asked again after [`INFO_RETRY`], [`INFO_TRIES`] times in all (an autopilot without a mount
+//!   answers ACCEPTED and sends nothing).
 //! - Status: GIMBAL_MANAGER_STATUS says who has control; ArduPilot sends it only when asked or
 //!   when control changes, so when none came [`STATUS_WAIT`] after the information it is asked
 //!   for with SET_MESSAGE_INTERVAL at 1 Hz (an explicit interval: ArduPilot has no default rate
@@ -276,6 +279,15 @@ pub struct GimbalSet {
     pending: VecDeque<(u8, u16, [f64; 7])>,
 }
 
+/// A request the discovery sends on its own (GIMBAL_MANAGER_INFORMATION asked, the status and
+/// attitude streams asked for).
+pub fn is_discovery(command: u16, params: &[f64; 7]) -> bool {
+    (command == CMD_REQUEST_MESSAGE && params[0] == GIMBAL_MANAGER_INFORMATION as f64)
+        || (command == CMD_SET_MESSAGE_INTERVAL
+            && (params[0] == GIMBAL_MANAGER_STATUS as f64
+                || params[0] == GIMBAL_DEVICE_ATTITUDE_STATUS as f64))
+}
+
 fn request(id: u32) -> [f64; 7] {
     [id as f64, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
 }
@@ -310,18 +322,18 @@ impl GimbalSet {
     }
 
     /// A message of component `from` of this system; `hb_type`: its HEARTBEAT's MAV_TYPE;
-    /// `autopilot`: `from` is the system's autopilot. Returns notices to show.
+    /// `autopilot`: the system's autopilot component. Returns notices to show.
     pub fn on_message(
         &mut self,
         now: Micros,
         from: u8,
         id: u32,
         hb_type: Option<u8>,
-        autopilot: bool,
+        autopilot: u8,
         payload: &[u8],
     ) -> Vec<(u8, String)> {
         let mut notes = Vec::new();
-        if hb_type.is_some() && (autopilot || hb_type == Some(MAV_TYPE_GIMBAL)) {
+        if hb_type == Some(MAV_TYPE_GIMBAL) {
             self.candidate(now, from, false);
         }
         match id {
@@ -396,8 +408,15 @@ impl GimbalSet {
                 };
                 let device = p.u8(48);
                 let key = match device {
-                    // The device is the sending component: its manager is the one that named it.
-                    0 => self.gimbals.keys().find(|(_, d)| *d == from).copied(),
+                    // The device is the sending component: its manager is the one that named it
+                    // (until one does, the autopilot is the likely manager).
+                    0 => {
+                        let k = self.gimbals.keys().find(|(_, d)| *d == from).copied();
+                        if k.is_none() {
+                            self.candidate(now, autopilot, true);
+                        }
+                        k
+                    }
                     1..=6 => {
                         self.candidate(now, from, true);
                         Some((from, device))
@@ -524,6 +543,19 @@ impl GimbalSet {
         }
     }
 
+    /// The operator wants a gimbal and none is known: ask the autopilot (`compid`), unless it is
+    /// being asked. Returns true when it is (or was already) being asked.
+    pub fn ask_autopilot(&mut self, now: Micros, compid: u8) -> bool {
+        let fresh = !self.candidates.contains_key(&compid);
+        self.candidate(now, compid, true);
+        self.poll(now);
+        fresh
+            || self
+                .candidates
+                .get(&compid)
+                .is_some_and(|c| !c.found && c.tries < INFO_TRIES || c.next.is_some())
+    }
+
     /// Gimbals whose manager told its limits (the ones that can be pointed), in order.
     pub fn usable(&self) -> Vec<&Gimbal> {
         self.gimbals.values().filter(|g| g.info.is_some()).collect()
@@ -643,11 +675,19 @@ mod tests {
     const ASK_280: (u8, u16, [f64; 7]) = (1, 512, [280.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
 
     #[test]
-    fn the_autopilot_is_asked_three_times_then_left_alone() {
+    fn a_manager_is_asked_three_times_then_left_alone() {
         let mut s = GimbalSet::default();
-        s.on_message(0, 1, 0, Some(2), true, &[]);
-        // A camera's heartbeat is no reason to ask.
-        s.on_message(0, 100, 0, Some(30), false, &[]);
+        // Heartbeats of the autopilot and a camera are no reason to ask.
+        s.on_message(0, 1, 0, Some(2), 1, &[]);
+        s.on_message(0, 100, 0, Some(30), 1, &[]);
+        s.poll(0);
+        assert!(s.heads().is_empty());
+        assert_eq!(s.next_deadline(), None);
+        // An attitude of device 1 from the autopilot: it is that gimbal's manager.
+        let mut att = vec![0u8; 49];
+        att[4..8].copy_from_slice(&1f32.to_le_bytes());
+        att[48] = 1;
+        s.on_message(0, 1, 285, None, 1, &att);
         s.poll(0);
         assert_eq!(s.heads(), vec![ASK_280]);
         let mut t = 0;
@@ -670,21 +710,19 @@ mod tests {
         assert_eq!(s.next_deadline(), None, "three tries, then idle");
         s.poll(t + 60 * SECOND);
         assert!(s.heads().is_empty());
-        // Then it sends GIMBAL_MANAGER_STATUS: it is a manager after all, asked once more.
-        let mut status = vec![0u8; 13];
-        status[8] = 1;
-        s.on_message(t + 61 * SECOND, 1, 281, None, true, &status);
-        s.poll(t + 61 * SECOND);
-        assert_eq!(s.heads(), vec![ASK_280]);
+        // A gimbal component's heartbeat: that one is asked.
+        s.on_message(t, 154, 0, Some(MAV_TYPE_GIMBAL), 1, &[]);
+        s.poll(t);
+        assert_eq!(s.heads(), vec![(154, 512, ASK_280.2)]);
     }
 
     #[test]
     fn information_status_and_attitude_make_a_gimbal_that_can_be_pointed() {
         let mut s = GimbalSet::default();
-        s.on_message(0, 1, 0, Some(2), true, &[]);
-        s.poll(0);
+        assert!(s.ask_autopilot(0, 1), "the operator pointed: the autopilot is asked");
+        assert_eq!(s.heads(), vec![ASK_280]);
         s.sent(&ASK_280);
-        let notes = s.on_message(SECOND, 1, 280, None, true, &info(1, (-90.0, 20.0), (-180.0, 180.0)));
+        let notes = s.on_message(SECOND, 1, 280, None, 1, &info(1, (-90.0, 20.0), (-180.0, 180.0)));
         assert_eq!(notes.len(), 1);
         s.on_finished(SECOND, 1, 512, &ASK_280.2);
         assert_eq!(s.next_deadline(), Some(SECOND + STATUS_WAIT));
@@ -721,7 +759,7 @@ mod tests {
         status[8] = 1;
         status[9] = 254;
         status[10] = 190;
-        s.on_message(4 * SECOND, 1, 281, None, true, &status);
+        s.on_message(4 * SECOND, 1, 281, None, 1, &status);
         let e = s.point(0, 0.0, 0.0, us).unwrap_err();
         assert!(e.contains("254:190"), "{e}");
         let (_, cmd, p) = s.configure(0, true, us).unwrap();
@@ -758,7 +796,7 @@ mod tests {
         }
         payload[36] = (FLAG_ROLL_LOCK | FLAG_PITCH_LOCK | FLAG_YAW_IN_VEHICLE_FRAME) as u8;
         payload[48] = 1;
-        s.on_message(0, 1, 285, None, true, &payload);
+        s.on_message(0, 1, 285, None, 1, &payload);
         let a = s.gimbals[&(1, 1)].attitude.unwrap();
         assert!(a.yaw_in_vehicle_frame());
         assert!((a.pitch + 30.0).abs() < 0.01 && (a.yaw - 45.0).abs() < 0.01);
