@@ -499,7 +499,11 @@ impl Action {
             "camera: switch image / video mode",
         ),
         (Action::CameraNext, "camera_next", "select the next camera"),
-        (Action::CameraZoomIn, "camera_zoom_in", "camera: zoom in 10 %"),
+        (
+            Action::CameraZoomIn,
+            "camera_zoom_in",
+            "camera: zoom in 10 %",
+        ),
         (
             Action::CameraZoomOut,
             "camera_zoom_out",
@@ -515,7 +519,11 @@ impl Action {
             "camera_focus_near",
             "camera: focus 10 % nearer",
         ),
-        (Action::GimbalUp, "gimbal_up", "gimbal: pitch 5° up (within its limits)"),
+        (
+            Action::GimbalUp,
+            "gimbal_up",
+            "gimbal: pitch 5° up (within its limits)",
+        ),
         (Action::GimbalDown, "gimbal_down", "gimbal: pitch 5° down"),
         (Action::GimbalLeft, "gimbal_left", "gimbal: yaw 5° left"),
         (Action::GimbalRight, "gimbal_right", "gimbal: yaw 5° right"),

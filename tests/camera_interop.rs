@@ -301,14 +301,15 @@ fn a_pymavlink_gimbal_manager_is_discovered_shown_and_pointed() {
     g.to = 1;
     let sent = g.hear(1, &[heartbeat(2, 3)]);
     assert!(
-        !sent.iter().any(|c| c["command"] == 512 && c["param1"] == 280.0),
+        !sent
+            .iter()
+            .any(|c| c["command"] == 512 && c["param1"] == 280.0),
         "no sign of a gimbal yet: {sent:?}"
     );
     // Pitch -35°, yaw 20° right of the nose, as Python makes the quaternion.
-    let q: Vec<f64> = serde_json::from_str(
-        &common::py_lines("euler_to_q.py", &[], &["0 -35 20".to_string()])[0],
-    )
-    .unwrap();
+    let q: Vec<f64> =
+        serde_json::from_str(&common::py_lines("euler_to_q.py", &[], &["0 -35 20".to_string()])[0])
+            .unwrap();
     let attitude = (
         "GIMBAL_DEVICE_ATTITUDE_STATUS",
         json!({"target_system": 0, "target_component": 0, "time_boot_ms": 1000,
@@ -371,7 +372,10 @@ fn a_pymavlink_gimbal_manager_is_discovered_shown_and_pointed() {
     assert_eq!(sent.len(), 1, "{sent:?}");
     let c = &sent[0];
     assert_eq!(c["command"], 1000);
-    assert_eq!((&c["target_system"], &c["target_component"]), (&json!(1), &json!(1)));
+    assert_eq!(
+        (&c["target_system"], &c["target_component"]),
+        (&json!(1), &json!(1))
+    );
     assert_eq!(c["param1"], -30.0);
     assert_eq!(c["param2"], 20.0);
     assert_eq!(c["param3"], "nan");

@@ -73,7 +73,11 @@ fn the_mount_is_discovered_shown_and_pointed_from_the_keys() {
     let info = g.info.expect("GIMBAL_MANAGER_INFORMATION read");
     assert!((info.pitch.0 + 90.0).abs() < 1e-3 && (info.pitch.1 - 20.0).abs() < 1e-3);
     assert!((info.yaw.0 + 180.0).abs() < 1e-3 && (info.yaw.1 - 180.0).abs() < 1e-3);
-    assert_eq!(g.status.map(|s| s.primary), Some((0, 0)), "nobody in control");
+    assert_eq!(
+        g.status.map(|s| s.primary),
+        Some((0, 0)),
+        "nobody in control"
+    );
     assert!(g.attitude.is_some());
     let asked = sent(&r, 1, REQUEST_MESSAGE);
     assert_eq!(
@@ -88,7 +92,8 @@ fn the_mount_is_discovered_shown_and_pointed_from_the_keys() {
     common::keys(&mut r, &["6"]);
     let screen = common::screen(&r, 80, 24);
     assert!(
-        screen.contains("gimbal 1:1/1 pitch 0.0°") && screen.contains("pitch -90..20° yaw -180..180°"),
+        screen.contains("gimbal 1:1/1 pitch 0.0°")
+            && screen.contains("pitch -90..20° yaw -180..180°"),
         "{screen}"
     );
     assert!(screen.contains("control nobody"), "{screen}");
@@ -133,7 +138,11 @@ fn the_mount_is_discovered_shown_and_pointed_from_the_keys() {
     assert_eq!(sent(&r, 1, PITCHYAW).len(), 4);
     common::keys(&mut r, &["alt-up"]);
     wait(&mut r, 0.5);
-    assert_eq!(sent(&r, 1, PITCHYAW).len(), 4, "25° is beyond 20°: not sent");
+    assert_eq!(
+        sent(&r, 1, PITCHYAW).len(),
+        4,
+        "25° is beyond 20°: not sent"
+    );
     let msg = r.app.ui.message.clone().unwrap().1;
     assert!(msg.contains("beyond") && msg.contains("not sent"), "{msg}");
     command(&mut r, "gimbal -100 0");

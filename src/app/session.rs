@@ -303,8 +303,7 @@ impl Session {
             form: crate::proto::commands::Form::Long,
         };
         let r = self.submit(now, spec)?;
-        self.gimbals
-            .pointed(compid, params[6] as u8, pitch, yaw);
+        self.gimbals.pointed(compid, params[6] as u8, pitch, yaw);
         Ok(r)
     }
 
@@ -331,7 +330,7 @@ impl Session {
     /// it (one command of a kind per target open at a time).
     fn camera_requests(&mut self, now: Micros) -> Vec<SessionOut> {
         let mut out = Vec::new();
-        let heads: Vec<(bool, (u8, u16, [f64; 7]))> = self
+        let heads: Vec<(bool, Request)> = self
             .cameras
             .heads()
             .into_iter()
@@ -457,10 +456,11 @@ impl Session {
             .iter()
             .enumerate()
             .map(|(i, o)| match (o, outs.get(i + 1)) {
-                (CmdOut::Notice(..), Some(CmdOut::Finished(id))) => self
-                    .commands
-                    .get(*id)
-                    .is_some_and(|e| crate::proto::gimbal::is_discovery(e.spec.command, &e.spec.params)),
+                (CmdOut::Notice(..), Some(CmdOut::Finished(id))) => {
+                    self.commands.get(*id).is_some_and(|e| {
+                        crate::proto::gimbal::is_discovery(e.spec.command, &e.spec.params)
+                    })
+                }
                 _ => false,
             })
             .collect();
@@ -621,6 +621,9 @@ impl Session {
         .min()
     }
 }
+
+/// A component's request waiting for the queue: (component, command, params).
+type Request = (u8, u16, [f64; 7]);
 
 fn map(o: StreamOut) -> SessionOut {
     match o {

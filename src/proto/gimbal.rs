@@ -239,9 +239,7 @@ impl Gimbal {
             return c;
         }
         match self.attitude {
-            Some(a) if a.yaw_in_vehicle_frame() => {
-                (a.pitch.round() as f64, a.yaw.round() as f64)
-            }
+            Some(a) if a.yaw_in_vehicle_frame() => (a.pitch.round() as f64, a.yaw.round() as f64),
             Some(a) => (a.pitch.round() as f64, 0.0),
             None => (0.0, 0.0),
         }
@@ -467,11 +465,7 @@ impl GimbalSet {
                 c.tries += 1;
                 c.next = None;
             }
-            self.push((
-                id,
-                CMD_REQUEST_MESSAGE,
-                request(GIMBAL_MANAGER_INFORMATION),
-            ));
+            self.push((id, CMD_REQUEST_MESSAGE, request(GIMBAL_MANAGER_INFORMATION)));
         }
         let mut asks = Vec::new();
         for g in self.gimbals.values_mut() {
@@ -577,7 +571,10 @@ impl GimbalSet {
         us: (u8, u8),
     ) -> Result<(u8, u16, [f64; 7]), String> {
         let g = self.pick(sel).ok_or_else(|| {
-            let waiting = self.candidates.values().any(|c| !c.found && c.tries < INFO_TRIES);
+            let waiting = self
+                .candidates
+                .values()
+                .any(|c| !c.found && c.tries < INFO_TRIES);
             if waiting {
                 "no gimbal manager discovered yet (GIMBAL_MANAGER_INFORMATION asked): not sent"
                     .to_string()
@@ -719,10 +716,20 @@ mod tests {
     #[test]
     fn information_status_and_attitude_make_a_gimbal_that_can_be_pointed() {
         let mut s = GimbalSet::default();
-        assert!(s.ask_autopilot(0, 1), "the operator pointed: the autopilot is asked");
+        assert!(
+            s.ask_autopilot(0, 1),
+            "the operator pointed: the autopilot is asked"
+        );
         assert_eq!(s.heads(), vec![ASK_280]);
         s.sent(&ASK_280);
-        let notes = s.on_message(SECOND, 1, 280, None, 1, &info(1, (-90.0, 20.0), (-180.0, 180.0)));
+        let notes = s.on_message(
+            SECOND,
+            1,
+            280,
+            None,
+            1,
+            &info(1, (-90.0, 20.0), (-180.0, 180.0)),
+        );
         assert_eq!(notes.len(), 1);
         s.on_finished(SECOND, 1, 512, &ASK_280.2);
         assert_eq!(s.next_deadline(), Some(SECOND + STATUS_WAIT));
@@ -781,7 +788,10 @@ mod tests {
         let (r, pi, ya) = quaternion_to_euler_deg(q);
         assert!(r.abs() < 0.01 && (pi + 30.0).abs() < 0.01 && (ya - 45.0).abs() < 0.01);
         // Identity; a quarter turn of roll alone (w = x = √½); straight down (pitch -90).
-        assert_eq!(quaternion_to_euler_deg([1.0, 0.0, 0.0, 0.0]), (0.0, 0.0, 0.0));
+        assert_eq!(
+            quaternion_to_euler_deg([1.0, 0.0, 0.0, 0.0]),
+            (0.0, 0.0, 0.0)
+        );
         let h = std::f32::consts::FRAC_1_SQRT_2;
         let (r, pi, ya) = quaternion_to_euler_deg([h, h, 0.0, 0.0]);
         assert!((r - 90.0).abs() < 0.01 && pi.abs() < 0.01 && ya.abs() < 0.01);

@@ -144,8 +144,8 @@ impl SimMount {
     }
 
     pub fn status(&self, t_ms: u32) -> MavMessage {
-        let mut flags =
-            GimbalManagerFlags::GIMBAL_MANAGER_FLAGS_ROLL_LOCK | GimbalManagerFlags::GIMBAL_MANAGER_FLAGS_PITCH_LOCK;
+        let mut flags = GimbalManagerFlags::GIMBAL_MANAGER_FLAGS_ROLL_LOCK
+            | GimbalManagerFlags::GIMBAL_MANAGER_FLAGS_PITCH_LOCK;
         if self.yaw_lock {
             flags |= GimbalManagerFlags::GIMBAL_MANAGER_FLAGS_YAW_LOCK;
         }

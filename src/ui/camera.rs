@@ -23,7 +23,8 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         .borders(Borders::ALL)
         .border_style(theme.focus_border());
     let session = app.target.and_then(|k| app.sessions.get(&k));
-    let Some(s) = session.filter(|s| !s.cameras.cameras.is_empty() || !s.gimbals.gimbals.is_empty())
+    let Some(s) =
+        session.filter(|s| !s.cameras.cameras.is_empty() || !s.gimbals.gimbals.is_empty())
     else {
         let text = match app.target {
             Some(k) => format!("no camera or gimbal heard on system {}", k.0),
@@ -253,7 +254,10 @@ fn gimbal_lines(
 ) {
     use crate::proto::gimbal::{names, CAP_FLAGS};
     let sys = s.key.0;
-    let sel = s.gimbals.pick(app.ui.gimbal_sel).map(|g| (g.manager, g.device));
+    let sel = s
+        .gimbals
+        .pick(app.ui.gimbal_sel)
+        .map(|g| (g.manager, g.device));
     let us = (app.cfg.sysid, app.cfg.compid);
     for g in s.gimbals.gimbals.values() {
         let picked = sel == Some((g.manager, g.device));
