@@ -236,6 +236,8 @@ fn a_gimbal_without_a_camera_has_the_screen_to_itself() {
         "{screen}"
     );
     insta::assert_snapshot!("gimbal_only_80x24", screen);
+    insta::assert_snapshot!("gimbal_only_60x20", common::screen(&r, 60, 20));
+    insta::assert_snapshot!("gimbal_only_200x60", common::screen(&r, 200, 60));
     // Taking control: MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE with our ids; the status says so.
     command(&mut r, "gimbal control");
     wait(&mut r, 1.0);

@@ -82,10 +82,15 @@ pub const CAP_VIDEO_STREAM: u32 = 256;
 
 /// The names of the bits set in `flags` (unknown bits as `BIT n`).
 pub fn flag_names(flags: u32) -> Vec<String> {
+    names(CAP_FLAGS, flags)
+}
+
+/// The names of the bits of `flags` in `table` (unknown bits as `BITn`).
+pub fn names(table: &[(u32, &str)], flags: u32) -> Vec<String> {
     (0..32)
         .filter(|b| flags & (1 << b) != 0)
         .map(|b| {
-            CAP_FLAGS
+            table
                 .iter()
                 .find(|(v, _)| *v == 1 << b)
                 .map_or(format!("BIT{b}"), |(_, n)| n.to_string())

@@ -33,6 +33,7 @@
 use std::collections::{BTreeMap, VecDeque};
 
 use crate::clock::{Micros, SECOND};
+pub use crate::proto::camera::names;
 use crate::proto::camera::P;
 
 pub const GIMBAL_MANAGER_INFORMATION: u32 = 280;
@@ -110,19 +111,6 @@ pub const MANAGER_FLAGS: &[(u32, &str)] = &[
     (256, "RC_EXCLUSIVE"),
     (512, "RC_MIXED"),
 ];
-
-/// The names of the bits of `flags` in `table` (unknown bits as `BITn`).
-pub fn names(table: &[(u32, &str)], flags: u32) -> Vec<String> {
-    (0..32)
-        .filter(|b| flags & (1 << b) != 0)
-        .map(|b| {
-            table
-                .iter()
-                .find(|(v, _)| *v == 1 << b)
-                .map_or(format!("BIT{b}"), |(_, n)| n.to_string())
-        })
-        .collect()
-}
 
 /// A quaternion (w, x, y, z; Hamilton, as MAVLink's `mavlink_quaternion_to_euler`) as roll,
 /// pitch, yaw in degrees (Tait–Bryan ZYX).
