@@ -268,6 +268,12 @@ pub enum Action {
     CameraMode,
     /// Camera screen: select the next camera.
     CameraNext,
+    /// Camera screen: zoom in / out, focus farther / nearer by 10 % of the range (cameras with
+    /// CAMERA_CAP_FLAGS_HAS_BASIC_ZOOM / HAS_BASIC_FOCUS).
+    CameraZoomIn,
+    CameraZoomOut,
+    CameraFocusFar,
+    CameraFocusNear,
     /// Camera screen: point the gimbal 5° up, down, left, right, or back to level and ahead.
     GimbalUp,
     GimbalDown,
@@ -520,7 +526,31 @@ impl Action {
             "camera: switch image / video mode",
         ),
         (Action::CameraNext, "camera_next", "select the next camera"),
-        (Action::GimbalUp, "gimbal_up", "gimbal: pitch 5° up"),
+        (
+            Action::CameraZoomIn,
+            "camera_zoom_in",
+            "camera: zoom in 10 %",
+        ),
+        (
+            Action::CameraZoomOut,
+            "camera_zoom_out",
+            "camera: zoom out 10 %",
+        ),
+        (
+            Action::CameraFocusFar,
+            "camera_focus_far",
+            "camera: focus 10 % farther",
+        ),
+        (
+            Action::CameraFocusNear,
+            "camera_focus_near",
+            "camera: focus 10 % nearer",
+        ),
+        (
+            Action::GimbalUp,
+            "gimbal_up",
+            "gimbal: pitch 5° up (within its limits)",
+        ),
         (Action::GimbalDown, "gimbal_down", "gimbal: pitch 5° down"),
         (Action::GimbalLeft, "gimbal_left", "gimbal: yaw 5° left"),
         (Action::GimbalRight, "gimbal_right", "gimbal: yaw 5° right"),

@@ -13,6 +13,8 @@ struct Gcs {
     app: App,
     now: u64,
     seq: u8,
+    /// The component whose COMMAND_LONGs are kept.
+    to: u8,
 }
 
 impl Gcs {
@@ -24,6 +26,7 @@ impl Gcs {
             }),
             now: 0,
             seq: 0,
+            to: 100,
         }
     }
 
@@ -50,7 +53,7 @@ impl Gcs {
                 },
             ));
         }
-        decoded(fx)
+        decoded(fx, self.to)
     }
 
     fn line(&mut self, text: &str) -> Vec<Value> {
@@ -63,11 +66,16 @@ impl Gcs {
             self.app
                 .update(self.now, Event::Key("enter".parse().unwrap())),
         );
-        decoded(fx)
+        decoded(fx, self.to)
+    }
+
+    fn key(&mut self, name: &str) -> Vec<Value> {
+        let fx = self.app.update(self.now, Event::Key(name.parse().unwrap()));
+        decoded(fx, self.to)
     }
 }
 
-fn decoded(fx: Vec<Effect>) -> Vec<Value> {
+fn decoded(fx: Vec<Effect>, to: u8) -> Vec<Value> {
     let sent: Vec<Vec<u8>> = fx
         .iter()
         .filter_map(|e| match e {
@@ -80,7 +88,7 @@ fn decoded(fx: Vec<Effect>) -> Vec<Value> {
     }
     common::pymavlink_decode(&sent)
         .into_iter()
-        .filter(|v| v["name"] == "COMMAND_LONG" && v["target_component"] == 100)
+        .filter(|v| v["name"] == "COMMAND_LONG" && v["target_component"] == to)
         .collect()
 }
 
@@ -269,7 +277,8 @@ fn a_pymavlink_camera_over_udp_is_discovered_and_shoots() {
     );
     // `s` on the Camera screen: one image, sequence number 1.
     let shot: Vec<&Vec<f64>> = got.iter().filter(|c| c[0] == 2000.0).collect();
-    assert_eq!(shot.len(), 1, "{got:?}");
+    let screen = std::fs::read_to_string(screens.join("camera.txt")).unwrap_or_default();
+    assert_eq!(shot.len(), 1, "{got:?}\n{screen}\n{err}");
     assert_eq!(&shot[0][1..5], &[0.0, 0.0, 1.0, 1.0]);
     let screen = std::fs::read_to_string(screens.join("camera.txt")).unwrap();
     assert!(
@@ -280,4 +289,104 @@ fn a_pymavlink_camera_over_udp_is_discovered_and_shoots() {
         screen.contains("BIT16") && screen.contains("last #0"),
         "{screen}"
     );
+}
+
+/// A gimbal manager whose every frame pymavlink packed (ardupilotmega dialect): an ArduCopter
+/// on 1:1 with an AP_Mount-like gimbal (device 1). Our REQUEST_MESSAGE 280 and
+/// DO_GIMBAL_MANAGER_PITCHYAW as pymavlink reads them, and the angles of a quaternion Python
+/// computed shown on the Camera screen.
+#[test]
+fn a_pymavlink_gimbal_manager_is_discovered_shown_and_pointed() {
+    let mut g = Gcs::new();
+    g.to = 1;
+    let sent = g.hear(1, &[heartbeat(2, 3)]);
+    assert!(
+        !sent
+            .iter()
+            .any(|c| c["command"] == 512 && c["param1"] == 280.0),
+        "no sign of a gimbal yet: {sent:?}"
+    );
+    // Pitch -35°, yaw 20° right of the nose, as Python makes the quaternion.
+    let q: Vec<f64> =
+        serde_json::from_str(&common::py_lines("euler_to_q.py", &[], &["0 -35 20".to_string()])[0])
+            .unwrap();
+    let attitude = (
+        "GIMBAL_DEVICE_ATTITUDE_STATUS",
+        json!({"target_system": 0, "target_component": 0, "time_boot_ms": 1000,
+               "flags": 4 | 8 | 32, "q": q, "angular_velocity_x": 0.0,
+               "angular_velocity_y": 0.0, "angular_velocity_z": 0.0, "failure_flags": 0,
+               "delta_yaw": 0.0, "delta_yaw_velocity": 0.0, "gimbal_device_id": 1}),
+    );
+    // The attitude of device 1 from the autopilot (ArduPilot's EXTRA3): its manager is asked.
+    let sent = g.hear(1, &[attitude]);
+    let ask: Vec<&Value> = sent
+        .iter()
+        .filter(|c| c["command"] == 512 && c["param1"] == 280.0)
+        .collect();
+    assert_eq!(ask.len(), 1, "{sent:?}");
+    assert_eq!(ask[0]["target_system"], 1);
+    for f in ["param2", "param3", "param4", "param5", "param6", "param7"] {
+        assert_eq!(ask[0][f], 0.0, "{f}");
+    }
+    // Capability flags: pitch and yaw axes, and a bit newer than our dialect (1 << 20).
+    let caps = 32 | 256 | (1 << 20);
+    let rad = |d: f64| d.to_radians();
+    let info = (
+        "GIMBAL_MANAGER_INFORMATION",
+        json!({"time_boot_ms": 1000, "cap_flags": caps, "gimbal_device_id": 1,
+               "roll_min": rad(-30.0), "roll_max": rad(30.0), "pitch_min": rad(-90.0),
+               "pitch_max": rad(20.0), "yaw_min": rad(-160.0), "yaw_max": rad(160.0)}),
+    );
+    let status = (
+        "GIMBAL_MANAGER_STATUS",
+        json!({"time_boot_ms": 1000, "flags": 12, "gimbal_device_id": 1,
+               "primary_control_sysid": 0, "primary_control_compid": 0,
+               "secondary_control_sysid": 0, "secondary_control_compid": 0}),
+    );
+    g.hear(1, &[ack(512), info, status]);
+    let gim = &g.app.sessions[&(1, 1)].gimbals.gimbals[&(1, 1)];
+    let a = gim.attitude.unwrap();
+    assert!((a.pitch + 35.0).abs() < 0.01 && (a.yaw - 20.0).abs() < 0.01 && a.roll.abs() < 0.01);
+    assert_eq!(gim.info.unwrap().cap_flags, caps as u32);
+    g.key("6");
+    let screen = mavterm::ui::buffer_to_text(&mavterm::ui::render_to_buffer(
+        &g.app,
+        80,
+        24,
+        &mavterm::ui::Theme::PLAIN,
+    ));
+    assert!(
+        screen.contains("gimbal 1:1/1 pitch -35.0° roll 0.0° yaw 20.0° (nose)"),
+        "{screen}"
+    );
+    assert!(
+        screen.contains("pitch -90..20° yaw -160..160°  control nobody"),
+        "{screen}"
+    );
+    assert!(
+        screen.contains("HAS_PITCH_AXIS HAS_YAW_AXIS BIT20"),
+        "{screen}"
+    );
+    // A key steps 5° up from the attitude heard; pymavlink reads exactly what the spec asks.
+    let sent = g.key("alt-up");
+    assert_eq!(sent.len(), 1, "{sent:?}");
+    let c = &sent[0];
+    assert_eq!(c["command"], 1000);
+    assert_eq!(
+        (&c["target_system"], &c["target_component"]),
+        (&json!(1), &json!(1))
+    );
+    assert_eq!(c["param1"], -30.0);
+    assert_eq!(c["param2"], 20.0);
+    assert_eq!(c["param3"], "nan");
+    assert_eq!(c["param4"], "nan");
+    // GIMBAL_MANAGER_FLAGS_ROLL_LOCK | PITCH_LOCK | YAW_IN_VEHICLE_FRAME, device 1.
+    assert_eq!(c["param5"], 44.0);
+    assert_eq!(c["param6"], 0.0);
+    assert_eq!(c["param7"], 1.0);
+    assert_eq!(c["confirmation"], 0);
+    // Beyond the manager's yaw limit (160°): not sent.
+    g.hear(1, &[ack(1000)]);
+    let sent = g.line("gimbal 0 170");
+    assert!(sent.is_empty(), "{sent:?}");
 }

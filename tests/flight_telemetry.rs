@@ -331,6 +331,8 @@ impl Core {
         common::pymavlink_decode(&frames)
             .into_iter()
             .filter(|m| m["name"] == "COMMAND_LONG" && m["command"] == 512)
+            // The gimbal discovery's GIMBAL_MANAGER_INFORMATION requests are not home's.
+            .filter(|m| m["param1"] != 280.0)
             .collect()
     }
 }

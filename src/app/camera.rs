@@ -19,6 +19,10 @@ pub enum CameraCmd {
         pitch: f64,
         yaw: f64,
     },
+    /// `gimbal control` / `gimbal release`: take or give up primary control.
+    GimbalControl(bool),
+    /// `gimbal select N`: the Nth gimbal (1-based) the keys and `gimbal` point.
+    GimbalSelect(usize),
 }
 
 pub const USAGE: &str = "usage: camera mode image|video|survey, shoot [N [SECONDS]], stop, video start|stop, zoom 0-100, focus 0-100, format, select COMPID";
@@ -65,23 +69,41 @@ pub fn parse(rest: &str) -> Result<CameraCmd, String> {
     })
 }
 
-/// Parse what follows `gimbal`: PITCH YAW in degrees.
+/// Parse what follows `gimbal`: PITCH YAW in degrees, `control`, `release`, `select N`.
 pub fn parse_gimbal(rest: &str) -> Result<CameraCmd, String> {
-    let usage = || "usage: gimbal PITCH YAW (degrees, e.g. gimbal -90 0)".to_string();
-    let w: Vec<f64> = rest
-        .split_whitespace()
+    let usage = || {
+        "usage: gimbal PITCH YAW (degrees, pitch up +, yaw right + of the nose; e.g. gimbal -90 0), \
+         gimbal control|release, gimbal select N"
+            .to_string()
+    };
+    let words: Vec<&str> = rest.split_whitespace().collect();
+    match words.as_slice() {
+        ["control"] => return Ok(CameraCmd::GimbalControl(true)),
+        ["release"] => return Ok(CameraCmd::GimbalControl(false)),
+        ["select", n] => {
+            return n
+                .parse::<usize>()
+                .ok()
+                .filter(|n| *n >= 1)
+                .map(CameraCmd::GimbalSelect)
+                .ok_or_else(usage)
+        }
+        _ => {}
+    }
+    let w: Vec<f64> = words
+        .iter()
         .map(|s| s.parse::<f64>().map_err(|_| usage()))
         .collect::<Result<_, _>>()?;
     match w.as_slice() {
-        [p, y] if (-180.0..=180.0).contains(p) && (-180.0..=360.0).contains(y) => {
-            Ok(CameraCmd::Gimbal { pitch: *p, yaw: *y })
-        }
+        [p, y] if p.is_finite() && y.is_finite() => Ok(CameraCmd::Gimbal { pitch: *p, yaw: *y }),
         _ => Err(usage()),
     }
 }
 
 /// Degrees a gimbal key turns.
 pub const GIMBAL_STEP: f64 = 5.0;
+/// Percent of the zoom or focus range a key moves.
+pub const ZOOM_STEP: f64 = 10.0;
 
 impl App {
     /// A Camera screen key.
@@ -93,7 +115,19 @@ impl App {
                 .and_then(|k| self.sessions.get(&k))
                 .and_then(|s| s.cameras.cameras.get(&id))
         });
-        let (pitch, yaw) = self.ui.gimbal;
+        let (pitch, yaw) = self
+            .target
+            .and_then(|k| self.sessions.get(&k))
+            .and_then(|s| s.gimbals.pick(self.ui.gimbal_sel))
+            .map_or((0.0, 0.0), |g| g.base());
+        // Zoom and focus step from the camera's CAMERA_SETTINGS (ZOOM_TYPE_RANGE, the type
+        // ArduPilot and the Camera Protocol cameras all take).
+        let level = |f: fn(&crate::proto::camera::Settings) -> f32| {
+            cam.and_then(|c| c.settings)
+                .map(|s| f(&s) as f64)
+                .filter(|v| v.is_finite())
+        };
+        let step = |v: Option<f64>, d: f64| (v.unwrap_or(0.0) + d).clamp(0.0, 100.0);
         let cmd = match action {
             CameraShoot => CameraCmd::Act(CameraAction::Shoot {
                 count: 1,
@@ -111,6 +145,42 @@ impl App {
                     1
                 },
             )),
+            CameraZoomIn | CameraZoomOut | CameraFocusFar | CameraFocusNear => {
+                let zoom = matches!(action, CameraZoomIn | CameraZoomOut);
+                let up = matches!(action, CameraZoomIn | CameraFocusFar);
+                let d = if up { ZOOM_STEP } else { -ZOOM_STEP };
+                let now = if zoom {
+                    level(|s| s.zoom)
+                } else {
+                    level(|s| s.focus)
+                };
+                if now.is_none() && cam.is_some_and(|c| c.info.is_some()) {
+                    let what = if zoom { "zoom" } else { "focus" };
+                    let known = cam.and_then(|c| {
+                        let flag = if zoom {
+                            crate::proto::camera::CAP_ZOOM
+                        } else {
+                            crate::proto::camera::CAP_FOCUS
+                        };
+                        c.has(flag).then_some(())
+                    });
+                    if known.is_some() {
+                        self.ui.message = Some((
+                            crate::proto::severity::ERROR,
+                            format!(
+                                "camera {what} level unknown (CAMERA_SETTINGS not heard): \
+                                 `camera {what} 0-100` sets it (not sent)"
+                            ),
+                        ));
+                        return;
+                    }
+                }
+                CameraCmd::Act(if zoom {
+                    CameraAction::Zoom(step(now, d))
+                } else {
+                    CameraAction::Focus(step(now, d))
+                })
+            }
             CameraNext => {
                 let n = self
                     .target
@@ -124,20 +194,20 @@ impl App {
                 return;
             }
             GimbalUp => CameraCmd::Gimbal {
-                pitch: (pitch + GIMBAL_STEP).min(90.0),
+                pitch: pitch + GIMBAL_STEP,
                 yaw,
             },
             GimbalDown => CameraCmd::Gimbal {
-                pitch: (pitch - GIMBAL_STEP).max(-90.0),
+                pitch: pitch - GIMBAL_STEP,
                 yaw,
             },
             GimbalLeft => CameraCmd::Gimbal {
                 pitch,
-                yaw: (yaw - GIMBAL_STEP).max(-180.0),
+                yaw: yaw - GIMBAL_STEP,
             },
             GimbalRight => CameraCmd::Gimbal {
                 pitch,
-                yaw: (yaw + GIMBAL_STEP).min(180.0),
+                yaw: yaw + GIMBAL_STEP,
             },
             GimbalCenter => CameraCmd::Gimbal {
                 pitch: 0.0,
@@ -167,12 +237,45 @@ impl App {
     ) -> Result<Option<String>, String> {
         let key = self.target.ok_or("no target vehicle")?;
         let now = self.now;
-        if let CameraCmd::Gimbal { pitch, yaw } = cmd {
-            let s = self.sessions.get_mut(&key).ok_or("no session")?;
-            let (_, out) = s.gimbal_pitch_yaw(now, pitch, yaw)?;
-            self.ui.gimbal = (pitch, yaw);
-            self.session_out(key, out, fx);
-            return Ok(Some(format!("gimbal pitch {pitch}° yaw {yaw}°: sent")));
+        let us = (self.cfg.sysid, self.cfg.compid);
+        let sel = self.ui.gimbal_sel;
+        match cmd {
+            CameraCmd::Gimbal { pitch, yaw } => {
+                let s = self.sessions.get_mut(&key).ok_or("no session")?;
+                let (_, out) = s.gimbal_point(now, sel, pitch, yaw, us)?;
+                let name = s
+                    .gimbals
+                    .pick(sel)
+                    .map(|g| g.name(key.0))
+                    .unwrap_or_default();
+                self.session_out(key, out, fx);
+                return Ok(Some(format!(
+                    "gimbal {name} pitch {pitch}° yaw {yaw}°: sent"
+                )));
+            }
+            CameraCmd::GimbalControl(take) => {
+                let s = self.sessions.get_mut(&key).ok_or("no session")?;
+                let (_, out) = s.gimbal_configure(now, sel, take, us)?;
+                let name = s
+                    .gimbals
+                    .pick(sel)
+                    .map(|g| g.name(key.0))
+                    .unwrap_or_default();
+                self.session_out(key, out, fx);
+                let what = if take { "take control" } else { "release" };
+                return Ok(Some(format!("gimbal {name} {what}: sent")));
+            }
+            CameraCmd::GimbalSelect(n) => {
+                let s = self.sessions.get(&key).ok_or("no session")?;
+                let usable = s.gimbals.usable();
+                let g = usable
+                    .get(n - 1)
+                    .ok_or_else(|| format!("no gimbal {n} ({} known)", usable.len()))?;
+                let name = g.name(key.0);
+                self.ui.gimbal_sel = n - 1;
+                return Ok(Some(format!("gimbal {name} selected")));
+            }
+            _ => {}
         }
         if let CameraCmd::Select(n) = cmd {
             let s = self.sessions.get(&key).ok_or("no session")?;

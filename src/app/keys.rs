@@ -420,6 +420,10 @@ impl App {
             | Action::CameraVideo
             | Action::CameraMode
             | Action::CameraNext
+            | Action::CameraZoomIn
+            | Action::CameraZoomOut
+            | Action::CameraFocusFar
+            | Action::CameraFocusNear
             | Action::GimbalUp
             | Action::GimbalDown
             | Action::GimbalLeft

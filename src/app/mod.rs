@@ -232,8 +232,8 @@ pub struct UiState {
     pub inspector: inspector::InspectorView,
     /// The Camera screen's selected camera (row among the target's cameras).
     pub camera_sel: usize,
-    /// The gimbal angles last asked for (pitch, yaw in degrees): the gimbal keys step from them.
-    pub gimbal: (f64, f64),
+    /// The gimbal the gimbal keys and `gimbal` point (index among the target's gimbals).
+    pub gimbal_sel: usize,
     /// The Mission screen and the mission files loaded.
     pub mission: mission::MissionView,
 }
@@ -258,7 +258,7 @@ impl Default for UiState {
             params: params::ParamView::default(),
             inspector: inspector::InspectorView::default(),
             camera_sel: 0,
-            gimbal: (0.0, 0.0),
+            gimbal_sel: 0,
             mission: mission::MissionView::default(),
         }
     }

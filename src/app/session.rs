@@ -17,6 +17,7 @@ use crate::link::LinkId;
 use crate::proto::ack::CommandAck;
 use crate::proto::camera::{CameraAction, CameraSet};
 use crate::proto::commands::{CmdOut, CommandQueue, CommandSpec, State};
+use crate::proto::gimbal::GimbalSet;
 use crate::proto::mission::{MissionMachine, MissionMsg, MissionOut, Request as MissionRequest};
 use crate::proto::params::{ParamMachine, ParamOut};
 use crate::proto::rates::StreamRates;
@@ -62,6 +63,8 @@ pub struct Session {
     pub mission: MissionMachine,
     /// The cameras of this system (camera components, or the autopilot answering for one).
     pub cameras: CameraSet,
+    /// The gimbals of this system, by their managers (the autopilot, or a gimbal component).
+    pub gimbals: GimbalSet,
 }
 
 impl Session {
@@ -83,6 +86,7 @@ impl Session {
             params: ParamMachine::new(key, autopilot, fetch_params),
             mission: MissionMachine::new(key),
             cameras: CameraSet::default(),
+            gimbals: GimbalSet::default(),
         }
     }
 
@@ -197,6 +201,13 @@ impl Session {
             let notes = self.cameras.on_message(now, from, id, hb_type, payload);
             out.extend(notes.into_iter().map(|(s, t)| SessionOut::Notice(s, t)));
         }
+        // Gimbals: the autopilot and any gimbal component may be a gimbal manager.
+        if hb_type.is_some() || (280..=285).contains(&id) {
+            let ap = self.key.1;
+            let notes = self.gimbals.on_message(now, from, id, hb_type, ap, payload);
+            self.gimbals.poll(now);
+            out.extend(notes.into_iter().map(|(s, t)| SessionOut::Notice(s, t)));
+        }
         if from != self.key.1 {
             // Another component of this system (a camera, a gimbal): the answers to commands
             // sent to it through this session's queue.
@@ -262,28 +273,72 @@ impl Session {
         Ok(r)
     }
 
-    /// Point the gimbal (MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW to the autopilot, the usual gimbal
-    /// manager): pitch and yaw in degrees, rates unset, all gimbals.
-    pub fn gimbal_pitch_yaw(
+    /// Point gimbal `sel` (MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW to its manager's component):
+    /// pitch and yaw in degrees, yaw relative to the vehicle; `us` is our (sysid, compid).
+    /// Refused (nothing sent) with the reason when no manager is known, an angle is beyond its
+    /// limits, or another controller holds it.
+    pub fn gimbal_point(
         &mut self,
         now: Micros,
+        sel: usize,
         pitch: f64,
         yaw: f64,
+        us: (u8, u8),
     ) -> Result<(u64, Vec<SessionOut>), String> {
+        let (compid, command, params) = match self.gimbals.point(sel, pitch, yaw, us) {
+            Ok(c) => c,
+            Err(why) if self.gimbals.usable().is_empty() => {
+                // None known: ask the autopilot, the usual manager (not the pointing itself).
+                self.gimbals.ask_autopilot(now, self.key.1);
+                return Err(format!(
+                    "{why}; asking the autopilot for GIMBAL_MANAGER_INFORMATION"
+                ));
+            }
+            Err(why) => return Err(why),
+        };
         let spec = CommandSpec {
-            target: self.key,
-            command: crate::proto::camera::CMD_DO_GIMBAL_MANAGER_PITCHYAW,
-            params: [pitch, yaw, f64::NAN, f64::NAN, 0.0, 0.0, 0.0],
+            target: (self.key.0, compid),
+            command,
+            params,
+            form: crate::proto::commands::Form::Long,
+        };
+        let r = self.submit(now, spec)?;
+        self.gimbals.pointed(compid, params[6] as u8, pitch, yaw);
+        Ok(r)
+    }
+
+    /// Take (`take`) or give up primary control of gimbal `sel`
+    /// (MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE).
+    pub fn gimbal_configure(
+        &mut self,
+        now: Micros,
+        sel: usize,
+        take: bool,
+        us: (u8, u8),
+    ) -> Result<(u64, Vec<SessionOut>), String> {
+        let (compid, command, params) = self.gimbals.configure(sel, take, us)?;
+        let spec = CommandSpec {
+            target: (self.key.0, compid),
+            command,
+            params,
             form: crate::proto::commands::Form::Long,
         };
         self.submit(now, spec)
     }
 
-    /// The cameras' waiting requests, each camera's first, when the queue takes it (one
-    /// REQUEST_MESSAGE per target open at a time).
+    /// The cameras' and gimbals' waiting requests, each component's first, when the queue takes
+    /// it (one command of a kind per target open at a time).
     fn camera_requests(&mut self, now: Micros) -> Vec<SessionOut> {
         let mut out = Vec::new();
-        for (compid, command, params) in self.cameras.heads() {
+        let heads: Vec<(bool, Request)> = self
+            .cameras
+            .heads()
+            .into_iter()
+            .map(|h| (true, h))
+            .chain(self.gimbals.heads().into_iter().map(|h| (false, h)))
+            .collect();
+        for (camera, head) in heads {
+            let (compid, command, params) = head;
             let target = (self.key.0, compid);
             if self.commands.is_open(target, command) {
                 continue;
@@ -296,7 +351,11 @@ impl Session {
             };
             match self.commands.submit(now, spec) {
                 Ok((_, sends)) => {
-                    self.cameras.sent(compid);
+                    if camera {
+                        self.cameras.sent(compid);
+                    } else {
+                        self.gimbals.sent(&head);
+                    }
                     // Asked on our own: not over a high-latency link.
                     out.extend(self.drive(now, sends).into_iter().map(|o| match o {
                         SessionOut::Send(m) => SessionOut::SendAuto(m),
@@ -391,11 +450,32 @@ impl Session {
     fn drive(&mut self, now: Micros, outs: Vec<CmdOut>) -> Vec<SessionOut> {
         let mut out = Vec::new();
         let mut seq_events = Vec::new();
-        for o in outs {
+        // The gimbal discovery asks every autopilot (most have no mount): their outcomes stay on
+        // the Commands screen instead of a notice each.
+        let quiet: Vec<bool> = outs
+            .iter()
+            .enumerate()
+            .map(|(i, o)| match (o, outs.get(i + 1)) {
+                (CmdOut::Notice(..), Some(CmdOut::Finished(id))) => {
+                    self.commands.get(*id).is_some_and(|e| {
+                        crate::proto::gimbal::is_discovery(e.spec.command, &e.spec.params)
+                    })
+                }
+                _ => false,
+            })
+            .collect();
+        for (o, quiet) in outs.into_iter().zip(quiet) {
             match o {
                 CmdOut::Send(m) => out.push(SessionOut::Send(m)),
+                CmdOut::Notice(..) if quiet => {}
                 CmdOut::Notice(s, t) => out.push(SessionOut::Notice(s, t)),
                 CmdOut::Finished(id) => {
+                    if let Some(e) = self.commands.get(id) {
+                        if e.spec.target.0 == self.key.0 {
+                            let (c, cmd, p) = (e.spec.target.1, e.spec.command, e.spec.params);
+                            self.gimbals.on_finished(now, c, cmd, &p);
+                        }
+                    }
                     if let Some(e) = self.commands.get(id) {
                         if self.cameras.cameras.contains_key(&e.spec.target.1)
                             && e.spec.target.0 == self.key.0
@@ -494,6 +574,7 @@ impl Session {
         let m = self.mission.poll(now);
         out.extend(self.mission_out(m));
         self.cameras.poll(now);
+        self.gimbals.poll(now);
         out.extend(self.camera_requests(now));
         out
     }
@@ -519,6 +600,7 @@ impl Session {
                 .cameras
                 .heads()
                 .iter()
+                .chain(self.gimbals.heads().iter())
                 .any(|(c, cmd, _)| !self.commands.is_open((self.key.0, *c), *cmd))
     }
 
@@ -532,12 +614,16 @@ impl Session {
             self.params.next_deadline(),
             self.mission.next_deadline(),
             self.cameras.next_deadline(),
+            self.gimbals.next_deadline(),
         ]
         .into_iter()
         .flatten()
         .min()
     }
 }
+
+/// A component's request waiting for the queue: (component, command, params).
+type Request = (u8, u16, [f64; 7]);
 
 fn map(o: StreamOut) -> SessionOut {
     match o {

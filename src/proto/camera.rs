@@ -27,7 +27,6 @@ pub const STORAGE_INFORMATION: u32 = 261;
 pub const CAMERA_CAPTURE_STATUS: u32 = 262;
 pub const CAMERA_IMAGE_CAPTURED: u32 = 263;
 pub const VIDEO_STREAM_INFORMATION: u32 = 269;
-pub const GIMBAL_DEVICE_ATTITUDE_STATUS: u32 = 285;
 
 pub const CMD_REQUEST_MESSAGE: u16 = 512;
 pub const CMD_REQUEST_CAMERA_INFORMATION: u16 = 521;
@@ -35,7 +34,6 @@ pub const CMD_STORAGE_FORMAT: u16 = 526;
 pub const CMD_SET_CAMERA_MODE: u16 = 530;
 pub const CMD_SET_CAMERA_ZOOM: u16 = 531;
 pub const CMD_SET_CAMERA_FOCUS: u16 = 532;
-pub const CMD_DO_GIMBAL_MANAGER_PITCHYAW: u16 = 1000;
 pub const CMD_IMAGE_START_CAPTURE: u16 = 2000;
 pub const CMD_IMAGE_STOP_CAPTURE: u16 = 2001;
 pub const CMD_VIDEO_START_CAPTURE: u16 = 2500;
@@ -50,6 +48,10 @@ pub const HOLE_TRIES: u32 = 3;
 pub const HOLE_RETRY: Micros = 3 * SECOND;
 /// After a CAMERA_INFORMATION request finished without the message, the wait before 521.
 pub const FALLBACK_WAIT: Micros = SECOND;
+/// VIDEO_STREAM_INFORMATION (all streams, param2 = 0) is asked this many times at most, this
+/// long after a request that brought none.
+pub const STREAM_TRIES: u32 = 3;
+pub const STREAM_RETRY: Micros = 3 * SECOND;
 
 /// CAMERA_CAP_FLAGS, bit by bit, as the common dialect names them.
 pub const CAP_FLAGS: &[(u32, &str)] = &[
@@ -80,10 +82,15 @@ pub const CAP_VIDEO_STREAM: u32 = 256;
 
 /// The names of the bits set in `flags` (unknown bits as `BIT n`).
 pub fn flag_names(flags: u32) -> Vec<String> {
+    names(CAP_FLAGS, flags)
+}
+
+/// The names of the bits of `flags` in `table` (unknown bits as `BITn`).
+pub fn names(table: &[(u32, &str)], flags: u32) -> Vec<String> {
     (0..32)
         .filter(|b| flags & (1 << b) != 0)
         .map(|b| {
-            CAP_FLAGS
+            table
                 .iter()
                 .find(|(v, _)| *v == 1 << b)
                 .map_or(format!("BIT{b}"), |(_, n)| n.to_string())
@@ -102,35 +109,35 @@ pub fn mode_name(mode: u8) -> &'static str {
 }
 
 /// A payload with the zeros MAVLink 2 cut restored.
-struct P(Vec<u8>);
+pub(crate) struct P(Vec<u8>);
 
 impl P {
-    fn new(payload: &[u8], len: usize) -> P {
+    pub(crate) fn new(payload: &[u8], len: usize) -> P {
         let mut v = payload.to_vec();
         if v.len() < len {
             v.resize(len, 0);
         }
         P(v)
     }
-    fn u8(&self, o: usize) -> u8 {
+    pub(crate) fn u8(&self, o: usize) -> u8 {
         self.0[o]
     }
-    fn u16(&self, o: usize) -> u16 {
+    pub(crate) fn u16(&self, o: usize) -> u16 {
         u16::from_le_bytes([self.0[o], self.0[o + 1]])
     }
-    fn u32(&self, o: usize) -> u32 {
+    pub(crate) fn u32(&self, o: usize) -> u32 {
         u32::from_le_bytes(self.0[o..o + 4].try_into().unwrap_or_default())
     }
-    fn i32(&self, o: usize) -> i32 {
+    pub(crate) fn i32(&self, o: usize) -> i32 {
         self.u32(o) as i32
     }
-    fn u64(&self, o: usize) -> u64 {
+    pub(crate) fn u64(&self, o: usize) -> u64 {
         u64::from_le_bytes(self.0[o..o + 8].try_into().unwrap_or_default())
     }
-    fn f32(&self, o: usize) -> f32 {
+    pub(crate) fn f32(&self, o: usize) -> f32 {
         f32::from_bits(self.u32(o))
     }
-    fn text(&self, o: usize, n: usize) -> String {
+    pub(crate) fn text(&self, o: usize, n: usize) -> String {
         let b = &self.0[o..o + n];
         let end = b.iter().position(|&c| c == 0).unwrap_or(n);
         String::from_utf8_lossy(&b[..end]).trim().to_string()
@@ -288,6 +295,9 @@ pub struct Camera {
     pending: VecDeque<(u16, [f64; 7])>,
     /// Sequence number of the next single-image capture (IMAGE_START_CAPTURE param4).
     next_seq: u32,
+    /// VIDEO_STREAM_INFORMATION requests so far, and when to ask again.
+    stream_asks: u32,
+    stream_next: Option<Micros>,
 }
 
 impl Camera {
@@ -305,6 +315,8 @@ impl Camera {
             asked: BTreeMap::new(),
             pending: VecDeque::new(),
             next_seq: 1,
+            stream_asks: 0,
+            stream_next: None,
         };
         c.request(CAMERA_INFORMATION, 0.0);
         c
@@ -413,8 +425,6 @@ impl CameraAction {
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct CameraSet {
     pub cameras: BTreeMap<u8, Camera>,
-    /// The last GIMBAL_DEVICE_ATTITUDE_STATUS: (component, roll, pitch, yaw in degrees).
-    pub gimbal: Option<(u8, f32, f32, f32)>,
 }
 
 impl CameraSet {
@@ -429,20 +439,6 @@ impl CameraSet {
         payload: &[u8],
     ) -> Vec<(u8, String)> {
         let mut notes = Vec::new();
-        if id == GIMBAL_DEVICE_ATTITUDE_STATUS {
-            let p = P::new(payload, 49);
-            let (w, x, y, z) = (p.f32(4), p.f32(8), p.f32(12), p.f32(16));
-            let roll = (2.0 * (w * x + y * z)).atan2(1.0 - 2.0 * (x * x + y * y));
-            let pitch = (2.0 * (w * y - z * x)).clamp(-1.0, 1.0).asin();
-            let yaw = (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z));
-            self.gimbal = Some((
-                from,
-                roll.to_degrees(),
-                pitch.to_degrees(),
-                yaw.to_degrees(),
-            ));
-            return notes;
-        }
         if hb_type == Some(MAV_TYPE_CAMERA) && !self.cameras.contains_key(&from) {
             self.cameras.insert(from, Camera::new(from));
             return notes;
@@ -473,6 +469,7 @@ impl CameraSet {
                     c.request(CAMERA_CAPTURE_STATUS, 0.0);
                     if info.has(CAP_VIDEO_STREAM) {
                         c.request(VIDEO_STREAM_INFORMATION, 0.0);
+                        c.stream_asks = 1;
                     }
                 }
                 c.discovery = Discovery::Found;
@@ -576,6 +573,12 @@ impl CameraSet {
                     ),
                 ));
             }
+            CMD_REQUEST_MESSAGE
+                if params[0] == VIDEO_STREAM_INFORMATION as f64 && c.streams.is_empty() =>
+            {
+                // None came (lost, or refused): asked again, a bounded number of times.
+                c.stream_next = (c.stream_asks < STREAM_TRIES).then_some(now + STREAM_RETRY);
+            }
             CMD_SET_CAMERA_MODE | CMD_SET_CAMERA_ZOOM | CMD_SET_CAMERA_FOCUS if accepted => {
                 c.request(CAMERA_SETTINGS, 0.0);
             }
@@ -600,6 +603,13 @@ impl CameraSet {
             if c.hole_deadline().is_some_and(|t| now >= t) {
                 c.find_holes(now);
             }
+            if c.stream_next.is_some_and(|t| now >= t) {
+                c.stream_next = None;
+                if c.streams.is_empty() {
+                    c.stream_asks += 1;
+                    c.request(VIDEO_STREAM_INFORMATION, 0.0);
+                }
+            }
             if let Discovery::FallbackAt(t) = c.discovery {
                 if now >= t && c.info.is_none() {
                     c.discovery = Discovery::Legacy;
@@ -620,7 +630,7 @@ impl CameraSet {
                     Discovery::FallbackAt(t) => Some(t),
                     _ => None,
                 };
-                [fallback, c.hole_deadline()]
+                [fallback, c.hole_deadline(), c.stream_next]
             })
             .flatten()
             .min()
@@ -874,23 +884,29 @@ mod tests {
     }
 
     #[test]
-    fn gimbal_attitude_is_read_as_degrees() {
-        // Pitch -30°, yaw 45° (ZYX): q = qz(45°) * qy(-30°).
-        let (p, y) = ((-30f32).to_radians() / 2.0, 45f32.to_radians() / 2.0);
-        let q = [
-            p.cos() * y.cos(),
-            -p.sin() * y.sin(),
-            p.sin() * y.cos(),
-            p.cos() * y.sin(),
-        ];
-        let mut payload = vec![0u8; 40];
-        for (i, v) in q.iter().enumerate() {
-            payload[4 + 4 * i..8 + 4 * i].copy_from_slice(&v.to_le_bytes());
-        }
+    fn video_streams_are_asked_again_when_none_came() {
         let mut s = CameraSet::default();
-        s.on_message(0, 154, GIMBAL_DEVICE_ATTITUDE_STATUS, None, &payload);
-        let (from, roll, pitch, yaw) = s.gimbal.unwrap();
-        assert_eq!(from, 154);
-        assert!(roll.abs() < 0.01 && (pitch + 30.0).abs() < 0.01 && (yaw - 45.0).abs() < 0.01);
+        s.on_message(0, 100, 259, None, &info_payload(CAP_VIDEO_STREAM));
+        let ask = [269.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        for _ in 0..3 {
+            s.sent(100); // settings, storage, status
+        }
+        assert_eq!(s.heads(), vec![(100, 512, ask)], "all streams: param2 = 0");
+        let mut t = SECOND;
+        for n in 1..=STREAM_TRIES {
+            s.sent(100);
+            s.on_finished(t, 100, 512, &ask, true);
+            if n == STREAM_TRIES {
+                break;
+            }
+            s.poll(t + STREAM_RETRY - 1);
+            assert!(s.heads().is_empty());
+            t += STREAM_RETRY;
+            s.poll(t);
+            assert_eq!(s.heads(), vec![(100, 512, ask)], "ask {}", n + 1);
+        }
+        assert_eq!(s.next_deadline(), None, "bounded");
+        s.poll(t + 60 * SECOND);
+        assert!(s.heads().is_empty());
     }
 }

@@ -4,6 +4,7 @@
 pub mod ack;
 pub mod camera;
 pub mod commands;
+pub mod gimbal;
 pub mod loss;
 pub mod mav_cmds;
 pub mod mission;

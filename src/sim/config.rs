@@ -97,6 +97,11 @@ pub const OPTIONS: &[(&str, &str, &str)] = &[
         "3",
         "lose the camera's first CAMERA_IMAGE_CAPTURED for image N",
     ),
+    (
+        "gimbal",
+        "0",
+        "ArduPilot's mount on each autopilot (gimbal manager, device 1) [default: camera]",
+    ),
 ];
 
 /// The option names, comma-separated, for messages.
@@ -166,6 +171,9 @@ pub struct SimConfig {
     pub camera: bool,
     /// `camera_drop=N`: the camera's first CAMERA_IMAGE_CAPTURED of image N is lost.
     pub camera_drop: Option<i32>,
+    /// `gimbal=1`: each autopilot has a mount (AP_Mount, gimbal manager on its own component,
+    /// [`super::gimbal`]); `None`: as `camera` (a camera on a gimbal), `gimbal=0` none.
+    pub gimbal: Option<bool>,
 }
 
 impl Default for SimConfig {
@@ -188,6 +196,7 @@ impl Default for SimConfig {
             mission_boot_ms: 0,
             camera: false,
             camera_drop: None,
+            gimbal: None,
         }
     }
 }
@@ -328,6 +337,7 @@ impl SimConfig {
                     c.mission_boot_ms = num(key, value, "milliseconds (a whole number)")?
                 }
                 "camera" => c.camera = flag(key, value)?,
+                "gimbal" => c.gimbal = Some(flag(key, value)?),
                 "camera_drop" => {
                     c.camera_drop = Some(
                         value

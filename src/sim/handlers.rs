@@ -401,7 +401,16 @@ impl SimVehicle {
                     return MAV_RESULT_FAILED;
                 }
                 let msgid = msgid as u32;
-                if matches!(msgid, id::HOME_POSITION | id::GPS_GLOBAL_ORIGIN) {
+                // The gimbal messages map to ap_messages whether or not a mount is configured
+                // (HAL_MOUNT_ENABLED): without one, ACCEPTED and nothing sent.
+                if matches!(
+                    msgid,
+                    id::HOME_POSITION
+                        | id::GPS_GLOBAL_ORIGIN
+                        | id::GIMBAL_MANAGER_INFORMATION
+                        | id::GIMBAL_MANAGER_STATUS
+                        | id::GIMBAL_DEVICE_ATTITUDE_STATUS
+                ) {
                     after.extend(self.build(msgid));
                     return MAV_RESULT_ACCEPTED;
                 }
@@ -428,6 +437,28 @@ impl SimVehicle {
                 after.push(self.home_position());
                 after.push(self.gps_global_origin());
                 MAV_RESULT_ACCEPTED
+            }
+            // AP_Mount::handle_command: FAILED without a mount (no backend).
+            MavCmd::MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW => {
+                let heading = self.yaw;
+                let (x, _) = cmd.xy();
+                match self.mount.as_mut() {
+                    Some(m) => m.pitchyaw(p, x as u32, p[6], heading),
+                    None => MAV_RESULT_FAILED,
+                }
+            }
+            MavCmd::MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE => {
+                let t_ms = self.time_boot_ms();
+                match self.mount.as_mut() {
+                    Some(m) => {
+                        let (r, changed) = m.configure(p, cmd.from);
+                        if changed {
+                            after.push(m.status(t_ms));
+                        }
+                        r
+                    }
+                    None => MAV_RESULT_FAILED,
+                }
             }
             _ => MAV_RESULT_UNSUPPORTED,
         }

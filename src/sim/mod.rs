@@ -27,6 +27,7 @@ pub const ARDUCOPTER_VERSION: &str = arducopter_version!();
 pub mod auto;
 pub mod camera;
 pub mod config;
+pub mod gimbal;
 pub mod guided;
 pub mod handlers;
 pub mod impair;
@@ -140,6 +141,9 @@ impl Sim {
             v.drop_left = cfg.drop_cmd.clone();
             v.set_link(cfg.baud, cfg.ftp);
             v.mission.ready_at = cfg.mission_boot_ms.saturating_mul(1000);
+            if cfg.gimbal.unwrap_or(cfg.camera) {
+                v.mount = Some(gimbal::SimMount::default());
+            }
             vehicles.push(v);
         }
         let impair = Impairer::new(

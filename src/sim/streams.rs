@@ -33,6 +33,9 @@ pub mod id {
     pub const VIBRATION: u32 = 241;
     pub const HOME_POSITION: u32 = 242;
     pub const EXTENDED_SYS_STATE: u32 = 245;
+    pub const GIMBAL_MANAGER_INFORMATION: u32 = 280;
+    pub const GIMBAL_MANAGER_STATUS: u32 = 281;
+    pub const GIMBAL_DEVICE_ATTITUDE_STATUS: u32 = 285;
 }
 
 /// ArduCopter's MAV_DATA_STREAM groups (GCS_Mavlink.cpp `STREAM_*` tables), restricted to the
@@ -60,6 +63,8 @@ pub fn stream_group(stream_id: u8) -> &'static [u32] {
             EKF_STATUS_REPORT,
             VIBRATION,
             BATTERY_STATUS,
+            // Only with a mount (nothing is sent without one).
+            GIMBAL_DEVICE_ATTITUDE_STATUS,
         ],
         _ => &[],
     }
@@ -69,11 +74,13 @@ pub fn stream_group(stream_id: u8) -> &'static [u32] {
 pub const ALL_GROUPS: [u8; 7] = [1, 2, 3, 6, 10, 11, 12];
 
 /// Messages in no stream group that a GCS can still ask for by SET_MESSAGE_INTERVAL (ArduPilot's
-/// MSG_HOME and MSG_ORIGIN are sent only once home is set; EXTENDED_SYS_STATE).
-pub const INTERVAL_ONLY: [u32; 3] = [
+/// MSG_HOME and MSG_ORIGIN are sent only once home is set; EXTENDED_SYS_STATE; the mount's
+/// GIMBAL_MANAGER_STATUS, which ArduPilot otherwise sends only when control changes).
+pub const INTERVAL_ONLY: [u32; 4] = [
     id::EXTENDED_SYS_STATE,
     id::HOME_POSITION,
     id::GPS_GLOBAL_ORIGIN,
+    id::GIMBAL_MANAGER_STATUS,
 ];
 
 /// True when the simulator can produce message `msgid` on request or on a stream.

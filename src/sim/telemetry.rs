@@ -91,7 +91,7 @@ fn deg_e7(d: f64) -> i32 {
 }
 
 impl SimVehicle {
-    fn time_boot_ms(&self) -> u32 {
+    pub(super) fn time_boot_ms(&self) -> u32 {
         (self.now / 1000) as u32
     }
 
@@ -244,6 +244,9 @@ impl SimVehicle {
         let heading = self.yaw;
         let course = self.course_deg();
         let m = match msgid {
+            id::GIMBAL_MANAGER_INFORMATION => self.mount.as_ref()?.information(t_ms),
+            id::GIMBAL_MANAGER_STATUS => self.mount.as_ref()?.status(t_ms),
+            id::GIMBAL_DEVICE_ATTITUDE_STATUS => self.mount.as_ref()?.attitude(t_ms),
             id::HEARTBEAT => self.heartbeat(),
             id::AUTOPILOT_VERSION => self.autopilot_version(),
             id::HOME_POSITION => {

@@ -740,7 +740,12 @@ fn stream_groups_each_at_their_own_rate() {
     g.run_for(20_000_000);
     let count = |id: u32| g.frames[n..].iter().filter(|f| f.msgid == id).count() as f64;
     for (group, hz) in rates {
-        for &id in super::streams::stream_group(group) {
+        // GIMBAL_DEVICE_ATTITUDE_STATUS is in EXTRA3 but only a vehicle with a mount sends it.
+        let mount_only = super::streams::id::GIMBAL_DEVICE_ATTITUDE_STATUS;
+        for &id in super::streams::stream_group(group)
+            .iter()
+            .filter(|&&id| id != mount_only)
+        {
             let got = count(id) / 20.0;
             assert!(
                 (got - hz as f64).abs() <= 0.05 * hz as f64,

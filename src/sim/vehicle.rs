@@ -343,9 +343,16 @@ pub struct SimVehicle {
     pub(super) out: Vec<Out>,
     /// What a command handler sends itself, ahead of its COMMAND_ACK.
     pub(super) immediate: Vec<Out>,
+    /// The mount (`gimbal=1`): AP_Mount as gimbal manager on this component.
+    pub(super) mount: Option<super::gimbal::SimMount>,
 }
 
 impl SimVehicle {
+    /// The mount (`gimbal=1`), as it stands.
+    pub fn mount(&self) -> Option<&super::gimbal::SimMount> {
+        self.mount.as_ref()
+    }
+
     /// The vehicle's parameter table, as it stands (for tests to compare against).
     pub fn params(&self) -> &ParamTable {
         &self.params
@@ -423,6 +430,7 @@ impl SimVehicle {
             now: 0,
             out: Vec::new(),
             immediate: Vec::new(),
+            mount: None,
         }
     }
 
@@ -596,6 +604,9 @@ impl SimVehicle {
         self.mission_tick(now);
         self.auto_update();
         self.step(now, dt);
+        if let Some(m) = self.mount.as_mut() {
+            m.step(dt);
+        }
         self.airspeed_cal_tick(now);
         if now >= self.next_heartbeat {
             let hb = self.heartbeat();

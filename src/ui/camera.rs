@@ -1,7 +1,9 @@
 //! The Camera screen (`6`): the target's cameras, one row each, and the selected one in full:
 //! what CAMERA_INFORMATION says (vendor, model, firmware, resolution, lens, each capability flag
 //! by name), its mode, storage, capture status, the last images, its video streams, and what can
-//! be done with it (an action the camera cannot do is shown with the reason).
+//! be done with it (an action the camera cannot do is shown with the reason). Below, the
+//! system's gimbals, one line each (manager and device, attitude, limits, who controls it) and
+//! the selected one's capability flags.
 
 use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
@@ -21,9 +23,11 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         .borders(Borders::ALL)
         .border_style(theme.focus_border());
     let session = app.target.and_then(|k| app.sessions.get(&k));
-    let Some(s) = session.filter(|s| !s.cameras.cameras.is_empty()) else {
+    let Some(s) =
+        session.filter(|s| !s.cameras.cameras.is_empty() || !s.gimbals.gimbals.is_empty())
+    else {
         let text = match app.target {
-            Some(k) => format!("no camera heard on system {}", k.0),
+            Some(k) => format!("no camera or gimbal heard on system {}", k.0),
             None => "no target vehicle".into(),
         };
         frame.render_widget(
@@ -159,16 +163,6 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
                 st.id, st.name, st.resolution.0, st.resolution.1, st.uri
             )));
         }
-        let (ap, ay) = app.ui.gimbal;
-        match s.cameras.gimbal {
-            Some((g, _, p, y)) => lines.push(Line::raw(format!(
-                "gimbal {sys}:{g} pitch {p:.1}° yaw {y:.1}°  (asked {ap:.0}°/{ay:.0}°)"
-            ))),
-            None if (ap, ay) != (0.0, 0.0) => lines.push(Line::raw(format!(
-                "gimbal: no attitude heard  (asked pitch {ap:.0}° yaw {ay:.0}°)"
-            ))),
-            None => {}
-        }
         // What the camera can be asked, as its flags and mode allow.
         let actions: [(&str, CameraAction); 5] = [
             (
@@ -217,6 +211,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             lines.push(Line::styled(format!("  {w}"), theme.dim()));
         }
     }
+    gimbal_lines(app, s, theme, &mut lines);
     let title = match sel {
         Some(id) => {
             let n = s.cameras.cameras.len();
@@ -230,14 +225,17 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             };
             use crate::keymap::Action as A;
             format!(
-                " Camera {sys}:{id} ({i} of {n})  {} shoot  {} video  {} mode  {} level ",
+                " Camera {sys}:{id} ({i} of {n})  {} shoot  {} video  {} mode  {}/{} zoom  {}/{} focus ",
                 keys(A::CameraShoot),
                 keys(A::CameraVideo),
                 keys(A::CameraMode),
-                keys(A::GimbalCenter),
+                keys(A::CameraZoomIn),
+                keys(A::CameraZoomOut),
+                keys(A::CameraFocusFar),
+                keys(A::CameraFocusNear),
             )
         }
-        None => " Camera ".to_string(),
+        None => " Camera  alt-arrows point the gimbal  c level ".to_string(),
     };
     frame.render_widget(
         Paragraph::new(lines)
@@ -245,4 +243,72 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             .wrap(Wrap { trim: false }),
         area,
     );
+}
+
+/// The gimbals: one line each (`>` the one the keys point), then the selected one's flags.
+fn gimbal_lines(
+    app: &App,
+    s: &crate::app::session::Session,
+    theme: &Theme,
+    lines: &mut Vec<Line<'static>>,
+) {
+    use crate::proto::gimbal::{names, CAP_FLAGS};
+    let sys = s.key.0;
+    let sel = s
+        .gimbals
+        .pick(app.ui.gimbal_sel)
+        .map(|g| (g.manager, g.device));
+    let us = (app.cfg.sysid, app.cfg.compid);
+    for g in s.gimbals.gimbals.values() {
+        let picked = sel == Some((g.manager, g.device));
+        let mark = if picked { ">" } else { " " };
+        let att = match g.attitude {
+            Some(a) => format!(
+                "pitch {:.1}° roll {:.1}° yaw {:.1}° {}",
+                a.pitch,
+                a.roll,
+                a.yaw,
+                if a.yaw_in_vehicle_frame() {
+                    "(nose)"
+                } else {
+                    "(north)"
+                }
+            ),
+            None => "attitude ?".into(),
+        };
+        let asked = g
+            .commanded
+            .map_or(String::new(), |(p, y)| format!("  asked {p:.0}°/{y:.0}°"));
+        let style = if picked {
+            theme.selected()
+        } else {
+            theme.border()
+        };
+        lines.push(Line::styled(
+            format!("{mark}gimbal {} {att}{asked}", g.name(sys)),
+            style,
+        ));
+        let limits = match g.info {
+            Some(i) => format!(
+                "pitch {:.0}..{:.0}° yaw {:.0}..{:.0}°",
+                i.pitch.0, i.pitch.1, i.yaw.0, i.yaw.1
+            ),
+            None => "limits ? (no GIMBAL_MANAGER_INFORMATION)".into(),
+        };
+        let control = match g.status {
+            Some(st) if st.primary == (0, 0) => "nobody".to_string(),
+            Some(st) if st.primary == us => format!("{}:{} (us)", st.primary.0, st.primary.1),
+            Some(st) => format!("{}:{}", st.primary.0, st.primary.1),
+            None => "?".into(),
+        };
+        lines.push(Line::raw(format!("  {limits}  control {control}")));
+        if picked {
+            if let Some(i) = g.info {
+                lines.push(Line::styled(
+                    format!("  caps {}", names(CAP_FLAGS, i.cap_flags).join(" ")),
+                    theme.dim(),
+                ));
+            }
+        }
+    }
 }
