@@ -100,7 +100,7 @@ pub const OPTIONS: &[(&str, &str, &str)] = &[
     (
         "gimbal",
         "0",
-        "ArduPilot's mount on each autopilot (gimbal manager, device 1) [default: camera]",
+        "ArduPilot's mount on each autopilot, device 1 [default: as camera]",
     ),
 ];
 
