@@ -887,8 +887,7 @@ fn unknown_actions_and_keys_list_the_valid_names() {
     // Each list once, after the problems, sorted, wrapped.
     let normal = &e.hints[0];
     assert!(
-        normal
-            .starts_with("the actions of [normal] and [normal.SCREEN]: arm, bottom, camera_"),
+        normal.starts_with("the actions of [normal] and [normal.SCREEN]: arm, bottom, camera_"),
         "{normal}"
     );
     for name in ["quit", "next_vehicle", "mission_goto", "screen_6", "cancel"] {
