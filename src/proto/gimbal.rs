@@ -282,7 +282,22 @@ fn interval(id: u32, us: f64) -> [f64; 7] {
     [id as f64, us, 0.0, 0.0, 0.0, 0.0, 0.0]
 }
 
+/// Gimbals kept per system at most: a flood of spoofed device ids cannot grow the set.
+const MAX_GIMBALS: usize = 16;
+
 impl GimbalSet {
+    /// The gimbal (manager component, device id), made when new unless the set is full.
+    fn entry(&mut self, key: (u8, u8)) -> Option<&mut Gimbal> {
+        if self.gimbals.len() >= MAX_GIMBALS && !self.gimbals.contains_key(&key) {
+            return None;
+        }
+        Some(
+            self.gimbals
+                .entry(key)
+                .or_insert_with(|| Gimbal::new(key.0, key.1)),
+        )
+    }
+
     fn push(&mut self, r: (u8, u16, [f64; 7])) {
         if !self.pending.contains(&r) {
             self.pending.push_back(r);
@@ -337,13 +352,9 @@ impl GimbalSet {
                 });
                 c.found = true;
                 c.next = None;
-                if self.gimbals.len() >= 16 && !self.gimbals.contains_key(&(from, device)) {
+                let Some(g) = self.entry((from, device)) else {
                     return notes;
-                }
-                let g = self
-                    .gimbals
-                    .entry((from, device))
-                    .or_insert_with(|| Gimbal::new(from, device));
+                };
                 if g.info.is_none() {
                     notes.push((
                         crate::proto::severity::INFO,
@@ -368,13 +379,9 @@ impl GimbalSet {
                     return notes;
                 }
                 self.candidate(now, from, true);
-                if self.gimbals.len() >= 16 && !self.gimbals.contains_key(&(from, device)) {
+                let Some(g) = self.entry((from, device)) else {
                     return notes;
-                }
-                let g = self
-                    .gimbals
-                    .entry((from, device))
-                    .or_insert_with(|| Gimbal::new(from, device));
+                };
                 g.status = Some(Status {
                     flags: p.u32(4),
                     primary: (p.u8(9), p.u8(10)),
@@ -412,13 +419,9 @@ impl GimbalSet {
                 let Some(key) = key else {
                     return notes;
                 };
-                if self.gimbals.len() >= 16 && !self.gimbals.contains_key(&key) {
-                    return notes;
+                if let Some(g) = self.entry(key) {
+                    g.attitude = Some(att);
                 }
-                self.gimbals
-                    .entry(key)
-                    .or_insert_with(|| Gimbal::new(key.0, key.1))
-                    .attitude = Some(att);
             }
             _ => {}
         }
