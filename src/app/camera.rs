@@ -243,11 +243,7 @@ impl App {
             CameraCmd::Gimbal { pitch, yaw } => {
                 let s = self.sessions.get_mut(&key).ok_or("no session")?;
                 let (_, out) = s.gimbal_point(now, sel, pitch, yaw, us)?;
-                let name = s
-                    .gimbals
-                    .pick(sel)
-                    .map(|g| g.name(key.0))
-                    .unwrap_or_default();
+                let name = s.gimbals.name(sel, key.0);
                 self.session_out(key, out, fx);
                 return Ok(Some(format!(
                     "gimbal {name} pitch {pitch}° yaw {yaw}°: sent"
@@ -256,11 +252,7 @@ impl App {
             CameraCmd::GimbalControl(take) => {
                 let s = self.sessions.get_mut(&key).ok_or("no session")?;
                 let (_, out) = s.gimbal_configure(now, sel, take, us)?;
-                let name = s
-                    .gimbals
-                    .pick(sel)
-                    .map(|g| g.name(key.0))
-                    .unwrap_or_default();
+                let name = s.gimbals.name(sel, key.0);
                 self.session_out(key, out, fx);
                 let what = if take { "take control" } else { "release" };
                 return Ok(Some(format!("gimbal {name} {what}: sent")));

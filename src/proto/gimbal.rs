@@ -552,6 +552,11 @@ impl GimbalSet {
         u.get(sel.min(u.len().saturating_sub(1))).copied()
     }
 
+    /// The `sel`th usable gimbal's name on system `sysid` (empty when there is none).
+    pub fn name(&self, sel: usize, sysid: u8) -> String {
+        self.pick(sel).map(|g| g.name(sysid)).unwrap_or_default()
+    }
+
     /// MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW for the `sel`th gimbal: (manager component, command,
     /// params), or why it is not sent. `us`: our (sysid, compid).
     pub fn point(
