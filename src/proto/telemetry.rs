@@ -27,8 +27,9 @@ use crate::dialect::{self, MavCmd, MavMessage};
 pub const STALE_AFTER: Micros = 3 * SECOND;
 /// How often HOME_POSITION is asked for while home is unknown.
 pub const HOME_REQUEST_EVERY: Micros = 5 * SECOND;
-/// Seconds of history kept for the sparklines.
-pub const HISTORY_SECS: usize = 60;
+/// Seconds of history kept for the sparklines: a minute fits a row at 80 columns, wider
+/// terminals show more of it.
+pub const HISTORY_SECS: usize = 180;
 
 /// Message ids read here.
 pub mod id {
@@ -813,7 +814,7 @@ mod tests {
     }
 
     #[test]
-    fn history_keeps_one_value_a_second_for_a_minute() {
+    fn history_keeps_one_value_a_second_for_three_minutes() {
         let mut h = History::default();
         assert_eq!(h.recent(5 * SECOND, 3), vec![None; 3]);
         h.set(0, 1.0);
@@ -831,9 +832,9 @@ mod tests {
         assert!(h.values.len() <= HISTORY_SECS);
         let last = h.recent(1009 * SECOND, HISTORY_SECS);
         assert_eq!(last[HISTORY_SECS - 1], Some(999.0));
-        assert_eq!(last[0], Some(940.0));
-        // Asked for more than is kept: the rest is None, never a panic.
-        assert_eq!(h.recent(1009 * SECOND, 100)[..40], vec![None; 40][..]);
+        assert_eq!(last[0], Some(820.0)); // 999 - 179
+                                          // Asked for more than is kept: the rest is None, never a panic.
+        assert_eq!(h.recent(1009 * SECOND, 200)[..20], vec![None; 20][..]);
         // A long silence then a value: bounded.
         h.set(1_000_000 * SECOND, 1.0);
         assert!(h.values.len() <= HISTORY_SECS);

@@ -9,11 +9,11 @@
 //! ```
 //!
 //! HOME is the distance and bearing of the vehicle from home (`HOME --` until home is known).
-//! The sparklines show a value a second over the last minute, as much of it as the line has
-//! room for, the newest on the right: the relative altitude (from 0 or the lowest value,
-//! whichever is lower, to the highest) and the loss on the link the target is routed on (0 to
-//! 100 %, any loss at least one step up; LOSS itself is over the last 10 s). A blank is a second
-//! without data.
+//! The sparklines show a value a second over the last minute, and up to three minutes of a long
+//! flight, as much of it as the line has room for, the newest on the right: the relative altitude
+//! (from 0 or the lowest value, whichever is lower, to the highest) and the loss on the link the
+//! target is routed on (0 to 100 %, any loss at least one step up; LOSS itself is over the last 10
+//! s). A blank is a second without data.
 //!
 //! A value older than [`STALE_AFTER`] is dimmed and ends in `?`; one never heard shows `--`
 //! (EKF and PRE, which not every autopilot reports, are left out until they are).
@@ -131,7 +131,10 @@ pub fn lines(app: &App, width: usize, theme: &Theme) -> Vec<Line<'static>> {
         Some(_) => now,
         None => now.saturating_sub(SECOND),
     };
-    let alt_spark = Part::Spark(t.altitude.recent(end, HISTORY_SECS), Scale::FromZero);
+    let alt_spark = Part::Spark(
+        spark_values(t.altitude.recent(end, HISTORY_SECS)),
+        Scale::FromZero,
+    );
     let gs = it.value(
         "GS",
         motion.map(|m| (format!("{} m/s", dec1(m.value.groundspeed as f64)), m.at)),
@@ -231,7 +234,10 @@ pub fn lines(app: &App, width: usize, theme: &Theme) -> Vec<Line<'static>> {
     let loss_spark = route.map(|(_, s)| {
         // The newest complete second: the current one is still being counted.
         let end = now.saturating_sub(SECOND);
-        Part::Spark(s.loss_history.recent(end, HISTORY_SECS), Scale::Percent)
+        Part::Spark(
+            spark_values(s.loss_history.recent(end, HISTORY_SECS)),
+            Scale::Percent,
+        )
     });
 
     let mut l1 = vec![alt, alt_spark, gs, climb, hdg];
@@ -244,6 +250,21 @@ pub fn lines(app: &App, width: usize, theme: &Theme) -> Vec<Line<'static>> {
         .into_iter()
         .map(|parts| compose(std::mem::take(parts), width))
         .collect()
+}
+
+/// Seconds a sparkline always spans (blank where nothing was heard yet).
+const SPARK_MIN_SECS: usize = 60;
+
+/// The history a sparkline may show: always its last minute, and before that only from the first
+/// value heard, so a wide terminal shows more of a long flight but no blank run before a short one.
+fn spark_values(mut values: Vec<Option<f32>>) -> Vec<Option<f32>> {
+    let first = values
+        .iter()
+        .position(Option::is_some)
+        .unwrap_or(values.len());
+    let start = first.min(values.len().saturating_sub(SPARK_MIN_SECS));
+    values.drain(..start);
+    values
 }
 
 /// One piece of a line: a fixed item (its spans), or a sparkline that takes the room left.
@@ -449,6 +470,34 @@ mod tests {
         assert_eq!(text(&compose(parts(), 30)), "ALT 10.0 m ▁▅█  GS 0.2 m/s");
         // Narrower than the first item: nothing rather than a cut number.
         assert_eq!(text(&compose(parts(), 5)), "");
+    }
+
+    #[test]
+    fn a_sparkline_spans_its_last_minute_and_before_that_only_what_was_heard() {
+        let history = |first_heard: usize| -> Vec<Option<f32>> {
+            (0..180)
+                .map(|i| (i >= first_heard).then_some(i as f32))
+                .collect()
+        };
+        // Heard for 30 s: the last minute, the first half blank (as at 80 columns before).
+        let v = spark_values(history(150));
+        assert_eq!(v.len(), 60);
+        assert_eq!(v[..30], vec![None; 30][..]);
+        // Heard for 160 s: all of it, from the first value, for a wide terminal.
+        let v = spark_values(history(20));
+        assert_eq!(v.len(), 160);
+        assert_eq!(v[0], Some(20.0));
+        assert_eq!(spark_values(history(0)).len(), 180);
+        assert_eq!(spark_values(vec![None; 180]).len(), 60);
+        // At 200 columns a long flight's altitude line is mostly sparkline.
+        let line = compose(
+            vec![
+                Part::Item(vec![Span::raw("ALT 10.0 m")]),
+                Part::Spark(spark_values(history(20)), Scale::FromZero),
+            ],
+            200,
+        );
+        assert_eq!(width_of(&line.spans), 10 + 1 + 160);
     }
 
     #[test]
