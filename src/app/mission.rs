@@ -523,15 +523,9 @@ impl App {
         t: MissionType,
         result: Result<Vec<u8>, String>,
     ) {
-        let shown = path.display().to_string();
-        let bytes = match result {
-            Ok(b) => b,
-            Err(e) => {
-                self.notice(SEV_ERROR, None, format!("could not read {shown}: {e}"));
-                return;
-            }
+        let Some((shown, text)) = self.file_text(&path, result) else {
+            return;
         };
-        let text = String::from_utf8_lossy(&bytes);
         let lists = read_file(&shown, &text, t);
         let errors = lists.first().map_or(0, |(_, l)| l.errors.len());
         let first_error = lists

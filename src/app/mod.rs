@@ -497,6 +497,27 @@ impl App {
         })
     }
 
+    /// A file the edge read for us: its name as shown and its text, or `None` after telling the
+    /// operator why it could not be read.
+    fn file_text(
+        &mut self,
+        path: &std::path::Path,
+        result: Result<Vec<u8>, String>,
+    ) -> Option<(String, String)> {
+        let shown = path.display().to_string();
+        match result {
+            Ok(b) => Some((shown, String::from_utf8_lossy(&b).into_owned())),
+            Err(e) => {
+                self.notice(
+                    notices::SEV_ERROR,
+                    None,
+                    format!("could not read {shown}: {e}"),
+                );
+                None
+            }
+        }
+    }
+
     fn notice(&mut self, severity: u8, source: Option<(u8, u8)>, text: String) {
         let n = Notice {
             t: self.now,

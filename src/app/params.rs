@@ -391,15 +391,9 @@ impl App {
         purpose: FileUse,
         result: Result<Vec<u8>, String>,
     ) {
-        let shown = path.display().to_string();
-        let bytes = match result {
-            Ok(b) => b,
-            Err(e) => {
-                self.notice(SEV_ERROR, None, format!("could not read {shown}: {e}"));
-                return;
-            }
+        let Some((shown, text)) = self.file_text(&path, result) else {
+            return;
         };
-        let text = String::from_utf8_lossy(&bytes);
         let parsed = file::parse(&text);
         let Ok((key, comp)) = self.param_target() else {
             self.notice(SEV_ERROR, None, format!("{shown}: no target vehicle"));
