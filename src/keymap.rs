@@ -599,9 +599,10 @@ impl Action {
     ];
 
     /// The actions of the key help (`[help]`): scrolling, and closing it.
-    const HELP: &'static [Action] = &[
-        Action::Help,
-        Action::Cancel,
+    const HELP: &'static [Action] = &[Action::Help, Action::Cancel];
+
+    /// The actions that scroll a list or the help, in the order listed.
+    pub const SCROLL: &'static [Action] = &[
         Action::Up,
         Action::Down,
         Action::PageUp,
@@ -616,7 +617,7 @@ impl Action {
         let mut names: Vec<&'static str> = Action::ALL
             .iter()
             .filter(|(a, _, _)| match mode {
-                Mode::Help => Action::HELP.contains(a),
+                Mode::Help => Action::HELP.contains(a) || Action::SCROLL.contains(a),
                 Mode::Prompt | Mode::Edit => Action::TEXT_LINE.contains(a),
                 Mode::Normal => *a == Action::Cancel || !Action::TEXT_LINE.contains(a),
             })

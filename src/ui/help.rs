@@ -239,18 +239,11 @@ pub fn help_lines(app: &App, inner_w: usize) -> Vec<(String, LineKind)> {
 /// The last line's text: which keys scroll the help (those of the `[help]` section), and that
 /// any other key closes it (`q` too: it does not quit from here).
 pub fn footer_text(app: &App) -> String {
-    let scroll: Vec<String> = [
-        Action::Up,
-        Action::Down,
-        Action::PageUp,
-        Action::PageDown,
-        Action::Top,
-        Action::Bottom,
-    ]
-    .iter()
-    .flat_map(|a| app.keymap.keys_for(Mode::Help, app.ui.screen, *a))
-    .map(|k| k.to_string())
-    .collect();
+    let scroll: Vec<String> = Action::SCROLL
+        .iter()
+        .flat_map(|a| app.keymap.keys_for(Mode::Help, app.ui.screen, *a))
+        .map(|k| k.to_string())
+        .collect();
     if scroll.is_empty() {
         "any key closes this help".into()
     } else {
