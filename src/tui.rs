@@ -517,6 +517,10 @@ where
                 Some(Ok(ct::Event::Key(k))) => {
                     if let Some(key) = key_from_crossterm(k) {
                         self.pending_key = Some((self.clock.now(), key));
+                        // A repeat flies like a press but never answers a question.
+                        if k.kind == KeyEventKind::Repeat {
+                            return Ok(Some(Event::KeyRepeat(key)));
+                        }
                         return Ok(Some(Event::Key(key)));
                     }
                 }

@@ -204,7 +204,7 @@ fn formatting_the_storage_asks_first() {
     wait(&mut r, 1.0);
     assert!(sent(&r, STORAGE_FORMAT).is_empty(), "no: nothing sent");
     command(&mut r, "camera format");
-    common::keys(&mut r, &["y"]);
+    common::yes(&mut r);
     wait(&mut r, 2.0);
     let f = sent(&r, STORAGE_FORMAT);
     assert_eq!(f.len(), 1, "{f:?}");

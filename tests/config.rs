@@ -229,7 +229,7 @@ fn takeoff_alt_from_the_file_is_what_takeoff_and_t_ask_for() {
             .is_some_and(|t| t.starts_with("TAKE OFF to 15 m 1:1")),
         "{text:?}"
     );
-    common::keys(&mut r, &["y"]);
+    common::yes(&mut r);
     r.advance_to(r.now() + 20 * SECOND);
     let alt = sim(&r).vehicle(1).unwrap().relative_alt_m();
     assert!((alt - 15.0).abs() <= 0.5, "altitude {alt}");

@@ -56,11 +56,11 @@ fn guided_arm_takeoff_from_the_prompt() {
     let s = common::screen(&r, 80, 24);
     assert!(s.contains("ARM 1:1") && s.contains("y = yes"), "{s}");
     insta::assert_snapshot!("confirm_arm_80x24", s);
-    common::keys(&mut r, &["y"]);
+    common::yes(&mut r);
     wait(&mut r, 2.0);
     assert!(sim(&r).vehicle(1).unwrap().armed());
     command(&mut r, "takeoff 10");
-    common::keys(&mut r, &["y"]);
+    common::yes(&mut r);
     wait(&mut r, 12.0);
     assert_flying_at_10m(&r);
     // The Commands screen lists what was sent and what became of it.
@@ -86,7 +86,7 @@ fn guided_arm_takeoff_by_keys_in_one_sequence() {
     common::keys(&mut r, &["enter"]);
     let s = common::screen(&r, 80, 24);
     assert!(s.contains("TAKE OFF to 10 m 1:1"), "{s}");
-    common::keys(&mut r, &["y"]);
+    common::yes(&mut r);
     wait(&mut r, 15.0);
     assert_flying_at_10m(&r);
     assert!(r.app.notices.iter().any(|n| n.text == "takeoff 10 m: done"));
@@ -97,15 +97,20 @@ fn without_the_confirmation_key_nothing_is_sent() {
     let mut r = runner("");
     common::keys(&mut r, &["A"]);
     assert!(r.app.ui.confirm.is_some());
+    wait(&mut r, 0.5);
     common::keys(&mut r, &["n"]);
     wait(&mut r, 3.0);
     assert!(!sim(&r).vehicle(1).unwrap().armed());
     assert_eq!(r.app.sessions[&(1, 1)].commands.entries().len(), 0);
     assert!(common::screen(&r, 80, 24).contains("cancelled: nothing sent"));
-    // The same key again confirms, like `y`.
-    common::keys(&mut r, &["A", "A"]);
+    // The key that asked never answers: `A` again, however late, cancels.
+    common::keys(&mut r, &["A"]);
+    wait(&mut r, 0.5);
+    common::keys(&mut r, &["A"]);
     wait(&mut r, 2.0);
-    assert!(sim(&r).vehicle(1).unwrap().armed());
+    assert!(!sim(&r).vehicle(1).unwrap().armed());
+    assert!(r.app.ui.confirm.is_none());
+    assert_eq!(r.app.sessions[&(1, 1)].commands.entries().len(), 0);
 }
 
 #[test]
@@ -114,7 +119,7 @@ fn a_refused_arm_shows_the_vehicles_reason_and_the_sequence_stops() {
     let mut r = VirtualRunner::from_specs(&[spec], AppConfig::default()).unwrap();
     r.advance_to(2 * SECOND); // before the GPS fix: ArduCopter refuses to arm
     command(&mut r, "takeoff 5");
-    common::keys(&mut r, &["y"]);
+    common::yes(&mut r);
     wait(&mut r, 5.0);
     assert!(!sim(&r).vehicle(1).unwrap().armed());
     let texts: Vec<&str> = r.app.notices.iter().map(|n| n.text.as_str()).collect();
@@ -144,11 +149,12 @@ fn a_refused_arm_shows_the_vehicles_reason_and_the_sequence_stops() {
 
 #[test]
 fn a_second_arm_while_the_first_is_pending_is_refused_locally() {
-    let mut r = runner("");
+    // The first arm is lost on the way: it waits for its ACK while the second is asked.
+    let mut r = runner("drop_cmd=400:1");
     command(&mut r, "arm");
-    common::keys(&mut r, &["y"]);
+    common::yes(&mut r);
     command(&mut r, "arm");
-    common::keys(&mut r, &["y"]);
+    common::yes(&mut r);
     let (_, msg) = r.app.ui.message.clone().unwrap();
     assert!(msg.contains("still waiting"), "{msg}");
     assert_eq!(r.app.sessions[&(1, 1)].commands.entries().len(), 1);
@@ -203,7 +209,7 @@ fn sent_for(autopilot: u64, line: &str) -> Vec<serde_json::Value> {
     }
     fx.extend(a.update(1000, Event::Key("enter".parse().unwrap())));
     if a.ui.confirm.is_some() {
-        fx.extend(a.update(1000, Event::Key(Key::ch('y'))));
+        fx.extend(a.update(600_000, Event::Key(Key::ch('y'))));
     }
     let sent: Vec<Vec<u8>> = fx
         .iter()
@@ -303,7 +309,7 @@ fn a_request_dropped_twice_is_resent_and_the_third_is_acked_and_shown_once() {
 fn an_arm_whose_ack_is_lost_is_not_resent_and_is_reissued_with_one_key() {
     let mut r = runner("drop_cmd=400:1");
     command(&mut r, "arm");
-    common::keys(&mut r, &["y"]);
+    common::yes(&mut r);
     wait(&mut r, 15.0);
     let s = &r.app.sessions[&(1, 1)];
     let arm: Vec<_> = s.commands.entries().collect();
@@ -319,7 +325,7 @@ fn an_arm_whose_ack_is_lost_is_not_resent_and_is_reissued_with_one_key() {
     // On the Commands screen, enter sends it again (after the confirmation).
     common::keys(&mut r, &["3", "enter"]);
     assert!(r.app.ui.confirm.is_some());
-    common::keys(&mut r, &["y"]);
+    common::yes(&mut r);
     wait(&mut r, 2.0);
     assert!(sim(&r).vehicle(1).unwrap().armed());
 }

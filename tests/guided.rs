@@ -35,7 +35,7 @@ fn target_speed(r: &VirtualRunner) -> f64 {
 fn flying() -> VirtualRunner {
     let mut r = runner();
     command(&mut r, "takeoff 10");
-    common::keys(&mut r, &["y"]);
+    common::yes(&mut r);
     wait(&mut r, 14.0);
     assert!((sim(&r).vehicle(1).unwrap().relative_alt_m() - 10.0).abs() < 0.5);
     common::keys(&mut r, &["F"]);
@@ -117,7 +117,7 @@ fn a_nudge_outside_guided_is_refused_and_nothing_is_sent() {
     // Armed in STABILIZE: refused too, saying why.
     common::keys(&mut r, &["esc"]);
     command(&mut r, "arm");
-    common::keys(&mut r, &["y"]);
+    common::yes(&mut r);
     wait(&mut r, 2.0);
     assert!(sim(&r).vehicle(1).unwrap().armed());
     common::keys(&mut r, &["F"]);

@@ -107,6 +107,7 @@ fn arm_from_the_palette_asks_first_then_arms_the_sim() {
     let c = r.app.ui.confirm.as_ref().expect("a confirmation");
     assert!(c.text.contains("COMPONENT_ARM_DISARM") && c.text.contains("1:1"));
     assert_eq!(r.app.sessions[&(1, 1)].commands.entries().len(), 0);
+    wait(&mut r, 0.5); // a `y` sooner than 0.3 s after the question does not count
     keys(&mut r, &["y"]);
     wait(&mut r, 2.0);
     assert!(sim(&r).vehicle(1).unwrap().armed());

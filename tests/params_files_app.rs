@@ -102,7 +102,7 @@ fn load_reports_bad_lines_and_applies_the_valid_changes_only_after_yes() {
     assert!(warned[0].contains("line 2:") && warned[1].contains("line 4:"));
     // Nothing sent yet.
     assert_eq!(sim_param(&r, "FLTMODE1"), before);
-    common::keys(&mut r, &["y"]);
+    common::yes(&mut r);
     let t = r.now() + 2 * SECOND;
     r.advance_to(t);
     assert_eq!(sim_param(&r, "FLTMODE1"), 5.0);

@@ -556,7 +556,8 @@ fn signing_setup_and_off_go_only_confirmed_and_only_on_a_secure_link() {
     let fx = keys(&mut a, 500_000, &["n"]);
     assert!(setup_signing(&fx).is_empty(), "cancelled: nothing sent");
     command(&mut a, 600_000, "signing setup");
-    let t = 700_000;
+    let t = 950_000; // a `y` counts 0.3 s after the question
+    
     let fx = keys(&mut a, t, &["y"]);
     let sent = setup_signing(&fx);
     assert_eq!(sent.len(), 1, "{fx:?}");
@@ -602,7 +603,7 @@ fn signing_setup_and_off_go_only_confirmed_and_only_on_a_secure_link() {
     // signing off: the all-zero key and timestamp 0, as MAVProxy's `signing remove`.
     command(&mut a, SECOND, "signing off");
     assert!(a.ui.confirm.is_some());
-    let fx = keys(&mut a, SECOND, &["y"]);
+    let fx = keys(&mut a, SECOND + 400_000, &["y"]);
     let sent = setup_signing(&fx);
     assert_eq!(sent.len(), 1);
     assert_eq!(sent[0].0, 1);

@@ -285,7 +285,7 @@ impl App {
             .ok_or_else(|| format!("no camera heard on {}:{}", key.0, key.1))?;
         let action = match cmd {
             CameraCmd::FormatAsk => {
-                self.ui.confirm = Some(super::flight::Confirm {
+                self.ask(super::flight::Ask {
                     text: format!(
                         "FORMAT the storage of camera {}:{compid}? Every image and video on it is \
                          erased. y = yes, any other key = no",
@@ -293,7 +293,6 @@ impl App {
                     ),
                     action: super::flight::Confirmed::Camera(compid, CameraAction::Format),
                     target: key,
-                    key: None,
                 });
                 return Ok(None);
             }

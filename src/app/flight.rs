@@ -8,7 +8,8 @@
 
 use super::notices::{SEV_INFO, SEV_WARNING};
 use super::{App, Effect};
-use crate::dialect::{MavAutopilot, MavCmd, MavMessage, MavModeFlag, MavState};
+use crate::clock::{Micros, SECOND};
+use crate::dialect::{MavAutopilot, MavCmd, MavMessage, MavModeFlag};
 use crate::keymap::Key;
 use crate::proto::commands::CommandSpec;
 use crate::proto::modes;
@@ -38,14 +39,63 @@ pub enum FlightAction {
     },
 }
 
+/// A key this soon after the question (or after the key before it) does not answer it: key
+/// repeats and keys typed ahead never confirm.
+pub const CONFIRM_GUARD: Micros = 300_000;
+/// A question not answered in this long expires and sends nothing.
+pub const CONFIRM_EXPIRY: Micros = 10 * SECOND;
+
 /// A question waiting for `y`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Confirm {
     pub text: String,
     pub action: Confirmed,
     pub target: VehicleKey,
-    /// The key that asked: pressing it again confirms too.
-    pub key: Option<Key>,
+    /// When it was put on screen.
+    pub asked: Micros,
+    /// The last key that came while it was open (or the one that asked).
+    pub last_key: Micros,
+    /// What it was asked in: it expires when that changes.
+    context: Context,
+}
+
+impl Confirm {
+    /// A question about `action` on `target`; [`App::ask`] puts it on screen.
+    pub fn new(text: String, action: Confirmed, target: VehicleKey) -> Self {
+        Self {
+            text,
+            action,
+            target,
+            asked: 0,
+            last_key: 0,
+            context: Context::default(),
+        }
+    }
+}
+
+/// A question as its asker words it: what, and to whom.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ask {
+    pub text: String,
+    pub action: Confirmed,
+    pub target: VehicleKey,
+}
+
+impl From<Ask> for Confirm {
+    fn from(a: Ask) -> Self {
+        Confirm::new(a.text, a.action, a.target)
+    }
+}
+
+/// The state a question was asked in: the app's target, and the vehicle's identity, armed state,
+/// mode and mission.
+#[derive(Debug, Clone, Default, PartialEq)]
+struct Context {
+    app_target: Option<VehicleKey>,
+    identity: Option<(MavAutopilot, crate::dialect::MavType)>,
+    armed: Option<bool>,
+    mode: Option<u32>,
+    mission: Option<(u32, Option<(u32, usize, Micros)>)>,
 }
 
 /// What a confirmation lets go ahead.
@@ -62,20 +112,58 @@ pub enum Confirmed {
     Mission(super::mission::MissionAction),
 }
 
-/// Commands that need a confirmation whatever sends them.
-fn dangerous_command(command: u16) -> bool {
+/// What a command means when it needs a confirmation, whatever sends it (keys, the prompt, the
+/// palette, the Commands screen's re-issue, the Mission, Parameters and Camera screens): `None`
+/// when it goes without one. `flying`: the vehicle is armed and not on the ground.
+pub fn danger(command: u16, params: &[f64; 7], flying: bool) -> Option<&'static str> {
     use num_traits::FromPrimitive;
-    matches!(
-        MavCmd::from_u16(command),
-        Some(
-            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM
-                | MavCmd::MAV_CMD_NAV_TAKEOFF
-                | MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN
-                | MavCmd::MAV_CMD_DO_MOTOR_TEST
-                | MavCmd::MAV_CMD_DO_FLIGHTTERMINATION
-        )
-    )
+    use MavCmd::*;
+    Some(match MavCmd::from_u16(command)? {
+        MAV_CMD_COMPONENT_ARM_DISARM if params[0] != 0.0 => "ARM",
+        MAV_CMD_COMPONENT_ARM_DISARM if params[1] == FORCE_DISARM => {
+            "FORCE-DISARM (motors stop, even in flight)"
+        }
+        MAV_CMD_COMPONENT_ARM_DISARM if flying => "DISARM while flying",
+        MAV_CMD_NAV_TAKEOFF => "TAKE OFF",
+        MAV_CMD_NAV_VTOL_TAKEOFF => "VTOL TAKE OFF",
+        MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN => "REBOOT or SHUT DOWN",
+        MAV_CMD_DO_MOTOR_TEST => "MOTOR TEST",
+        MAV_CMD_DO_FLIGHTTERMINATION => "FLIGHT TERMINATION",
+        MAV_CMD_PREFLIGHT_STORAGE => "PARAMETER STORAGE (param1 = 2 resets every parameter)",
+        MAV_CMD_DO_PARACHUTE => "PARACHUTE",
+        MAV_CMD_MISSION_START => "MISSION START",
+        MAV_CMD_DO_SET_SERVO | MAV_CMD_DO_REPEAT_SERVO => "SERVO output",
+        MAV_CMD_DO_AUX_FUNCTION => "AUX FUNCTION",
+        MAV_CMD_DO_GRIPPER => "GRIPPER",
+        MAV_CMD_DO_WINCH => "WINCH",
+        MAV_CMD_DO_SET_HOME => "SET HOME",
+        MAV_CMD_STORAGE_FORMAT => "FORMAT STORAGE",
+        MAV_CMD_PREFLIGHT_CALIBRATION => "CALIBRATION",
+        MAV_CMD_DO_START_MAG_CAL => "COMPASS CALIBRATION",
+        _ => return None,
+    })
 }
+
+/// The command a flight action sends first (a mode change: none that needs asking).
+fn action_command(action: &FlightAction) -> Option<(u16, [f64; 7])> {
+    let c = |c: MavCmd| c as u16;
+    Some(match action {
+        FlightAction::Arm => (c(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM), [1., 0., 0., 0., 0., 0., 0.]),
+        FlightAction::Disarm { force } => {
+            let p2 = if *force { FORCE_DISARM } else { 0.0 };
+            (c(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM), [0., p2, 0., 0., 0., 0., 0.])
+        }
+        FlightAction::Takeoff(alt) => (c(MavCmd::MAV_CMD_NAV_TAKEOFF), [0., 0., 0., 0., 0., 0., *alt]),
+        FlightAction::Reboot => (c(MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN), [1., 0., 0., 0., 0., 0., 0.]),
+        FlightAction::Command { command, params } => (*command, *params),
+        FlightAction::Land | FlightAction::Rtl | FlightAction::Mode(_) => return None,
+    })
+}
+
+/// MAV_LANDED_STATE_ON_GROUND.
+const LANDED_ON_GROUND: u8 = 1;
+/// Above this height over home an armed vehicle without EXTENDED_SYS_STATE counts as flying.
+const FLYING_ABOVE_M: f64 = 1.0;
 
 impl App {
     /// The target, if it can be commanded now.
@@ -117,16 +205,30 @@ impl App {
             .next()
     }
 
-    /// True when the target is flying (armed and not on the ground), as far as we can tell.
-    fn airborne(&self, key: VehicleKey) -> bool {
-        self.vehicles
-            .get(key)
-            .is_some_and(|v| v.armed() && v.system_status == MavState::MAV_STATE_ACTIVE)
+    /// True when `key` (or its system's autopilot) is armed and not on the ground: by
+    /// EXTENDED_SYS_STATE's `landed_state` where it comes, else by the height above home (an
+    /// armed vehicle whose height is unknown counts as flying). Not by `system_status`, which
+    /// is CRITICAL during a failsafe.
+    pub(super) fn airborne(&self, key: VehicleKey) -> bool {
+        let via = self.session_for(key).unwrap_or(key);
+        let Some(v) = self.vehicles.get(via) else {
+            return false;
+        };
+        if !v.armed() {
+            return false;
+        }
+        let flight = self.sessions.get(&via).map(|s| &s.flight);
+        if let Some(l) = flight.and_then(|f| f.landed_state).filter(|l| *l != 0) {
+            return l != LANDED_ON_GROUND;
+        }
+        flight
+            .and_then(|f| f.position.as_ref())
+            .is_none_or(|p| p.value.relative_alt_m() > FLYING_ABOVE_M)
     }
 
-    /// The confirmation question for `action` on `key`, if it needs one.
-    fn question(&self, key: VehicleKey, action: &FlightAction) -> Option<String> {
-        let who = match self.vehicles.get(key) {
+    /// `1:1 (ArduPilot Quadrotor)`: how a question names a vehicle.
+    pub(super) fn who_is(&self, key: VehicleKey) -> String {
+        match self.vehicles.get(key) {
             Some(v) => format!(
                 "{}:{} ({} {})",
                 key.0,
@@ -135,42 +237,128 @@ impl App {
                 v.type_name()
             ),
             None => format!("{}:{}", key.0, key.1),
-        };
+        }
+    }
+
+    /// The confirmation question for `action` on `key`, if it needs one.
+    fn question(&self, key: VehicleKey, action: &FlightAction) -> Option<String> {
+        let (command, params) = action_command(action)?;
+        let what = danger(command, &params, self.airborne(key))?;
         let what = match action {
-            FlightAction::Arm => "ARM".to_string(),
             FlightAction::Takeoff(alt) => format!("TAKE OFF to {alt} m"),
-            FlightAction::Disarm { force: true } => {
-                "FORCE-DISARM (motors stop, even in flight)".into()
-            }
-            FlightAction::Disarm { force: false } if self.airborne(key) => {
-                "DISARM while flying".into()
-            }
-            FlightAction::Reboot => "REBOOT".into(),
-            FlightAction::Command { command, params } if dangerous_command(*command) => {
-                format!(
-                    "send {} ({})",
-                    crate::proto::ack::command_name(*command),
-                    params
-                        .iter()
-                        .map(|p| format!("{p}"))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                )
-            }
-            _ => return None,
+            FlightAction::Arm | FlightAction::Disarm { .. } | FlightAction::Reboot => what.into(),
+            _ => format!(
+                "{what}: send {} ({})",
+                crate::proto::ack::command_name(command),
+                params
+                    .iter()
+                    .map(|p| format!("{p}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
         };
-        Some(format!("{what} {who}? y = yes, any other key = no"))
+        Some(format!(
+            "{what} {}? y = yes, any other key = no",
+            self.who_is(key)
+        ))
+    }
+
+    /// Put `c` on screen, or queue it behind the question already there (one at a time).
+    pub(super) fn ask(&mut self, c: impl Into<Confirm>) {
+        let mut c = c.into();
+        if self.ui.confirm.is_some() {
+            self.ui.confirm_queue.push_back(c);
+            return;
+        }
+        c.asked = self.now;
+        c.last_key = self.now;
+        c.context = self.confirm_context(c.target);
+        self.ui.confirm = Some(c);
+        self.dirty = true;
+    }
+
+    /// The next queued question, once the one on screen is gone.
+    fn next_question(&mut self) {
+        if self.ui.confirm.is_none() {
+            if let Some(c) = self.ui.confirm_queue.pop_front() {
+                self.ask(c);
+            }
+        }
+    }
+
+    fn confirm_context(&self, target: VehicleKey) -> Context {
+        let via = self.session_for(target);
+        let v = via.and_then(|k| self.vehicles.get(k));
+        let mission = via.and_then(|k| self.sessions.get(&k)).map(|s| {
+            let t = crate::mission::MissionType::Mission;
+            let known = s
+                .mission
+                .known(t)
+                .map(|k| (k.opaque_id, k.items.len(), k.at));
+            (s.mission.vehicle_id(t), known)
+        });
+        Context {
+            app_target: self.target,
+            identity: v.map(|v| (v.autopilot, v.mavtype)),
+            armed: v.map(|v| v.armed()),
+            mode: v.map(|v| v.custom_mode),
+            mission,
+        }
+    }
+
+    /// Why the question on screen no longer holds, if it does not.
+    fn expired(&self, c: &Confirm) -> Option<String> {
+        if self.now >= c.asked + CONFIRM_EXPIRY {
+            return Some("not answered in 10 s".into());
+        }
+        if self.target != c.context.app_target {
+            return Some("the target changed".into());
+        }
+        if let Err(e) = self.commandable_at(c.target) {
+            return Some(e);
+        }
+        let now = self.confirm_context(c.target);
+        if now.identity != c.context.identity {
+            return Some("another vehicle answers at that id".into());
+        }
+        if now.armed != c.context.armed {
+            return Some("the vehicle was armed or disarmed meanwhile".into());
+        }
+        if now.mode != c.context.mode {
+            return Some("the vehicle's mode changed meanwhile".into());
+        }
+        if now.mission != c.context.mission {
+            return Some("the mission on the vehicle changed meanwhile".into());
+        }
+        None
+    }
+
+    /// A question that no longer holds goes, saying so; nothing is sent.
+    pub(super) fn poll_confirm(&mut self) {
+        let Some(why) = self.ui.confirm.as_ref().and_then(|c| self.expired(c)) else {
+            return;
+        };
+        let c = self.ui.confirm.take();
+        let target = c.map(|c| c.target);
+        let text = format!("question expired ({why}): nothing sent");
+        self.notice(SEV_WARNING, target, text.clone());
+        self.ui.message = Some((SEV_WARNING, text));
+        self.next_question();
+    }
+
+    /// When the question on screen expires on its own.
+    pub(super) fn confirm_deadline(&self) -> Option<Micros> {
+        self.ui.confirm.as_ref().map(|c| c.asked + CONFIRM_EXPIRY)
     }
 
     /// Ask for `action` on the target: carried out now, or after a confirmation.
     pub fn flight(
         &mut self,
         action: FlightAction,
-        key: Option<Key>,
         fx: &mut Vec<Effect>,
     ) -> Result<Option<String>, String> {
         let target = self.commandable()?;
-        self.ask_or_carry_out(target, action, key, fx)
+        self.ask_or_carry_out(target, action, fx)
     }
 
     /// Ask for `action` on `target`, which need not be the app's target (the palette's
@@ -180,18 +368,16 @@ impl App {
         &mut self,
         target: VehicleKey,
         action: FlightAction,
-        key: Option<Key>,
         fx: &mut Vec<Effect>,
     ) -> Result<Option<String>, String> {
         let target = self.commandable_at(target)?;
-        self.ask_or_carry_out(target, action, key, fx)
+        self.ask_or_carry_out(target, action, fx)
     }
 
     fn ask_or_carry_out(
         &mut self,
         target: VehicleKey,
         action: FlightAction,
-        key: Option<Key>,
         fx: &mut Vec<Effect>,
     ) -> Result<Option<String>, String> {
         let any = matches!(action, FlightAction::Command { .. });
@@ -199,29 +385,43 @@ impl App {
             return Err(format!("{}:{} is not an autopilot", target.0, target.1));
         }
         if let Some(text) = self.question(target, &action) {
-            self.ui.confirm = Some(Confirm {
-                text,
-                action: Confirmed::Flight(action),
-                target,
-                key,
-            });
+            self.ask(Confirm::new(text, Confirmed::Flight(action), target));
             return Ok(None);
         }
         self.carry_out(target, action, fx)
     }
 
-    /// A key while a confirmation is asked: `y` or the same key again goes ahead.
-    pub(super) fn on_confirm_key(&mut self, key: Key, fx: &mut Vec<Effect>) {
+    /// A key while a confirmation is asked: only `y` goes ahead, and only pressed at least
+    /// [`CONFIRM_GUARD`] after the question appeared and after the key before it (a key repeat
+    /// — `repeat`, or a key that comes in a repeat's rhythm — and a key typed ahead are
+    /// ignored); any other key cancels. The checks are made again before anything leaves.
+    pub(super) fn on_confirm_key(&mut self, key: Key, repeat: bool, fx: &mut Vec<Effect>) {
+        let now = self.now;
+        let Some(c) = self.ui.confirm.as_mut() else {
+            return;
+        };
+        let early = repeat || now < c.asked + CONFIRM_GUARD || now < c.last_key + CONFIRM_GUARD;
+        c.last_key = now;
+        if early {
+            self.ui.message = Some((
+                SEV_WARNING,
+                "a key held or typed ahead does not answer: let go, then y or n".into(),
+            ));
+            return;
+        }
         let Some(c) = self.ui.confirm.take() else {
             return;
         };
-        if key == Key::ch('y') || key == Key::ch('Y') || Some(key) == c.key {
-            let outcome = match c.action {
-                Confirmed::Flight(a) => self.carry_out(c.target, a, fx),
-                Confirmed::Params(p) => self.write_params(c.target, p, fx),
-                Confirmed::Signing(a) => self.carry_out_signing(c.target, a, fx),
-                Confirmed::Mission(a) => self.carry_out_mission(c.target, a, fx),
-                Confirmed::Camera(compid, a) => self.camera_act(c.target, compid, a, fx),
+        if key == Key::ch('y') || key == Key::ch('Y') {
+            let outcome = match self.expired(&c) {
+                Some(why) => Err(format!("question expired ({why}): nothing sent")),
+                None => match c.action {
+                    Confirmed::Flight(a) => self.carry_out(c.target, a, fx),
+                    Confirmed::Params(p) => self.write_params(c.target, p, fx),
+                    Confirmed::Signing(a) => self.carry_out_signing(c.target, a, fx),
+                    Confirmed::Mission(a) => self.carry_out_mission(c.target, a, fx),
+                    Confirmed::Camera(compid, a) => self.camera_act(c.target, compid, a, fx),
+                },
             };
             self.ui.message = match outcome {
                 Ok(Some(t)) => Some((SEV_INFO, t)),
@@ -231,6 +431,7 @@ impl App {
         } else {
             self.ui.message = Some((SEV_WARNING, "cancelled: nothing sent".into()));
         }
+        self.next_question();
     }
 
     /// Send what `action` means for this vehicle.
@@ -431,7 +632,6 @@ impl App {
                 command: e.spec.command,
                 params: e.spec.params,
             },
-            None,
             fx,
         )
     }

@@ -651,7 +651,6 @@ impl App {
         self.flight_to(
             (sysid, compid),
             FlightAction::Command { command, params },
-            None,
             fx,
         )
         .map_err(|e| format!("{name}: {e}"))?;

@@ -15,14 +15,15 @@ use crate::proto::vehicles::VehicleKey;
 
 impl App {
     /// A key pressed.
-    pub(super) fn on_key(&mut self, key: Key, fx: &mut Vec<Effect>) {
+    /// `repeat`: the terminal said the key repeats while held.
+    pub(super) fn on_key(&mut self, key: Key, repeat: bool, fx: &mut Vec<Effect>) {
         self.dirty = true;
         if key == Key::ctrl('c') {
             self.on_action(Action::Quit, fx);
             return;
         }
         if self.ui.confirm.is_some() {
-            self.on_confirm_key(key, fx);
+            self.on_confirm_key(key, repeat, fx);
             return;
         }
         if self.nudge.active() && self.ui.mode == Mode::Normal {
@@ -236,7 +237,7 @@ impl App {
                 fx.push(Effect::OpenLink { link, spec });
                 Ok(Some(format!("link {link}: opening {name}")))
             }
-            Command::Flight(action) => self.flight(action, None, fx),
+            Command::Flight(action) => self.flight(action, fx),
             Command::Replay(cmd) => self.replay_control(cmd, fx).map(Some),
             Command::Param(cmd) => self.run_param(cmd, fx),
             Command::Mission(cmd) => self.run_mission(cmd, fx),
@@ -376,12 +377,7 @@ impl App {
                     Action::Land => FlightAction::Land,
                     _ => FlightAction::Rtl,
                 };
-                let key = self
-                    .keymap
-                    .keys_for(Mode::Normal, self.ui.screen, action)
-                    .first()
-                    .copied();
-                self.ui.message = match self.flight(what, key, fx) {
+                self.ui.message = match self.flight(what, fx) {
                     Ok(t) => t.map(|t| (SEV_INFO, t)),
                     Err(e) => Some((SEV_ERROR, e)),
                 };

@@ -18,7 +18,7 @@
 
 use std::path::PathBuf;
 
-use super::flight::{Confirm, Confirmed, FlightAction};
+use super::flight::{Ask, Confirmed, FlightAction};
 use super::notices::{SEV_ERROR, SEV_INFO};
 use super::params::FileUse;
 use super::{App, Effect};
@@ -312,7 +312,7 @@ impl App {
                 let items = self.items_for_vehicle(key, t, &f.items);
                 let path = f.path.clone();
                 if !warnings.is_empty() {
-                    self.ui.confirm = Some(Confirm {
+                    self.ask(Ask {
                         text: format!(
                             "UPLOAD {} {name} items of {path} to {}:{}: {}. Upload anyway? y = yes, any other key = no",
                             items.len(),
@@ -322,7 +322,6 @@ impl App {
                         ),
                         action: Confirmed::Mission(MissionAction::Upload(t, items)),
                         target: key,
-                        key: None,
                     });
                     return Ok(None);
                 }
@@ -330,14 +329,13 @@ impl App {
             }
             MissionOp::Clear => {
                 let key = self.mission_target()?;
-                self.ui.confirm = Some(Confirm {
+                self.ask(Ask {
                     text: format!(
                         "CLEAR the {name} of {}:{}? y = yes, any other key = no",
                         key.0, key.1
                     ),
                     action: Confirmed::Mission(MissionAction::Clear(t)),
                     target: key,
-                    key: None,
                 });
                 Ok(None)
             }
@@ -354,14 +352,13 @@ impl App {
             }
             MissionOp::Start => {
                 let key = self.mission_target()?;
-                self.ui.confirm = Some(Confirm {
+                self.ask(Ask {
                     text: format!(
                         "START the mission on {}:{} (mode AUTO, then MISSION_START)? y = yes, any other key = no",
                         key.0, key.1
                     ),
                     action: Confirmed::Mission(MissionAction::Start),
                     target: key,
-                    key: None,
                 });
                 Ok(None)
             }
@@ -585,7 +582,6 @@ impl App {
                 command: MavCmd::MAV_CMD_DO_REPOSITION as u16,
                 params,
             },
-            None,
             fx,
         )
         .map(|_| Some(format!("goto {lat:.7} {lon:.7} at {alt:.1} m: sent")))

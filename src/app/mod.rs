@@ -107,6 +107,9 @@ pub enum Event {
         state: LinkState,
     },
     Key(Key),
+    /// A key repeated by the terminal while held (terminals that report event kinds): flies
+    /// like a press, never answers a question.
+    KeyRepeat(Key),
     /// A key was let go (terminals that report releases; `release KEY` in replay scripts).
     KeyRelease(Key),
     /// The screen changed size.
@@ -222,6 +225,8 @@ pub struct UiState {
     pub help_scroll: usize,
     /// A dangerous action waiting for `y`.
     pub confirm: Option<flight::Confirm>,
+    /// Questions that came while one was open (a file that finished loading): asked in turn.
+    pub confirm_queue: std::collections::VecDeque<flight::Confirm>,
     /// Selected row of the Commands screen (0 = newest).
     pub cmd_sel: usize,
     /// The command palette, while open (typed in [`Mode::Edit`]).
@@ -253,6 +258,7 @@ impl Default for UiState {
             message: None,
             help_scroll: 0,
             confirm: None,
+            confirm_queue: Default::default(),
             cmd_sel: 0,
             palette: None,
             params: params::ParamView::default(),
@@ -395,6 +401,7 @@ impl App {
             at(s.next_deadline());
         }
         at(self.nudge.next_deadline());
+        at(self.confirm_deadline());
         t
     }
 
@@ -544,7 +551,8 @@ impl App {
                 stats,
             } => self.on_frames(link, frames, stats, &mut fx),
             Event::LinkState { link, state } => self.on_link_state(link, state),
-            Event::Key(key) => self.on_key(key, &mut fx),
+            Event::Key(key) => self.on_key(key, false, &mut fx),
+            Event::KeyRepeat(key) => self.on_key(key, true, &mut fx),
             Event::KeyRelease(key) => self.on_key_release(key, &mut fx),
             Event::Resize => self.dirty = true,
             Event::FileWritten { path, error } if self.signing.is_state_file(&path) => {
@@ -578,6 +586,7 @@ impl App {
             Event::Output { out, status } => self.on_output(out, status),
             Event::ReplayStatus { link, status } => self.on_replay_status(link, status),
         }
+        self.poll_confirm();
         self.poll_nudge(&mut fx);
         self.poll_sessions(&mut fx);
         fx

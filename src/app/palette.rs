@@ -293,7 +293,7 @@ impl App {
             .params()
             .and_then(|params| Ok((form.target()?, params)))
             .and_then(|(target, params)| {
-                self.flight_to(target, FlightAction::Command { command, params }, None, fx)
+                self.flight_to(target, FlightAction::Command { command, params }, fx)
             });
         match outcome {
             Ok(text) => {

@@ -8,7 +8,7 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use super::flight::{Confirm, Confirmed};
+use super::flight::{Ask, Confirmed};
 use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
 use super::{App, Effect};
 use crate::keymap::{Action, Key, KeyCode, Mode};
@@ -337,14 +337,13 @@ impl App {
         }
         let change = vec![(comp, name.clone(), v)];
         if let Some(why) = meta.and_then(|m| m.check_range(v).err()) {
-            self.ui.confirm = Some(Confirm {
+            self.ask(Ask {
                 text: format!(
                     "{name} = {}: {why}. Send anyway? (y/n)",
                     value::fmt_plain(v)
                 ),
                 action: Confirmed::Params(change),
                 target: key,
-                key: None,
             });
             return Ok(None);
         }
@@ -486,7 +485,7 @@ impl App {
                 if n == 1 { "" } else { "s" }
             ),
         };
-        self.ui.confirm = Some(Confirm {
+        self.ask(Ask {
             text: format!(
                 "{warn}Apply {} change{} from {shown} to {}:{comp}? {} (y/n)",
                 ok.len(),
@@ -496,7 +495,6 @@ impl App {
             ),
             action: Confirmed::Params(ok),
             target: key,
-            key: None,
         });
     }
 }

@@ -24,7 +24,7 @@
 
 use std::path::PathBuf;
 
-use super::flight::{Confirm, Confirmed};
+use super::flight::{Ask, Confirmed};
 use super::notices::{SEV_ERROR, SEV_NOTICE, SEV_WARNING};
 use super::{App, Effect};
 use crate::clock::{Micros, SECOND};
@@ -448,7 +448,7 @@ impl App {
                 )?;
                 let target = self.commandable()?;
                 let link = self.secure_link_to(target, "signing setup")?;
-                self.ui.confirm = Some(Confirm {
+                self.ask(Ask {
                     text: format!(
                         "SEND SIGNING KEY {} to {} over link {link} ({})? It will then require \
                          signed frames. y = yes, any other key = no",
@@ -458,14 +458,13 @@ impl App {
                     ),
                     action: Confirmed::Signing(SigningAction::Setup { link }),
                     target,
-                    key: None,
                 });
                 Ok(None)
             }
             SigningCmd::Off => {
                 let target = self.commandable()?;
                 let link = self.secure_link_to(target, "signing off")?;
-                self.ui.confirm = Some(Confirm {
+                self.ask(Ask {
                     text: format!(
                         "TURN SIGNING OFF on {} over link {link} ({})? Anyone on its links could \
                          then command it. y = yes, any other key = no",
@@ -474,7 +473,6 @@ impl App {
                     ),
                     action: Confirmed::Signing(SigningAction::Off { link }),
                     target,
-                    key: None,
                 });
                 Ok(None)
             }

@@ -40,6 +40,7 @@ pub mod id {
     pub const BATTERY_STATUS: u32 = 147;
     pub const EKF_STATUS_REPORT: u32 = 193;
     pub const HOME_POSITION: u32 = 242;
+    pub const EXTENDED_SYS_STATE: u32 = 245;
 }
 
 /// MAV_SYS_STATUS_PREARM_CHECK in SYS_STATUS's sensor bits.
@@ -345,6 +346,8 @@ pub struct FlightTelemetry {
     next_home_request: Option<Micros>,
     /// HOME_POSITION requests sent, all told.
     pub home_requests: u32,
+    /// EXTENDED_SYS_STATE's `landed_state` (MAV_LANDED_STATE), once heard.
+    pub landed_state: Option<u8>,
 }
 
 impl FlightTelemetry {
@@ -362,6 +365,7 @@ impl FlightTelemetry {
             altitude: History::default(),
             next_home_request: None,
             home_requests: 0,
+            landed_state: None,
         }
     }
 
@@ -410,6 +414,11 @@ impl FlightTelemetry {
             self.next_home_request = Some(now);
         }
         match (id, msg) {
+            // vtol_state, landed_state (a trailing zero may be cut by MAVLink 2): read from the
+            // payload, so a value newer than the dialect is kept.
+            (id::EXTENDED_SYS_STATE, _) => {
+                self.landed_state = Some(payload.get(1).copied().unwrap_or(0));
+            }
             (id::GLOBAL_POSITION_INT, Some(MavMessage::GLOBAL_POSITION_INT(p))) => {
                 let value = Position {
                     lat_e7: p.lat,

@@ -249,6 +249,13 @@ pub fn keys(r: &mut mavterm::driver::virtual_time::VirtualRunner, names: &[&str]
     }
 }
 
+/// Answer the question on screen with `y`, the way an operator does: after reading it (a `y`
+/// sooner than 0.3 s after the question does not count).
+pub fn yes(r: &mut mavterm::driver::virtual_time::VirtualRunner) {
+    wait(r, 0.5);
+    keys(r, &["y"]);
+}
+
 /// Type text, one key per character.
 pub fn typed(r: &mut mavterm::driver::virtual_time::VirtualRunner, text: &str) {
     for c in text.chars() {
