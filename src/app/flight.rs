@@ -394,7 +394,8 @@ impl App {
     /// A key while a confirmation is asked: only `y` goes ahead, and only pressed at least
     /// [`CONFIRM_GUARD`] after the question appeared and after the key before it (a key repeat
     /// — `repeat`, or a key that comes in a repeat's rhythm — and a key typed ahead are
-    /// ignored); any other key cancels. The checks are made again before anything leaves.
+    /// ignored, but `n` and esc always cancel); any other key cancels. The checks are made again
+    /// before anything leaves.
     pub(super) fn on_confirm_key(&mut self, key: Key, repeat: bool, fx: &mut Vec<Effect>) {
         let now = self.now;
         let Some(c) = self.ui.confirm.as_mut() else {
@@ -402,7 +403,9 @@ impl App {
         };
         let early = repeat || now < c.asked + CONFIRM_GUARD || now < c.last_key + CONFIRM_GUARD;
         c.last_key = now;
-        if early {
+        // `n` and esc say no at once: a no never sends anything.
+        let no = key == Key::ch('n') || key == Key::ch('N') || key.code == crate::keymap::KeyCode::Esc;
+        if early && !no {
             self.ui.message = Some((
                 SEV_WARNING,
                 "a key held or typed ahead does not answer: let go, then y or n".into(),
@@ -454,6 +457,20 @@ impl App {
             let name = spec.name();
             Ok((spec, name))
         };
+        // A mode request, LAND or RTL: whatever mode change or take-off is still running gives
+        // way to it at once.
+        if let FlightAction::Mode(_) | FlightAction::Land | FlightAction::Rtl = &action {
+            let now = self.now;
+            let by = match &action {
+                FlightAction::Mode(m) => format!("mode {m}"),
+                FlightAction::Land => "LAND".into(),
+                _ => "RTL".into(),
+            };
+            if let Some(s) = self.sessions.get_mut(&via) {
+                let out = s.supersede_mode(now, &by);
+                self.session_out(via, out, fx);
+            }
+        }
         let (spec, label) = match action {
             FlightAction::Arm => single(long(
                 MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,

@@ -65,6 +65,12 @@ pub struct Session {
     pub cameras: CameraSet,
     /// The gimbals of this system, by their managers (the autopilot, or a gimbal component).
     pub gimbals: GimbalSet,
+    /// The custom mode of the autopilot's last heartbeat.
+    mode_seen: Option<u32>,
+    /// DO_SET_MODEs that may still be resent: (queue id, the mode the heartbeat showed when it
+    /// was sent). The first heartbeat with another mode stops their resends: the vehicle
+    /// changed mode (ours took, or the pilot, a failsafe or another GCS changed it).
+    mode_asks: Vec<(u64, Option<u32>)>,
 }
 
 impl Session {
@@ -87,6 +93,8 @@ impl Session {
             mission: MissionMachine::new(key),
             cameras: CameraSet::default(),
             gimbals: GimbalSet::default(),
+            mode_seen: None,
+            mode_asks: Vec::new(),
         }
     }
 
@@ -239,6 +247,9 @@ impl Session {
                     out.extend(self.drive(now, done));
                 }
             }
+        }
+        if let Some(hb) = hb {
+            out.extend(self.on_mode_seen(hb.custom_mode));
         }
         if let (Some(hb), Some(seq)) = (hb, self.sequence.as_mut()) {
             let armed = hb
@@ -423,8 +434,66 @@ impl Session {
         now: Micros,
         spec: CommandSpec,
     ) -> Result<(u64, Vec<SessionOut>), String> {
-        let (id, out) = self.commands.submit(now, spec)?;
+        let (id, out) = self.queue(now, spec)?;
         Ok((id, self.drive(now, out)))
+    }
+
+    /// The queue's submit; a mode change remembers the mode it leaves.
+    fn queue(&mut self, now: Micros, spec: CommandSpec) -> Result<(u64, Vec<CmdOut>), String> {
+        let mode = spec.command == MavCmd::MAV_CMD_DO_SET_MODE as u16 && spec.target == self.key;
+        let (id, out) = self.commands.submit(now, spec)?;
+        if mode {
+            self.mode_asks.push((id, self.mode_seen));
+        }
+        Ok((id, out))
+    }
+
+    /// The heartbeat shows `mode`: a DO_SET_MODE sent from another mode is no longer resent.
+    fn on_mode_seen(&mut self, mode: u32) -> Vec<SessionOut> {
+        self.mode_seen = Some(mode);
+        let mut out = Vec::new();
+        let asks = std::mem::take(&mut self.mode_asks);
+        for (id, left) in asks {
+            let Some(e) = self.commands.get(id).filter(|e| e.open()) else {
+                continue;
+            };
+            if left == Some(mode) {
+                self.mode_asks.push((id, left));
+                continue;
+            }
+            let ours = e.spec.params[1] == mode as f64
+                || self.sequence.as_ref().and_then(|s| s.current()).map(|s| s.until)
+                    == Some(crate::proto::sequence::Until::Mode(mode));
+            self.commands.hold_resends(id);
+            if !ours {
+                out.push(SessionOut::Notice(
+                    crate::proto::severity::WARNING,
+                    format!(
+                        "{}:{} changed mode on its own meanwhile: our DO_SET_MODE is not resent",
+                        self.key.0, self.key.1
+                    ),
+                ));
+            }
+        }
+        out
+    }
+
+    /// A new mode request (a mode, LAND, RTL): the take-off or mode change still running is
+    /// abandoned, and a DO_SET_MODE still waiting is superseded (not waited for, never resent).
+    pub fn supersede_mode(&mut self, now: Micros, by: &str) -> Vec<SessionOut> {
+        let mut out = Vec::new();
+        if let Some(seq) = self.sequence.take().filter(|s| !s.finished()) {
+            out.push(SessionOut::Notice(
+                crate::proto::severity::WARNING,
+                format!("{}: abandoned for {by}", seq.name),
+            ));
+        }
+        let done = self
+            .commands
+            .supersede(now, self.key, MavCmd::MAV_CMD_DO_SET_MODE as u16);
+        self.mode_asks.clear();
+        out.extend(self.drive(now, done));
+        out
     }
 
     /// Abort command `id` in progress.
@@ -519,7 +588,7 @@ impl Session {
         }
         let next = self.sequence.as_ref().and_then(|s| s.next_command());
         if let Some(spec) = next {
-            match self.commands.submit(now, spec) {
+            match self.queue(now, spec) {
                 Ok((id, sends)) => {
                     if let Some(seq) = self.sequence.as_mut() {
                         seq.sent(id);

@@ -153,6 +153,9 @@ pub enum State {
     NoAck,
     /// Cancelled by the operator before it finished.
     Cancelled,
+    /// A newer request of the same kind (a mode change) took its place: it is not waited for
+    /// and never resent.
+    Superseded,
 }
 
 /// One command sent, as the Commands screen lists it.
@@ -172,6 +175,8 @@ pub struct Entry {
     /// The vehicle's explanation (STATUSTEXT) of a refusal.
     pub reason: Option<String>,
     deadline: Micros,
+    /// Not resent even if it is safe to repeat (the vehicle's state moved on since it was sent).
+    held: bool,
 }
 
 impl Entry {
@@ -188,6 +193,7 @@ impl Entry {
             State::Done(r) => result_name(*r),
             State::NoAck => "no ACK".into(),
             State::Cancelled => "CANCELLED by operator".into(),
+            State::Superseded => "superseded".into(),
         }
     }
 }
@@ -279,6 +285,7 @@ impl CommandQueue {
             rtt: None,
             reason: None,
             deadline: now + self.timeout(),
+            held: false,
         });
         Ok((id, vec![CmdOut::Send(msg)]))
     }
@@ -380,7 +387,7 @@ impl CommandQueue {
                     format!("{name} to {s}:{c}: no progress report, given up"),
                 ));
                 out.push(CmdOut::Finished(e.id));
-            } else if safe_to_resend(e.spec.command) && e.sends < MAX_SENDS {
+            } else if safe_to_resend(e.spec.command) && !e.held && e.sends < MAX_SENDS {
                 if let Some(m) = e.spec.message(e.sends.min(255) as u8) {
                     out.push(CmdOut::Send(m));
                 }
@@ -390,7 +397,9 @@ impl CommandQueue {
             } else {
                 e.state = State::NoAck;
                 e.changed = now;
-                let why = if safe_to_resend(e.spec.command) {
+                let why = if e.held {
+                    "no ACK (not resent: the vehicle's mode changed since it was sent)".to_string()
+                } else if safe_to_resend(e.spec.command) {
                     format!("no ACK after {} sends", e.sends)
                 } else {
                     "no ACK (not resent: re-issue it if still wanted)".to_string()
@@ -425,6 +434,29 @@ impl CommandQueue {
             })),
             CmdOut::Finished(e.id),
         ])
+    }
+
+    /// Command `id` is not sent again on its own, whatever its kind.
+    pub fn hold_resends(&mut self, id: u64) {
+        if let Some(e) = self.entries.iter_mut().find(|e| e.id == id) {
+            e.held = true;
+        }
+    }
+
+    /// Every open `command` to `target` is superseded by a newer request: finished at once,
+    /// not resent, its late ACK ignored. Returns what finished.
+    pub fn supersede(&mut self, now: Micros, target: (u8, u8), command: u16) -> Vec<CmdOut> {
+        let mut out = Vec::new();
+        for e in self
+            .entries
+            .iter_mut()
+            .filter(|e| e.open() && e.spec.target == target && e.spec.command == command)
+        {
+            e.state = State::Superseded;
+            e.changed = now;
+            out.push(CmdOut::Finished(e.id));
+        }
+        out
     }
 
     pub fn next_deadline(&self) -> Option<Micros> {
