@@ -557,7 +557,7 @@ fn signing_setup_and_off_go_only_confirmed_and_only_on_a_secure_link() {
     assert!(setup_signing(&fx).is_empty(), "cancelled: nothing sent");
     command(&mut a, 600_000, "signing setup");
     let t = 950_000; // a `y` counts 0.3 s after the question
-    
+
     let fx = keys(&mut a, t, &["y"]);
     let sent = setup_signing(&fx);
     assert_eq!(sent.len(), 1, "{fx:?}");

@@ -148,13 +148,25 @@ pub fn danger(command: u16, params: &[f64; 7], flying: bool) -> Option<&'static 
 fn action_command(action: &FlightAction) -> Option<(u16, [f64; 7])> {
     let c = |c: MavCmd| c as u16;
     Some(match action {
-        FlightAction::Arm => (c(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM), [1., 0., 0., 0., 0., 0., 0.]),
+        FlightAction::Arm => (
+            c(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM),
+            [1., 0., 0., 0., 0., 0., 0.],
+        ),
         FlightAction::Disarm { force } => {
             let p2 = if *force { FORCE_DISARM } else { 0.0 };
-            (c(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM), [0., p2, 0., 0., 0., 0., 0.])
+            (
+                c(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM),
+                [0., p2, 0., 0., 0., 0., 0.],
+            )
         }
-        FlightAction::Takeoff(alt) => (c(MavCmd::MAV_CMD_NAV_TAKEOFF), [0., 0., 0., 0., 0., 0., *alt]),
-        FlightAction::Reboot => (c(MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN), [1., 0., 0., 0., 0., 0., 0.]),
+        FlightAction::Takeoff(alt) => (
+            c(MavCmd::MAV_CMD_NAV_TAKEOFF),
+            [0., 0., 0., 0., 0., 0., *alt],
+        ),
+        FlightAction::Reboot => (
+            c(MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN),
+            [1., 0., 0., 0., 0., 0., 0.],
+        ),
         FlightAction::Command { command, params } => (*command, *params),
         FlightAction::Land | FlightAction::Rtl | FlightAction::Mode(_) => return None,
     })
@@ -404,7 +416,8 @@ impl App {
         let early = repeat || now < c.asked + CONFIRM_GUARD || now < c.last_key + CONFIRM_GUARD;
         c.last_key = now;
         // `n` and esc say no at once: a no never sends anything.
-        let no = key == Key::ch('n') || key == Key::ch('N') || key.code == crate::keymap::KeyCode::Esc;
+        let no =
+            key == Key::ch('n') || key == Key::ch('N') || key.code == crate::keymap::KeyCode::Esc;
         if early && !no {
             self.ui.message = Some((
                 SEV_WARNING,

@@ -462,7 +462,11 @@ impl Session {
                 continue;
             }
             let ours = e.spec.params[1] == mode as f64
-                || self.sequence.as_ref().and_then(|s| s.current()).map(|s| s.until)
+                || self
+                    .sequence
+                    .as_ref()
+                    .and_then(|s| s.current())
+                    .map(|s| s.until)
                     == Some(crate::proto::sequence::Until::Mode(mode));
             self.commands.hold_resends(id);
             if !ours {

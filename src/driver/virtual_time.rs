@@ -96,10 +96,15 @@ struct VLinks {
     pending: Vec<Event>,
     /// The telemetry log, when recording.
     recorder: Option<Recorder>,
+    /// Every frame the core sent (time, link, bytes), once asked for ([`VirtualRunner::capture_sent`]).
+    sent: Option<Vec<(Micros, LinkId, Vec<u8>)>>,
 }
 
 impl Links for VLinks {
     fn send(&mut self, now: Micros, link: LinkId, frame: Vec<u8>) -> bool {
+        if let Some(s) = self.sent.as_mut() {
+            s.push((now, link, frame.clone()));
+        }
         // A link that could not open discards what is sent to it, as a down link task does.
         if let Some(src) = self.links.get_mut(link).and_then(|l| l.src.as_mut()) {
             src.receive(now, &frame);
@@ -198,6 +203,7 @@ impl VirtualRunner {
                 links,
                 pending: Vec::new(),
                 recorder: None,
+                sent: None,
             },
             now: 0,
         };
@@ -397,6 +403,20 @@ impl VirtualRunner {
         }
         self.now = self.now.max(t);
         self.step(Event::Tick);
+    }
+
+    /// Keep every frame the core sends from now on, for [`Self::take_sent`].
+    pub fn capture_sent(&mut self) {
+        self.links.sent.get_or_insert_with(Vec::new);
+    }
+
+    /// The frames sent since the last call (time, link, bytes as they left).
+    pub fn take_sent(&mut self) -> Vec<(Micros, LinkId, Vec<u8>)> {
+        self.links
+            .sent
+            .as_mut()
+            .map(std::mem::take)
+            .unwrap_or_default()
     }
 
     /// A key pressed at the current virtual time.
