@@ -87,11 +87,17 @@ fn a_silent_key_stops_within_the_deadman_time() {
     hold(&mut r, "right", 1.0);
     assert!((target_speed(&r) - 5.0).abs() < 1e-6);
     let last_key = r.now() - 30 * MS;
-    // Still flying 0.7 s after the last key; stopped by 0.8 s (the default deadman) + 1 ms.
-    r.advance_to(last_key + 700 * MS);
+    // The key repeated: still flying 0.25 s after its last repeat; stopped by 0.3 s (the
+    // default deadman) + 1 ms, not 0.8 s.
+    r.advance_to(last_key + 250 * MS);
     assert!((target_speed(&r) - 5.0).abs() < 1e-6);
-    r.advance_to(last_key + 801 * MS);
+    r.advance_to(last_key + 301 * MS);
     assert_eq!(target_speed(&r), 0.0);
+    let s = common::screen(&r, 80, 24);
+    assert!(
+        s.contains("deadman 0.3 s"),
+        "the status bar says what stops it: {s}"
+    );
 }
 
 #[test]

@@ -324,6 +324,8 @@ impl App {
             .unwrap_or(0);
         match action {
             Action::Quit => {
+                // A nudge in progress ends in a stop before anything else.
+                self.leave_fly(fx);
                 self.quit = true;
                 fx.push(Effect::Quit);
             }

@@ -110,6 +110,9 @@ pub enum Event {
     /// A key repeated by the terminal while held (terminals that report event kinds): flies
     /// like a press, never answers a question.
     KeyRepeat(Key),
+    /// The front end is about to end (quit, its input closed, a signal, a panic): a nudge in
+    /// progress ends in a stop.
+    Ending,
     /// A key was let go (terminals that report releases; `release KEY` in replay scripts).
     KeyRelease(Key),
     /// The screen changed size.
@@ -554,6 +557,7 @@ impl App {
             Event::Key(key) => self.on_key(key, false, &mut fx),
             Event::KeyRepeat(key) => self.on_key(key, true, &mut fx),
             Event::KeyRelease(key) => self.on_key_release(key, &mut fx),
+            Event::Ending => self.leave_fly(&mut fx),
             Event::Resize => self.dirty = true,
             Event::FileWritten { path, error } if self.signing.is_state_file(&path) => {
                 self.signing_file_written(error)

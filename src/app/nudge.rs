@@ -29,8 +29,15 @@ use super::{App, Effect};
 pub const RATE_HZ: u64 = 10;
 /// Between two velocity targets.
 pub const PERIOD: Micros = 1_000_000 / RATE_HZ;
-/// Default deadman: longer than a terminal's first key-repeat delay.
-pub const DEADMAN: Micros = 800_000;
+/// Default deadman once a key repeats: a terminal repeats a held key every 30–40 ms (25–33 Hz),
+/// so 0.3 s is several repeats missed or bunched by an SSH link, and the shortest that is not
+/// fooled by them. `nudge_deadman` sets it.
+pub const DEADMAN: Micros = 300_000;
+/// Before a key's first repeat: terminals wait 250–600 ms before repeating a held key (660 ms
+/// is X11's default), so the first press lasts this long at least.
+pub const FIRST_REPEAT_WAIT: Micros = 700_000;
+/// A stop (zero velocity, never acknowledged) is sent this many times, [`PERIOD`] apart.
+pub const STOP_SENDS: u8 = 3;
 /// Speeds chosen by `1`, `2`, `3` (m/s).
 pub const SPEEDS: [f32; 3] = [1.0, 2.0, 5.0];
 /// Yaw rate of `a`/`d` (degrees per second).
@@ -98,6 +105,14 @@ pub fn fly_key(key: &Key) -> FlyKey {
     }
 }
 
+/// A direction key held: its sign, when its key last came, and whether it has repeated.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Held {
+    sign: f32,
+    last: Micros,
+    repeated: bool,
+}
+
 /// The Fly mode machine: keys and time in, messages out.
 #[derive(Debug, Clone)]
 pub struct Nudge {
@@ -105,12 +120,18 @@ pub struct Nudge {
     pub target: Option<VehicleKey>,
     pub speed: usize,
     pub deadman: Micros,
-    /// Per axis (forward, right, up, yaw): the sign held and when its key last came.
-    held: [Option<(f32, Micros)>; 4],
+    /// The screen Fly mode was entered on: another screen leaves it.
+    pub screen: &'static str,
+    /// The terminal reports key releases (one has come): they stop a nudge at once.
+    pub releases: bool,
+    /// Per axis (forward, right, up, yaw): the key held.
+    held: [Option<Held>; 4],
     /// When the next velocity target goes, while one is being streamed.
     next_send: Option<Micros>,
     /// A velocity was sent in this Fly mode: leaving sends zero.
     moved: bool,
+    /// A stop still to be sent again: (vehicle, copies left, when the next goes).
+    stop: Option<(VehicleKey, u8, Micros)>,
 }
 
 impl Default for Nudge {
@@ -134,9 +155,12 @@ impl Nudge {
             target: None,
             speed: 1,
             deadman,
+            screen: "",
+            releases: false,
             held: [None; 4],
             next_send: None,
             moved: false,
+            stop: None,
         }
     }
 
@@ -148,29 +172,49 @@ impl Nudge {
         SPEEDS[self.speed.min(SPEEDS.len() - 1)]
     }
 
-    /// Enter Fly mode on `key`.
-    pub fn enter(&mut self, key: VehicleKey) {
+    /// True while a stop is still to be sent again (the front end waits for it before exiting).
+    pub fn stopping(&self) -> bool {
+        self.stop.is_some()
+    }
+
+    /// True once a velocity was sent in this Fly mode.
+    pub fn moved(&self) -> bool {
+        self.moved
+    }
+
+    /// Enter Fly mode on `key`, from `screen`.
+    pub fn enter(&mut self, key: VehicleKey, screen: &'static str) {
         *self = Self {
             target: Some(key),
             speed: self.speed,
+            screen,
+            releases: self.releases,
+            stop: self.stop,
             ..Self::new(self.deadman)
         };
     }
 
-    /// Leave Fly mode: a zero velocity if anything was flown.
+    /// Leave Fly mode: a zero velocity if anything was flown (sent again twice, [`PERIOD`]
+    /// apart, by [`Self::poll`]).
     pub fn leave(&mut self, now: Micros) -> Option<(VehicleKey, MavMessage)> {
         let key = self.target.take()?;
         let moved = self.moved;
         self.held = [None; 4];
         self.next_send = None;
         self.moved = false;
-        moved.then(|| (key, velocity_message(key, now, [0.0; 4])))
+        moved.then(|| self.stop_now(now, key))
+    }
+
+    /// A zero velocity now, and its copies scheduled.
+    fn stop_now(&mut self, now: Micros, key: VehicleKey) -> (VehicleKey, MavMessage) {
+        self.stop = Some((key, STOP_SENDS - 1, now + PERIOD));
+        (key, velocity_message(key, now, [0.0; 4]))
     }
 
     /// The velocity (forward, right, down m/s; yaw rate rad/s) of the keys held.
     pub fn velocity(&self) -> [f32; 4] {
         let s = self.speed_ms();
-        let v = |a: Axis| self.held[idx(a)].map_or(0.0, |(sign, _)| sign);
+        let v = |a: Axis| self.held[idx(a)].map_or(0.0, |h| h.sign);
         [
             v(Axis::Forward) * s,
             v(Axis::Right) * s,
@@ -194,7 +238,12 @@ impl Nudge {
     ) -> Option<(VehicleKey, MavMessage)> {
         let key = self.target?;
         let before = self.velocity();
-        self.held[idx(axis)] = Some((sign, now));
+        let repeated = self.held[idx(axis)].is_some_and(|h| h.sign == sign);
+        self.held[idx(axis)] = Some(Held {
+            sign,
+            last: now,
+            repeated,
+        });
         if self.next_send.is_none() || self.velocity() != before {
             return self.send(now, key);
         }
@@ -210,18 +259,22 @@ impl Nudge {
     ) -> Option<(VehicleKey, MavMessage)> {
         let key = self.target?;
         match self.held[idx(axis)] {
-            Some((s, _)) if s == sign => self.held[idx(axis)] = None,
+            Some(h) if h.sign == sign => self.held[idx(axis)] = None,
             _ => return None,
         }
         self.send(now, key)
     }
 
-    /// A velocity target now: the keys held, or zero (and the stream ends) when none is.
+    /// A velocity target now: the keys held, or a stop (and the stream ends) when none is.
     fn send(&mut self, now: Micros, key: VehicleKey) -> Option<(VehicleKey, MavMessage)> {
-        let v = self.velocity();
         self.moved = true;
-        self.next_send = self.moving().then_some(now + PERIOD);
-        Some((key, velocity_message(key, now, v)))
+        if !self.moving() {
+            self.next_send = None;
+            return Some(self.stop_now(now, key));
+        }
+        self.stop = None;
+        self.next_send = Some(now + PERIOD);
+        Some((key, velocity_message(key, now, self.velocity())))
     }
 
     /// Speed `i` of [`SPEEDS`]; a stream in progress takes it at its next send.
@@ -229,15 +282,33 @@ impl Nudge {
         self.speed = i.min(SPEEDS.len() - 1);
     }
 
-    /// What is due at `now`: the next velocity target, or the deadman's (a direction whose key
-    /// has not come for longer than the deadman time stops at once, not at the next send).
+    /// The deadman of a key held: [`FIRST_REPEAT_WAIT`] until it repeats, then the deadman.
+    fn deadman_of(&self, h: &Held) -> Micros {
+        if h.repeated {
+            self.deadman
+        } else {
+            self.deadman.max(FIRST_REPEAT_WAIT)
+        }
+    }
+
+    /// What is due at `now`: a stop's next copy, the next velocity target, or the deadman's (a
+    /// direction whose key has not come for longer than its deadman stops at once, not at the
+    /// next send).
     pub fn poll(&mut self, now: Micros) -> Option<(VehicleKey, MavMessage)> {
+        if let Some((key, left, at)) = self.stop {
+            if at <= now {
+                self.stop = (left > 1).then_some((key, left - 1, at + PERIOD));
+                return Some((key, velocity_message(key, now, [0.0; 4])));
+            }
+        }
         let key = self.target?;
         let mut expired = false;
-        for h in &mut self.held {
-            if h.is_some_and(|(_, t)| now.saturating_sub(t) > self.deadman) {
-                *h = None;
-                expired = true;
+        for i in 0..self.held.len() {
+            if let Some(h) = self.held[i] {
+                if now.saturating_sub(h.last) > self.deadman_of(&h) {
+                    self.held[i] = None;
+                    expired = true;
+                }
             }
         }
         if expired || self.next_send.is_some_and(|t| t <= now) {
@@ -246,15 +317,25 @@ impl Nudge {
         None
     }
 
-    /// The next send, or the deadman of a key held, whichever is first.
+    /// The next send, a stop's next copy, or the deadman of a key held, whichever is first.
     pub fn next_deadline(&self) -> Option<Micros> {
         let expiry = self
             .held
             .iter()
             .flatten()
-            .map(|(_, t)| t + self.deadman + 1)
+            .map(|h| h.last + self.deadman_of(h) + 1)
             .min();
-        [self.next_send, expiry].into_iter().flatten().min()
+        let stop = self.stop.map(|(_, _, at)| at);
+        [self.next_send, expiry, stop].into_iter().flatten().min()
+    }
+
+    /// What stops a nudge here: `release keys`, or the deadman (`deadman 0.3 s`).
+    pub fn stop_mode(&self) -> String {
+        if self.releases {
+            "release keys".into()
+        } else {
+            format!("deadman {:.1} s", self.deadman as f64 / 1e6)
+        }
     }
 }
 
@@ -295,7 +376,7 @@ impl App {
         if !self.sessions.contains_key(&key) {
             return Err(format!("{}:{} is not an autopilot", key.0, key.1));
         }
-        self.nudge.enter(key);
+        self.nudge.enter(key, self.ui.screen);
         Ok(Some(
             "Fly mode: arrows move, w/s up/down, a/d yaw, 1/2/3 speed, r/f altitude, esc leaves"
                 .into(),
@@ -355,7 +436,29 @@ impl App {
                     None => Err("altitude not known yet".into()),
                 }
             }
-            FlyKey::Other => Err("Fly mode: esc leaves it first".into()),
+            FlyKey::Other => {
+                // A key that opens something else (a screen, the prompt, the palette, the help)
+                // or quits leaves Fly mode first, with a stop; other keys do nothing here.
+                use crate::keymap::{Action, Mode};
+                match self.keymap.lookup(Mode::Normal, self.ui.screen, &key) {
+                    Some(
+                        a @ (Action::Quit
+                        | Action::Screen(_)
+                        | Action::Prompt
+                        | Action::Palette
+                        | Action::Help
+                        | Action::ModeMenu
+                        | Action::Takeoff),
+                    ) => {
+                        self.leave_fly(fx);
+                        self.notice(SEV_INFO, Some(target), "Fly mode left".into());
+                        self.ui.message = Some((SEV_INFO, "Fly mode left".into()));
+                        self.on_action(a, fx);
+                        return;
+                    }
+                    _ => Err("Fly mode: esc leaves it first".into()),
+                }
+            }
         };
         self.ui.message = match outcome {
             Ok(Some(t)) => Some((SEV_INFO, t)),
@@ -366,6 +469,7 @@ impl App {
 
     /// A key let go: in Fly mode, its direction stops at once.
     pub(super) fn on_key_release(&mut self, key: Key, fx: &mut Vec<Effect>) {
+        self.nudge.releases = true;
         if !self.nudge.active() {
             return;
         }
@@ -376,15 +480,43 @@ impl App {
         }
     }
 
-    /// The 10 Hz stream and the deadman; Fly mode ends when its vehicle is gone.
-    pub(super) fn poll_nudge(&mut self, fx: &mut Vec<Effect>) {
-        let Some(key) = self.nudge.target else {
-            return;
-        };
+    /// Why Fly mode on `key` must end now, if it must: the vehicle gone or lost, the target
+    /// changed, another screen, the prompt, a question or the palette open, or (once flown) the
+    /// vehicle disarmed or out of GUIDED.
+    fn fly_ends(&self, key: VehicleKey) -> Option<String> {
         if !self.sessions.contains_key(&key) {
-            self.nudge.leave(self.now);
-            self.notice(SEV_WARNING, None, "Fly mode left: vehicle gone".into());
-            return;
+            return Some("vehicle gone".into());
+        }
+        if self.vehicles.get(key).is_none_or(|v| v.lost) {
+            return Some("vehicle lost".into());
+        }
+        if self.target != Some(key) {
+            return Some("the target changed".into());
+        }
+        if self.ui.mode != crate::keymap::Mode::Normal
+            || self.ui.screen != self.nudge.screen
+            || self.ui.confirm.is_some()
+            || self.ui.palette.is_some()
+        {
+            return Some("another screen opened".into());
+        }
+        if self.nudge.moved() {
+            if let Err(e) = self.guided_check(key, true, "nudge") {
+                return Some(e);
+            }
+        }
+        None
+    }
+
+    /// The 10 Hz stream (armed and GUIDED checked before every send), the deadman, a stop's
+    /// copies; Fly mode ends, with a stop, as soon as it must ([`Self::fly_ends`]).
+    pub(super) fn poll_nudge(&mut self, fx: &mut Vec<Effect>) {
+        if let Some(key) = self.nudge.target {
+            if let Some(why) = self.fly_ends(key) {
+                self.leave_fly(fx);
+                self.notice(SEV_WARNING, Some(key), format!("Fly mode left: {why}"));
+                self.dirty = true;
+            }
         }
         let before = self.nudge.moving();
         let out = self.nudge.poll(self.now);
@@ -411,7 +543,11 @@ impl App {
                 dirs.push(neg);
             }
         }
-        Some(format!("FLY {dirs}{:.1} m/s", self.nudge.speed_ms()))
+        Some(format!(
+            "FLY {dirs}{:.1} m/s {}",
+            self.nudge.speed_ms(),
+            self.nudge.stop_mode()
+        ))
     }
 }
 
@@ -433,53 +569,72 @@ mod tests {
 
     #[test]
     fn a_held_key_streams_at_10_hz_and_the_deadman_stops_it() {
-        let mut n = Nudge::new(800_000);
+        let mut n = Nudge::new(300_000);
         assert!(n.press(0, Axis::Forward, 1.0).is_none(), "not in Fly mode");
-        n.enter((1, 1));
+        n.enter((1, 1), "overview");
         let (_, m) = n.press(0, Axis::Forward, 1.0).unwrap();
         assert_eq!(vel(&m), [2.0, 0.0, -0.0, 0.0]);
-        // Repeats at 30 ms do not send more than 10 Hz.
-        assert!(n.press(30_000, Axis::Forward, 1.0).is_none());
-        assert_eq!(n.next_deadline(), Some(100_000));
-        // Polled at its deadlines, the deadman stops it 0.8 s after the last key, not later.
-        let mut m2 = n.clone();
-        let mut last = None;
-        while let Some(d) = m2.next_deadline() {
-            if let Some((_, m)) = m2.poll(d) {
-                last = Some((d, vel(&m)));
+        // Its first repeat 500 ms later, then every 30 ms: not more than 10 Hz.
+        assert!(n.press(500_000, Axis::Forward, 1.0).is_none());
+        assert!(n.press(530_000, Axis::Forward, 1.0).is_none());
+        // Polled at its deadlines: sends every 100 ms, the deadman stops it 0.3 s after the
+        // last repeat (530 ms), then the stop goes twice more 100 ms apart.
+        let mut sent = Vec::new();
+        let mut t = 100_000;
+        while let Some(d) = n.next_deadline() {
+            assert!(d >= t, "deadline {d} before {t}");
+            t = d;
+            if let Some((_, m)) = n.poll(d) {
+                sent.push((d, vel(&m)[0]));
             }
         }
-        assert_eq!(last, Some((830_001, [0.0; 4])));
-        let mut sends = 1;
-        let mut t = 100_000;
-        let mut stopped_at = None;
-        while t <= 3_000_000 {
+        let stops: Vec<_> = sent.iter().filter(|(_, v)| *v == 0.0).collect();
+        assert_eq!(
+            stops.iter().map(|(t, _)| *t).collect::<Vec<_>>(),
+            vec![830_001, 930_001, 1_030_001]
+        );
+        assert_eq!(sent.iter().filter(|(_, v)| *v == 2.0).count(), 8);
+        assert!(!n.stopping());
+    }
+
+    #[test]
+    fn a_single_press_lasts_until_its_first_repeat_would_have_come() {
+        let mut n = Nudge::new(300_000);
+        n.enter((1, 1), "overview");
+        n.press(0, Axis::Right, 1.0).unwrap();
+        let mut first_stop = None;
+        let mut t = 0;
+        while t < 2_000_000 && first_stop.is_none() {
+            t += 10_000;
             if let Some((_, m)) = n.poll(t) {
-                sends += 1;
-                if vel(&m)[0] == 0.0 {
-                    stopped_at = Some(t);
-                    break;
+                if vel(&m)[1] == 0.0 {
+                    first_stop = Some(t);
                 }
             }
-            t += 100_000;
         }
-        // The last key at 30 ms: stopped at the first send more than 0.8 s after it.
-        assert_eq!(stopped_at, Some(900_000));
-        assert_eq!(sends, 10);
-        assert_eq!(n.next_deadline(), None);
+        // Not at 0.3 s (terminals wait up to 0.66 s before the first repeat): after 0.7 s.
+        assert_eq!(first_stop, Some(710_000));
     }
 
     #[test]
     fn a_release_stops_at_once_and_leaving_sends_zero() {
         let mut n = Nudge::default();
-        n.enter((1, 1));
+        n.enter((1, 1), "overview");
         n.set_speed(2);
         n.press(0, Axis::Right, -1.0).unwrap();
         let (_, m) = n.release(50_000, Axis::Right, -1.0).unwrap();
         assert_eq!(vel(&m), [0.0, 0.0, -0.0, 0.0]);
+        // The stop goes twice more, 100 ms apart; nothing after.
+        assert_eq!(n.next_deadline(), Some(150_000));
+        assert!(n.poll(149_999).is_none());
+        assert_eq!(vel(&n.poll(150_000).unwrap().1), [0.0; 4]);
+        assert_eq!(vel(&n.poll(250_000).unwrap().1), [0.0; 4]);
         assert_eq!(n.next_deadline(), None);
-        let (_, m) = n.leave(60_000).unwrap();
+        let (_, m) = n.leave(260_000).unwrap();
         assert_eq!(vel(&m), [0.0; 4]);
         assert!(!n.active());
+        assert!(n.stopping(), "its copies follow, out of Fly mode too");
+        assert!(n.poll(360_000).is_some() && n.poll(460_000).is_some());
+        assert!(!n.stopping());
     }
 }
