@@ -4,6 +4,12 @@
 //!
 //! The parent test re-runs this test binary's ignored `child_*` tests inside `script`, so the
 //! child's stdout is a real tty, then inspects everything the child wrote to it.
+//!
+//! A Fly mode nudge in progress ends in its stop however the session ends (the quit key,
+//! Ctrl-C, SIGHUP): the child flies a stand-in vehicle on UDP, which writes down every frame it
+//! is sent; pymavlink reads them.
+
+mod common;
 
 use std::io::Write;
 use std::process::{Command, Stdio};
@@ -41,24 +47,30 @@ struct SignalClock {
     clock: RealClock,
     signal: &'static str,
     sent: Arc<Once>,
+    after: Duration,
 }
 
 impl SignalClock {
     fn new(signal: &'static str) -> Self {
+        Self::after(signal, Duration::from_millis(300))
+    }
+
+    fn after(signal: &'static str, after: Duration) -> Self {
         SignalClock {
             clock: RealClock::new(),
             signal,
             sent: Arc::new(Once::new()),
+            after,
         }
     }
 }
 
 impl Clock for SignalClock {
     fn now(&self) -> Micros {
-        let signal = self.signal;
+        let (signal, after) = (self.signal, self.after);
         self.sent.call_once(|| {
             std::thread::spawn(move || {
-                std::thread::sleep(Duration::from_millis(300));
+                std::thread::sleep(after);
                 let status = Command::new("kill")
                     .args([format!("-{signal}"), std::process::id().to_string()])
                     .status()
@@ -128,6 +140,28 @@ fn child_gets_sigint() {
 
 /// Run `child` under `script`, typing `input` until it exits; returns (success, output).
 fn under_pty(child: &str, input: &[u8]) -> (bool, String) {
+    under_pty_with(child, Typing::Repeat(input), &[])
+}
+
+/// What the parent types into the pty.
+enum Typing<'a> {
+    /// The same bytes every half second until the child exits.
+    Repeat(&'a [u8]),
+    /// Once `ready` has a line (the child's link heard its vehicle and answered it), each step
+    /// at its time (ms after that).
+    Once {
+        ready: &'a std::path::Path,
+        steps: &'a [(u64, Step<'a>)],
+    },
+}
+
+/// One thing the parent does to the child.
+enum Step<'a> {
+    Type(&'a [u8]),
+    /// `kill -SIG` the child (its pid from `ready` + `.pid`), as sshd does when the session drops.
+    Signal(&'a str),
+}
+fn under_pty_with(child: &str, typing: Typing, env: &[(&str, String)]) -> (bool, String) {
     let exe = std::env::current_exe().unwrap();
     // The pty has no size until told; 0x0 would draw nothing.
     let cmd = format!(
@@ -136,6 +170,7 @@ fn under_pty(child: &str, input: &[u8]) -> (bool, String) {
     );
     let mut p = Command::new("script")
         .args(["-qec", &cmd, "/dev/null"])
+        .envs(env.iter().map(|(k, v)| (*k, v.as_str())))
         .env("TERM", "xterm-256color")
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
@@ -147,11 +182,44 @@ fn under_pty(child: &str, input: &[u8]) -> (bool, String) {
     // mode yet the first time.
     let start = Instant::now();
     let mut next_type = start + Duration::from_millis(500);
+    let mut step = 0;
+    let mut ready_at: Option<Instant> = None;
     while p.try_wait().unwrap().is_none() {
         assert!(start.elapsed() < Duration::from_secs(30), "{child} hung");
-        if !input.is_empty() && Instant::now() >= next_type {
-            let _ = stdin.write_all(input).and_then(|()| stdin.flush());
-            next_type += Duration::from_millis(500);
+        match typing {
+            Typing::Repeat(input) if !input.is_empty() && Instant::now() >= next_type => {
+                let _ = stdin.write_all(input).and_then(|()| stdin.flush());
+                next_type += Duration::from_millis(500);
+            }
+            Typing::Once { ready, steps } => {
+                let heard = std::fs::read_to_string(ready).is_ok_and(|t| !t.is_empty());
+                match (ready_at, heard) {
+                    (None, true) => ready_at = Some(Instant::now()),
+                    (Some(at), _) => {
+                        if let Some((ms, what)) = steps.get(step) {
+                            if at.elapsed() >= Duration::from_millis(*ms) {
+                                match what {
+                                    Step::Type(bytes) => {
+                                        let _ = stdin.write_all(bytes).and_then(|()| stdin.flush());
+                                    }
+                                    Step::Signal(sig) => {
+                                        let pid_file = ready.with_extension("pid");
+                                        let pid = std::fs::read_to_string(pid_file).unwrap();
+                                        let st = Command::new("kill")
+                                            .args([format!("-{sig}"), pid.trim().to_string()])
+                                            .status()
+                                            .unwrap();
+                                        assert!(st.success());
+                                    }
+                                }
+                                step += 1;
+                            }
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            _ => {}
         }
         std::thread::sleep(Duration::from_millis(20));
     }
@@ -246,4 +314,174 @@ fn sigterm_restores_the_terminal() {
 #[test]
 fn sigint_restores_the_terminal() {
     signal_restores_the_terminal("child_gets_sigint");
+}
+
+/// A stand-in ArduCopter 1:1 on UDP, armed in GUIDED: its heartbeat goes to the GCS's port
+/// every 200 ms, and every datagram the GCS sends it is appended to `path` (hex, one a line)
+/// as it comes, so nothing is lost when the process ends.
+fn stand_in_vehicle(gcs_port: u16, path: std::path::PathBuf) {
+    use mavterm::dialect::{self, MavMessage};
+    let sock = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let tx = sock.try_clone().unwrap();
+    std::thread::spawn(move || {
+        for seq in 0u8.. {
+            let hb = MavMessage::HEARTBEAT(dialect::HEARTBEAT_DATA {
+                custom_mode: 4, // GUIDED
+                mavtype: dialect::MavType::MAV_TYPE_QUADROTOR,
+                autopilot: dialect::MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+                base_mode: dialect::MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED
+                    | dialect::MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+                system_status: dialect::MavState::MAV_STATE_ACTIVE,
+                mavlink_version: 3,
+            });
+            let header = mavterm::wire::Header {
+                sysid: 1,
+                compid: 1,
+                seq,
+            };
+            let frame = mavterm::wire::frame::encode(mavterm::wire::Version::V2, header, &hb);
+            let _ = tx.send_to(&frame, ("127.0.0.1", gcs_port));
+            std::thread::sleep(Duration::from_millis(200));
+        }
+    });
+    std::thread::spawn(move || {
+        let mut file = std::fs::File::create(&path).unwrap();
+        let mut buf = [0u8; 2048];
+        while let Ok(n) = sock.recv(&mut buf) {
+            let hex: String = buf[..n].iter().map(|b| format!("{b:02x}")).collect();
+            writeln!(file, "{hex}").unwrap();
+            file.flush().unwrap();
+        }
+    });
+}
+
+/// The nudge children: the terminal on a UDP link to the stand-in vehicle (port and capture
+/// file from the parent), a deadman longer than the session so only the way it ends stops
+/// the nudge.
+fn run_nudge_child(clock: impl Clock + Clone + Send + 'static, by_quit: bool) {
+    let port: u16 = std::env::var("MAVTERM_PTY_PORT").unwrap().parse().unwrap();
+    let path = std::path::PathBuf::from(std::env::var("MAVTERM_PTY_CAPTURE").unwrap());
+    std::fs::write(path.with_extension("pid"), std::process::id().to_string()).unwrap();
+    stand_in_vehicle(port, path);
+    // As mavterm runs: the link tasks on their own workers.
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .unwrap();
+    let spec: mavterm::link::LinkSpec = format!("udpin:127.0.0.1:{port}").parse().unwrap();
+    let cfg = AppConfig {
+        nudge_deadman: 20_000_000,
+        fetch_params: false,
+        ..AppConfig::default()
+    };
+    let app = rt
+        .block_on(async {
+            let core = RealTime::start_with_clock(&[spec], cfg, clock);
+            run_terminal(core, TuiOptions::default()).await
+        })
+        .unwrap();
+    assert_eq!(app.quit, by_quit);
+    println!("CHILD-DONE");
+}
+
+#[test]
+#[ignore = "run by pty tests inside a pseudo-terminal"]
+fn child_nudges_then_quits() {
+    run_nudge_child(RealClock::new(), true);
+}
+
+#[test]
+#[ignore = "run by pty tests inside a pseudo-terminal"]
+fn child_nudges_then_gets_sighup() {
+    run_nudge_child(RealClock::new(), false);
+}
+
+/// Run a nudge child typing `typing`: what it sent the vehicle, read by pymavlink, and its
+/// SET_POSITION_TARGET_LOCAL_NEDs.
+fn nudge_session(child: &str, steps: &[(u64, Step)]) -> Vec<serde_json::Value> {
+    let port = std::net::UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("sent.hex");
+    let env = [
+        ("MAVTERM_PTY_PORT", port.to_string()),
+        ("MAVTERM_PTY_CAPTURE", path.display().to_string()),
+    ];
+    let typing = Typing::Once {
+        ready: &path,
+        steps,
+    };
+    let (ok, out) = under_pty_with(child, typing, &env);
+    assert!(ok, "{child}: {out:?}");
+    assert!(out.contains("CHILD-DONE"), "{out:?}");
+    let text = std::fs::read_to_string(&path).unwrap();
+    // One frame a datagram, or several back to back (MAVLink 2: 12 + payload + 13 if signed).
+    let mut frames = Vec::new();
+    for line in text.lines() {
+        let bytes: Vec<u8> = (0..line.len())
+            .step_by(2)
+            .map(|i| u8::from_str_radix(&line[i..i + 2], 16).unwrap())
+            .collect();
+        let mut at = 0;
+        while at + 12 <= bytes.len() && bytes[at] == 0xFD {
+            let len = 12 + bytes[at + 1] as usize + if bytes[at + 2] & 1 == 1 { 13 } else { 0 };
+            frames.push(bytes[at..(at + len).min(bytes.len())].to_vec());
+            at += len;
+        }
+    }
+    common::pymavlink_decode(&frames)
+        .into_iter()
+        .filter(|v| v["name"] == "SET_POSITION_TARGET_LOCAL_NED")
+        .collect()
+}
+
+/// The nudge flew (a velocity went), and what came after the last velocity is its stop: zero
+/// velocity and yaw rate, in the same frame and with the same mask, three times.
+fn ends_in_a_stop(targets: &[serde_json::Value]) {
+    let moving = |v: &serde_json::Value| v["vx"] != 0.0 || v["vy"] != 0.0 || v["vz"] != 0.0;
+    let last = targets
+        .iter()
+        .rposition(moving)
+        .unwrap_or_else(|| panic!("no nudge flown: {targets:?}"));
+    let stops = &targets[last + 1..];
+    assert!(stops.len() >= 3, "{stops:?}");
+    for s in stops {
+        assert_eq!(s["yaw_rate"], 0.0, "{s}");
+        assert_eq!(
+            s["coordinate_frame"], targets[last]["coordinate_frame"],
+            "{s}"
+        );
+        assert_eq!(s["coordinate_frame"], 9, "MAV_FRAME_BODY_OFFSET_NED: {s}");
+        assert_eq!(s["type_mask"], targets[last]["type_mask"], "{s}");
+        assert_eq!(s["type_mask"], 0x05C7, "{s}");
+        assert_eq!(
+            (s["target_system"].as_u64(), s["target_component"].as_u64()),
+            (Some(1), Some(1))
+        );
+    }
+}
+
+const FLY: Step = Step::Type(b"F");
+const UP: Step = Step::Type(b"\x1b[A");
+
+#[test]
+fn quitting_during_a_nudge_sends_the_stop() {
+    let steps = [(300, FLY), (600, UP), (1100, Step::Type(b"q"))];
+    ends_in_a_stop(&nudge_session("child_nudges_then_quits", &steps));
+}
+
+#[test]
+fn ctrl_c_during_a_nudge_sends_the_stop() {
+    let steps = [(300, FLY), (600, UP), (1100, Step::Type(b"\x03"))];
+    ends_in_a_stop(&nudge_session("child_nudges_then_quits", &steps));
+}
+
+#[test]
+fn sighup_during_a_nudge_sends_the_stop() {
+    let steps = [(300, FLY), (600, UP), (1100, Step::Signal("HUP"))];
+    ends_in_a_stop(&nudge_session("child_nudges_then_gets_sighup", &steps));
 }

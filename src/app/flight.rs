@@ -95,8 +95,11 @@ struct Context {
     identity: Option<(MavAutopilot, crate::dialect::MavType)>,
     armed: Option<bool>,
     mode: Option<u32>,
-    mission: Option<(u32, Option<(u32, usize, Micros)>)>,
+    mission: Option<MissionMark>,
 }
+
+/// The vehicle's plan id, and the mission we know it holds: (plan id, items, when learnt).
+type MissionMark = (u32, Option<(u32, usize, Micros)>);
 
 /// What a confirmation lets go ahead.
 #[derive(Debug, Clone, PartialEq)]

@@ -290,7 +290,50 @@ impl<C: Clock + Clone> RealTime<C> {
     }
 
     /// Run until core time `until` (if given), the core quits, or the front end's input ends.
+    /// However the session ends but at `until` (the quit key, the input closed by a signal, an
+    /// error, a panic), a Fly mode nudge in progress ends in its stop, sent in full
+    /// ([`Self::wind_down`]) before this returns (or the panic goes on).
     pub async fn run(
+        &mut self,
+        until: Option<Micros>,
+        front: &mut impl Frontend,
+    ) -> std::io::Result<Ended> {
+        use futures_util::FutureExt;
+        let run = std::panic::AssertUnwindSafe(self.run_loop(until, front)).catch_unwind();
+        match run.await {
+            Ok(Ok(Ended::Deadline)) => Ok(Ended::Deadline),
+            Ok(r) => {
+                self.wind_down().await;
+                r
+            }
+            Err(panic) => {
+                let _ = std::panic::AssertUnwindSafe(self.wind_down())
+                    .catch_unwind()
+                    .await;
+                std::panic::resume_unwind(panic)
+            }
+        }
+    }
+
+    /// The session is ending: a nudge in progress stops (its zero velocity and the two copies
+    /// 100 ms apart go out), with a moment for the link tasks to write them. Nothing to stop:
+    /// nothing waits.
+    async fn wind_down(&mut self) {
+        self.step(Event::Ending);
+        if !self.app.nudge.stopping() {
+            return;
+        }
+        let give_up = self.clock.now() + 500_000;
+        while self.app.nudge.stopping() && self.clock.now() < give_up {
+            let wake = self.app.next_deadline().min(give_up);
+            let now = self.clock.now();
+            tokio::time::sleep(Duration::from_micros(wake.saturating_sub(now))).await;
+            self.step(Event::Tick);
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+
+    async fn run_loop(
         &mut self,
         until: Option<Micros>,
         front: &mut impl Frontend,
