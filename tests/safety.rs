@@ -457,3 +457,91 @@ fn a_pilots_mode_change_stops_our_do_set_mode_resend() {
     all.extend(b.tick_to(4.5));
     assert!(set_mode(&operator_frames(&all), 5.0) >= 2);
 }
+
+/// The SET_POSITION_TARGET_LOCAL_NEDs among `frames`, read by pymavlink: (vx, vy, vz, yaw
+/// rate, frame, mask) each.
+fn velocity_targets(frames: &[Vec<u8>]) -> Vec<Value> {
+    operator_frames(frames)
+        .into_iter()
+        .filter(|v| v["name"] == "SET_POSITION_TARGET_LOCAL_NED")
+        .collect()
+}
+
+fn is_moving(v: &Value) -> bool {
+    ["vx", "vy", "vz", "yaw_rate"].iter().any(|f| v[*f] != 0.0)
+}
+
+#[test]
+fn a_nudge_ends_in_three_stops_whichever_way_fly_mode_ends() {
+    // Armed in GUIDED (4), then: LOITER (5) armed, GUIDED disarmed.
+    let modes: &[(u32, bool)] = &[(4, true), (5, true), (4, false)];
+    let ways: [(&str, &dyn Fn(&mut Bench, &[Vec<usize>]) -> Vec<Vec<u8>>); 8] = [
+        ("a mode change away from GUIDED", &|b, ix| {
+            b.feed(1.3, ix[0][1])
+        }),
+        ("a disarm", &|b, ix| b.feed(1.3, ix[0][2])),
+        ("the prompt opening", &|b, _| b.keys(1.3, &[":"])),
+        ("another screen", &|b, _| b.keys(1.3, &["4"])),
+        ("the palette", &|b, _| b.keys(1.3, &["ctrl-p"])),
+        ("quit", &|b, _| b.keys(1.3, &["q"])),
+        ("the target changing", &|b, _| {
+            b.app.target = None;
+            b.tick_to(1.3)
+        }),
+        // No heartbeat for 5 s: lost (the deadman is longer, so it is not what stops it).
+        ("the vehicle lost", &|b, _| b.tick_to(6.5)),
+    ];
+    for (way, end) in ways {
+        let (mut b, ix) = Bench::new(&[(1, modes)]);
+        b.app.nudge.deadman = 20 * SECOND;
+        b.feed(0.0, ix[0][0]);
+        let mut out = b.keys(1.0, &["F", "up"]);
+        assert!(b.app.nudge.active(), "{way}");
+        out.extend(b.tick_to(1.25));
+        let flown = velocity_targets(&out);
+        assert!(flown.iter().any(is_moving), "{way}: flew {flown:?}");
+        let mut after = end(&mut b, &ix);
+        assert!(!b.app.nudge.active(), "{way}: Fly mode left");
+        // Keys keep coming (a terminal repeating `up`): nothing moves it any more.
+        let t = b.app.now as f64 / 1e6;
+        after.extend(b.keys(t + 0.05, &["up"]));
+        after.extend(b.tick_to(t + 1.0));
+        // What follows the last velocity (the loss takes 5 s to tell: the stream goes on
+        // until then) is the stop, three times, and nothing moves after it.
+        let v = velocity_targets(&after);
+        let stops = &v[v.iter().rposition(is_moving).map_or(0, |i| i + 1)..];
+        assert!(
+            v.iter().skip_while(|s| is_moving(s)).all(|s| !is_moving(s)),
+            "{way}"
+        );
+        assert_eq!(stops.len(), 3, "{way}: {stops:?}");
+        for s in stops {
+            assert_eq!(s["coordinate_frame"], flown[0]["coordinate_frame"], "{way}");
+            assert_eq!(s["type_mask"], flown[0]["type_mask"], "{way}");
+            assert_eq!(s["target_system"], 1, "{way}");
+        }
+        // 100 ms apart.
+        let ms: Vec<u64> = stops
+            .iter()
+            .map(|s| s["time_boot_ms"].as_u64().unwrap())
+            .collect();
+        assert_eq!(ms[1] - ms[0], 100, "{way}: {ms:?}");
+        assert_eq!(ms[2] - ms[1], 100, "{way}: {ms:?}");
+    }
+}
+
+#[test]
+fn the_stream_checks_armed_and_mode_before_every_send() {
+    // A key held and repeating: the heartbeat shows LOITER between two sends; the next send
+    // is a stop, not the velocity.
+    let (mut b, ix) = Bench::new(&[(1, &[(4, true), (5, true)])]);
+    b.feed(0.0, ix[0][0]);
+    let mut out = b.keys(1.0, &["F", "up"]);
+    out.extend(b.tick_to(1.15));
+    assert!(velocity_targets(&out).iter().any(is_moving));
+    // The mode change comes with no key pressed: only the stream's own check can see it.
+    let mut after = b.feed(1.16, ix[0][1]);
+    after.extend(b.tick_to(1.5));
+    let v = velocity_targets(&after);
+    assert!(!v.is_empty() && v.iter().all(|s| !is_moving(s)), "{v:?}");
+}
