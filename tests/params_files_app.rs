@@ -186,14 +186,41 @@ fn param_comp_switches_the_component_and_fetch_asks_it_by_the_list() {
             stats: Default::default(),
         },
     );
-    let mut fx: Vec<Effect> = Vec::new();
-    for line in ["param comp 154", "param fetch"] {
-        fx.extend(a.update(1, Event::Key(Key::ch(':'))));
+    let run = |a: &mut App, line: &str| {
+        let mut fx = a.update(1, Event::Key(Key::ch(':')));
         for c in line.chars() {
             fx.extend(a.update(1, Event::Key(Key::ch(c))));
         }
         fx.extend(a.update(1, Event::Key("enter".parse().unwrap())));
-    }
+        fx
+    };
+    let mut fx: Vec<Effect> = Vec::new();
+    fx.extend(run(&mut a, "param comp 154"));
+    // Not heard yet: nothing is asked of it.
+    let refused = run(&mut a, "param fetch");
+    assert!(!refused.iter().any(|e| matches!(
+        e,
+        Effect::Send {
+            msg: MavMessage::PARAM_REQUEST_LIST(_),
+            ..
+        }
+    )));
+    let msg = a.ui.message.clone().unwrap().1;
+    assert!(msg.contains("1:154 has not been heard"), "{msg}");
+    // Its heartbeat (a camera), then the fetch goes.
+    let hb = common::pymavlink_encode(&[serde_json::json!({"sysid": 1, "compid": 154,
+        "seq": 0, "msg": "HEARTBEAT", "fields": {"type": 30, "autopilot": 8, "base_mode": 0,
+        "custom_mode": 0, "system_status": 4, "mavlink_version": 3}})]);
+    let frames = mavterm::wire::parser::FrameParser::new().parse_all(&hb[0]);
+    a.update(
+        1,
+        Event::Frames {
+            link: 0,
+            frames,
+            stats: Default::default(),
+        },
+    );
+    fx.extend(run(&mut a, "param fetch"));
     let lists: Vec<(u8, u8)> = fx
         .iter()
         .filter_map(|e| match e {

@@ -239,6 +239,19 @@ impl App {
         let now = self.now;
         let us = (self.cfg.sysid, self.cfg.compid);
         let sel = self.ui.gimbal_sel;
+        if let CameraCmd::Gimbal { .. } | CameraCmd::GimbalControl(_) = cmd {
+            // The vehicle, and the gimbal's manager where one is known, heard and not lost.
+            self.commandable_at(key)?;
+            let manager = self
+                .sessions
+                .get(&key)
+                .and_then(|s| s.gimbals.pick(sel))
+                .map(|g| g.manager);
+            if let Some(m) = manager {
+                self.commandable_at((key.0, m))
+                    .map_err(|e| format!("gimbal: {e}"))?;
+            }
+        }
         match cmd {
             CameraCmd::Gimbal { pitch, yaw } => {
                 let s = self.sessions.get_mut(&key).ok_or("no session")?;
@@ -287,9 +300,10 @@ impl App {
             CameraCmd::FormatAsk => {
                 self.ask(super::flight::Ask {
                     text: format!(
-                        "FORMAT the storage of camera {}:{compid}? Every image and video on it is \
-                         erased. y = yes, any other key = no",
-                        key.0
+                        "FORMAT the storage of camera {}:{compid} on {}? Every image and video on \
+                         it is erased. y = yes, any other key = no",
+                        key.0,
+                        self.who_is(key)
                     ),
                     action: super::flight::Confirmed::Camera(compid, CameraAction::Format),
                     target: key,
@@ -310,6 +324,10 @@ impl App {
         action: CameraAction,
         fx: &mut Vec<Effect>,
     ) -> Result<Option<String>, String> {
+        // The camera heard and not lost (and the vehicle it is reached through).
+        self.commandable_at(key)?;
+        self.commandable_at((key.0, compid))
+            .map_err(|e| format!("camera: {e}"))?;
         let now = self.now;
         let s = self.sessions.get_mut(&key).ok_or("no session")?;
         let (_, out) = s.camera_action(now, compid, &action)?;

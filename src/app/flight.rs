@@ -189,7 +189,7 @@ impl App {
 
     /// `key`, if it can be commanded now: heard (compid 0, every component of the system: its
     /// autopilot heard) and not lost, with an autopilot of its system to route by.
-    fn commandable_at(&self, key: VehicleKey) -> Result<VehicleKey, String> {
+    pub(super) fn commandable_at(&self, key: VehicleKey) -> Result<VehicleKey, String> {
         let session = self.session_for(key);
         let heard = match key.1 {
             0 => session.and_then(|s| self.vehicles.get(s)),
@@ -636,21 +636,46 @@ impl App {
         })
     }
 
-    /// The Commands screen's selected entry (newest first) of the target.
+    /// The id of the Commands screen's row `i` (newest first) of the target.
+    pub(super) fn command_id_at(&self, i: usize) -> Option<u64> {
+        let s = self.target.and_then(|k| self.sessions.get(&k))?;
+        s.commands.entries().rev().nth(i).map(|e| e.id)
+    }
+
+    /// Keep the Commands screen's cursor on the command it was put on (by id) as rows come;
+    /// on that screen, the row under the cursor is pinned as soon as it is shown.
+    pub(super) fn follow_selected_command(&mut self) {
+        if self.ui.screen != "commands" {
+            return;
+        }
+        let Some(s) = self.target.and_then(|k| self.sessions.get(&k)) else {
+            return;
+        };
+        match self.ui.cmd_sel_id {
+            Some(id) => match s.commands.entries().rev().position(|e| e.id == id) {
+                Some(i) => self.ui.cmd_sel = i,
+                None => self.ui.cmd_sel_id = self.command_id_at(self.ui.cmd_sel),
+            },
+            None => self.ui.cmd_sel_id = self.command_id_at(self.ui.cmd_sel),
+        }
+    }
+
+    /// The Commands screen's selected entry of the target: the one under the cursor, by id.
     fn selected_command(&self) -> Result<(VehicleKey, crate::proto::commands::Entry), String> {
         let key = self.target.ok_or("no target vehicle")?;
         let s = self.sessions.get(&key).ok_or("no commands sent")?;
-        let e = s
-            .commands
-            .entries()
-            .rev()
-            .nth(self.ui.cmd_sel)
+        let id = self
+            .ui
+            .cmd_sel_id
+            .or_else(|| self.command_id_at(self.ui.cmd_sel))
             .ok_or("no command selected")?;
+        let e = s.commands.get(id).ok_or("no command selected")?;
         Ok((key, e.clone()))
     }
 
-    /// Send the selected command again, as the operator's own decision (a missing ACK of a
-    /// flight-critical command is never resent on its own): asks first if dangerous.
+    /// Send the selected command again, to that command's own target (a camera, a gimbal, the
+    /// autopilot), as the operator's own decision (a missing ACK of a flight-critical command is
+    /// never resent on its own): asks first if dangerous, like every other entry point.
     pub(super) fn reissue_selected(
         &mut self,
         fx: &mut Vec<Effect>,
@@ -660,7 +685,9 @@ impl App {
             return Err(format!("{} is still {}", e.spec.name(), e.outcome()));
         }
         self.ui.cmd_sel = 0;
-        self.flight(
+        self.ui.cmd_sel_id = None;
+        self.flight_to(
+            e.spec.target,
             FlightAction::Command {
                 command: e.spec.command,
                 params: e.spec.params,

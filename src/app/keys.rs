@@ -500,6 +500,7 @@ impl App {
                 .and_then(|k| self.sessions.get(&k))
                 .map_or(0, |s| s.commands.entries().len());
             self.ui.cmd_sel = clamp(self.ui.cmd_sel, step, n);
+            self.ui.cmd_sel_id = self.command_id_at(self.ui.cmd_sel);
             return;
         }
         match self.ui.focus {

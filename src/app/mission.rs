@@ -57,6 +57,8 @@ pub enum MissionAction {
     Upload(MissionType, Vec<MissionItem>),
     Clear(MissionType),
     Start,
+    /// `wp set N` while the vehicle flies its mission.
+    SetCurrent(u16),
 }
 
 /// A list read from a file.
@@ -212,6 +214,20 @@ impl App {
         Ok(key)
     }
 
+    /// Armed in its mission mode (AUTO; PX4: MISSION): flying its mission.
+    fn flies_its_mission(&self, key: VehicleKey) -> bool {
+        self.vehicles.get(key).is_some_and(|v| {
+            let auto = if v.autopilot == MavAutopilot::MAV_AUTOPILOT_PX4 {
+                "MISSION"
+            } else {
+                "AUTO"
+            };
+            v.armed()
+                && crate::proto::modes::mode_name(v.autopilot, v.mavtype, v.custom_mode)
+                    .eq_ignore_ascii_case(auto)
+        })
+    }
+
     fn is_px4(&self, key: VehicleKey) -> bool {
         self.vehicles
             .get(key)
@@ -311,14 +327,22 @@ impl App {
                 let warnings = upload_warnings(&f.items, home, t == MissionType::Mission);
                 let items = self.items_for_vehicle(key, t, &f.items);
                 let path = f.path.clone();
-                if !warnings.is_empty() {
+                let armed = self.vehicles.get(key).is_some_and(|v| v.armed());
+                if !warnings.is_empty() || armed {
+                    let replaced = match self.sessions[&key].mission.known(t) {
+                        Some(k) => format!("the {} {name} items on it", k.items.len()),
+                        None => format!("its {name}"),
+                    };
+                    let mut why = warnings.clone();
+                    if armed {
+                        why.insert(0, format!("it is ARMED; this replaces {replaced}"));
+                    }
                     self.ask(Ask {
                         text: format!(
-                            "UPLOAD {} {name} items of {path} to {}:{}: {}. Upload anyway? y = yes, any other key = no",
+                            "UPLOAD {} {name} items of {path} to {}: {}. Upload anyway? y = yes, any other key = no",
                             items.len(),
-                            key.0,
-                            key.1,
-                            warnings.join("; ")
+                            self.who_is(key),
+                            why.join("; ")
                         ),
                         action: Confirmed::Mission(MissionAction::Upload(t, items)),
                         target: key,
@@ -341,14 +365,19 @@ impl App {
             }
             MissionOp::SetCurrent(seq) => {
                 let key = self.mission_target()?;
-                let now = self.now;
-                let out = self
-                    .sessions
-                    .get_mut(&key)
-                    .ok_or("no session")?
-                    .mission_set_current(now, seq)?;
-                self.session_out(key, out, fx);
-                Ok(Some(format!("current item {seq}: sent")))
+                if self.flies_its_mission(key) {
+                    self.ask(Ask {
+                        text: format!(
+                            "JUMP to mission item {seq} on {}, which is flying its mission (the \
+                             item it flies now is replaced)? y = yes, any other key = no",
+                            self.who_is(key)
+                        ),
+                        action: Confirmed::Mission(MissionAction::SetCurrent(seq)),
+                        target: key,
+                    });
+                    return Ok(None);
+                }
+                self.carry_out_mission(key, MissionAction::SetCurrent(seq), fx)
             }
             MissionOp::Start => {
                 let key = self.mission_target()?;
@@ -399,6 +428,16 @@ impl App {
                     key.0,
                     key.1
                 )))
+            }
+            MissionAction::SetCurrent(seq) => {
+                let now = self.now;
+                let out = self
+                    .sessions
+                    .get_mut(&key)
+                    .ok_or("no session")?
+                    .mission_set_current(now, seq)?;
+                self.session_out(key, out, fx);
+                Ok(Some(format!("current item {seq}: sent")))
             }
             MissionAction::Clear(t) => {
                 self.mission_request(key, Request::Clear(t), fx)?;

@@ -232,6 +232,9 @@ pub struct UiState {
     pub confirm_queue: std::collections::VecDeque<flight::Confirm>,
     /// Selected row of the Commands screen (0 = newest).
     pub cmd_sel: usize,
+    /// The command selected there, by its queue id: rows added meanwhile move it down, they
+    /// never put another command under the cursor.
+    pub cmd_sel_id: Option<u64>,
     /// The command palette, while open (typed in [`Mode::Edit`]).
     pub palette: Option<palette::Palette>,
     /// The Parameters screen.
@@ -263,6 +266,7 @@ impl Default for UiState {
             confirm: None,
             confirm_queue: Default::default(),
             cmd_sel: 0,
+            cmd_sel_id: None,
             palette: None,
             params: params::ParamView::default(),
             inspector: inspector::InspectorView::default(),
@@ -593,6 +597,7 @@ impl App {
         self.poll_confirm();
         self.poll_nudge(&mut fx);
         self.poll_sessions(&mut fx);
+        self.follow_selected_command();
         fx
     }
 

@@ -221,6 +221,7 @@ impl App {
                 }))
             }
             ParamCmd::Fetch => {
+                self.commandable_at((key.0, comp))?;
                 let now = self.now;
                 let s = self.sessions.get_mut(&key).ok_or("no session")?;
                 let out = s.params.fetch(now, comp);
@@ -335,12 +336,28 @@ impl App {
         if meta.is_some_and(|m| m.read_only) {
             return Err(format!("{name} is read-only"));
         }
+        let old = p.value;
         let change = vec![(comp, name.clone(), v)];
-        if let Some(why) = meta.and_then(|m| m.check_range(v).err()) {
+        self.commandable_at((key.0, comp))?;
+        let mut why = Vec::new();
+        if let Some(e) = meta.and_then(|m| m.check_range(v).err()) {
+            why.push(e);
+        }
+        // A value changed while armed: asked (the vehicle may be flying on it).
+        if v != old && self.vehicles.get(key).is_some_and(|v| v.armed()) {
+            why.push(format!(
+                "{} is ARMED, {name} is {} now",
+                self.who_is(key),
+                value::fmt_plain(old)
+            ));
+        }
+        if !why.is_empty() {
             self.ask(Ask {
                 text: format!(
-                    "{name} = {}: {why}. Send anyway? (y/n)",
-                    value::fmt_plain(v)
+                    "{name} = {} on {}:{comp}: {}. Send anyway? y = yes, any other key = no",
+                    value::fmt_plain(v),
+                    key.0,
+                    why.join("; ")
                 ),
                 action: Confirmed::Params(change),
                 target: key,
@@ -357,6 +374,10 @@ impl App {
         changes: Vec<(u8, String, f64)>,
         fx: &mut Vec<Effect>,
     ) -> Result<Option<String>, String> {
+        // Every component written to is heard and not lost.
+        for (comp, _, _) in &changes {
+            self.commandable_at((key.0, *comp))?;
+        }
         let now = self.now;
         let n = changes.len();
         let mut out = Vec::new();
