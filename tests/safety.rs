@@ -471,11 +471,14 @@ fn is_moving(v: &Value) -> bool {
     ["vx", "vy", "vz", "yaw_rate"].iter().any(|f| v[*f] != 0.0)
 }
 
+/// A way a session in Fly mode ends: what it does to the bench, and what left meanwhile.
+type Ending = dyn Fn(&mut Bench, &[Vec<usize>]) -> Vec<Vec<u8>>;
+
 #[test]
 fn a_nudge_ends_in_three_stops_whichever_way_fly_mode_ends() {
     // Armed in GUIDED (4), then: LOITER (5) armed, GUIDED disarmed.
     let modes: &[(u32, bool)] = &[(4, true), (5, true), (4, false)];
-    let ways: [(&str, &dyn Fn(&mut Bench, &[Vec<usize>]) -> Vec<Vec<u8>>); 8] = [
+    let ways: [(&str, &Ending); 8] = [
         ("a mode change away from GUIDED", &|b, ix| {
             b.feed(1.3, ix[0][1])
         }),
