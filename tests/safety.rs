@@ -56,7 +56,9 @@ fn sent(r: &mut VirtualRunner) -> Vec<Value> {
 
 fn commands(v: &[Value], command: u64) -> Vec<Value> {
     v.iter()
-        .filter(|m| m["name"] == "COMMAND_LONG" && m["command"] == command)
+        .filter(|m| {
+            (m["name"] == "COMMAND_LONG" || m["name"] == "COMMAND_INT") && m["command"] == command
+        })
         .cloned()
         .collect()
 }
@@ -547,4 +549,306 @@ fn the_stream_checks_armed_and_mode_before_every_send() {
     after.extend(b.tick_to(1.5));
     let v = velocity_targets(&after);
     assert!(!v.is_empty() && v.iter().all(|s| !is_moving(s)), "{v:?}");
+}
+
+impl Bench {
+    /// Encode `reqs` with pymavlink and feed them at `t` seconds: what left.
+    fn raw(&mut self, t: f64, reqs: &[Value]) -> Vec<Vec<u8>> {
+        let mut out = Vec::new();
+        for f in common::pymavlink_encode(reqs) {
+            let fx = self.app.update(
+                (t * 1e6) as u64,
+                Event::Frames {
+                    link: 0,
+                    frames: FrameParser::new().parse_all(&f),
+                    stats: ParserStats::default(),
+                },
+            );
+            out.extend(sends(&fx));
+        }
+        out
+    }
+}
+
+/// The list of dangerous commands, from the MAVLink spec's numbers: (name, number, params,
+/// the vehicle flying).
+const DANGEROUS: &[(&str, u64, [f64; 2], bool)] = &[
+    ("COMPONENT_ARM_DISARM", 400, [1.0, 0.0], false), // arm
+    ("COMPONENT_ARM_DISARM", 400, [0.0, 21196.0], false), // force-disarm
+    ("COMPONENT_ARM_DISARM", 400, [0.0, 0.0], true),  // disarm in flight
+    ("NAV_TAKEOFF", 22, [0.0, 0.0], false),
+    ("NAV_VTOL_TAKEOFF", 84, [0.0, 0.0], false),
+    ("PREFLIGHT_REBOOT_SHUTDOWN", 246, [1.0, 0.0], false),
+    ("DO_MOTOR_TEST", 209, [1.0, 0.0], false),
+    ("DO_FLIGHTTERMINATION", 185, [1.0, 0.0], false),
+    ("PREFLIGHT_STORAGE", 245, [2.0, 0.0], false),
+    ("DO_PARACHUTE", 208, [2.0, 0.0], false),
+    ("MISSION_START", 300, [0.0, 0.0], false),
+    ("DO_SET_SERVO", 183, [9.0, 1900.0], false),
+    ("DO_REPEAT_SERVO", 184, [9.0, 1900.0], false),
+    ("DO_AUX_FUNCTION", 218, [41.0, 2.0], false),
+    ("DO_GRIPPER", 211, [1.0, 0.0], false),
+    ("DO_WINCH", 42600, [1.0, 1.0], false),
+    ("DO_SET_HOME", 179, [1.0, 0.0], false),
+    ("STORAGE_FORMAT", 526, [1.0, 0.0], false),
+    ("PREFLIGHT_CALIBRATION", 241, [1.0, 0.0], false),
+    ("DO_START_MAG_CAL", 42424, [0.0, 0.0], false),
+];
+
+/// ArduCopter 1:1, on the ground disarmed, or armed and in the air (EXTENDED_SYS_STATE).
+fn bench_for(flying: bool) -> Bench {
+    let (mut b, ix) = Bench::new(&[(1, &[(if flying { 4 } else { 0 }, flying)])]);
+    b.feed(0.0, ix[0][0]);
+    if flying {
+        b.raw(
+            0.1,
+            &[
+                json!({"sysid": 1, "compid": 1, "seq": 9, "msg": "EXTENDED_SYS_STATE",
+                "fields": {"vtol_state": 0, "landed_state": 2}}),
+            ],
+        );
+    }
+    b
+}
+
+/// `name` from the palette, with `params` typed into p1 and p2.
+fn from_palette(b: &mut Bench, t: f64, number: u64, name: &str, params: [f64; 2]) -> Vec<Vec<u8>> {
+    let mut out = b.keys(t, &["ctrl-p"]);
+    for c in name.chars() {
+        out.extend(sends(
+            &b.app.update((t * 1e6) as u64, Event::Key(Key::ch(c))),
+        ));
+    }
+    let p = b.app.ui.palette.as_ref().expect("the palette");
+    let i = p
+        .matches
+        .iter()
+        .position(|&n| n as u64 == number)
+        .unwrap_or_else(|| panic!("{name} not in the palette"));
+    for _ in 0..i {
+        out.extend(b.keys(t, &["down"]));
+    }
+    out.extend(b.keys(t, &["enter"]));
+    for (k, p) in params.iter().enumerate() {
+        if k > 0 {
+            out.extend(b.keys(t, &["tab"]));
+        }
+        for key in ["ctrl-u"] {
+            out.extend(b.keys(t, &[key]));
+        }
+        for c in format!("{p}").chars() {
+            out.extend(sends(
+                &b.app.update((t * 1e6) as u64, Event::Key(Key::ch(c))),
+            ));
+        }
+    }
+    out.extend(b.keys(t, &["enter"]));
+    out
+}
+
+/// It asked, and nothing of `number` left; then `n` (after a reading's pause) sends nothing.
+fn asked_nothing_sent(b: &mut Bench, t: f64, out: Vec<Vec<u8>>, number: u64, what: &str) {
+    let q = b
+        .app
+        .ui
+        .confirm
+        .clone()
+        .unwrap_or_else(|| panic!("{what}: not asked ({:?})", b.app.ui.message));
+    assert!(
+        q.text.contains("1:1"),
+        "{what}: the vehicle is named: {}",
+        q.text
+    );
+    let mut out = out;
+    out.extend(b.keys(t + 0.5, &["n"]));
+    let left = operator_frames(&out);
+    assert!(
+        commands(&left, number).is_empty() && left.iter().all(|m| m["command"] != number),
+        "{what}: {left:?}"
+    );
+    assert!(b.app.ui.confirm.is_none(), "{what}");
+}
+
+#[test]
+fn every_dangerous_command_asks_from_every_entry_point() {
+    for &(name, number, [p1, p2], flying) in DANGEROUS {
+        let what = format!("{name} {p1} {p2}");
+        // The prompt.
+        let mut b = bench_for(flying);
+        let out = b.command(1.0, &format!("long {name} {p1} {p2}"));
+        asked_nothing_sent(&mut b, 1.0, out, number, &format!("prompt: {what}"));
+        // The palette.
+        let out = from_palette(&mut b, 2.0, number, name, [p1, p2]);
+        asked_nothing_sent(&mut b, 2.0, out, number, &format!("palette: {what}"));
+        // The Commands screen's re-issue: sent once (asked, `y`), cancelled, then again.
+        b.command(3.0, &format!("long {name} {p1} {p2}"));
+        let first = operator_frames(&b.keys(3.5, &["y"]));
+        assert_eq!(commands(&first, number).len(), 1, "{what}: {first:?}");
+        b.keys(3.6, &["3", "x"]);
+        let out = b.keys(3.7, &["enter"]);
+        asked_nothing_sent(&mut b, 3.7, out, number, &format!("re-issue: {what}"));
+    }
+    // The keys: `A` arms, `D` disarms in flight.
+    let mut b = bench_for(false);
+    let out = b.keys(1.0, &["A"]);
+    asked_nothing_sent(&mut b, 1.0, out, 400, "key A");
+    let mut b = bench_for(true);
+    let out = b.keys(1.0, &["D"]);
+    asked_nothing_sent(&mut b, 1.0, out, 400, "key D in flight");
+    // The Mission screen's start (DO_SET_MODE AUTO then MISSION_START), the Camera screen's
+    // format (STORAGE_FORMAT to the camera).
+    let mut b = bench_for(false);
+    let out = b.command(1.0, "wp start");
+    asked_nothing_sent(&mut b, 1.0, out, 300, "wp start");
+    let mut b = bench_for(false);
+    b.raw(
+        0.5,
+        &[
+            json!({"sysid": 1, "compid": 100, "seq": 0, "msg": "HEARTBEAT", "fields": {
+            "type": 30, "autopilot": 8, "base_mode": 0, "custom_mode": 0,
+            "system_status": 4, "mavlink_version": 3}}),
+        ],
+    );
+    let out = b.command(1.0, "camera format");
+    asked_nothing_sent(&mut b, 1.0, out, 526, "camera format");
+    // And a disarm on the ground, a mode change, LAND go without a question.
+    let mut b = bench_for(false);
+    let out = operator_frames(&b.command(1.0, "long COMPONENT_ARM_DISARM 0 0"));
+    assert!(b.app.ui.confirm.is_none());
+    assert_eq!(commands(&out, 400).len(), 1, "{out:?}");
+}
+
+/// A camera 1:100: its heartbeat with sequence `seq`, and (first) its CAMERA_INFORMATION
+/// saying it captures images and video (CAMERA_CAP_FLAGS 1 | 2, no modes).
+fn camera_hb(seq: u8) -> Vec<Value> {
+    let hb = json!({"sysid": 1, "compid": 100, "seq": seq, "msg": "HEARTBEAT", "fields": {
+        "type": 30, "autopilot": 8, "base_mode": 0, "custom_mode": 0,
+        "system_status": 4, "mavlink_version": 3}});
+    let name = vec![0u8; 32];
+    let info = json!({"sysid": 1, "compid": 100, "seq": seq + 1, "msg": "CAMERA_INFORMATION",
+        "fields": {"time_boot_ms": 1000, "vendor_name": name, "model_name": name,
+        "firmware_version": 0, "focal_length": 0.0, "sensor_size_h": 0.0, "sensor_size_v": 0.0,
+        "resolution_h": 0, "resolution_v": 0, "lens_id": 0, "flags": 3,
+        "cam_definition_version": 0, "cam_definition_uri": ""}});
+    vec![hb, info]
+}
+
+/// What left for `command` to (sysid, compid).
+fn to(out: &[Value], command: u64) -> Vec<(u64, u64)> {
+    commands(out, command)
+        .iter()
+        .map(|m| {
+            (
+                m["target_system"].as_u64().unwrap(),
+                m["target_component"].as_u64().unwrap(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn a_lost_camera_gets_nothing() {
+    let modes = [(0u32, false); 10];
+    let (mut b, ix) = Bench::new(&[(1, &modes)]);
+    b.feed(0.0, ix[0][0]);
+    b.raw(0.2, &camera_hb(0));
+    let out = operator_frames(&b.command(1.0, "camera shoot"));
+    assert_eq!(to(&out, 2000), vec![(1, 100)], "heard: sent");
+    // The autopilot keeps its heartbeat, the camera is silent: lost after 5 s.
+    let mut later = Vec::new();
+    for s in 1..8 {
+        later.extend(b.feed(s as f64, ix[0][s]));
+    }
+    assert!(b.app.vehicles.get((1, 100)).unwrap().lost);
+    later.extend(b.command(8.0, "camera shoot"));
+    later.extend(b.command(8.1, "camera video start"));
+    let later = operator_frames(&later);
+    assert!(
+        to(&later, 2000).is_empty() && to(&later, 2500).is_empty(),
+        "{later:?}"
+    );
+    let msg = b.app.ui.message.clone().unwrap().1;
+    assert!(msg.contains("1:100 is lost"), "{msg}");
+}
+
+#[test]
+fn reissue_goes_to_the_entrys_camera_and_the_row_under_the_cursor() {
+    let (mut b, ix) = Bench::new(&[(1, &[(0, false)])]);
+    b.feed(0.0, ix[0][0]);
+    b.raw(0.2, &camera_hb(0));
+    b.command(1.0, "camera shoot");
+    // On the Commands screen the shot is the newest row, under the cursor; it is cancelled.
+    b.keys(1.2, &["3", "x"]);
+    // A command arrives meanwhile (typed at the prompt): a new newest row.
+    let out = operator_frames(&b.command(1.4, "long GET_HOME_POSITION"));
+    assert_eq!(to(&out, 410), vec![(1, 1)]);
+    b.tick_to(4.0); // its answer never comes
+    let out = operator_frames(&b.keys(4.1, &["enter"]));
+    assert_eq!(
+        to(&out, 2000),
+        vec![(1, 100)],
+        "the shot, to its camera: {out:?}"
+    );
+    assert!(to(&out, 410).is_empty(), "{out:?}");
+}
+
+#[test]
+fn armed_uploads_and_parameter_changes_ask_naming_the_vehicle() {
+    let (mut b, ix) = Bench::new(&[(1, &[(4, true)])]);
+    b.feed(0.0, ix[0][0]);
+    // A parameter the vehicle reported.
+    b.raw(
+        0.1,
+        &[
+            json!({"sysid": 1, "compid": 1, "seq": 9, "msg": "PARAM_VALUE", "fields": {
+            "param_id": "RTL_ALT", "param_value": 1500.0, "param_type": 4,
+            "param_count": 1, "param_index": 0}}),
+        ],
+    );
+    let out = b.command(1.0, "param set RTL_ALT 3000");
+    let q = b.app.ui.confirm.clone().expect("asked while armed").text;
+    assert!(
+        q.contains("ARMED") && q.contains("1:1") && q.contains("RTL_ALT"),
+        "{q}"
+    );
+    let mut out = out;
+    out.extend(b.keys(1.5, &["n"]));
+    assert!(operator_frames(&out)
+        .iter()
+        .all(|m| m["name"] != "PARAM_SET"));
+    // The same value again is no change: sent without a question.
+    let out = operator_frames(&b.command(2.0, "param set RTL_ALT 1500"));
+    assert!(b.app.ui.confirm.is_none());
+    assert_eq!(
+        out.iter().filter(|m| m["name"] == "PARAM_SET").count(),
+        1,
+        "{out:?}"
+    );
+    // A mission file uploaded while armed.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.waypoints");
+    std::fs::write(
+        &path,
+        "QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t-35.3632621\t149.1652374\t584\t1\n\
+         1\t0\t3\t16\t0\t0\t0\t0\t-35.36\t149.16\t20\t1\n",
+    )
+    .unwrap();
+    b.app.update(
+        2_500_000,
+        Event::FileRead {
+            path: path.clone(),
+            purpose: mavterm::app::params::FileUse::Mission(mavterm::mission::MissionType::Mission),
+            result: Ok(std::fs::read(&path).unwrap()),
+        },
+    );
+    let out = b.command(3.0, "wp upload");
+    let q = b.app.ui.confirm.clone().expect("asked while armed").text;
+    assert!(
+        q.contains("ARMED") && q.contains("1:1") && q.contains("replaces"),
+        "{q}"
+    );
+    let mut out = out;
+    out.extend(b.keys(3.5, &["n"]));
+    // No MISSION_COUNT (44) left.
+    assert!(out.iter().all(|f| msgid(f) != 44));
 }
