@@ -633,9 +633,7 @@ fn from_palette(b: &mut Bench, t: f64, number: u64, name: &str, params: [f64; 2]
         if k > 0 {
             out.extend(b.keys(t, &["tab"]));
         }
-        for key in ["ctrl-u"] {
-            out.extend(b.keys(t, &[key]));
-        }
+        out.extend(b.keys(t, &["ctrl-u"]));
         for c in format!("{p}").chars() {
             out.extend(sends(
                 &b.app.update((t * 1e6) as u64, Event::Key(Key::ch(c))),
@@ -756,8 +754,8 @@ fn a_lost_camera_gets_nothing() {
     assert_eq!(to(&out, 2000), vec![(1, 100)], "heard: sent");
     // The autopilot keeps its heartbeat, the camera is silent: lost after 5 s.
     let mut later = Vec::new();
-    for s in 1..8 {
-        later.extend(b.feed(s as f64, ix[0][s]));
+    for (s, &i) in ix[0].iter().enumerate().take(8).skip(1) {
+        later.extend(b.feed(s as f64, i));
     }
     assert!(b.app.vehicles.get((1, 100)).unwrap().lost);
     later.extend(b.command(8.0, "camera shoot"));
