@@ -2,9 +2,15 @@
 //! MAV_CMD, from keys, the prompt or the palette alike.
 //!
 //! Every action goes to a heard, not-lost autopilot through its session's command queue.
-//! Dangerous ones (arm, take-off, force-disarm, disarm while flying, reboot, motor test, flight
-//! termination) first ask a confirmation that names the action and the vehicle: `y`, or the same
-//! key again, goes ahead; any other key cancels and nothing is sent.
+//! Dangerous ones ([`danger`]: one list for every entry point) first ask a question that names
+//! the action and the vehicle. Only `y` answers it, and only [`CONFIRM_GUARD`] after it appeared
+//! and after the key before it (key repeats and keys typed ahead never do); `n`, esc or any later
+//! key cancels and nothing is sent. A question expires ([`CONFIRM_EXPIRY`], the vehicle lost, the
+//! target or the vehicle's armed state, mode or mission changed); one is asked at a time, the
+//! others wait their turn; the checks are made again before anything confirmed leaves.
+//!
+//! A mode request, LAND or RTL supersedes a mode change still pending and abandons a take-off
+//! in progress (see `Session::supersede_mode`).
 
 use super::notices::{SEV_INFO, SEV_WARNING};
 use super::{App, Effect};

@@ -4,11 +4,14 @@
 //! keys never fly the vehicle outside it. While a direction key is held, SET_POSITION_TARGET_
 //! LOCAL_NED in MAV_FRAME_BODY_OFFSET_NED with only the velocity and the yaw rate used
 //! ([`TYPE_MASK`]) goes out at [`RATE_HZ`]; what is sent is the sum of the keys held (forward
-//! and right at once fly diagonally). The deadman stops the vehicle (one zero-velocity target):
-//! at once on a reported key release (terminals with the keyboard enhancement protocol), else
-//! when no key of a direction has come for longer than the deadman time (terminal key repeats
-//! keep it alive; 0.8 s default, `nudge_deadman`), when Fly mode is left, and when the vehicle
-//! is lost. Nothing else is sent on its own.
+//! and right at once fly diagonally), armed and GUIDED checked before every send. A nudge
+//! always ends in a stop (a zero velocity in the same frame and mask, sent [`STOP_SENDS`] times
+//! [`PERIOD`] apart: it is never acknowledged): at once on a reported key release (terminals
+//! with the keyboard enhancement protocol), else when no key of a direction has come for its
+//! deadman ([`FIRST_REPEAT_WAIT`] until the key repeats, then `nudge_deadman`, [`DEADMAN`] by
+//! default), and whenever Fly mode is left (esc, quit, the front end ending, the vehicle lost or
+//! out of GUIDED or disarmed, the target changed, another screen or the prompt opened). Nothing
+//! else is sent on its own.
 //!
 //! Keys in Fly mode: arrows forward/back/left/right, `w`/`s` up/down, `a`/`d` yaw left/right,
 //! `1`/`2`/`3` speed 1, 2, 5 m/s, `r`/`f` altitude +/- [`ALT_STEP`] m (a DO_REPOSITION where
