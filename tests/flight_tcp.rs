@@ -16,9 +16,9 @@ fn guided_arm_takeoff_over_tcp_in_real_time() {
         &script,
         "6 text \":mode guided\\n\"\n\
          8 text \":arm\\n\"\n\
-         8.2 key y\n\
+         8.5 key y\n\
          10 text \":takeoff 10\\n\"\n\
-         10.2 key y\n\
+         10.5 key y\n\
          19 snapshot overview\n\
          19.1 key 3\n\
          19.2 snapshot commands\n\
