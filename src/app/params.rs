@@ -354,10 +354,10 @@ impl App {
         if !why.is_empty() {
             self.ask(Ask {
                 text: format!(
-                    "{name} = {} on {}:{comp}: {}. Send anyway? y = yes, any other key = no",
+                    "{name} = {}: {}. Send to {}:{comp} anyway? y = yes, any other key = no",
                     value::fmt_plain(v),
+                    why.join("; "),
                     key.0,
-                    why.join("; ")
                 ),
                 action: Confirmed::Params(change),
                 target: key,
