@@ -75,6 +75,8 @@ fn a_nudge_moves_the_vehicle_and_a_release_stops_it_at_once() {
     assert_eq!(target_speed(&r), 0.0);
     let s = common::screen(&r, 80, 24);
     assert!(s.contains("FLY 2.0 m/s"), "{s}");
+    // The terminal reports releases: the status bar says they stop a nudge.
+    assert!(s.contains("release keys"), "{s}");
     // esc leaves Fly mode; arrows scroll again.
     common::keys(&mut r, &["esc"]);
     assert!(!r.app.nudge.active());
