@@ -72,11 +72,15 @@ impl Vehicle {
         self.base_mode
             .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED)
     }
+    /// The profile of this vehicle's autopilot family.
+    pub fn profile(&self) -> &'static dyn crate::proto::profile::Profile {
+        crate::proto::profile::of(self.autopilot)
+    }
     pub fn mode_name(&self) -> String {
         if self
             .base_mode
             .contains(MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)
-            || self.autopilot == MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA
+            || self.profile().custom_mode_always()
         {
             modes::mode_name(self.autopilot, self.mavtype, self.custom_mode)
         } else if self.mavtype == MavType::MAV_TYPE_GCS {
