@@ -138,7 +138,18 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         }
         if t == MissionType::Mission {
             if let Some(c) = &s.mission.current {
-                status.push(format!("current {} of {}", c.seq, c.total));
+                // MISSION_CURRENT's total: 0 is "not supported" (and what a MAVLink 1 frame,
+                // which has no such field, reads as): the list's own length then, home not
+                // counted, as the spec counts it; UINT16_MAX is "no mission".
+                let total = match c.total {
+                    0 => s.mission.known(t).map_or("?".to_string(), |k| {
+                        let home = vehicle_home && !k.items.is_empty();
+                        (k.items.len() - home as usize).to_string()
+                    }),
+                    u16::MAX => "none".to_string(),
+                    n => n.to_string(),
+                };
+                status.push(format!("current {} of {total}", c.seq));
                 let item = s
                     .mission
                     .known(t)
