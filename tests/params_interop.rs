@@ -422,3 +422,32 @@ fn encoding_that_looks_wrong_is_told_and_switched_at_the_prompt() {
         }
     }
 }
+
+/// MAVFTP given up (AUTOPILOT_VERSION says no FTP while the open is unanswered), and then the
+/// vehicle ACKs the open after all with session 3: mavterm closes it with TerminateSession
+/// (opcode 1) of session 3, as pymavlink reads the request, so no session is left open.
+#[test]
+fn a_session_opened_after_the_fallback_is_terminated() {
+    let dir = tempfile::tempdir().unwrap();
+    let port = common::free_tcp_port();
+    let log = dir.path().join("ftp.json");
+    let log_arg = log.display().to_string();
+    let _v = fake(
+        port,
+        dir.path(),
+        &["--caps", "8192", "--ftp", "late-ack", "--ftp-log", &log_arg],
+    );
+    let r = replay_screens(dir.path(), port, "4 quit\n");
+    assert_eq!(
+        r["params"][0]["download"]["method"], "parameter protocol",
+        "{r}"
+    );
+    let got: Vec<Vec<u64>> = serde_json::from_str(&std::fs::read_to_string(&log).unwrap()).unwrap();
+    // [seq, session, opcode]: the open (4), then after the late ACK a TerminateSession (1) of
+    // session 3.
+    let open = got.iter().position(|p| p[2] == 4).expect("an OpenFileRO");
+    assert!(
+        got[open..].iter().any(|p| p[2] == 1 && p[1] == 3),
+        "{got:?}"
+    );
+}

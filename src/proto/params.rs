@@ -371,6 +371,9 @@ pub struct ParamMachine {
     pub encoding_suspect: Option<String>,
     /// The MAVFTP file holding the whole set, if the autopilot's family serves one.
     param_file: Option<&'static str>,
+    /// The last MAVFTP read once it is over (finished, failed or given up): a late open ACK
+    /// still gets its session closed.
+    ftp_closed: Option<(u8, Box<FtpRead>)>,
     /// Whether AUTOPILOT_VERSION said FTP is there, once it said anything.
     ftp_capable: Option<bool>,
     pub sets: BTreeMap<u8, ParamSet>,
@@ -439,6 +442,7 @@ impl ParamMachine {
             encoding_by: EncodingBy::Profile,
             encoding_suspect: None,
             param_file: profile.param_file(),
+            ftp_closed: None,
             ftp_capable: None,
             sets: BTreeMap::new(),
             download: None,
@@ -517,7 +521,7 @@ impl ParamMachine {
     pub fn fetch(&mut self, now: Micros, comp: u8) -> Vec<ParamOut> {
         self.auto = false;
         self.auto_started = false;
-        let mut out = Vec::new();
+        let mut out = self.leave_ftp();
         if self.version_asked == 0 {
             self.version_asked = 1;
             self.version_retry = Some(now + SECOND);
@@ -637,9 +641,26 @@ impl ParamMachine {
         }
     }
 
+    /// The running download's MAVFTP read is over: closed (TerminateSession unless it closed
+    /// itself) and kept to close a session a late open ACK reports.
+    fn leave_ftp(&mut self) -> Vec<ParamOut> {
+        let Some(d) = self.download.as_mut() else {
+            return Vec::new();
+        };
+        let comp = d.comp;
+        let Phase::Ftp(f) = &mut d.phase else {
+            return Vec::new();
+        };
+        let o = f.abandon();
+        let f = f.clone();
+        self.ftp_closed = Some((comp, f));
+        self.ftp_out(comp, o)
+    }
+
     /// MAVFTP did not work: the parameter protocol.
     fn fall_back(&mut self, now: Micros, why: String) -> Vec<ParamOut> {
         self.take_ftp_stats();
+        let mut out = self.leave_ftp();
         let Some(d) = self.download.as_mut() else {
             return Vec::new();
         };
@@ -653,13 +674,12 @@ impl ParamMachine {
             ..Default::default()
         });
         let comp = d.comp;
-        vec![
-            ParamOut::Notice(
-                SEV_INFO,
-                format!("parameters: {why}; using the parameter protocol"),
-            ),
-            self.list_request(comp),
-        ]
+        out.push(ParamOut::Notice(
+            SEV_INFO,
+            format!("parameters: {why}; using the parameter protocol"),
+        ));
+        out.push(self.list_request(comp));
+        out
     }
 
     /// AUTOPILOT_VERSION's capability bits (the first 8 bytes of its payload).
@@ -751,17 +771,30 @@ impl ParamMachine {
 
     /// A FILE_TRANSFER_PROTOCOL payload from component `from`.
     pub fn on_ftp(&mut self, now: Micros, from: u8, payload: &[u8]) -> Vec<ParamOut> {
-        let Some(d) = self.download.as_mut().filter(|d| d.comp == from) else {
-            return Vec::new();
-        };
-        let Phase::Ftp(f) = &mut d.phase else {
-            return Vec::new();
-        };
         let mut p = [0u8; PAYLOAD_LEN];
         let n = payload.len().min(PAYLOAD_LEN);
         p[..n].copy_from_slice(&payload[..n]);
-        let o = f.on_packet(now, &FtpPacket::parse(&p));
-        self.on_ftp_out(now, o)
+        let packet = FtpPacket::parse(&p);
+        let running = self
+            .download
+            .as_mut()
+            .filter(|d| d.comp == from)
+            .and_then(|d| match &mut d.phase {
+                Phase::Ftp(f) => Some(f),
+                Phase::List(_) => None,
+            });
+        if let Some(f) = running {
+            let o = f.on_packet(now, &packet);
+            return self.on_ftp_out(now, o);
+        }
+        // A read that is over: only a late open ACK matters (its session is closed).
+        match self.ftp_closed.as_mut().filter(|(c, _)| *c == from) {
+            Some((_, f)) => {
+                let o = f.on_packet(now, &packet);
+                self.ftp_out(from, o)
+            }
+            None => Vec::new(),
+        }
     }
 
     /// A PARAM_VALUE payload from component `from`.

@@ -15,7 +15,10 @@ describe, with deliberate trouble:
   --heartbeat ardupilot|px4   the HEARTBEAT's autopilot, when it should differ.
   --caps N                    answer REQUEST_MESSAGE(AUTOPILOT_VERSION) with these capability
                               bits (-1: never answer it).
-  --ftp none|nak              FILE_TRANSFER_PROTOCOL: never answered, or NAK FileNotFound.
+  --ftp none|nak|late-ack     FILE_TRANSFER_PROTOCOL: never answered; NAK FileNotFound; or
+                              OpenFileRO ACKed (session 3) only 0.5 s after it came, once the
+                              GCS should have given MAVFTP up. Every FTP request received is
+                              logged to --ftp-log as [seq, session, opcode].
   --count-change K            the set grows by K parameters half-way through the list, and every
                               PARAM_VALUE after that carries the new count.
   --dup N                     the first N list entries are sent twice.
@@ -55,6 +58,7 @@ ap.add_argument("--change", default="")
 ap.add_argument("--set", default="echo")
 ap.add_argument("--table-out", required=True)
 ap.add_argument("--log-out", default="")
+ap.add_argument("--ftp-log", default="")
 ap.add_argument("--duration", type=float, default=60.0)
 args = ap.parse_args()
 
@@ -104,6 +108,8 @@ def table(n, offset=0):
 params = table(200)
 by_name = {p[0]: i for i, p in enumerate(params)}
 set_log = {}
+ftp_log = []
+late_open = None  # (due time, seq, sysid, compid) of an OpenFileRO to ACK late
 
 
 def save(path, obj):
@@ -183,6 +189,17 @@ while time.time() < end:
             params[i] = (n, float(value) if t == REAL32 else int(value), t)
             save_table()
             send_value(i, index=65535, lossy=False)
+    if late_open is not None and now >= late_open[0]:
+        _, seq, sysid, compid = late_open
+        late_open = None
+        reply = bytearray(251)
+        reply[0:2] = struct.pack("<H", (seq + 1) & 0xFFFF)
+        reply[2] = 3  # session
+        reply[3] = 128  # ACK
+        reply[4] = 4
+        reply[5] = 4  # OpenFileRO
+        reply[12:16] = struct.pack("<I", 1000)
+        m.mav.file_transfer_protocol_send(0, sysid, compid, list(reply))
     msg = m.recv_match(blocking=True, timeout=0.01)
     if msg is None:
         continue
@@ -222,6 +239,14 @@ while time.time() < end:
         if args.caps >= 0:
             m.mav.command_ack_send(msg.command, mav.MAV_RESULT_ACCEPTED)
             m.mav.autopilot_version_send(args.caps, 0, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, 0)
+    elif kind == "FILE_TRANSFER_PROTOCOL" and args.ftp == "late-ack":
+        p = bytearray(msg.payload)
+        seq = struct.unpack("<H", bytes(p[0:2]))[0]
+        ftp_log.append([seq, p[2], p[3]])
+        if args.ftp_log:
+            save(args.ftp_log, ftp_log)
+        if p[3] == 4 and late_open is None and not any(e[2] == 4 for e in ftp_log[:-1]):
+            late_open = (time.time() + 0.5, seq, msg.get_srcSystem(), msg.get_srcComponent())
     elif kind == "FILE_TRANSFER_PROTOCOL" and args.ftp == "nak":
         p = bytearray(msg.payload)
         seq = struct.unpack("<H", bytes(p[0:2]))[0]
