@@ -98,6 +98,14 @@ impl Vehicle {
     pub fn status_name(&self) -> String {
         short_name(&self.system_status, "MAV_STATE_")
     }
+    /// True for a camera or a gimbal: a payload, which may be alone on its system (no autopilot
+    /// to reach it through).
+    pub fn is_payload(&self) -> bool {
+        matches!(
+            self.mavtype,
+            MavType::MAV_TYPE_CAMERA | MavType::MAV_TYPE_GIMBAL
+        )
+    }
     /// True for components that fly (or drive): what commands are sent to. Gimbals, cameras,
     /// companions and ground stations announce MAV_AUTOPILOT_INVALID.
     pub fn is_autopilot(&self) -> bool {
