@@ -90,8 +90,9 @@ pub enum EditState {
 pub struct Param {
     pub value: f64,
     pub ptype: ParamType,
-    /// The float as received (re-read if the encoding turns out otherwise).
-    raw: f32,
+    /// The float as received (re-read if the encoding turns out otherwise); `None` for a value
+    /// MAVFTP's param.pck gave, typed and exact whatever the encoding.
+    raw: Option<f32>,
     pub index: Option<u16>,
     /// The value when the set was downloaded, for the changed-since-download mark.
     pub fetched: Option<f64>,
@@ -171,7 +172,7 @@ impl ParamSet {
         name: &str,
         index: Option<u16>,
         ptype: ParamType,
-        raw: f32,
+        raw: Option<f32>,
         v: f64,
         download: bool,
     ) -> Option<f64> {
@@ -609,8 +610,7 @@ impl ParamMachine {
                         set.resize(file.total_params);
                         for (i, p) in file.params.iter().enumerate() {
                             let t = pck_type(p.ptype);
-                            let raw = value::encode(p.value, t, self.encoding);
-                            set.record(&p.name, Some(i as u16), t, raw, p.value, true);
+                            set.record(&p.name, Some(i as u16), t, None, p.value, true);
                             if let Some(prm) = set.params.get_mut(&p.name) {
                                 prm.default = p.default;
                             }
@@ -753,7 +753,10 @@ impl ParamMachine {
         self.encoding_suspect = None;
         for set in self.sets.values_mut() {
             for p in set.params.values_mut() {
-                let v = value::decode(p.raw, p.ptype, e);
+                let Some(raw) = p.raw else {
+                    continue; // from param.pck: exact already
+                };
+                let v = value::decode(raw, p.ptype, e);
                 if let Some(f) = p.fetched.as_mut().filter(|f| **f == p.value) {
                     *f = v;
                 }
@@ -857,7 +860,7 @@ impl ParamMachine {
         }
         let new_index = index
             .is_some_and(|i| (i as usize) < set.names.len() && set.names[i as usize].is_none());
-        let before = set.record(&m.name, index, ptype, m.raw, v, downloading);
+        let before = set.record(&m.name, index, ptype, Some(m.raw), v, downloading);
         let Some(p) = set.params.get_mut(&m.name) else {
             return out;
         };
