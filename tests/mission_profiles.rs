@@ -10,12 +10,14 @@ use std::path::Path;
 use std::process::Command;
 
 /// The stand-in as `autopilot` with `extra` arguments; a download, the Mission screen, then the
-/// square mission loaded and uploaded. Returns the screen after the download and the uploads
-/// the stand-in received.
-fn run(autopilot: &str, extra: &[&str]) -> (String, Vec<Vec<Vec<f64>>>) {
+/// square mission loaded and uploaded, and the file's row 2 (its second waypoint) made current
+/// with `c`. Returns the screen after the download, the uploads the stand-in received and the
+/// current items it was asked to fly.
+fn run(autopilot: &str, extra: &[&str]) -> (String, Vec<Vec<Vec<f64>>>, Vec<u64>) {
     let dir = tempfile::tempdir().unwrap();
     let port = common::free_tcp_port();
     let log = dir.path().join("uploads.json");
+    let current_log = dir.path().join("current.json");
     let mut a: Vec<std::ffi::OsString> = vec![
         "--port".into(),
         port.to_string().into(),
@@ -23,13 +25,16 @@ fn run(autopilot: &str, extra: &[&str]) -> (String, Vec<Vec<Vec<f64>>>) {
         autopilot.into(),
         "--log-out".into(),
         log.clone().into(),
+        "--current-log".into(),
+        current_log.clone().into(),
     ];
     a.extend(extra.iter().map(|s| s.into()));
     let _v = common::stand_in("fake_mission_vehicle.py", &a);
     let file = common::test_path("data/missions/square.waypoints");
     let script = format!(
         "2 text \":wp download\\n\"\n3.5 key 5\n4 snapshot downloaded\n\
-         4.5 text \":wp load {}\\n\"\n5 text \":wp upload\\n\"\n8 quit\n",
+         4.5 text \":wp load {}\\n\"\n5 text \":wp upload\\n\"\n\
+         7 key down\n7.1 key down\n7.2 key c\n9 quit\n",
         file.display()
     );
     let path = dir.path().join("script.txt");
@@ -59,7 +64,10 @@ fn run(autopilot: &str, extra: &[&str]) -> (String, Vec<Vec<Vec<f64>>>) {
     let uploads = std::fs::read_to_string(&log)
         .map(|t| serde_json::from_str(&t).unwrap())
         .unwrap_or_default();
-    (screen, uploads)
+    let currents = std::fs::read_to_string(&current_log)
+        .map(|t| serde_json::from_str(&t).unwrap())
+        .unwrap_or_default();
+    (screen, uploads, currents)
 }
 
 /// The square mission's lines (seq, command, frame, current, x, y, z) as the WPL file says.
@@ -85,7 +93,9 @@ fn wpl_items(path: &Path) -> Vec<Vec<f64>> {
 
 #[test]
 fn a_generic_vehicle_gets_no_home_item_and_its_item_0_is_no_home() {
-    let (screen, uploads) = run("generic", &["--current-total", "0"]);
+    let (screen, uploads, currents) = run("generic", &["--current-total", "0"]);
+    // The file's row 2 is the vehicle's item 1 (no home item before it).
+    assert_eq!(currents, vec![1], "{screen}");
     // Its own first item is a waypoint at 10 m, not HOME.
     assert!(!screen.contains("HOME"), "{screen}");
     assert!(screen.contains("WAYPOINT"), "{screen}");
@@ -126,7 +136,9 @@ fn a_generic_vehicle_gets_no_home_item_and_its_item_0_is_no_home() {
 
 #[test]
 fn an_ardupilot_vehicle_keeps_its_home_item() {
-    let (screen, uploads) = run("ardupilot", &["--current-total", "0"]);
+    let (screen, uploads, currents) = run("ardupilot", &["--current-total", "0"]);
+    // ArduPilot numbers as the file does, home at 0.
+    assert_eq!(currents, vec![2]);
     assert!(screen.contains("HOME"), "{screen}");
     // seq 1 of the two items after home.
     assert!(screen.contains("current 1 of 2"), "{screen}");

@@ -237,6 +237,20 @@ impl App {
         }
     }
 
+    /// The vehicle's sequence number of mission row `seq` as shown: a file's rows count home as
+    /// 0, and so does a vehicle whose profile holds home (ArduPilot); another vehicle's items
+    /// are one lower (QGroundControl's `setCurrentMissionSequence` does the same).
+    pub fn vehicle_seq(&self, seq: u16) -> Result<u16, String> {
+        let home_held = self
+            .target
+            .is_some_and(|k| self.profile(k).mission_home_item());
+        if self.ui.mission.shown == Shown::Vehicle || home_held {
+            return Ok(seq);
+        }
+        seq.checked_sub(1)
+            .ok_or_else(|| "home is not a mission item on this vehicle".to_string())
+    }
+
     /// True when the loaded file of list `t` is what the vehicle was last given by us.
     pub fn file_uploaded(&self, t: MissionType) -> bool {
         let (Some(key), Some(f)) = (self.target, self.ui.mission.files[t.index()].as_ref()) else {
@@ -360,8 +374,12 @@ impl App {
                 let key = self.mission_target()?;
                 self.ui.confirm = Some(Confirm {
                     text: format!(
-                        "START the mission on {}:{} (mode AUTO, then MISSION_START)? y = yes, any other key = no",
-                        key.0, key.1
+                        "START the mission on {}:{} ({}MISSION_START)? y = yes, any other key = no",
+                        key.0,
+                        key.1,
+                        self.profile(key)
+                            .mission_mode()
+                            .map_or(String::new(), |m| format!("mode {m}, then "))
                     ),
                     action: Confirmed::Mission(MissionAction::Start),
                     target: key,
@@ -676,9 +694,10 @@ impl App {
             MissionUpload => self.run_list(t, MissionOp::Upload, fx),
             MissionStart => self.run_list(MissionType::Mission, MissionOp::Start, fx),
             MissionSetCurrent => match sel {
-                Some(i) if t == MissionType::Mission => {
-                    self.run_list(t, MissionOp::SetCurrent(i.seq), fx)
-                }
+                Some(i) if t == MissionType::Mission => match self.vehicle_seq(i.seq) {
+                    Ok(seq) => self.run_list(t, MissionOp::SetCurrent(seq), fx),
+                    Err(e) => Err(e),
+                },
                 _ => Err("select a mission item first".into()),
             },
             MissionGoto => match sel {

@@ -219,12 +219,22 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     }
     // The marks belong to the vehicle's list: shown, or the file uploaded to it.
     let live = t == MissionType::Mission && (view.shown == Shown::Vehicle || app.file_uploaded(t));
-    let current = session
-        .filter(|_| live)
-        .and_then(|s| s.mission.current.as_ref().map(|c| c.seq));
+    // A file's rows count home as 0; a vehicle without a home item numbers its items from 0.
+    let shift = u16::from(view.shown == Shown::File && !vehicle_home);
+    let current = session.filter(|_| live).and_then(|s| {
+        s.mission
+            .current
+            .as_ref()
+            .map(|c| c.seq.saturating_add(shift))
+    });
     let reached: Vec<u16> = session
         .filter(|_| live)
-        .map(|s| s.mission.reached().map(|(_, q)| q).collect())
+        .map(|s| {
+            s.mission
+                .reached()
+                .map(|(_, q)| q.saturating_add(shift))
+                .collect()
+        })
         .unwrap_or_default();
     let widths = [
         Constraint::Length(5),

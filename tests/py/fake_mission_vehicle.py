@@ -13,7 +13,8 @@ MISSION_REQUEST_LIST with MISSION_COUNT and each requested item as MISSION_ITEM_
   --current-total N
         MISSION_CURRENT's `total` (0 = "not supported" in the spec), sent each second with seq 1.
 
-Every upload received (a list of [seq, command, frame, current, x, y, z]) is written to --log-out.
+Every upload received (a list of [seq, command, frame, current, x, y, z]) is written to --log-out,
+and the seq of every MISSION_SET_CURRENT (or DO_SET_MISSION_CURRENT, param1) to --current-log.
 """
 import argparse
 import json
@@ -30,6 +31,7 @@ ap.add_argument("--port", type=int, required=True)
 ap.add_argument("--autopilot", default="generic")
 ap.add_argument("--current-total", type=int, default=-1)
 ap.add_argument("--log-out", required=True)
+ap.add_argument("--current-log", default="")
 ap.add_argument("--duration", type=float, default=30.0)
 args = ap.parse_args()
 
@@ -51,6 +53,15 @@ stored += [
     item(len(stored) + 1, 16, 3, -353630821, 1491654574, 12.0),
 ]
 uploads = []
+currents = []
+
+
+def save(path, obj):
+    tmp = path + ".tmp"
+    with open(tmp, "w") as f:
+        json.dump(obj, f)
+    os.replace(tmp, path)
+
 
 m = mavutil.mavlink_connection(f"tcpin:127.0.0.1:{args.port}", source_system=1, source_component=1)
 print("listening", flush=True)
@@ -93,6 +104,16 @@ while time.time() < end:
             os.replace(tmp, args.log_out)
             m.mav.mission_ack_send(255, msg.get_srcComponent(), mav.MAV_MISSION_ACCEPTED, 0)
             receiving = None
+    elif kind == "MISSION_SET_CURRENT" or (kind == "COMMAND_LONG" and msg.command == 224) or (
+        kind == "COMMAND_INT" and msg.command == 224
+    ):
+        seq = msg.seq if kind == "MISSION_SET_CURRENT" else int(msg.param1)
+        currents.append(seq)
+        if args.current_log:
+            save(args.current_log, currents)
+        if kind != "MISSION_SET_CURRENT":
+            m.mav.command_ack_send(224, mav.MAV_RESULT_ACCEPTED)
+        m.mav.mission_current_send(seq, max(args.current_total, 0), 2, 0)
     elif kind == "MISSION_REQUEST_LIST":
         m.mav.mission_count_send(255, msg.get_srcComponent(), len(stored), 0)
     elif kind in ("MISSION_REQUEST_INT", "MISSION_REQUEST"):
