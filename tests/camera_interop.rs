@@ -390,3 +390,99 @@ fn a_pymavlink_gimbal_manager_is_discovered_shown_and_pointed() {
     let sent = g.line("gimbal 0 170");
     assert!(sent.is_empty(), "{sent:?}");
 }
+
+/// `fake_camera.py` with `extra` arguments against mavterm headless running `script` (80x24);
+/// returns the COMMAND_LONGs the camera received ([command, p1..p7]), the screens' folder and
+/// the tempdir holding it.
+fn camera_run(extra: &[&str], script: &str) -> (Vec<Vec<f64>>, tempfile::TempDir, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let port = common::free_udp_port();
+    let log = dir.path().join("camera.json");
+    let script_path = dir.path().join("script.txt");
+    std::fs::write(&script_path, script).unwrap();
+    let screens = dir.path().join("screens");
+    let mut a: Vec<std::ffi::OsString> = vec![
+        "--port".into(),
+        port.to_string().into(),
+        "--log-out".into(),
+        log.clone().into(),
+        "--duration".into(),
+        "20".into(),
+    ];
+    a.extend(extra.iter().map(|s| s.into()));
+    let _cam = common::stand_in("fake_camera.py", &a);
+    let run = std::process::Command::new(common::mavterm())
+        .args([
+            "--link",
+            &format!("udpin:127.0.0.1:{port}"),
+            "--headless",
+            "--input",
+        ])
+        .arg(&script_path)
+        .arg("--screens")
+        .arg(&screens)
+        .args(["--size", "100x30"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&run.stderr).to_string();
+    assert!(run.status.success(), "{err}");
+    let got = serde_json::from_str(&std::fs::read_to_string(&log).unwrap()).unwrap();
+    (got, dir, err)
+}
+
+fn screen(dir: &tempfile::TempDir, name: &str) -> String {
+    std::fs::read_to_string(dir.path().join("screens").join(format!("{name}.txt")))
+        .unwrap_or_default()
+}
+
+/// A camera of the older protocol: REQUEST_MESSAGE 260/261 denied, only
+/// MAV_CMD_REQUEST_CAMERA_SETTINGS (522) and MAV_CMD_REQUEST_STORAGE_INFORMATION (525) served.
+/// Both are asked (param1 = 1; param1 = 0 all storages, param2 = 1) and the storage is shown.
+#[test]
+fn a_camera_that_answers_only_522_and_525_shows_its_storage() {
+    let (got, dir, err) = camera_run(&["--legacy"], "5 key 6\n8 snapshot camera\n8.5 quit\n");
+    let s = screen(&dir, "camera");
+    assert!(
+        got.iter().any(|c| c[0] == 522.0 && c[1] == 1.0),
+        "{got:?}\n{err}"
+    );
+    assert!(
+        got.iter()
+            .any(|c| c[0] == 525.0 && c[1] == 0.0 && c[2] == 1.0),
+        "{got:?}"
+    );
+    assert!(s.contains("storage") && !s.contains("storage ?"), "{s}");
+    assert!(s.contains("free of"), "{s}");
+}
+
+/// A camera whose image indices start at 1: after one shot (index 1, count 1) image 0 is asked
+/// for once, denied, and never again; the numbering is said to be off, once.
+#[test]
+fn image_indices_from_1_are_not_asked_for_image_0_again() {
+    let (got, dir, err) = camera_run(
+        &["--first-index", "1"],
+        "5 key 6\n5.2 key s\n13 snapshot camera\n13.2 key 1\n13.4 snapshot main\n13.6 quit\n",
+    );
+    let asks_0: Vec<&Vec<f64>> = got
+        .iter()
+        .filter(|c| c[0] == 512.0 && c[1] == 263.0 && c[2] == 0.0)
+        .collect();
+    assert_eq!(asks_0.len(), 1, "{got:?}\n{err}");
+    let main = screen(&dir, "main");
+    assert_eq!(main.matches("numbering starts at 1").count(), 1, "{main}");
+}
+
+/// A camera alone on system 2 (no autopilot there): it becomes the target, the Camera screen
+/// shows it, and `s` shoots: IMAGE_START_CAPTURE reaches 2:100 as pymavlink reads it.
+#[test]
+fn a_camera_alone_on_sysid_2_is_selected_and_shot_from_screen_6() {
+    let (got, dir, err) = camera_run(
+        &["--sysid", "2", "--alone"],
+        "5 key 6\n5.2 key s\n7 snapshot camera\n7.5 quit\n",
+    );
+    let s = screen(&dir, "camera");
+    let shot: Vec<&Vec<f64>> = got.iter().filter(|c| c[0] == 2000.0).collect();
+    assert_eq!(shot.len(), 1, "{got:?}\n{s}\n{err}");
+    assert_eq!(&shot[0][1..5], &[0.0, 0.0, 1.0, 1.0]);
+    assert!(s.contains("Gremsy ZIO2"), "{s}");
+}

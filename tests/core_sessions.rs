@@ -341,7 +341,11 @@ fn a_high_latency_link_carries_nothing_but_our_heartbeat() {
 #[test]
 fn components_that_are_not_autopilots_are_not_asked() {
     let mut a = app(1);
-    // A gimbal (MAV_TYPE_GIMBAL, MAV_AUTOPILOT_INVALID) and another GCS.
+    // A gimbal (MAV_TYPE_GIMBAL, MAV_AUTOPILOT_INVALID) alone on its system, and another GCS.
+    // The GCS gets nothing. The gimbal, a payload with no autopilot to reach it through, gets a
+    // session of its own (it can be the target and be pointed) but no stream requests, no
+    // parameter download and no HOME_POSITION: only the Gimbal Protocol's discovery
+    // (REQUEST_MESSAGE GIMBAL_MANAGER_INFORMATION, 280, to it).
     let gimbal = packed(
         json!({"sysid": 1, "compid": 154, "seq": 0, "msg": "HEARTBEAT",
         "fields": {"type": 26, "autopilot": 8, "base_mode": 0, "custom_mode": 0,
@@ -355,9 +359,23 @@ fn components_that_are_not_autopilots_are_not_asked() {
     let mut fx = feed(&mut a, 0, 0, &gimbal);
     fx.extend(feed(&mut a, 1000, 0, &gcs));
     fx.extend(run_timers(&mut a, 10 * SECOND));
-    assert_eq!(count_stream_requests(&fx), 0);
-    assert!(a.sessions.is_empty());
-    assert_eq!(a.target, None);
+    let sent = decoded(&fx);
+    assert!(
+        !sent.iter().any(|(_, v)| v["name"] == "REQUEST_DATA_STREAM"
+            || v["name"] == "PARAM_REQUEST_LIST"
+            || v["name"] == "FILE_TRANSFER_PROTOCOL"
+            || (v["name"] == "COMMAND_LONG" && v["param1"] != 280.0)),
+        "{sent:?}"
+    );
+    assert!(sent
+        .iter()
+        .all(|(_, v)| v["target_system"] == 1 && v["target_component"] == 154));
+    assert!(!sent.iter().any(|(_, v)| home_request(v)));
+    assert_eq!(
+        a.sessions.keys().copied().collect::<Vec<_>>(),
+        vec![(1, 154)]
+    );
+    assert_eq!(a.target, Some((1, 154)));
     // MAVProxy beside us at 255:230 is listed as a GCS and is no error.
     assert!(a.vehicles.get((255, 230)).unwrap().is_gcs());
     assert!(

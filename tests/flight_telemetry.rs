@@ -440,3 +440,46 @@ fn without_target_or_telemetry_the_pane_is_one_line() {
         "{text}"
     );
 }
+
+/// A vehicle that sends no VFR_HUD: speed, climb and heading from GLOBAL_POSITION_INT (packed by
+/// pymavlink): vx, vy north and east and vz down in cm/s, hdg in centidegrees, UINT16_MAX for
+/// unknown (the course over ground then). A VFR_HUD, once it comes, is what is shown.
+#[test]
+fn speed_climb_and_heading_come_from_global_position_int_without_vfr_hud() {
+    let mut c = Core::new();
+    c.feed(0, &heartbeats(1)[0]);
+    let gpi = |seq: u8, vx: i16, vy: i16, vz: i16, hdg: u16| {
+        packed(
+            seq,
+            "GLOBAL_POSITION_INT",
+            json!({"time_boot_ms": 1000, "lat": -353632621, "lon": 1491652374,
+                "alt": 594000, "relative_alt": 10000, "vx": vx, "vy": vy, "vz": vz, "hdg": hdg}),
+        )
+    };
+    assert!(c.app.sessions[&(1, 1)].flight.motion.is_none());
+    c.feed(100_000, &gpi(1, 300, 400, -150, 9000));
+    let text = screen(&c.app, 100, 24);
+    let lines = flight_lines(&text);
+    assert!(lines.contains("GS 5.0 m/s"), "{lines}");
+    assert!(lines.contains("CLB +1.5 m/s"), "{lines}");
+    assert!(lines.contains("HDG 090°"), "{lines}");
+    // Heading unknown: the course, 2 m/s west.
+    c.feed(200_000, &gpi(2, 0, -200, 0, u16::MAX));
+    let lines = flight_lines(&screen(&c.app, 100, 24));
+    assert!(lines.contains("HDG 270°"), "{lines}");
+    assert!(lines.contains("GS 2.0 m/s"), "{lines}");
+    // VFR_HUD comes: it wins.
+    let hud = packed(
+        3,
+        "VFR_HUD",
+        json!({"airspeed": 0.0, "groundspeed": 0.7, "heading": 12, "throttle": 0,
+            "alt": 594.0, "climb": 0.0}),
+    );
+    c.feed(300_000, &hud);
+    c.feed(400_000, &gpi(4, 300, 400, -150, 9000));
+    let lines = flight_lines(&screen(&c.app, 100, 24));
+    assert!(
+        lines.contains("GS 0.7 m/s") && lines.contains("HDG 012°"),
+        "{lines}"
+    );
+}

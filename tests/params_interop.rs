@@ -113,9 +113,12 @@ fn a_param_count_that_grows_mid_download_is_followed() {
 
 #[test]
 fn px4_bytewise_int32_by_heartbeat() {
-    // No AUTOPILOT_VERSION: the HEARTBEAT's autopilot (PX4) decides; FTP answered with a NAK.
+    // No AUTOPILOT_VERSION: the HEARTBEAT's autopilot (PX4) decides. PX4 serves no
+    // `@PARAM/param.pck` (ArduPilot's), so its profile goes straight to the parameter protocol:
+    // the stand-in's NAK is never asked for.
     let err = download_matches(&["--autopilot", "px4", "--ftp", "nak"]);
-    assert!(err.contains("file not found"), "{err}");
+    assert!(!err.contains("file not found"), "{err}");
+    assert!(err.contains("parameter protocol"), "{err}");
 }
 
 #[test]
@@ -242,5 +245,209 @@ fn params_out_exits_non_zero_with_the_missing_count() {
     assert!(
         stderr.contains("no parameter came from the vehicle"),
         "{stderr}"
+    );
+}
+
+/// A vehicle of another stack (HEARTBEAT autopilot GENERIC, no AUTOPILOT_VERSION, so no
+/// PARAM_ENCODE_* bit): the parameter protocol's default, bytewise. Its INT32 values −1,
+/// 2^24+1, INT32_MAX and INT32_MIN (NaN, a tiny fraction, NaN and −0 as C-cast floats) read
+/// exactly, and no MAVFTP parameter file is asked of it (only ArduPilot serves one).
+#[test]
+fn a_generic_vehicle_s_bytewise_int32_values_read_exactly() {
+    let err = download_matches(&["--autopilot", "generic"]);
+    assert!(!err.contains("looks wrong"), "{err}");
+    assert!(!err.contains("MAVFTP"), "{err}");
+}
+
+/// Written to the generic vehicle: each value arrives exact (the stand-in decodes bytewise, as
+/// the protocol says) and its echo is confirmed.
+#[test]
+fn a_generic_vehicle_s_int32_values_are_written_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let port = common::free_tcp_port();
+    let _v = fake(port, dir.path(), &["--autopilot", "generic"]);
+    let script = "3 text \":param set INT_BIG 16777219\\n\"\n\
+                  3.2 text \":param set INT_NEG_BIG -2147483647\\n\"\n\
+                  3.4 text \":param set INT_MAX 2147483646\\n\"\n\
+                  3.6 text \":param set INT_ONE 5\\n\"\n\
+                  3.8 text \":param set INT_MINUS1 -2\\n\"\n\
+                  8 quit\n";
+    let path = dir.path().join("script.txt");
+    std::fs::write(&path, script).unwrap();
+    let run = Command::new(common::mavterm())
+        .args([
+            "--link",
+            &format!("tcp:127.0.0.1:{port}"),
+            "--headless",
+            "--input",
+        ])
+        .arg(&path)
+        .args(["--report", "json"])
+        .output()
+        .unwrap();
+    assert!(run.status.success());
+    let report: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    let want = [
+        ("INT_BIG", 16_777_219.0),
+        ("INT_NEG_BIG", -2_147_483_647.0),
+        ("INT_MAX", 2_147_483_646.0),
+        ("INT_ONE", 5.0),
+        ("INT_MINUS1", -2.0),
+    ];
+    let held = table(dir.path());
+    for (name, v) in want {
+        assert_eq!(
+            held[name].0, v,
+            "{name}: the vehicle holds {}",
+            held[name].0
+        );
+        let e = edit(&report, name);
+        assert_eq!(e["state"], "confirmed", "{e}");
+        assert_eq!(e["vehicle_value"], v, "{e}");
+    }
+    assert_eq!(report["params"][0]["encoding"], "bytewise");
+}
+
+/// Run `script` with screens saved to `dir/screens` at 160 columns; returns the report.
+fn replay_screens(dir: &Path, port: u16, script: &str) -> serde_json::Value {
+    let path = dir.join("script.txt");
+    std::fs::write(&path, script).unwrap();
+    let run = Command::new(common::mavterm())
+        .args([
+            "--link",
+            &format!("tcp:127.0.0.1:{port}"),
+            "--headless",
+            "--input",
+        ])
+        .arg(&path)
+        .args(["--report", "json", "--size", "160x30", "--screens"])
+        .arg(dir.join("screens"))
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    serde_json::from_slice(&run.stdout).unwrap()
+}
+
+/// C-cast (ArduPilot) carries whole numbers exactly only up to 2^24: 2^24+1 is refused before
+/// anything is sent, with the reason, and never blamed on the vehicle.
+#[test]
+fn c_cast_refuses_two_to_the_24_plus_one_before_sending() {
+    let dir = tempfile::tempdir().unwrap();
+    let port = common::free_tcp_port();
+    let _v = fake(port, dir.path(), &["--caps", "8192"]);
+    let r = replay_screens(
+        dir.path(),
+        port,
+        "3 text \":param set AP_I32_002 16777217\\n\"\n3.5 snapshot refused\n4 quit\n",
+    );
+    let sets = std::fs::read_to_string(dir.path().join("sets.json")).unwrap_or_default();
+    assert!(!sets.contains("AP_I32_002"), "sent anyway: {sets}");
+    let screen = std::fs::read_to_string(dir.path().join("screens/refused.txt")).unwrap();
+    assert!(
+        screen.contains("16777217 cannot be sent exactly"),
+        "{screen}"
+    );
+    assert_eq!(r["params"][0]["encoding"], "C-cast");
+    assert_eq!(table(dir.path())["AP_I32_002"].0, 16_777_216.0);
+}
+
+/// An echo whose float is one bit off the one sent decodes to the same integer C-cast, yet it is
+/// not what was sent: not confirmed (resent once, as any other mismatch, then failed).
+#[test]
+fn an_echo_whose_raw_bits_differ_is_not_confirmed() {
+    let (r, sets) = replay(&["--caps", "8192", "--set", "nudge"], SET_SCRIPT);
+    let e = edit(&r, "AP_I16_001");
+    assert_eq!(e["state"], "failed", "{e}");
+    assert!(
+        e["reason"].as_str().unwrap().contains("not confirmed"),
+        "{e}"
+    );
+    assert_eq!(sets["AP_I16_001"], 2);
+}
+
+/// A vehicle announcing ArduPilot whose values come bytewise, with no AUTOPILOT_VERSION to say
+/// so: the first impossible C-cast float is told once as "encoding looks wrong", and `param
+/// encoding bytewise` at the prompt reads every value right.
+#[test]
+fn encoding_that_looks_wrong_is_told_and_switched_at_the_prompt() {
+    let dir = tempfile::tempdir().unwrap();
+    let port = common::free_tcp_port();
+    let _v = fake(
+        port,
+        dir.path(),
+        &[
+            "--autopilot",
+            "px4",
+            "--heartbeat",
+            "ardupilot",
+            "--ftp",
+            "nak",
+        ],
+    );
+    let r = replay_screens(dir.path(), port, "5 quit\n");
+    let suspect = r["params"][0]["encoding_suspect"].as_str().unwrap_or("");
+    assert!(suspect.contains("bytewise it would be"), "{r}");
+    assert_eq!(r["params"][0]["encoding"], "C-cast");
+    drop(_v);
+    // Again, switched at the prompt: every INT32 as the vehicle holds it.
+    let port = common::free_tcp_port();
+    let _v = fake(
+        port,
+        dir.path(),
+        &[
+            "--autopilot",
+            "px4",
+            "--heartbeat",
+            "ardupilot",
+            "--ftp",
+            "nak",
+        ],
+    );
+    let out = dir.path().join("after.parm");
+    let script = format!(
+        "5 text \":param encoding bytewise\\n\"\n5.5 text \":param save {}\\n\"\n6.5 quit\n",
+        out.display()
+    );
+    let r = replay_screens(dir.path(), port, &script);
+    assert_eq!(r["params"][0]["encoding"], "bytewise");
+    assert_eq!(r["params"][0]["encoding_by"], "the operator");
+    let got = parm(&out);
+    for (name, (v, t)) in table(dir.path()) {
+        if t == 6 {
+            assert_eq!(got[&name], format!("{}", v as i64), "{name}");
+        }
+    }
+}
+
+/// MAVFTP given up (AUTOPILOT_VERSION says no FTP while the open is unanswered), and then the
+/// vehicle ACKs the open after all with session 3: mavterm closes it with TerminateSession
+/// (opcode 1) of session 3, as pymavlink reads the request, so no session is left open.
+#[test]
+fn a_session_opened_after_the_fallback_is_terminated() {
+    let dir = tempfile::tempdir().unwrap();
+    let port = common::free_tcp_port();
+    let log = dir.path().join("ftp.json");
+    let log_arg = log.display().to_string();
+    let _v = fake(
+        port,
+        dir.path(),
+        &["--caps", "8192", "--ftp", "late-ack", "--ftp-log", &log_arg],
+    );
+    let r = replay_screens(dir.path(), port, "4 quit\n");
+    assert_eq!(
+        r["params"][0]["download"]["method"], "parameter protocol",
+        "{r}"
+    );
+    let got: Vec<Vec<u64>> = serde_json::from_str(&std::fs::read_to_string(&log).unwrap()).unwrap();
+    // [seq, session, opcode]: the open (4), then after the late ACK a TerminateSession (1) of
+    // session 3.
+    let open = got.iter().position(|p| p[2] == 4).expect("an OpenFileRO");
+    assert!(
+        got[open..].iter().any(|p| p[2] == 1 && p[1] == 3),
+        "{got:?}"
     );
 }

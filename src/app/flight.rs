@@ -472,7 +472,7 @@ impl App {
             let v = self.vehicles.get(via).ok_or("vehicle gone")?;
             (v.autopilot, v.mavtype, v.custom_mode, v.armed())
         };
-        let px4 = autopilot == MavAutopilot::MAV_AUTOPILOT_PX4;
+        let profile = crate::proto::profile::of(autopilot);
         let long = |cmd: MavCmd, p: [f64; 7]| CommandSpec::long(key, cmd, p);
         let nan = f64::NAN;
         let single = |spec: CommandSpec| -> Result<(CommandSpec, String), String> {
@@ -530,11 +530,11 @@ impl App {
             FlightAction::Takeoff(alt) => {
                 let mut steps = Vec::new();
                 // ArduPilot takes off only in GUIDED; PX4 switches to its take-off mode itself.
-                if !px4 {
-                    let guided = modes::mode_number(autopilot, mavtype, "GUIDED")
-                        .ok_or("this vehicle has no GUIDED mode")?;
-                    if mode != guided {
-                        steps.push(self.mode_step(key, autopilot, mavtype, "GUIDED")?);
+                if let Some(m) = profile.takeoff_mode() {
+                    let number = modes::mode_number(autopilot, mavtype, m)
+                        .ok_or_else(|| format!("this vehicle has no {m} mode"))?;
+                    if mode != number {
+                        steps.push(self.mode_step(key, autopilot, mavtype, m)?);
                     }
                 }
                 if !armed {
@@ -548,18 +548,9 @@ impl App {
                         fallback: None,
                     });
                 }
-                let params = if px4 {
-                    // PX4: the altitude above mean sea level; the rest unset.
-                    let home = self
-                        .sessions
-                        .get(&key)
-                        .and_then(|s| s.home_amsl())
-                        .ok_or("home altitude not known yet: wait for GLOBAL_POSITION_INT")?;
-                    [-1.0, 0., 0., nan, nan, nan, home + alt]
-                } else {
-                    // ArduPilot: param7 is metres above home.
-                    [0., 0., 0., 0., 0., 0., alt]
-                };
+                // ArduPilot: param7 above home; PX4 and the spec: above mean sea level.
+                let home = self.sessions.get(&key).and_then(|s| s.home_amsl());
+                let params = profile.takeoff_params(alt, home)?;
                 steps.push(Step {
                     spec: long(MavCmd::MAV_CMD_NAV_TAKEOFF, params),
                     until: Until::Ack,
@@ -609,21 +600,8 @@ impl App {
                     .to_lowercase()
             )
         })?;
-        let base = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED.bits() as f64;
-        let params = if autopilot == MavAutopilot::MAV_AUTOPILOT_PX4 {
-            // PX4: main mode in param2, sub mode in param3.
-            [
-                base,
-                ((number >> 16) & 0xFF) as f64,
-                (number >> 24) as f64,
-                0.,
-                0.,
-                0.,
-                0.,
-            ]
-        } else {
-            [base, number as f64, 0., 0., 0., 0., 0.]
-        };
+        // PX4: main mode in param2, sub mode in param3; others: the custom mode in param2.
+        let params = crate::proto::profile::of(autopilot).set_mode_params(number);
         Ok(Step {
             spec: CommandSpec::long(key, MavCmd::MAV_CMD_DO_SET_MODE, params),
             until: Until::Mode(number),

@@ -247,7 +247,7 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
     (
         "param",
         "SUB …",
-        "fetch; set NAME VALUE; save, load, diff FILE (.params: QGC's)",
+        "fetch; set NAME VALUE; save, load, diff FILE (.params: QGC's); encoding",
     ),
     (
         "camera",

@@ -267,7 +267,7 @@ impl App {
             .vehicles
             .iter()
             .filter(|v| v.sysid == sysid && compid.is_none_or(|c| c == v.compid))
-            .find(|v| v.is_autopilot());
+            .find(|v| v.is_autopilot() || self.sessions.contains_key(&(v.sysid, v.compid)));
         match found {
             Some(v) => Ok((v.sysid, v.compid)),
             None => {
@@ -294,9 +294,10 @@ impl App {
 
     /// Vehicles that can be targeted, in registry order.
     pub fn targetable(&self) -> Vec<VehicleKey> {
+        // Autopilots, and payloads alone on their system (they have a session of their own).
         self.vehicles
             .iter()
-            .filter(|v| v.is_autopilot())
+            .filter(|v| v.is_autopilot() || self.sessions.contains_key(&(v.sysid, v.compid)))
             .map(|v| (v.sysid, v.compid))
             .collect()
     }
@@ -350,10 +351,14 @@ impl App {
                         l.expanded = !l.expanded;
                     }
                 } else if self.ui.focus == Pane::Vehicles {
-                    // Only an autopilot can be the target; gimbals, cameras and ground stations
-                    // are addressed from their own screens.
+                    // Only an autopilot (or a payload alone on its system) can be the target;
+                    // other gimbals, cameras and ground stations are reached through their
+                    // autopilot, from their own screens.
                     let v = self.vehicles.iter().nth(self.ui.vehicle_sel);
-                    if let Some(v) = v.filter(|v| v.is_autopilot()) {
+                    let sessions = &self.sessions;
+                    if let Some(v) = v
+                        .filter(|v| v.is_autopilot() || sessions.contains_key(&(v.sysid, v.compid)))
+                    {
                         self.target = Some((v.sysid, v.compid));
                     }
                 }

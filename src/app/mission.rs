@@ -214,39 +214,56 @@ impl App {
         Ok(key)
     }
 
-    /// Armed in its mission mode (AUTO; PX4: MISSION): flying its mission.
+    /// Armed in its family's mission mode (ArduPilot AUTO, PX4 MISSION): flying its mission. A
+    /// family with no known mission mode counts as flying it whenever it is armed (asking is safer).
     fn flies_its_mission(&self, key: VehicleKey) -> bool {
+        let profile = self.profile(key);
         self.vehicles.get(key).is_some_and(|v| {
-            let auto = if v.autopilot == MavAutopilot::MAV_AUTOPILOT_PX4 {
-                "MISSION"
-            } else {
-                "AUTO"
-            };
             v.armed()
-                && crate::proto::modes::mode_name(v.autopilot, v.mavtype, v.custom_mode)
-                    .eq_ignore_ascii_case(auto)
+                && profile.mission_mode().is_none_or(|m| {
+                    crate::proto::modes::mode_name(v.autopilot, v.mavtype, v.custom_mode)
+                        .eq_ignore_ascii_case(m)
+                })
         })
     }
 
-    fn is_px4(&self, key: VehicleKey) -> bool {
-        self.vehicles
-            .get(key)
-            .is_some_and(|v| v.autopilot == MavAutopilot::MAV_AUTOPILOT_PX4)
+    /// The profile of `key`'s autopilot (generic MAVLink when the vehicle is not known).
+    pub fn profile(&self, key: VehicleKey) -> &'static dyn crate::proto::profile::Profile {
+        crate::proto::profile::of(
+            self.vehicles
+                .get(key)
+                .map_or(MavAutopilot::MAV_AUTOPILOT_GENERIC, |v| v.autopilot),
+        )
     }
 
-    /// The items of list `t` as this vehicle takes them from a file's list (home first): PX4
-    /// holds no home item.
+    /// The items of list `t` as this vehicle takes them from a file's list (home first): only
+    /// ArduPilot holds a home item (its profile says).
     pub fn items_for_vehicle(
         &self,
         key: VehicleKey,
         t: MissionType,
         items: &[MissionItem],
     ) -> Vec<MissionItem> {
-        if t == MissionType::Mission && self.is_px4(key) && !items.is_empty() {
+        if t == MissionType::Mission && !self.profile(key).mission_home_item() && !items.is_empty()
+        {
             mission::without_home(items)
         } else {
             items.to_vec()
         }
+    }
+
+    /// The vehicle's sequence number of mission row `seq` as shown: a file's rows count home as
+    /// 0, and so does a vehicle whose profile holds home (ArduPilot); another vehicle's items
+    /// are one lower (QGroundControl's `setCurrentMissionSequence` does the same).
+    pub fn vehicle_seq(&self, seq: u16) -> Result<u16, String> {
+        let home_held = self
+            .target
+            .is_some_and(|k| self.profile(k).mission_home_item());
+        if self.ui.mission.shown == Shown::Vehicle || home_held {
+            return Ok(seq);
+        }
+        seq.checked_sub(1)
+            .ok_or_else(|| "home is not a mission item on this vehicle".to_string())
     }
 
     /// True when the loaded file of list `t` is what the vehicle was last given by us.
@@ -383,8 +400,12 @@ impl App {
                 let key = self.mission_target()?;
                 self.ask(Ask {
                     text: format!(
-                        "START the mission on {}:{} (mode AUTO, then MISSION_START)? y = yes, any other key = no",
-                        key.0, key.1
+                        "START the mission on {}:{} ({}MISSION_START)? y = yes, any other key = no",
+                        key.0,
+                        key.1,
+                        self.profile(key)
+                            .mission_mode()
+                            .map_or(String::new(), |m| format!("mode {m}, then "))
                     ),
                     action: Confirmed::Mission(MissionAction::Start),
                     target: key,
@@ -453,12 +474,11 @@ impl App {
                     let v = self.vehicles.get(key).ok_or("vehicle gone")?;
                     (v.autopilot, v.mavtype)
                 };
-                let auto = if autopilot == MavAutopilot::MAV_AUTOPILOT_PX4 {
-                    "MISSION"
-                } else {
-                    "AUTO"
-                };
-                let mut steps = vec![self.mode_step(key, autopilot, mavtype, auto)?];
+                // ArduPilot flies it in AUTO, PX4 in MISSION; others need only MISSION_START.
+                let mut steps = Vec::new();
+                if let Some(auto) = crate::proto::profile::of(autopilot).mission_mode() {
+                    steps.push(self.mode_step(key, autopilot, mavtype, auto)?);
+                }
                 steps.push(Step {
                     spec: CommandSpec::long(key, MavCmd::MAV_CMD_MISSION_START, [0.0; 7]),
                     until: Until::Ack,
@@ -486,7 +506,9 @@ impl App {
         let vehicle_list = |lt: MissionType| -> Option<Vec<MissionItem>> {
             let k = session?.mission.known(lt)?;
             let items = k.items.clone();
-            if lt == MissionType::Mission && key.is_some_and(|k| self.is_px4(k)) {
+            if lt == MissionType::Mission
+                && key.is_some_and(|k| !self.profile(k).mission_home_item())
+            {
                 let home = self.home_item(key?);
                 Some(mission::with_home(home, &items))
             } else {
@@ -602,8 +624,8 @@ impl App {
         fx: &mut Vec<Effect>,
     ) -> Result<Option<String>, String> {
         let key = self.mission_target()?;
-        let px4 = self.is_px4(key);
-        self.guided_check(key, !px4, "goto")?;
+        let profile = self.profile(key);
+        self.guided_check(key, profile.guided_mode().is_some(), "goto")?;
         let alt = match alt {
             Some(a) => a,
             None => self.sessions[&key]
@@ -614,7 +636,11 @@ impl App {
                 .ok_or("altitude not known yet: give one (goto LAT LON ALT)")?,
         };
         // MAV_DO_REPOSITION_FLAGS_CHANGE_MODE only where the autopilot needs it to act (PX4).
-        let flags = if px4 { 1.0 } else { 0.0 };
+        let flags = if profile.reposition_changes_mode() {
+            1.0
+        } else {
+            0.0
+        };
         let params = [-1.0, flags, 0.0, f64::NAN, lat, lon, alt];
         self.flight(
             FlightAction::Command {
@@ -638,13 +664,20 @@ impl App {
             return Err(format!("{what} refused: {}:{} is not armed", key.0, key.1));
         }
         if guided {
-            let g = crate::proto::modes::mode_number(v.autopilot, v.mavtype, "GUIDED");
+            let Some(m) = v.profile().guided_mode() else {
+                return Err(format!(
+                    "{what} refused: {} has no guided mode mavterm knows",
+                    v.profile().name()
+                ));
+            };
+            let g = crate::proto::modes::mode_number(v.autopilot, v.mavtype, m);
             if g != Some(v.custom_mode) {
                 return Err(format!(
-                    "{what} refused: {}:{} is in {}, not GUIDED (mode guided)",
+                    "{what} refused: {}:{} is in {}, not {m} (mode {})",
                     key.0,
                     key.1,
-                    crate::proto::modes::mode_name(v.autopilot, v.mavtype, v.custom_mode)
+                    crate::proto::modes::mode_name(v.autopilot, v.mavtype, v.custom_mode),
+                    m.to_ascii_lowercase()
                 ));
             }
         }
@@ -695,9 +728,10 @@ impl App {
             MissionUpload => self.run_list(t, MissionOp::Upload, fx),
             MissionStart => self.run_list(MissionType::Mission, MissionOp::Start, fx),
             MissionSetCurrent => match sel {
-                Some(i) if t == MissionType::Mission => {
-                    self.run_list(t, MissionOp::SetCurrent(i.seq), fx)
-                }
+                Some(i) if t == MissionType::Mission => match self.vehicle_seq(i.seq) {
+                    Ok(seq) => self.run_list(t, MissionOp::SetCurrent(seq), fx),
+                    Err(e) => Err(e),
+                },
                 _ => Err("select a mission item first".into()),
             },
             MissionGoto => match sel {

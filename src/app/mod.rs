@@ -756,18 +756,33 @@ impl App {
                     .vehicles
                     .on_heartbeat(link, key, hb, frame.version, now);
                 self.on_vehicle_events(ev, fx);
-                if !self.sessions.contains_key(&key)
-                    && self.vehicles.get(key).is_some_and(|v| v.is_autopilot())
-                {
+                let autopilot = self.vehicles.get(key).is_some_and(|v| v.is_autopilot());
+                // A camera or gimbal alone on its system (no autopilot heard there) gets a
+                // session of its own, so it can be targeted and operated; an autopilot of the
+                // system heard later takes over (the payload is reached through it).
+                let alone = !autopilot
+                    && self.vehicles.get(key).is_some_and(|v| v.is_payload())
+                    && self
+                        .sessions
+                        .range((key.0, 0)..=(key.0, u8::MAX))
+                        .next()
+                        .is_none();
+                if !self.sessions.contains_key(&key) && (autopilot || alone) {
+                    if autopilot {
+                        self.drop_payload_sessions(key.0);
+                    }
                     let mut s = Session::new(
                         key,
                         hb.autopilot,
-                        self.cfg.request_streams,
-                        self.cfg.fetch_params,
+                        self.cfg.request_streams && autopilot,
+                        self.cfg.fetch_params && autopilot,
                         self.cfg.streams.clone(),
                     );
                     s.mission.gcs = (self.cfg.sysid, self.cfg.compid);
                     self.sessions.insert(key, s);
+                    if alone && self.target.is_none() {
+                        self.target = Some(key);
+                    }
                 }
             }
             _ if copy => {}
@@ -852,6 +867,22 @@ impl App {
         };
         let ok = |t: Option<u8>, us: u8| t.is_none_or(|t| t == 0 || t == us);
         ok(sys, self.cfg.sysid) && ok(comp, self.cfg.compid)
+    }
+
+    /// The sessions of stand-alone payloads of system `sysid`: an autopilot of it was heard.
+    fn drop_payload_sessions(&mut self, sysid: u8) {
+        let payloads: Vec<VehicleKey> = self
+            .sessions
+            .range((sysid, 0)..=(sysid, u8::MAX))
+            .map(|(k, _)| *k)
+            .filter(|k| !self.vehicles.get(*k).is_some_and(|v| v.is_autopilot()))
+            .collect();
+        for k in payloads {
+            self.sessions.remove(&k);
+            if self.target == Some(k) {
+                self.target = None;
+            }
+        }
     }
 
     fn on_vehicle_events(&mut self, events: Vec<VehicleEvent>, fx: &mut Vec<Effect>) {

@@ -25,6 +25,8 @@ pub enum ParamCmd {
     /// Work on this component of the target's system (`None`: its autopilot).
     Component(Option<u8>),
     Set(String, String),
+    /// Read and write integers this way on the target (`None`: say which is in use).
+    Encoding(Option<value::Encoding>),
     Save(String),
     Load(String),
     Diff(String),
@@ -103,7 +105,7 @@ pub fn next_value_name<'a>(values: &'a [(f64, String)], current: &str) -> Option
 }
 
 /// Usage of `param`.
-pub const USAGE: &str = "usage: param fetch | param set NAME VALUE | param save FILE | param load FILE | param diff FILE | param comp COMPID";
+pub const USAGE: &str = "usage: param fetch | param set NAME VALUE | param save FILE | param load FILE | param diff FILE | param comp COMPID | param encoding [bytewise|ccast]";
 
 /// Parse the words after `param`.
 pub fn parse(rest: &str) -> Result<ParamCmd, String> {
@@ -134,6 +136,12 @@ pub fn parse(rest: &str) -> Result<ParamCmd, String> {
                 _ => Err("usage: param set NAME VALUE".into()),
             }
         }
+        "encoding" => match arg.to_ascii_lowercase().as_str() {
+            "" => Ok(ParamCmd::Encoding(None)),
+            "bytewise" => Ok(ParamCmd::Encoding(Some(value::Encoding::Bytewise))),
+            "ccast" | "c-cast" => Ok(ParamCmd::Encoding(Some(value::Encoding::CCast))),
+            _ => Err("usage: param encoding [bytewise|ccast]".into()),
+        },
         "save" => file_arg(ParamCmd::Save),
         "load" => file_arg(ParamCmd::Load),
         "diff" => file_arg(ParamCmd::Diff),
@@ -230,6 +238,18 @@ impl App {
                 Ok(Some(format!("fetching the parameters of {}:{comp}", key.0)))
             }
             ParamCmd::Set(name, text) => self.set_param(key, comp, &name, &text, fx),
+            ParamCmd::Encoding(choice) => {
+                let m = &mut self.sessions.get_mut(&key).ok_or("no session")?.params;
+                if let Some(e) = choice {
+                    m.choose_encoding(e);
+                }
+                Ok(Some(format!(
+                    "parameters of {}: integers read {} (chosen by {})",
+                    key.0,
+                    m.encoding.name(),
+                    m.encoding_by.name()
+                )))
+            }
             ParamCmd::Save(path) => {
                 let set = self
                     .sessions
@@ -333,6 +353,8 @@ impl App {
                 })?,
         };
         p.ptype.check(v)?;
+        // What the vehicle's encoding cannot carry exactly is refused before it is sent.
+        value::carry_check(v, p.ptype, self.sessions[&key].params.encoding)?;
         if meta.is_some_and(|m| m.read_only) {
             return Err(format!("{name} is read-only"));
         }

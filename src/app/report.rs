@@ -211,6 +211,9 @@ impl App {
                     "compid": key.1,
                     "components": sets,
                     "download": last,
+                    "encoding": s.params.encoding.name(),
+                    "encoding_by": s.params.encoding_by.name(),
+                    "encoding_suspect": s.params.encoding_suspect,
                 })
             })
             .collect();

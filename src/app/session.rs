@@ -561,7 +561,10 @@ impl Session {
                             {
                                 self.cameras.forget_images(c);
                             }
-                            let notes = self.cameras.on_finished(now, c, cmd, &p, accepted);
+                            let mut notes = self.cameras.on_finished(now, c, cmd, &p, accepted);
+                            if matches!(e.state, State::Done(r) if r != 0) {
+                                notes.extend(self.cameras.on_refused(c, cmd, &p));
+                            }
                             out.extend(notes.into_iter().map(|(s, t)| SessionOut::Notice(s, t)));
                         }
                     }

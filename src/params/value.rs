@@ -1,9 +1,11 @@
 //! Parameter values on the wire: MAV_PARAM_TYPE, the two ways a value rides in PARAM_VALUE's
 //! float, ranges, and how a value is written for people.
 //!
-//! - **C cast** (ArduPilot): the float holds the number, `param_value = (float)value`.
-//! - **Bytewise** (PX4): the float's four bytes hold the value's own bytes (little-endian, low
-//!   bytes first, the rest zero), so an INT32 of 1 travels as the float whose bits are 1.
+//! - **C cast** (ArduPilot only): the float holds the number, `param_value = (float)value`;
+//!   whole numbers beyond ±2^24 do not all fit ([`carry_check`] refuses them).
+//! - **Bytewise** (the protocol's default: PX4 and every other autopilot): the float's four bytes
+//!   hold the value's own bytes (little-endian, low bytes first, the rest zero), so an INT32 of 1
+//!   travels as the float whose bits are 1.
 //!
 //! MAVLink parameter protocol: <https://mavlink.io/en/services/parameter.html>.
 
@@ -113,6 +115,103 @@ pub enum Encoding {
     Bytewise,
 }
 
+impl Encoding {
+    pub fn name(self) -> &'static str {
+        match self {
+            Encoding::CCast => "C-cast",
+            Encoding::Bytewise => "bytewise",
+        }
+    }
+
+    /// The word `param encoding` takes.
+    pub fn cli_name(self) -> &'static str {
+        match self {
+            Encoding::CCast => "ccast",
+            Encoding::Bytewise => "bytewise",
+        }
+    }
+
+    /// The other one.
+    pub fn other(self) -> Encoding {
+        match self {
+            Encoding::CCast => Encoding::Bytewise,
+            Encoding::Bytewise => Encoding::CCast,
+        }
+    }
+}
+
+/// Largest whole number below which every whole number fits a float exactly (2^24).
+pub const FLOAT_EXACT: f64 = 16_777_216.0;
+
+/// Why `v` (already a value of type `t`) cannot ride exactly in the float under `enc`: a value
+/// the vehicle cannot hold exactly is refused before it is sent.
+pub fn carry_check(v: f64, t: ParamType, enc: Encoding) -> Result<(), String> {
+    use ParamType::*;
+    if !t.is_integer() {
+        return Ok(());
+    }
+    match enc {
+        Encoding::CCast if (v as f32) as f64 != v => Err(format!(
+            "{} cannot be sent exactly: this vehicle takes integers C-cast in a float, which \
+             holds whole numbers exactly only up to ±{} (it would arrive as {})",
+            fmt_plain(v),
+            fmt_plain(FLOAT_EXACT),
+            fmt_plain(v as f32 as f64)
+        )),
+        Encoding::Bytewise
+            if matches!(t, Uint64 | Int64) && !(i32::MIN as f64..=u32::MAX as f64).contains(&v) =>
+        {
+            Err(format!(
+                "{} cannot be sent exactly: a bytewise float carries 32 bits of a {}",
+                fmt_plain(v),
+                t.name()
+            ))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// Why the float `f` of a PARAM_VALUE cannot be a value of integer type `t` sent under `enc`
+/// (so the encoding looks wrong), if it cannot.
+pub fn implausible(f: f32, t: ParamType, enc: Encoding) -> Option<String> {
+    use ParamType::*;
+    if !t.is_integer() {
+        return None;
+    }
+    match enc {
+        Encoding::CCast => {
+            if f.is_nan() {
+                Some("the float is NaN".into())
+            } else if f.is_infinite() {
+                Some("the float is infinite".into())
+            } else if f.is_subnormal() {
+                Some(format!("the float {f:e} is a denormal"))
+            } else if f == 0.0 && f.is_sign_negative() {
+                Some("the float is -0".into())
+            } else if f.fract() != 0.0 {
+                Some(format!("the float {f:e} is not a whole number"))
+            } else {
+                let (lo, hi) = t.range();
+                (!(lo..=hi).contains(&(f as f64)))
+                    .then(|| format!("{} is out of range for {}", fmt_plain(f as f64), t.name()))
+            }
+        }
+        Encoding::Bytewise => {
+            let bits = f.to_bits();
+            // The rest zero, or (a signed value's sign) extended.
+            let (high, ext) = match t {
+                Uint8 => (bits >> 8, None),
+                Int8 => (bits >> 8, (bits & 0x80 != 0).then_some(0xFF_FFFF)),
+                Uint16 => (bits >> 16, None),
+                Int16 => (bits >> 16, (bits & 0x8000 != 0).then_some(0xFFFF)),
+                _ => (0, None),
+            };
+            (high != 0 && Some(high) != ext)
+                .then(|| format!("the float's bits {bits:#010x} do not fit a {}", t.name()))
+        }
+    }
+}
+
 /// The value carried by `f` for a parameter of type `t`.
 pub fn decode(f: f32, t: ParamType, enc: Encoding) -> f64 {
     use ParamType::*;
@@ -212,6 +311,48 @@ mod tests {
         assert_eq!(decode(f, ParamType::Int8, Encoding::Bytewise), -2.0);
         let f = encode(40000.0, ParamType::Uint16, Encoding::Bytewise);
         assert_eq!(f.to_bits(), 40000);
+    }
+
+    #[test]
+    fn c_cast_refuses_what_a_float_cannot_hold() {
+        // 2^24 + 1 and 2^24 + 3 have no float of their own (IEEE 754 single: 24-bit significand).
+        let e = carry_check(16_777_217.0, ParamType::Int32, Encoding::CCast).unwrap_err();
+        assert!(e.contains("16777216"), "{e}");
+        let e = carry_check(16_777_219.0, ParamType::Int32, Encoding::CCast).unwrap_err();
+        assert!(e.contains("it would arrive as 16777220"), "{e}");
+        assert!(carry_check(16_777_216.0, ParamType::Int32, Encoding::CCast).is_ok());
+        assert!(carry_check(-16_777_216.0, ParamType::Int32, Encoding::CCast).is_ok());
+        // Bytewise carries every INT32.
+        for v in [16_777_217.0, i32::MAX as f64, i32::MIN as f64] {
+            assert!(carry_check(v, ParamType::Int32, Encoding::Bytewise).is_ok());
+        }
+        assert!(carry_check(0.3, ParamType::Real32, Encoding::CCast).is_ok());
+    }
+
+    #[test]
+    fn floats_no_c_cast_integer_can_be() {
+        // Bytewise -1, INT32_MAX (NaN), 1 (denormal), 2^24+1 (a tiny fraction), INT32_MIN (-0).
+        for v in [-1i32, i32::MAX, 1, 16_777_217, i32::MIN] {
+            let f = f32::from_bits(v as u32);
+            assert!(
+                implausible(f, ParamType::Int32, Encoding::CCast).is_some(),
+                "{v}"
+            );
+        }
+        for f in [0.0f32, 5.0, -300.0, 16_777_216.0] {
+            assert_eq!(implausible(f, ParamType::Int32, Encoding::CCast), None);
+        }
+        // 300 is no INT8; bytewise, an INT8 has nothing above its low byte.
+        assert!(implausible(300.0, ParamType::Int8, Encoding::CCast).is_some());
+        assert!(implausible(5.0, ParamType::Int8, Encoding::Bytewise).is_some());
+        assert_eq!(
+            implausible(f32::from_bits(0xFE), ParamType::Int8, Encoding::Bytewise),
+            None
+        );
+        assert_eq!(
+            implausible(f32::NAN, ParamType::Real32, Encoding::CCast),
+            None
+        );
     }
 
     #[test]

@@ -5,12 +5,17 @@
 //!   asked for CAMERA_INFORMATION with MAV_CMD_REQUEST_MESSAGE; if that is refused or goes
 //!   unanswered the older MAV_CMD_REQUEST_CAMERA_INFORMATION (521, param1 = 1) is tried, as
 //!   QGroundControl does. Then CAMERA_SETTINGS, STORAGE_INFORMATION, CAMERA_CAPTURE_STATUS and,
-//!   with CAMERA_CAP_FLAGS_HAS_VIDEO_STREAM, VIDEO_STREAM_INFORMATION.
+//!   with CAMERA_CAP_FLAGS_HAS_VIDEO_STREAM, VIDEO_STREAM_INFORMATION. CAMERA_SETTINGS and
+//!   STORAGE_INFORMATION fall back the same way, to MAV_CMD_REQUEST_CAMERA_SETTINGS (522) and
+//!   MAV_CMD_REQUEST_STORAGE_INFORMATION (525), for a camera that serves only those.
 //! - The camera messages are read from their payloads (zeros MAVLink 2 cut restored), so a
 //!   camera that sets flag bits or enum values newer than our dialect is still read.
 //! - Images: every CAMERA_IMAGE_CAPTURED is kept by index; an index below the highest heard (or
 //!   below CAMERA_CAPTURE_STATUS.image_count) that never came is asked for again
 //!   (REQUEST_MESSAGE 263, param2 = index), up to [`HOLE_TRIES`] times, so the list has no holes.
+//!   A request the camera refuses is not made again; a refused index below every one heard means
+//!   the camera numbers from later (the spec says from 0; some start at 1): said once, and
+//!   indices below its first are no longer looked for.
 //! - Operating: [`CameraSet::action`] turns what the operator asks into a command for the camera,
 //!   or says why the camera cannot do it (its flags, its mode).
 //!
@@ -30,6 +35,8 @@ pub const VIDEO_STREAM_INFORMATION: u32 = 269;
 
 pub const CMD_REQUEST_MESSAGE: u16 = 512;
 pub const CMD_REQUEST_CAMERA_INFORMATION: u16 = 521;
+pub const CMD_REQUEST_CAMERA_SETTINGS: u16 = 522;
+pub const CMD_REQUEST_STORAGE_INFORMATION: u16 = 525;
 pub const CMD_STORAGE_FORMAT: u16 = 526;
 pub const CMD_SET_CAMERA_MODE: u16 = 530;
 pub const CMD_SET_CAMERA_ZOOM: u16 = 531;
@@ -298,6 +305,11 @@ pub struct Camera {
     /// VIDEO_STREAM_INFORMATION requests so far, and when to ask again.
     stream_asks: u32,
     stream_next: Option<Micros>,
+    /// CAMERA_SETTINGS / STORAGE_INFORMATION asked by REQUEST_MESSAGE without the message: the
+    /// older command (522 / 525) from this time, if it still has not come.
+    older: Vec<(Micros, u32)>,
+    /// The camera's first image index when it is not 0 (learnt from a refused request).
+    pub first_index: Option<i32>,
 }
 
 impl Camera {
@@ -317,6 +329,8 @@ impl Camera {
             next_seq: 1,
             stream_asks: 0,
             stream_next: None,
+            older: Vec::new(),
+            first_index: None,
         };
         c.request(CAMERA_INFORMATION, 0.0);
         c
@@ -350,7 +364,8 @@ impl Camera {
             .unwrap_or(0)
             .max(self.status.map_or(0, |s| s.image_count));
         // Bounded: a camera's count can be large; only the newest 1000 are looked for.
-        (top.saturating_sub(1000).max(0)..top)
+        let first = self.first_index.unwrap_or(0);
+        (top.saturating_sub(1000).max(first)..top)
             .filter(|i| !self.images.contains_key(i))
             .collect()
     }
@@ -574,6 +589,17 @@ impl CameraSet {
                 ));
             }
             CMD_REQUEST_MESSAGE
+                if (params[0] == CAMERA_SETTINGS as f64 && c.settings.is_none())
+                    || (params[0] == STORAGE_INFORMATION as f64 && c.storage.is_none()) =>
+            {
+                // Refused, unanswered, or accepted without the message: the older command soon
+                // if the message still has not come (once).
+                let id = params[0] as u32;
+                if !c.older.iter().any(|(_, m)| *m == id) {
+                    c.older.push((now + FALLBACK_WAIT, id));
+                }
+            }
+            CMD_REQUEST_MESSAGE
                 if params[0] == VIDEO_STREAM_INFORMATION as f64 && c.streams.is_empty() =>
             {
                 // None came (lost, or refused): asked again, a bounded number of times.
@@ -597,9 +623,63 @@ impl CameraSet {
         notes
     }
 
-    /// Due work: the 521 fallback.
+    /// The camera refused a command (a COMMAND_ACK with a result other than ACCEPTED). A missing
+    /// image it will not give is not asked for again; one below every index heard means the
+    /// camera numbers its images from later than 0: said once.
+    pub fn on_refused(&mut self, compid: u8, command: u16, params: &[f64; 7]) -> Vec<(u8, String)> {
+        let mut notes = Vec::new();
+        let Some(c) = self.cameras.get_mut(&compid) else {
+            return notes;
+        };
+        if command != CMD_REQUEST_MESSAGE || params[0] != CAMERA_IMAGE_CAPTURED as f64 {
+            return notes;
+        }
+        let index = params[1] as i32;
+        c.asked.insert(index, (HOLE_TRIES, 0));
+        let lowest = c.images.keys().next().copied();
+        if c.first_index.is_none() && lowest.is_some_and(|l| index < l) {
+            let l = lowest.unwrap_or(0);
+            c.first_index = Some(l);
+            notes.push((
+                crate::proto::severity::NOTICE,
+                format!(
+                    "camera {compid}: image {index} refused: its image numbering starts at {l}, not 0 as the camera protocol says; images before {l} are not asked for"
+                ),
+            ));
+        }
+        notes
+    }
+
+    /// Due work: the 521, 522 and 525 fallbacks.
     pub fn poll(&mut self, now: Micros) {
         for c in self.cameras.values_mut() {
+            let due: Vec<u32> = c
+                .older
+                .iter()
+                .filter(|(t, _)| *t != Micros::MAX && now >= *t)
+                .map(|(_, m)| *m)
+                .collect();
+            for m in due {
+                for o in c.older.iter_mut().filter(|(_, x)| *x == m) {
+                    o.0 = Micros::MAX; // done: asked once
+                }
+                let (missing, cmd, p) = match m {
+                    CAMERA_SETTINGS => (
+                        c.settings.is_none(),
+                        CMD_REQUEST_CAMERA_SETTINGS,
+                        [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                    ),
+                    // param1 = storage id (0: all), param2 = 1: request.
+                    _ => (
+                        c.storage.is_none(),
+                        CMD_REQUEST_STORAGE_INFORMATION,
+                        [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                    ),
+                };
+                if missing {
+                    c.pending.push_back((cmd, p));
+                }
+            }
             if c.hole_deadline().is_some_and(|t| now >= t) {
                 c.find_holes(now);
             }
@@ -630,7 +710,13 @@ impl CameraSet {
                     Discovery::FallbackAt(t) => Some(t),
                     _ => None,
                 };
-                [fallback, c.hole_deadline(), c.stream_next]
+                let older = c
+                    .older
+                    .iter()
+                    .map(|(t, _)| *t)
+                    .filter(|t| *t != Micros::MAX)
+                    .min();
+                [fallback, c.hole_deadline(), c.stream_next, older]
             })
             .flatten()
             .min()

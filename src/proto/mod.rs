@@ -11,6 +11,7 @@ pub mod mission;
 pub mod modes;
 pub mod param_ftp;
 pub mod params;
+pub mod profile;
 pub mod rates;
 pub mod rtt;
 pub mod sequence;

@@ -5,16 +5,7 @@
 
 use crate::dialect::{MavAutopilot, MavType};
 
-/// Which flight-mode table a vehicle uses.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ModeTable {
-    ArduCopter,
-    ArduPlane,
-    ArduRover,
-    ArduSub,
-    Px4,
-    None,
-}
+pub use crate::proto::profile::ModeTable;
 
 pub const COPTER_MODES: &[(u32, &str)] = &[
     (0, "STABILIZE"),
@@ -128,29 +119,9 @@ pub const PX4_MODES: &[(u8, u8, &str)] = &[
     (10, 0, "TERMINATION"),
 ];
 
-/// The mode table for a vehicle's autopilot and type.
+/// The mode table for a vehicle's autopilot and type: the autopilot's profile says.
 pub fn table_for(autopilot: MavAutopilot, mavtype: MavType) -> ModeTable {
-    use MavType::*;
-    match autopilot {
-        MavAutopilot::MAV_AUTOPILOT_PX4 => ModeTable::Px4,
-        MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA => match mavtype {
-            MAV_TYPE_FIXED_WING
-            | MAV_TYPE_VTOL_TAILSITTER_DUOROTOR
-            | MAV_TYPE_VTOL_TAILSITTER_QUADROTOR
-            | MAV_TYPE_VTOL_TILTROTOR
-            | MAV_TYPE_VTOL_FIXEDROTOR
-            | MAV_TYPE_VTOL_TAILSITTER
-            | MAV_TYPE_VTOL_TILTWING
-            | MAV_TYPE_VTOL_RESERVED5 => ModeTable::ArduPlane,
-            MAV_TYPE_GROUND_ROVER | MAV_TYPE_SURFACE_BOAT => ModeTable::ArduRover,
-            MAV_TYPE_SUBMARINE => ModeTable::ArduSub,
-            MAV_TYPE_QUADROTOR | MAV_TYPE_HEXAROTOR | MAV_TYPE_OCTOROTOR | MAV_TYPE_TRICOPTER
-            | MAV_TYPE_COAXIAL | MAV_TYPE_HELICOPTER | MAV_TYPE_DODECAROTOR
-            | MAV_TYPE_DECAROTOR => ModeTable::ArduCopter,
-            _ => ModeTable::None,
-        },
-        _ => ModeTable::None,
-    }
+    crate::proto::profile::of(autopilot).mode_table(mavtype)
 }
 
 fn lookup(table: &[(u32, &'static str)], mode: u32) -> Option<&'static str> {

@@ -16,6 +16,9 @@
 //!   another burst goes on from the highest block received.
 //! - **Done**: TerminateSession, and the whole file handed back. A block that will not come after
 //!   [`MAX_TRIES`] reads fails the transfer.
+//! - **Left**: a read that failed, or that its caller gave up ([`FtpRead::abandon`]), sends
+//!   TerminateSession; an open ACK that comes after that (the vehicle opened a session we no
+//!   longer want) is answered with TerminateSession of that session, so none is left open.
 //!
 //! Blocks are aligned: the burst starts at 0 and every packet but the last carries a full block,
 //! so a gap is always whole blocks, and ArduPilot's param.pck, padded so that no value straddles a
@@ -230,6 +233,17 @@ impl FtpRead {
         }
     }
 
+    /// The caller gives the read up (it fell back to another way): TerminateSession if a
+    /// session may be open; a late open ACK is still closed ([`FtpRead::on_packet`]).
+    pub fn abandon(&mut self) -> Vec<FtpOut> {
+        if self.phase == Phase::Finished {
+            return Vec::new();
+        }
+        let mut out = self.fail(String::new());
+        out.retain(|o| !matches!(o, FtpOut::Failed(_)));
+        out
+    }
+
     fn fail(&mut self, why: String) -> Vec<FtpOut> {
         self.phase = Phase::Finished;
         self.deadline = None;
@@ -276,6 +290,11 @@ impl FtpRead {
     /// A packet from the vehicle (already known to be for us and from the right component).
     pub fn on_packet(&mut self, now: Micros, p: &FtpPacket) -> Vec<FtpOut> {
         if self.phase == Phase::Finished {
+            // A late open ACK: the vehicle holds a session nobody reads; close it.
+            if p.opcode == op::ACK && p.req_opcode == op::OPEN_FILE_RO {
+                self.session = p.session;
+                return vec![self.packet(op::TERMINATE_SESSION, 0, 0, Vec::new())];
+            }
             return Vec::new();
         }
         match (self.phase, p.opcode, p.req_opcode) {

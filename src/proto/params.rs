@@ -13,14 +13,17 @@
 //!   resizes the set; duplicates only refresh a value; PARAM_VALUE with index 65535 (ArduPilot's
 //!   answer to PARAM_SET and its notice of a value changed by anyone) updates by name.
 //!
-//! **Values**: integer types ride in the float either C-cast (ArduPilot) or bytewise (PX4), see
-//! [`crate::params::value`]. The encoding is chosen by the HEARTBEAT's autopilot unless
-//! AUTOPILOT_VERSION announces PARAM_ENCODE_BYTEWISE or PARAM_ENCODE_C_CAST; the float as
-//! received is kept so a later AUTOPILOT_VERSION can re-read every value.
+//! **Values**: integer types ride in the float either C-cast (ArduPilot) or bytewise (the
+//! protocol's default: PX4 and everyone else), see [`crate::params::value`]. The encoding is the
+//! HEARTBEAT autopilot's profile's unless AUTOPILOT_VERSION announces PARAM_ENCODE_BYTEWISE or
+//! PARAM_ENCODE_C_CAST, or the operator chose one (`param encoding`); the float as received is
+//! kept so a later choice can re-read every value. A float that cannot be an integer sent so
+//! (C-cast: NaN, infinite, a fraction, a denormal) is told once: the encoding looks wrong.
 //!
-//! **Edits** ([`ParamMachine::set`]): PARAM_SET with the parameter's type and encoding. The
-//! vehicle answers with PARAM_VALUE even when it refused the write, so an edit is confirmed only
-//! by an echo of the value sent. No echo: resent up to [`SET_RESENDS`] times. An echo of another
+//! **Edits** ([`ParamMachine::set`]): PARAM_SET with the parameter's type and encoding; a value
+//! the encoding cannot carry exactly is refused before it is sent. The vehicle answers with
+//! PARAM_VALUE even when it refused the write, so an edit is confirmed only by an echo whose
+//! float has the very bits sent (not only a value that decodes the same). No echo: resent up to [`SET_RESENDS`] times. An echo of another
 //! value: resent once (it may have been a stale PARAM_VALUE already on its way), then failed.
 //!
 //! Sans-I/O: payloads and time in, [`ParamOut`] out, [`ParamMachine::next_deadline`].
@@ -39,9 +42,8 @@ use crate::proto::vehicles::VehicleKey;
 use crate::wire::mavftp::{FtpPacket, PAYLOAD_LEN};
 use crate::wire::param_pck::{self, PckType};
 
-/// What is read over MAVFTP (with defaults, as MAVProxy asks, so non-default values can be
-/// told apart).
-pub const PCK_PATH: &str = "@PARAM/param.pck?withdefaults=1";
+/// What is read over MAVFTP from ArduPilot (its profile's parameter file).
+pub const PCK_PATH: &str = crate::proto::profile::ARDUPILOT_PARAM_FILE;
 /// PARAM_REQUEST_READs in flight at once while filling gaps.
 pub const READ_WINDOW: usize = 12;
 /// Reads of one index before the download gives up on it.
@@ -88,8 +90,9 @@ pub enum EditState {
 pub struct Param {
     pub value: f64,
     pub ptype: ParamType,
-    /// The float as received (re-read if the encoding turns out otherwise).
-    raw: f32,
+    /// The float as received (re-read if the encoding turns out otherwise); `None` for a value
+    /// MAVFTP's param.pck gave, typed and exact whatever the encoding.
+    raw: Option<f32>,
     pub index: Option<u16>,
     /// The value when the set was downloaded, for the changed-since-download mark.
     pub fetched: Option<f64>,
@@ -169,7 +172,7 @@ impl ParamSet {
         name: &str,
         index: Option<u16>,
         ptype: ParamType,
-        raw: f32,
+        raw: Option<f32>,
         v: f64,
         download: bool,
     ) -> Option<f64> {
@@ -362,6 +365,16 @@ impl ParamValueMsg {
 pub struct ParamMachine {
     key: VehicleKey,
     pub encoding: Encoding,
+    /// Who chose the encoding.
+    pub encoding_by: EncodingBy,
+    /// The first value that could not be what the vehicle holds under the encoding, told once
+    /// (until the encoding changes): `NAME: why; ENCODING it would be V`.
+    pub encoding_suspect: Option<String>,
+    /// The MAVFTP file holding the whole set, if the autopilot's family serves one.
+    param_file: Option<&'static str>,
+    /// The last MAVFTP read once it is over (finished, failed or given up): a late open ACK
+    /// still gets its session closed.
+    ftp_closed: Option<(u8, Box<FtpRead>)>,
     /// Whether AUTOPILOT_VERSION said FTP is there, once it said anything.
     ftp_capable: Option<bool>,
     pub sets: BTreeMap<u8, ParamSet>,
@@ -387,6 +400,27 @@ pub struct ParamMachine {
     edits_pending: usize,
 }
 
+/// Who chose how integer parameters are read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EncodingBy {
+    /// The autopilot family's default.
+    Profile,
+    /// AUTOPILOT_VERSION's PARAM_ENCODE_* bit.
+    Capability,
+    /// The operator, at the prompt.
+    Operator,
+}
+
+impl EncodingBy {
+    pub fn name(self) -> &'static str {
+        match self {
+            EncodingBy::Profile => "the autopilot's default",
+            EncodingBy::Capability => "AUTOPILOT_VERSION",
+            EncodingBy::Operator => "the operator",
+        }
+    }
+}
+
 fn pck_type(t: PckType) -> ParamType {
     match t {
         PckType::Int8 => ParamType::Int8,
@@ -402,14 +436,14 @@ fn param_id(name: &str) -> mavlink::types::CharArray<16> {
 
 impl ParamMachine {
     pub fn new(key: VehicleKey, autopilot: MavAutopilot, auto_fetch: bool) -> Self {
-        let encoding = if autopilot == MavAutopilot::MAV_AUTOPILOT_PX4 {
-            Encoding::Bytewise
-        } else {
-            Encoding::CCast
-        };
+        let profile = crate::proto::profile::of(autopilot);
         Self {
             key,
-            encoding,
+            encoding: profile.param_encoding(),
+            encoding_by: EncodingBy::Profile,
+            encoding_suspect: None,
+            param_file: profile.param_file(),
+            ftp_closed: None,
             ftp_capable: None,
             sets: BTreeMap::new(),
             download: None,
@@ -488,7 +522,7 @@ impl ParamMachine {
     pub fn fetch(&mut self, now: Micros, comp: u8) -> Vec<ParamOut> {
         self.auto = false;
         self.auto_started = false;
-        let mut out = Vec::new();
+        let mut out = self.leave_ftp();
         if self.version_asked == 0 {
             self.version_asked = 1;
             self.version_retry = Some(now + SECOND);
@@ -506,14 +540,15 @@ impl ParamMachine {
             missing: 0,
         };
         // Only the autopilot serves param.pck; a component answers the parameter protocol.
-        let try_ftp = comp == self.key.1 && self.ftp_capable != Some(false);
-        let phase = if try_ftp {
-            let (f, o) = FtpRead::start(now, PCK_PATH);
+        let file = self.param_file.filter(|_| comp == self.key.1);
+        let try_ftp = file.is_some() && self.ftp_capable != Some(false);
+        let phase = if let Some(path) = file.filter(|_| try_ftp) {
+            let (f, o) = FtpRead::start(now, path);
             out.extend(self.ftp_out(comp, o));
             Phase::Ftp(Box::new(f))
         } else {
             stats.method = Method::List;
-            if comp == self.key.1 {
+            if file.is_some() {
                 stats.fallback = Some("AUTOPILOT_VERSION announces no MAVFTP".into());
             }
             out.push(self.list_request(comp));
@@ -575,8 +610,7 @@ impl ParamMachine {
                         set.resize(file.total_params);
                         for (i, p) in file.params.iter().enumerate() {
                             let t = pck_type(p.ptype);
-                            let raw = value::encode(p.value, t, self.encoding);
-                            set.record(&p.name, Some(i as u16), t, raw, p.value, true);
+                            set.record(&p.name, Some(i as u16), t, None, p.value, true);
                             if let Some(prm) = set.params.get_mut(&p.name) {
                                 prm.default = p.default;
                             }
@@ -607,9 +641,26 @@ impl ParamMachine {
         }
     }
 
+    /// The running download's MAVFTP read is over: closed (TerminateSession unless it closed
+    /// itself) and kept to close a session a late open ACK reports.
+    fn leave_ftp(&mut self) -> Vec<ParamOut> {
+        let Some(d) = self.download.as_mut() else {
+            return Vec::new();
+        };
+        let comp = d.comp;
+        let Phase::Ftp(f) = &mut d.phase else {
+            return Vec::new();
+        };
+        let o = f.abandon();
+        let f = f.clone();
+        self.ftp_closed = Some((comp, f));
+        self.ftp_out(comp, o)
+    }
+
     /// MAVFTP did not work: the parameter protocol.
     fn fall_back(&mut self, now: Micros, why: String) -> Vec<ParamOut> {
         self.take_ftp_stats();
+        let mut out = self.leave_ftp();
         let Some(d) = self.download.as_mut() else {
             return Vec::new();
         };
@@ -623,13 +674,12 @@ impl ParamMachine {
             ..Default::default()
         });
         let comp = d.comp;
-        vec![
-            ParamOut::Notice(
-                SEV_INFO,
-                format!("parameters: {why}; using the parameter protocol"),
-            ),
-            self.list_request(comp),
-        ]
+        out.push(ParamOut::Notice(
+            SEV_INFO,
+            format!("parameters: {why}; using the parameter protocol"),
+        ));
+        out.push(self.list_request(comp));
+        out
     }
 
     /// AUTOPILOT_VERSION's capability bits (the first 8 bytes of its payload).
@@ -665,18 +715,9 @@ impl ParamMachine {
         } else {
             None
         };
-        if let Some(e) = enc.filter(|e| *e != self.encoding) {
-            self.encoding = e;
-            // Every integer value re-read from the float as it came.
-            for set in self.sets.values_mut() {
-                for p in set.params.values_mut() {
-                    let v = value::decode(p.raw, p.ptype, e);
-                    if let Some(f) = p.fetched.as_mut().filter(|f| **f == p.value) {
-                        *f = v;
-                    }
-                    p.value = v;
-                }
-            }
+        if let Some(e) = enc.filter(|_| self.encoding_by != EncodingBy::Operator) {
+            self.encoding_by = EncodingBy::Capability;
+            self.reread(e);
         }
         let ftp = caps & CAP_FTP != 0;
         self.ftp_capable = Some(ftp);
@@ -702,19 +743,61 @@ impl ParamMachine {
         Vec::new()
     }
 
+    /// Read integers `e`'s way from now on; every value already heard is re-read from the float
+    /// as it came.
+    fn reread(&mut self, e: Encoding) {
+        if e == self.encoding {
+            return;
+        }
+        self.encoding = e;
+        self.encoding_suspect = None;
+        for set in self.sets.values_mut() {
+            for p in set.params.values_mut() {
+                let Some(raw) = p.raw else {
+                    continue; // from param.pck: exact already
+                };
+                let v = value::decode(raw, p.ptype, e);
+                if let Some(f) = p.fetched.as_mut().filter(|f| **f == p.value) {
+                    *f = v;
+                }
+                p.value = v;
+            }
+        }
+    }
+
+    /// The operator's choice of encoding (`param encoding`): it stands over AUTOPILOT_VERSION
+    /// and the profile.
+    pub fn choose_encoding(&mut self, e: Encoding) {
+        self.encoding_by = EncodingBy::Operator;
+        self.reread(e);
+    }
+
     /// A FILE_TRANSFER_PROTOCOL payload from component `from`.
     pub fn on_ftp(&mut self, now: Micros, from: u8, payload: &[u8]) -> Vec<ParamOut> {
-        let Some(d) = self.download.as_mut().filter(|d| d.comp == from) else {
-            return Vec::new();
-        };
-        let Phase::Ftp(f) = &mut d.phase else {
-            return Vec::new();
-        };
         let mut p = [0u8; PAYLOAD_LEN];
         let n = payload.len().min(PAYLOAD_LEN);
         p[..n].copy_from_slice(&payload[..n]);
-        let o = f.on_packet(now, &FtpPacket::parse(&p));
-        self.on_ftp_out(now, o)
+        let packet = FtpPacket::parse(&p);
+        let running = self
+            .download
+            .as_mut()
+            .filter(|d| d.comp == from)
+            .and_then(|d| match &mut d.phase {
+                Phase::Ftp(f) => Some(f),
+                Phase::List(_) => None,
+            });
+        if let Some(f) = running {
+            let o = f.on_packet(now, &packet);
+            return self.on_ftp_out(now, o);
+        }
+        // A read that is over: only a late open ACK matters (its session is closed).
+        match self.ftp_closed.as_mut().filter(|(c, _)| *c == from) {
+            Some((_, f)) => {
+                let o = f.on_packet(now, &packet);
+                self.ftp_out(from, o)
+            }
+            None => Vec::new(),
+        }
     }
 
     /// A PARAM_VALUE payload from component `from`.
@@ -731,6 +814,28 @@ impl ParamMachine {
         let enc = self.encoding;
         let v = value::decode(m.raw, ptype, enc);
         let mut out = Vec::new();
+        if self.encoding_suspect.is_none() {
+            if let Some(why) = value::implausible(m.raw, ptype, enc) {
+                let other = enc.other();
+                let would = value::format(value::decode(m.raw, ptype, other), ptype);
+                let text = format!(
+                    "{}: {why}, which no {} sent {} can be; {} it would be {would}",
+                    m.name,
+                    ptype.name(),
+                    enc.name(),
+                    other.name()
+                );
+                out.push(ParamOut::Notice(
+                    SEV_WARNING,
+                    format!(
+                        "parameters of {}:{from}: the encoding looks wrong ({text}): `param encoding {}` switches",
+                        self.key.0,
+                        other.cli_name()
+                    ),
+                ));
+                self.encoding_suspect = Some(text);
+            }
+        }
         let downloading = self
             .download
             .as_ref()
@@ -755,7 +860,7 @@ impl ParamMachine {
         }
         let new_index = index
             .is_some_and(|i| (i as usize) < set.names.len() && set.names[i as usize].is_none());
-        let before = set.record(&m.name, index, ptype, m.raw, v, downloading);
+        let before = set.record(&m.name, index, ptype, Some(m.raw), v, downloading);
         let Some(p) = set.params.get_mut(&m.name) else {
             return out;
         };
@@ -767,7 +872,9 @@ impl ParamMachine {
             .as_mut()
             .filter(|e| e.state == EditState::Pending && e.sends > 0)
         {
-            if value::same(v, e.value, ptype) {
+            // The float's very bits: a value that only decodes the same is not what was sent.
+            let sent = value::encode(e.value, ptype, enc).to_bits();
+            if m.raw.to_bits() == sent {
                 e.state = EditState::Confirmed;
                 self.edits_pending -= 1;
                 if e.sends == 1 {
@@ -783,7 +890,15 @@ impl ParamMachine {
                 e.sent_at = now;
                 resend = Some((e.value, ptype));
             } else {
-                let why = format!("refused: the vehicle kept {}", value::format(v, ptype));
+                let why = if value::same(v, e.value, ptype) {
+                    format!(
+                        "not confirmed: the echo's float {:#010x} is not the {:#010x} sent",
+                        m.raw.to_bits(),
+                        sent
+                    )
+                } else {
+                    format!("refused: the vehicle kept {}", value::format(v, ptype))
+                };
                 out.push(ParamOut::Notice(
                     SEV_ERROR,
                     format!("{} = {} {why}", m.name, value::format(e.value, ptype)),
@@ -979,6 +1094,7 @@ impl ParamMachine {
             .get_mut(name)
             .ok_or_else(|| format!("no parameter {name}"))?;
         p.ptype.check(v)?;
+        value::carry_check(v, p.ptype, self.encoding)?;
         if p.edit
             .as_ref()
             .is_some_and(|e| e.state == EditState::Pending)

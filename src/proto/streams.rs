@@ -634,12 +634,9 @@ impl StreamMachine {
         }
     }
 
-    fn px4(&self) -> bool {
-        self.autopilot == MavAutopilot::MAV_AUTOPILOT_PX4
-    }
-
-    fn ardupilot(&self) -> bool {
-        self.autopilot == MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA
+    /// How this autopilot's family takes stream requests.
+    fn profile(&self) -> &'static dyn crate::proto::profile::Profile {
+        crate::proto::profile::of(self.autopilot)
     }
 
     /// The state on each link heard.
@@ -870,7 +867,8 @@ impl StreamMachine {
 
     /// What to ask on a link of kind `profile`: the requests, and the messages to watch.
     fn plan(&self, profile: LinkProfile) -> (Vec<Item>, (f64, Option<f64>)) {
-        let ardupilot = self.ardupilot();
+        // ArduPilot: its groups first and its own message list; others by interval.
+        let ardupilot = self.profile().stream_groups();
         let by_interval: Vec<(u32, f32)> = if ardupilot {
             self.rates
                 .ardupilot_messages
@@ -915,7 +913,7 @@ impl StreamMachine {
             items.push(item(msgs, rate as f32, Some(g), Method::Group(g)));
         }
         for &(m, hz) in &fitted.messages {
-            let g = if self.px4() {
+            let g = if !self.profile().group_fallback() {
                 None
             } else {
                 group_of(m).map(|g| g.id)
@@ -949,7 +947,7 @@ impl StreamMachine {
 
     /// `item` did not come by its method: the other one, or give up and say so.
     fn switch_or_fail(&mut self, link: usize, index: usize, out: &mut Vec<StreamOut>) {
-        let px4 = self.px4();
+        let no_groups = !self.profile().group_fallback();
         let target = self.target;
         let Some(s) = self.links.get_mut(&link) else {
             return;
@@ -963,7 +961,7 @@ impl StreamMachine {
             .join(", ");
         let other = match it.method {
             Method::Group(_) => Some(Method::Interval),
-            Method::Interval => it.group.filter(|_| !px4).map(Method::Group),
+            Method::Interval => it.group.filter(|_| !no_groups).map(Method::Group),
         };
         let Some(m) = other.filter(|_| !it.switched) else {
             let why = match &it.refusal {

@@ -97,7 +97,8 @@ impl Position {
     }
 }
 
-/// VFR_HUD: how the vehicle moves.
+/// How the vehicle moves: VFR_HUD's, or (from a vehicle that sends no VFR_HUD) made from
+/// GLOBAL_POSITION_INT's velocities and heading.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Motion {
     /// m/s.
@@ -333,6 +334,8 @@ pub struct FlightTelemetry {
     request_home: bool,
     pub position: Option<Timed<Position>>,
     pub motion: Option<Timed<Motion>>,
+    /// When VFR_HUD last came: while it is fresh, it gives the motion.
+    vfr_hud_at: Option<Micros>,
     pub battery: Option<Timed<Battery>>,
     pub gps: Option<Timed<Gps>>,
     /// EKF_STATUS_REPORT flags.
@@ -357,6 +360,7 @@ impl FlightTelemetry {
             request_home,
             position: None,
             motion: None,
+            vfr_hud_at: None,
             battery: None,
             gps: None,
             ekf: None,
@@ -428,6 +432,29 @@ impl FlightTelemetry {
                 };
                 self.altitude.set(now, value.relative_alt_m() as f32);
                 self.position = Some(Timed { value, at: now });
+                // No VFR_HUD (or none lately): GLOBAL_POSITION_INT carries the same: vx, vy
+                // (north, east) and vz (down) in cm/s, hdg in centidegrees (UINT16_MAX unknown:
+                // the course over ground then, when moving, else the heading last known).
+                if self
+                    .vfr_hud_at
+                    .is_none_or(|t| now.saturating_sub(t) > STALE_AFTER)
+                {
+                    let (vx, vy) = (p.vx as f64 / 100.0, p.vy as f64 / 100.0);
+                    let speed = vx.hypot(vy);
+                    let heading = if p.hdg != u16::MAX {
+                        (p.hdg / 100) as i16
+                    } else if speed >= 0.5 {
+                        vy.atan2(vx).to_degrees().rem_euclid(360.0).round() as i16 % 360
+                    } else {
+                        self.motion.map_or(0, |m| m.value.heading)
+                    };
+                    let value = Motion {
+                        groundspeed: speed as f32,
+                        climb: -(p.vz as f32) / 100.0,
+                        heading,
+                    };
+                    self.motion = Some(Timed { value, at: now });
+                }
             }
             (id::VFR_HUD, Some(MavMessage::VFR_HUD(h))) => {
                 let value = Motion {
@@ -436,6 +463,7 @@ impl FlightTelemetry {
                     heading: h.heading,
                 };
                 self.motion = Some(Timed { value, at: now });
+                self.vfr_hud_at = Some(now);
             }
             (id::SYS_STATUS, Some(MavMessage::SYS_STATUS(s))) => {
                 let b = Battery::from_sys_status(

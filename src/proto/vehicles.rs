@@ -72,11 +72,15 @@ impl Vehicle {
         self.base_mode
             .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED)
     }
+    /// The profile of this vehicle's autopilot family.
+    pub fn profile(&self) -> &'static dyn crate::proto::profile::Profile {
+        crate::proto::profile::of(self.autopilot)
+    }
     pub fn mode_name(&self) -> String {
         if self
             .base_mode
             .contains(MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)
-            || self.autopilot == MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA
+            || self.profile().custom_mode_always()
         {
             modes::mode_name(self.autopilot, self.mavtype, self.custom_mode)
         } else if self.mavtype == MavType::MAV_TYPE_GCS {
@@ -93,6 +97,14 @@ impl Vehicle {
     }
     pub fn status_name(&self) -> String {
         short_name(&self.system_status, "MAV_STATE_")
+    }
+    /// True for a camera or a gimbal: a payload, which may be alone on its system (no autopilot
+    /// to reach it through).
+    pub fn is_payload(&self) -> bool {
+        matches!(
+            self.mavtype,
+            MavType::MAV_TYPE_CAMERA | MavType::MAV_TYPE_GIMBAL
+        )
     }
     /// True for components that fly (or drive): what commands are sent to. Gimbals, cameras,
     /// companions and ground stations announce MAV_AUTOPILOT_INVALID.

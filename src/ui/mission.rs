@@ -10,7 +10,6 @@ use ratatui::Frame;
 use super::Theme;
 use crate::app::mission::Shown;
 use crate::app::App;
-use crate::dialect::MavAutopilot;
 use crate::keymap::{Action, Mode};
 use crate::mission::{command_has_position, MissionItem, MissionType};
 use crate::proto::telemetry::distance_bearing;
@@ -46,10 +45,15 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let view = &app.ui.mission;
     let t = view.mission_type();
     let session = app.target.and_then(|k| app.sessions.get(&k));
-    let ardupilot = app
+    // Item 0 is home in a file (WPL's first line, a plan's planned home) and on a vehicle whose
+    // profile says its mission holds home (ArduPilot); elsewhere it is a real item.
+    let vehicle_home = app
         .target
-        .and_then(|k| app.vehicles.get(k))
-        .is_none_or(|v| v.autopilot != MavAutopilot::MAV_AUTOPILOT_PX4);
+        .is_some_and(|k| app.profile(k).mission_home_item());
+    let shown_home = match view.shown {
+        Shown::File => true,
+        Shown::Vehicle => vehicle_home,
+    };
     let key = |a| {
         app.keymap
             .keys_for(Mode::Normal, "mission", a)
@@ -134,13 +138,24 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         }
         if t == MissionType::Mission {
             if let Some(c) = &s.mission.current {
-                status.push(format!("current {} of {}", c.seq, c.total));
+                // MISSION_CURRENT's total: 0 is "not supported" (and what a MAVLink 1 frame,
+                // which has no such field, reads as): the list's own length then, home not
+                // counted, as the spec counts it; UINT16_MAX is "no mission".
+                let total = match c.total {
+                    0 => s.mission.known(t).map_or("?".to_string(), |k| {
+                        let home = vehicle_home && !k.items.is_empty();
+                        (k.items.len() - home as usize).to_string()
+                    }),
+                    u16::MAX => "none".to_string(),
+                    n => n.to_string(),
+                };
+                status.push(format!("current {} of {total}", c.seq));
                 let item = s
                     .mission
                     .known(t)
                     .and_then(|k| k.items.iter().find(|i| i.seq == c.seq));
                 let pos = s.flight.position.as_ref().map(|p| p.value);
-                if let (Some(i), Some(p)) = (item.filter(|_| !(ardupilot && c.seq == 0)), pos) {
+                if let (Some(i), Some(p)) = (item.filter(|_| !(vehicle_home && c.seq == 0)), pos) {
                     if command_has_position(i.command) && (i.x != 0 || i.y != 0) && p.is_known() {
                         let (d, b) = distance_bearing((p.lat(), p.lon()), (i.param5(), i.param6()));
                         status.push(format!("next wp {d:.0} m at {b:.0}°"));
@@ -204,12 +219,22 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     }
     // The marks belong to the vehicle's list: shown, or the file uploaded to it.
     let live = t == MissionType::Mission && (view.shown == Shown::Vehicle || app.file_uploaded(t));
-    let current = session
-        .filter(|_| live)
-        .and_then(|s| s.mission.current.as_ref().map(|c| c.seq));
+    // A file's rows count home as 0; a vehicle without a home item numbers its items from 0.
+    let shift = u16::from(view.shown == Shown::File && !vehicle_home);
+    let current = session.filter(|_| live).and_then(|s| {
+        s.mission
+            .current
+            .as_ref()
+            .map(|c| c.seq.saturating_add(shift))
+    });
     let reached: Vec<u16> = session
         .filter(|_| live)
-        .map(|s| s.mission.reached().map(|(_, q)| q).collect())
+        .map(|s| {
+            s.mission
+                .reached()
+                .map(|(_, q)| q.saturating_add(shift))
+                .collect()
+        })
         .unwrap_or_default();
     let widths = [
         Constraint::Length(5),
@@ -234,7 +259,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             } else {
                 " "
             };
-            let home = t == MissionType::Mission && i.seq == 0 && ardupilot;
+            let home = t == MissionType::Mission && i.seq == 0 && shown_home;
             let name = if home {
                 "HOME".into()
             } else {

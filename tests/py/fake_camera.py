@@ -7,6 +7,14 @@ a camera does: MAV_CMD_REQUEST_MESSAGE for CAMERA_INFORMATION (with a flag bit n
 dialects), CAMERA_SETTINGS, STORAGE_INFORMATION, CAMERA_CAPTURE_STATUS and CAMERA_IMAGE_CAPTURED
 (param2 = index); MAV_CMD_IMAGE_START_CAPTURE takes one image and announces it. Every
 COMMAND_LONG to the camera is written to --log-out (JSON: [command, p1..p7]) after each one.
+
+  --sysid N        the system's id (default 1).
+  --alone          no autopilot: the camera is a stand-alone payload on its own system.
+  --legacy         a camera of the older protocol: REQUEST_MESSAGE for CAMERA_SETTINGS (260) and
+                   STORAGE_INFORMATION (261) DENIED; MAV_CMD_REQUEST_CAMERA_SETTINGS (522,
+                   param1 = 1) and MAV_CMD_REQUEST_STORAGE_INFORMATION (525, param2 = 1)
+                   answered with the message.
+  --first-index N  image indices start at N (the spec says 0); an index never taken is DENIED.
 """
 import argparse
 import json
@@ -21,14 +29,18 @@ ap = argparse.ArgumentParser()
 ap.add_argument("--port", type=int, required=True)
 ap.add_argument("--log-out", required=True)
 ap.add_argument("--duration", type=float, default=30.0)
+ap.add_argument("--sysid", type=int, default=1)
+ap.add_argument("--alone", action="store_true")
+ap.add_argument("--legacy", action="store_true")
+ap.add_argument("--first-index", type=int, default=0)
 args = ap.parse_args()
 
 conn = mavutil.mavlink_connection(
-    "udpout:127.0.0.1:%d" % args.port, source_system=1, source_component=100,
+    "udpout:127.0.0.1:%d" % args.port, source_system=args.sysid, source_component=100,
     dialect="ardupilotmega",
 )
 cam = conn.mav
-autopilot = mav.MAVLink(conn, srcSystem=1, srcComponent=1)
+autopilot = mav.MAVLink(conn, srcSystem=args.sysid, srcComponent=1)
 FLAGS = 1 | 2 | 4 | (1 << 16)
 images = []
 log = []
@@ -65,6 +77,8 @@ def answer(m):
             then = lambda: cam.camera_information_send(
                 boot_ms(), vendor, model, 0x01020304, 4.5, 6.17, 4.55, 1920, 1080, 2,
                 FLAGS, 0, b"")
+        elif want in (260, 261) and args.legacy:
+            ok = mav.MAV_RESULT_DENIED
         elif want == 260:
             then = lambda: cam.camera_settings_send(boot_ms(), 0, 0.0, 0.0)
         elif want == 261:
@@ -72,13 +86,20 @@ def answer(m):
                 boot_ms(), 1, 1, 2, 60000.0, 100.0, 59900.0, 90.0, 60.0)
         elif want == 262:
             then = lambda: cam.camera_capture_status_send(
-                boot_ms(), 0, 0, 0.0, 0, 59900.0, len(images))
+                boot_ms(), 0, 0, 0.0, 0, 59900.0, len(images))  # how many taken
         elif want == 263 and int(p[1]) in images:
             then = lambda: captured(int(p[1]))
+        elif want == 263:
+            ok = mav.MAV_RESULT_DENIED
         else:
             ok = mav.MAV_RESULT_UNSUPPORTED
+    elif m.command == 522 and args.legacy and int(p[0]) == 1:
+        then = lambda: cam.camera_settings_send(boot_ms(), 0, 0.0, 0.0)
+    elif m.command == 525 and args.legacy and int(p[1]) == 1:
+        then = lambda: cam.storage_information_send(
+            boot_ms(), 1, 1, 2, 60000.0, 100.0, 59900.0, 90.0, 60.0)
     elif m.command == mav.MAV_CMD_IMAGE_START_CAPTURE:
-        images.append(len(images))
+        images.append(len(images) + args.first_index)
         then = lambda: captured(images[-1])
     else:
         ok = mav.MAV_RESULT_UNSUPPORTED
@@ -95,10 +116,11 @@ while time.time() - start < args.duration:
     now = time.time()
     if now >= next_hb:
         next_hb = now + 1.0
-        autopilot.heartbeat_send(mav.MAV_TYPE_QUADROTOR, mav.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 0, 3)
+        if not args.alone:
+            autopilot.heartbeat_send(mav.MAV_TYPE_QUADROTOR, mav.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 0, 3)
         cam.heartbeat_send(mav.MAV_TYPE_CAMERA, mav.MAV_AUTOPILOT_INVALID, 0, 0, 4)
     m = conn.recv_match(blocking=True, timeout=0.05)
     if m is None:
         continue
-    if m.get_type() == "COMMAND_LONG" and m.target_system == 1 and m.target_component == 100:
+    if m.get_type() == "COMMAND_LONG" and m.target_system == args.sysid and m.target_component == 100:
         answer(m)
