@@ -734,6 +734,19 @@ impl App {
         let ack = CommandAck::from_frame(frame).filter(|_| !copy);
         match msg {
             Some(MavMessage::HEARTBEAT(hb)) => {
+                if self.vehicles.full_for(key) {
+                    // A full table makes room: never at the cost of the target or of a vehicle
+                    // with work in flight.
+                    let kept = self
+                        .sessions
+                        .iter()
+                        .filter(|(_, s)| s.busy())
+                        .map(|(k, _)| *k)
+                        .chain(self.target)
+                        .chain(self.nudge.target)
+                        .collect::<Vec<_>>();
+                    self.vehicles.keep(kept);
+                }
                 let ev = self
                     .vehicles
                     .on_heartbeat(link, key, hb, frame.version, now);
@@ -741,11 +754,14 @@ impl App {
                 if !self.sessions.contains_key(&key)
                     && self.vehicles.get(key).is_some_and(|v| v.is_autopilot())
                 {
+                    // Found during a heartbeat flood: nothing starts on its own (the operator
+                    // can still ask).
+                    let auto = !self.vehicles.get(key).is_some_and(|v| v.flood);
                     let mut s = Session::new(
                         key,
                         hb.autopilot,
-                        self.cfg.request_streams,
-                        self.cfg.fetch_params,
+                        self.cfg.request_streams && auto,
+                        self.cfg.fetch_params && auto,
                         self.cfg.streams.clone(),
                     );
                     s.mission.gcs = (self.cfg.sysid, self.cfg.compid);
@@ -841,6 +857,8 @@ impl App {
             match ev {
                 VehicleEvent::Found(key) => {
                     let (desc, autopilot) = match self.vehicles.get(key) {
+                        // Found in a flood: listed and counted, told of once for all.
+                        Some(v) if v.flood => continue,
                         Some(v) => (
                             format!("{} {}", v.autopilot_name(), v.type_name()),
                             v.is_autopilot(),
@@ -856,6 +874,17 @@ impl App {
                         self.target = Some(key);
                     }
                 }
+                VehicleEvent::Lost(key) | VehicleEvent::Back(key)
+                    if self.vehicles.get(key).is_some_and(|v| v.flood) => {}
+                VehicleEvent::Flood(n) => self.notice(
+                    SEV_ERROR,
+                    None,
+                    format!(
+                        "heartbeat flood: {n} new ids within {} s; new vehicles are listed \
+                         without notices or automatic downloads, the target stays",
+                        crate::proto::vehicles::FLOOD_WINDOW / crate::clock::SECOND
+                    ),
+                ),
                 VehicleEvent::Lost(key) => {
                     self.notice(
                         SEV_WARNING,

@@ -484,6 +484,11 @@ impl ParamMachine {
         self.auto_started && self.download.is_some()
     }
 
+    /// True while a download runs or an edit waits for its echo.
+    pub fn busy(&self) -> bool {
+        self.download.is_some() || self.edits_pending > 0
+    }
+
     /// Start (or start over) downloading component `comp`'s parameters.
     pub fn fetch(&mut self, now: Micros, comp: u8) -> Vec<ParamOut> {
         self.auto = false;
