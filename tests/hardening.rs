@@ -118,3 +118,115 @@ fn a_heartbeat_flood_keeps_the_target_and_the_real_vehicle() {
     assert_eq!(rep["heartbeat_floods"], 1, "{}", rep["heartbeat_floods"]);
     assert!(rep["flood_found"].as_u64().unwrap() > 19_000);
 }
+
+fn param_value(name: &[u8], value: f32, count: u16, index: u16) -> Vec<u8> {
+    let mut id = [0u8; 16];
+    id[..name.len()].copy_from_slice(name);
+    let msg = MavMessage::PARAM_VALUE(dialect::PARAM_VALUE_DATA {
+        param_value: value,
+        param_count: count,
+        param_index: index,
+        param_id: id.into(),
+        param_type: dialect::MavParamType::MAV_PARAM_TYPE_REAL32,
+    });
+    encode(
+        Version::V2,
+        Header {
+            sysid: 1,
+            compid: 1,
+            seq: index as u8,
+        },
+        &msg,
+    )
+}
+
+fn press(a: &mut App, now: Micros, keys: &[&str]) -> Vec<Effect> {
+    let mut fx = Vec::new();
+    for k in keys {
+        fx.extend(a.update(now, Event::Key(k.parse().unwrap())));
+    }
+    fx
+}
+
+fn command(a: &mut App, now: Micros, line: &str) -> Vec<Effect> {
+    let mut fx = press(a, now, &[":"]);
+    for c in line.chars() {
+        fx.extend(a.update(now, Event::Key(mavterm::keymap::Key::ch(c))));
+    }
+    fx.extend(press(a, now, &["enter"]));
+    fx
+}
+
+/// Item 4: names that are not 1–16 printable ASCII characters without spaces (a newline that
+/// would inject a line, an escape sequence, a tab, `#`, a space, bytes that are not UTF-8) are
+/// refused, counted and shown escaped; the download completes without them and the saved
+/// `.parm` holds only real names.
+#[test]
+fn hostile_parameter_names_are_refused_and_never_reach_a_file() {
+    let mut a = App::new(AppConfig {
+        links: vec!["test".into()],
+        request_streams: false,
+        ..AppConfig::default()
+    });
+    a.update(
+        0,
+        Event::LinkState {
+            link: 0,
+            state: LinkState::Up,
+        },
+    );
+    feed(&mut a, 0, 0, &heartbeat(1, 1, 0));
+    a.update(SECOND, Event::Tick);
+    let names: [&[u8]; 8] = [
+        b"RTL_ALT",
+        b"X\nRTL_ALT 1",
+        b"\x1b[2JCLEAR",
+        b"TAB\tX",
+        b"HASH#X",
+        b"SPACE X",
+        b"\xff\xfe",
+        b"WPNAV_SPEED",
+    ];
+    let count = names.len() as u16;
+    for (i, n) in names.iter().enumerate() {
+        feed(
+            &mut a,
+            2 * SECOND,
+            0,
+            &param_value(n, 1500.0 + i as f32, count, i as u16),
+        );
+    }
+    a.update(3 * SECOND, Event::Tick);
+    let set = a.sessions[&(1, 1)].params.autopilot().unwrap();
+    let kept: Vec<&String> = set.params.keys().collect();
+    assert_eq!(kept, ["RTL_ALT", "WPNAV_SPEED"]);
+    assert_eq!(set.refused, 6);
+    // Not stalled: every index is accounted for.
+    assert!(set.complete(), "{:?}", set.progress());
+    let told: Vec<&str> = a
+        .notices
+        .iter()
+        .map(|n| n.text.as_str())
+        .filter(|t| t.contains("parameter name refused"))
+        .collect();
+    assert_eq!(told.len(), 3, "{told:?}");
+    assert!(told[0].ends_with(r#""X\nRTL_ALT 1""#), "{}", told[0]);
+    assert!(told[1].contains(r#""\x1b[2JCLEAR""#), "{}", told[1]);
+    for t in &told {
+        assert!(!t.chars().any(|c| c.is_control()), "{t:?}");
+    }
+    let fx = command(&mut a, 4 * SECOND, "param save keep.parm");
+    let text = fx
+        .iter()
+        .find_map(|e| match e {
+            Effect::WriteFile { contents, .. } => {
+                Some(String::from_utf8(contents.clone()).unwrap())
+            }
+            _ => None,
+        })
+        .expect("a file written");
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 2, "{text}");
+    assert!(lines[0].starts_with("RTL_ALT ") && lines[1].starts_with("WPNAV_SPEED "));
+    assert!(!text.contains("RTL_ALT 1\n"), "{text}");
+}
