@@ -230,3 +230,86 @@ fn hostile_parameter_names_are_refused_and_never_reach_a_file() {
     assert!(lines[0].starts_with("RTL_ALT ") && lines[1].starts_with("WPNAV_SPEED "));
     assert!(!text.contains("RTL_ALT 1\n"), "{text}");
 }
+
+/// Item 8: a save replaces a regular file only, keeps its mode, follows a symlink (the link
+/// stays, the file it points to is replaced), refuses a FIFO or a device, and never touches a
+/// user's file named like a temporary.
+#[cfg(unix)]
+#[test]
+fn atomic_saves_keep_links_modes_special_files_and_other_files() {
+    use mavterm::driver::write_atomic;
+    use std::os::unix::fs::{FileTypeExt, PermissionsExt};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A user's own file with the name the old temporary had.
+    std::fs::write(d.join("keep.tmp~"), "mine").unwrap();
+    write_atomic(&d.join("keep.parm"), b"A 1\n").unwrap();
+    write_atomic(&d.join("keep.waypoints"), b"QGC WPL 110\n").unwrap();
+    assert_eq!(
+        std::fs::read_to_string(d.join("keep.tmp~")).unwrap(),
+        "mine"
+    );
+    assert_eq!(
+        std::fs::read_to_string(d.join("keep.parm")).unwrap(),
+        "A 1\n"
+    );
+
+    // Mode 600 stays 600.
+    let private = d.join("private.parm");
+    std::fs::write(&private, "old").unwrap();
+    std::fs::set_permissions(&private, std::fs::Permissions::from_mode(0o600)).unwrap();
+    write_atomic(&private, b"new").unwrap();
+    let mode = std::fs::metadata(&private).unwrap().permissions().mode() & 0o777;
+    assert_eq!(mode, 0o600);
+
+    // A symlink is followed: the link stays, its file holds the new text.
+    std::fs::write(d.join("real.parm"), "old").unwrap();
+    std::os::unix::fs::symlink(d.join("real.parm"), d.join("link.parm")).unwrap();
+    write_atomic(&d.join("link.parm"), b"new").unwrap();
+    assert!(std::fs::symlink_metadata(d.join("link.parm"))
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    assert_eq!(std::fs::read_to_string(d.join("real.parm")).unwrap(), "new");
+
+    // A link to a device is refused, and the link is not replaced by a file.
+    std::os::unix::fs::symlink("/dev/null", d.join("null.parm")).unwrap();
+    assert!(write_atomic(&d.join("null.parm"), b"x").is_err());
+    assert!(std::fs::symlink_metadata(d.join("null.parm"))
+        .unwrap()
+        .file_type()
+        .is_symlink());
+
+    // A FIFO is refused (without blocking) and stays a FIFO.
+    let fifo = d.join("fifo.parm");
+    assert!(std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap()
+        .success());
+    assert!(write_atomic(&fifo, b"x").is_err());
+    assert!(std::fs::symlink_metadata(&fifo)
+        .unwrap()
+        .file_type()
+        .is_fifo());
+
+    // Nothing left behind: exactly the files made above.
+    let mut names: Vec<String> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        [
+            "fifo.parm",
+            "keep.parm",
+            "keep.tmp~",
+            "keep.waypoints",
+            "link.parm",
+            "null.parm",
+            "private.parm",
+            "real.parm"
+        ]
+    );
+}
