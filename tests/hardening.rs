@@ -313,3 +313,44 @@ fn atomic_saves_keep_links_modes_special_files_and_other_files() {
         ]
     );
 }
+
+/// Item 7: the `:` line holds at most 4,096 characters however many are typed (100,000 here:
+/// the probe's quadratic case, now O(1) a key), a paste is one event typed into the line (its
+/// newline runs nothing), and `esc` after it still closes the prompt.
+#[test]
+fn the_prompt_line_is_bounded_and_a_paste_is_one_event() {
+    use mavterm::app::input::MAX_LINE;
+    use mavterm::keymap::{Key, Mode};
+    assert_eq!(MAX_LINE, 4096);
+    let mut a = App::new(AppConfig {
+        links: vec!["test".into()],
+        ..AppConfig::default()
+    });
+    press(&mut a, 0, &[":"]);
+    for i in 0..100_000u32 {
+        a.update(0, Event::Key(Key::ch(char::from(b'a' + (i % 26) as u8))));
+    }
+    assert_eq!(a.ui.prompt.line.text.chars().count(), MAX_LINE);
+    assert!(a
+        .ui
+        .prompt
+        .line
+        .text
+        .starts_with("abcdefghijklmnopqrstuvwxyzab"));
+    press(&mut a, 0, &["esc"]);
+    assert_eq!(a.ui.mode, Mode::Normal);
+
+    // A paste: one event; the newline inside it does not run `quit`.
+    press(&mut a, 0, &[":"]);
+    let fx = a.update(0, Event::Paste("wp lo\nquit\r\x1bx".into()));
+    assert!(!fx.iter().any(|e| matches!(e, Effect::Quit)));
+    assert_eq!(a.ui.mode, Mode::Prompt);
+    assert_eq!(a.ui.prompt.line.text, "wp lo quit x");
+    // ~1 kB more, then keys still work.
+    a.update(0, Event::Paste("y".repeat(1100)));
+    assert_eq!(a.ui.prompt.line.text.len(), 12 + 1100);
+    press(&mut a, 0, &["esc"]);
+    assert_eq!(a.ui.mode, Mode::Normal);
+    press(&mut a, 0, &["q"]);
+    assert!(a.quit);
+}

@@ -107,6 +107,9 @@ pub enum Event {
         state: LinkState,
     },
     Key(Key),
+    /// Text pasted into the terminal (bracketed paste): one event, typed into the line being
+    /// edited, if any; keys after it work as ever.
+    Paste(String),
     /// A key was let go (terminals that report releases; `release KEY` in replay scripts).
     KeyRelease(Key),
     /// The screen changed size.
@@ -545,6 +548,7 @@ impl App {
             } => self.on_frames(link, frames, stats, &mut fx),
             Event::LinkState { link, state } => self.on_link_state(link, state),
             Event::Key(key) => self.on_key(key, &mut fx),
+            Event::Paste(text) => self.on_paste(&text),
             Event::KeyRelease(key) => self.on_key_release(key, &mut fx),
             Event::Resize => self.dirty = true,
             Event::FileWritten { path, error } if self.signing.is_state_file(&path) => {
@@ -581,6 +585,26 @@ impl App {
         self.poll_nudge(&mut fx);
         self.poll_sessions(&mut fx);
         fx
+    }
+
+    /// Pasted text: into the `:` line or the value being edited; elsewhere nothing (a paste
+    /// never runs commands or presses keys).
+    fn on_paste(&mut self, text: &str) {
+        let line = match self.ui.mode {
+            crate::keymap::Mode::Prompt => &mut self.ui.prompt.line,
+            crate::keymap::Mode::Edit => &mut self.ui.edit,
+            _ => return,
+        };
+        if !line.paste(text) {
+            self.ui.message = Some((
+                SEV_WARNING,
+                format!(
+                    "line full: {} characters at most",
+                    crate::app::input::MAX_LINE
+                ),
+            ));
+        }
+        self.dirty = true;
     }
 
     /// Timers: the 1 Hz GCS heartbeat and vehicle timeouts.
