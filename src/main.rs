@@ -188,7 +188,14 @@ fn run(cli: Cli) -> Result<()> {
         .worker_threads(2)
         .enable_all()
         .build()?;
+    let result = run_on(cli, &rt);
+    // A worker still blocked in the kernel (a file that never answers) must not keep the process
+    // alive after quit; a save in progress gets this long to finish.
+    rt.shutdown_timeout(Duration::from_secs(2));
+    result
+}
 
+fn run_on(cli: Cli, rt: &tokio::runtime::Runtime) -> Result<()> {
     if let Some(Command::Sim {
         listen,
         vehicles,

@@ -354,3 +354,49 @@ fn the_prompt_line_is_bounded_and_a_paste_is_one_event() {
     press(&mut a, 0, &["q"]);
     assert!(a.quit);
 }
+
+/// Item 6: `param load` (and `wp load`) of a FIFO is refused before it is opened: the run goes
+/// on, the operator is told why. (On today's code the open blocks for ever: the guard below
+/// turns that hang into a failure.)
+#[cfg(unix)]
+#[test]
+fn loading_a_fifo_is_refused_without_blocking() {
+    use mavterm::driver::virtual_time::VirtualRunner;
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("x.parm");
+    assert!(std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap()
+        .success());
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let spec = "sim://".parse().unwrap();
+        let mut r = VirtualRunner::from_specs(&[spec], AppConfig::default()).unwrap();
+        r.advance_to(SECOND);
+        for line in [
+            format!("param load {}", fifo.display()),
+            format!("wp load {}", fifo.display()),
+        ] {
+            r.key(":".parse().unwrap());
+            for c in line.chars() {
+                r.key(mavterm::keymap::Key::ch(c));
+            }
+            r.key("enter".parse().unwrap());
+            let t = r.now() + SECOND;
+            r.advance_to(t);
+        }
+        let told: Vec<String> = r
+            .app
+            .notices
+            .iter()
+            .map(|n| n.text.clone())
+            .filter(|t| t.contains("not a regular file"))
+            .collect();
+        let _ = tx.send(told);
+    });
+    let told = rx
+        .recv_timeout(std::time::Duration::from_secs(60))
+        .expect("the load of a FIFO hung");
+    assert_eq!(told.len(), 2, "{told:?}");
+}

@@ -124,10 +124,29 @@ pub fn open_recorder(target: &record::TlogTarget) -> Result<record::Recorder, Ev
 
 /// Read a file the core asked for, bounded: parameter files are small, and a wrong path must
 /// not fill the memory.
+///
+/// Only a regular file is read: a FIFO, a device or a socket is refused before it is opened
+/// (`stat` does not block), and the open itself never waits (`O_NONBLOCK`; the file is checked
+/// again once open, in case it was swapped in between).
 pub fn read_bounded(path: &Path) -> Result<Vec<u8>, String> {
     use std::io::Read;
     const MAX: u64 = 16 * 1024 * 1024;
-    let f = std::fs::File::open(path).map_err(|e| e.to_string())?;
+    const NOT_REGULAR: &str = "not a regular file (a FIFO, device, socket or directory): refused";
+    let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
+    if !meta.is_file() {
+        return Err(NOT_REGULAR.into());
+    }
+    let mut opts = std::fs::OpenOptions::new();
+    opts.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        opts.custom_flags(libc::O_NONBLOCK);
+    }
+    let f = opts.open(path).map_err(|e| e.to_string())?;
+    if !f.metadata().map_err(|e| e.to_string())?.is_file() {
+        return Err(NOT_REGULAR.into());
+    }
     let mut out = Vec::new();
     f.take(MAX + 1)
         .read_to_end(&mut out)
