@@ -400,3 +400,65 @@ fn loading_a_fifo_is_refused_without_blocking() {
         .expect("the load of a FIFO hung");
     assert_eq!(told.len(), 2, "{told:?}");
 }
+
+/// Item 5: one flipped bit in a record's timestamp (a jump of ~3 days forward, and back) is
+/// skipped, not waited for: the whole capture replays, every frame counted; `tlog:/dev/zero` is
+/// refused at once and a file with no MAVLink records still gives a report, its link down and
+/// why. (The guard turns today's stall into a failure.)
+#[test]
+fn a_timestamp_jump_in_a_tlog_is_skipped_and_bad_files_still_report() {
+    use mavterm::driver::virtual_time::VirtualRunner;
+    use mavterm::link::tlog::read_tlog;
+    let bytes = std::fs::read(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/copter-mavftp-params.vehicle.tlog"
+    ))
+    .unwrap();
+    let records = read_tlog(&bytes).unwrap();
+    let total = records.len();
+    assert!(total > 50, "{total}");
+    let at: usize = records[..10].iter().map(|r| 8 + r.frame.len()).sum();
+    let mut flipped = bytes.clone();
+    flipped[at + 3] ^= 0x40; // bit 38 of the big-endian µs: 2^38 µs ≈ 3.2 days
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("flipped.tlog");
+    std::fs::write(&path, &flipped).unwrap();
+    let junk = dir.path().join("junk.tlog");
+    std::fs::write(&junk, [0x42u8; 1000]).unwrap();
+
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let spec = format!("tlog:{}?speed=0", path.display()).parse().unwrap();
+        let mut r = VirtualRunner::from_specs(&[spec], AppConfig::default()).unwrap();
+        r.run_to_end_of_replays(u64::MAX);
+        let played = r.app.report();
+        let specs = [
+            "tlog:/dev/zero".parse().unwrap(),
+            format!("tlog:{}", junk.display()).parse().unwrap(),
+        ];
+        let mut bad = VirtualRunner::from_specs(&specs, AppConfig::default()).unwrap();
+        bad.advance_to(10 * SECOND);
+        let _ = tx.send((played, bad.app.report(), bad.app.all_links_stayed_down()));
+    });
+    let (played, bad, down) = rx
+        .recv_timeout(std::time::Duration::from_secs(60))
+        .expect("the replay stalled");
+    let frames = played["links"][0]["frames"].as_u64().unwrap();
+    assert_eq!(frames, total as u64, "{}", played["links"][0]);
+    assert_eq!(played["links"][0]["replay"]["ended"], true);
+    // Minutes, not days, of log time went by.
+    assert!(
+        played["duration_s"].as_f64().unwrap() < 600.0,
+        "{}",
+        played["duration_s"]
+    );
+    assert_eq!(bad["links"][0]["state"], "down");
+    let state = |i: usize| bad["links"][i]["reason"].as_str().unwrap().to_string();
+    assert!(state(0).contains("not a regular file"), "{}", state(0));
+    assert!(
+        state(1).contains("no MAVLink records in 1000 bytes"),
+        "{}",
+        state(1)
+    );
+    assert!(down.is_some_and(|d| d.contains("all links stayed down")));
+}
