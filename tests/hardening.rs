@@ -462,3 +462,72 @@ fn a_timestamp_jump_in_a_tlog_is_skipped_and_bad_files_still_report() {
     );
     assert!(down.is_some_and(|d| d.contains("all links stayed down")));
 }
+
+/// What a hostile MAVFTP vehicle streams after acknowledging the open of a 2,000-byte file.
+fn hostile_burst(offset_of: impl Fn(u32) -> u32) -> (Option<String>, u64, Option<u32>, Micros) {
+    use mavterm::proto::param_ftp::{FtpOut, FtpRead};
+    use mavterm::wire::mavftp::{op, FtpPacket};
+    let ack = |req: u8, offset: u32, data: Vec<u8>| FtpPacket {
+        seq: 0,
+        session: 1,
+        opcode: op::ACK,
+        size: data.len() as u8,
+        req_opcode: req,
+        burst_complete: 0,
+        offset,
+        data,
+    };
+    let (mut r, _) = FtpRead::start(0, "@PARAM/param.pck");
+    let mut out = r.on_packet(
+        10_000,
+        &ack(op::OPEN_FILE_RO, 0, 2000u32.to_le_bytes().to_vec()),
+    );
+    let mut failed = None;
+    // 20 Hz for two minutes of virtual time, whatever mavterm asks.
+    for i in 0..2400u32 {
+        let now = 20_000 + i as Micros * 50_000;
+        out.extend(r.poll(now));
+        out.extend(r.on_packet(
+            now,
+            &ack(op::BURST_READ_FILE, offset_of(i), vec![0x55; 239]),
+        ));
+        if let Some(why) = out.iter().find_map(|o| match o {
+            FtpOut::Failed(w) => Some(w.clone()),
+            _ => None,
+        }) {
+            failed = Some(why);
+            let (bytes, size) = r.progress();
+            return (failed, bytes, size, now);
+        }
+        out.clear();
+    }
+    let (bytes, size) = r.progress();
+    (failed, bytes, size, 0)
+}
+
+/// Item 3: a burst that never ends (offsets beyond the file, unaligned, or the same in-range
+/// block over and over, `burst_complete` never set) is not progress: with nothing new for
+/// 10 s the read fails, so the download falls back to the parameter protocol; the bytes counted
+/// never exceed the file's size.
+#[test]
+fn a_mavftp_burst_without_useful_progress_falls_back() {
+    for (what, f) in [
+        (
+            "beyond the file",
+            Box::new(|i: u32| 239 * (100 + i)) as Box<dyn Fn(u32) -> u32>,
+        ),
+        ("unaligned", Box::new(|i: u32| 17 + i)),
+        ("in range, repeated", Box::new(|_| 0)),
+    ] {
+        let (failed, bytes, size, at) = hostile_burst(f);
+        let why = failed.unwrap_or_else(|| panic!("{what}: never fell back"));
+        assert!(
+            at <= 20 * SECOND,
+            "{what}: fell back only at {at} µs ({why})"
+        );
+        assert!(
+            bytes <= size.unwrap_or(0) as u64,
+            "{what}: {bytes} of {size:?}"
+        );
+    }
+}

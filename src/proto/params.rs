@@ -473,7 +473,12 @@ impl ParamMachine {
         if let Phase::Ftp(f) = &d.phase {
             // Over MAVFTP parameters come all at once at the end: show the bytes' share.
             let (bytes, size) = f.progress();
-            let total = count.or(self.ftp_total(f));
+            // Never more than the file can hold: a record is at least 4 bytes after the
+            // header's 6 (a count in a hostile header says nothing).
+            let total = count.or(self.ftp_total(f)).map(|t| match size {
+                Some(s) => t.min((s.saturating_sub(6) / 4).min(u16::MAX as u32) as u16),
+                None => t,
+            });
             let shown = match (total, size) {
                 (Some(t), Some(s)) if s > 0 => {
                     ((bytes as f64 / s as f64).min(1.0) * t as f64) as usize
