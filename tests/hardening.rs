@@ -531,3 +531,45 @@ fn a_mavftp_burst_without_useful_progress_falls_back() {
         );
     }
 }
+
+/// CAMERA_CAPTURE_STATUS (262) saying `image_count` images were taken.
+fn capture_status(image_count: i32) -> Vec<u8> {
+    let mut p = vec![0u8; 22];
+    p[18..22].copy_from_slice(&image_count.to_le_bytes());
+    p
+}
+
+/// Item 2: a camera whose `image_count` rises by 1,000 at 20 Hz (no image ever sent) keeps the
+/// missing-image bookkeeping bounded: the newest 256 indices looked at, at most 16 requests
+/// waiting, the holes asked for never more than the window.
+#[test]
+fn a_runaway_image_count_keeps_hole_tracking_bounded() {
+    use mavterm::proto::camera::{CameraSet, HOLE_QUEUE, HOLE_SPAN};
+    let mut s = CameraSet::default();
+    s.on_message(0, 100, 0, Some(30), &[]);
+    let mut most = (0, 0);
+    for i in 1..=1200i32 {
+        let now = i as Micros * 50_000;
+        s.on_message(now, 100, 262, None, &capture_status(i * 1000));
+        s.poll(now);
+        let _ = s.next_deadline();
+        // The command queue takes one request a message.
+        if !s.heads().is_empty() {
+            s.sent(100);
+        }
+        let c = &s.cameras[&100];
+        let (asked, pending) = c.hole_tracking();
+        most = (most.0.max(asked), most.1.max(pending));
+        assert!(c.missing().len() <= HOLE_SPAN as usize);
+    }
+    assert!(most.0 <= HOLE_SPAN as usize, "{most:?}");
+    assert!(most.1 <= HOLE_QUEUE + 8, "{most:?}");
+    // The newest holes are the ones asked for.
+    let c = &s.cameras[&100];
+    assert!(c.missing().contains(&(1_200_000 - 1)));
+    let asked_newest = s
+        .heads()
+        .iter()
+        .any(|(_, cmd, p)| *cmd == 512 && p[0] == 263.0 && p[1] as i32 >= 1_200_000 - HOLE_SPAN);
+    assert!(asked_newest, "{:?}", s.heads());
+}
