@@ -573,3 +573,59 @@ fn a_runaway_image_count_keeps_hole_tracking_bounded() {
         .any(|(_, cmd, p)| *cmd == 512 && p[0] == 263.0 && p[1] as i32 >= 1_200_000 - HOLE_SPAN);
     assert!(asked_newest, "{:?}", s.heads());
 }
+
+/// Item 9: `--report json` with `--params-out` prints the report as well as writing the file.
+#[test]
+fn params_out_with_report_json_prints_the_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("p.parm");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_mavterm"))
+        .args(["--headless", "--link", "sim://", "--report", "json"])
+        .arg("--params-out")
+        .arg(&out)
+        .env("HOME", dir.path())
+        .env("XDG_CONFIG_HOME", dir.path())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(out.exists(), "{err}");
+    let stdout = String::from_utf8(o.stdout).unwrap();
+    let rep: serde_json::Value = serde_json::from_str(stdout.trim()).expect("a JSON report");
+    assert_eq!(
+        rep["params"][0]["components"][0]["complete"], true,
+        "{}",
+        rep["params"]
+    );
+}
+
+/// Item 9: a disk that fills mid-record (a file-size limit here, its signal ignored, so the
+/// write fails with EFBIG as with ENOSPC) leaves only whole records in the tlog.
+#[cfg(unix)]
+#[test]
+fn a_full_disk_leaves_only_whole_records_in_the_tlog() {
+    use mavterm::link::tlog::read_tlog_counted;
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("x.tlog");
+    let o = std::process::Command::new("sh")
+        .arg("-c")
+        .arg(r#"trap '' XFSZ; ulimit -f 8; exec "$0" --headless --link sim:// --tlog "$1" --duration 120 --report json"#)
+        .arg(env!("CARGO_BIN_EXE_mavterm"))
+        .arg(&log)
+        .env("HOME", dir.path())
+        .env("XDG_CONFIG_HOME", dir.path())
+        .output()
+        .unwrap();
+    let out = String::from_utf8_lossy(&o.stdout);
+    let rep: serde_json::Value = serde_json::from_str(out.trim()).expect("a report");
+    assert!(
+        rep["recording"]["error"].is_string(),
+        "{}",
+        rep["recording"]
+    );
+    let bytes = std::fs::read(&log).unwrap();
+    assert!(bytes.len() <= 4096 && !bytes.is_empty(), "{}", bytes.len());
+    let (records, skipped) = read_tlog_counted(&bytes).unwrap();
+    assert!(!records.is_empty());
+    assert_eq!(skipped.bytes, 0, "a partial record at the end");
+}
