@@ -629,3 +629,61 @@ fn a_full_disk_leaves_only_whole_records_in_the_tlog() {
     assert!(!records.is_empty());
     assert_eq!(skipped.bytes, 0, "a partial record at the end");
 }
+
+/// Item 9: a client flooding a `tcpin` forwarding output while the core does not keep up: at
+/// most [`OUTPUT_QUEUE`] reports (each one read's frames) wait, the rest is dropped and counted,
+/// so memory stays bounded (the outputs' manager is started with this queue).
+#[test]
+fn a_flooded_output_queues_a_bounded_number_of_reports() {
+    use mavterm::link::manager::{LinkManager, OUTPUT_QUEUE};
+    use mavterm::link::transport::LinkEvent;
+    use std::io::Write;
+    assert!(OUTPUT_QUEUE <= 64);
+    let port = {
+        let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        l.local_addr().unwrap().port()
+    };
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .unwrap();
+    let spec = format!("tcpin:127.0.0.1:{port}").parse().unwrap();
+    let mut m = rt.block_on(async {
+        LinkManager::start_queued(&[spec], mavterm::driver::local_sources(), OUTPUT_QUEUE)
+    });
+    let mut client = loop {
+        if let Ok(c) = std::net::TcpStream::connect(("127.0.0.1", port)) {
+            break c;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    // 4 MB of heartbeats, nobody draining the queue.
+    let blob: Vec<u8> = (0..10_000).flat_map(|i| heartbeat(9, 1, i as u8)).collect();
+    for _ in 0..20 {
+        client.write_all(&blob).unwrap();
+    }
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let (mut reports, mut dropped) = (0usize, 0u64);
+    rt.block_on(async {
+        while let Ok(Some((_, ev))) =
+            tokio::time::timeout(std::time::Duration::from_millis(300), m.next_event()).await
+        {
+            match ev {
+                LinkEvent::Frames { .. } => reports += 1,
+                LinkEvent::Dropped(n) => dropped += n,
+                _ => {}
+            }
+            if reports > 10 * OUTPUT_QUEUE {
+                break;
+            }
+        }
+    });
+    // All 4 MB were read (write_all returned) but only the queue's worth waited; what did not
+    // fit is counted with the next report.
+    let _ = dropped;
+    assert!(
+        reports <= OUTPUT_QUEUE + 2,
+        "{reports} reports were waiting"
+    );
+}
