@@ -188,7 +188,14 @@ fn run(cli: Cli) -> Result<()> {
         .worker_threads(2)
         .enable_all()
         .build()?;
+    let result = run_on(cli, &rt);
+    // A worker still blocked in the kernel (a file that never answers) must not keep the process
+    // alive after quit; a save in progress gets this long to finish.
+    rt.shutdown_timeout(Duration::from_secs(2));
+    result
+}
 
+fn run_on(cli: Cli, rt: &tokio::runtime::Runtime) -> Result<()> {
     if let Some(Command::Sim {
         listen,
         vehicles,
@@ -376,7 +383,23 @@ fn params_out(
     let p = progress(&app);
     show(&p);
     let text = file_text(&app, out);
-    match (&p, text) {
+    let result = params_result(&app, &p, text, out);
+    // `--report json` with `--params-out`: the report too, whatever became of the file.
+    if let Some(ReportFormat::Json) = cli.report {
+        print_line(&serde_json::to_string(&app.report())?)?;
+    }
+    result
+}
+
+/// The file written (or what came, as `.partial`), or why not.
+fn params_result(
+    app: &mavterm::app::App,
+    p: &mavterm::headless::params::Progress,
+    text: Option<String>,
+    out: &std::path::Path,
+) -> Result<()> {
+    use mavterm::headless::params::Progress;
+    match (p, text) {
         (Progress::Ended { missing: 0, .. }, Some(text)) => {
             mavterm::driver::write_atomic(out, text.as_bytes())
                 .with_context(|| format!("writing {}", out.display()))?;

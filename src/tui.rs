@@ -131,7 +131,9 @@ impl GuardState {
             self.out,
             EnterAlternateScreen,
             crossterm::terminal::Clear(crossterm::terminal::ClearType::All),
-            crossterm::cursor::Hide
+            crossterm::cursor::Hide,
+            // A paste comes as one event, not as keys (which it could be taken for).
+            ct::EnableBracketedPaste
         )?;
         if self.can_enhance {
             self.enhance()?;
@@ -162,7 +164,12 @@ impl GuardState {
         if std::mem::take(&mut self.enhanced) {
             let _ = crossterm::execute!(self.out, ct::PopKeyboardEnhancementFlags);
         }
-        crossterm::execute!(self.out, LeaveAlternateScreen, crossterm::cursor::Show)?;
+        crossterm::execute!(
+            self.out,
+            ct::DisableBracketedPaste,
+            LeaveAlternateScreen,
+            crossterm::cursor::Show
+        )?;
         self.out.flush()?;
         raw
     }
@@ -524,6 +531,7 @@ where
                         return Ok(Some(Event::Key(key)));
                     }
                 }
+                Some(Ok(ct::Event::Paste(text))) => return Ok(Some(Event::Paste(text))),
                 Some(Ok(ct::Event::Resize(w, h))) => {
                     self.record(|r, t| r.resize(t, (w, h)))?;
                     return Ok(Some(Event::Resize));

@@ -485,3 +485,72 @@ fn sighup_during_a_nudge_sends_the_stop() {
     let steps = [(300, FLY), (600, UP), (1100, Step::Signal("HUP"))];
     ends_in_a_stop(&nudge_session("child_nudges_then_gets_sighup", &steps));
 }
+
+/// Run `child` under `script`, writing `chunks` 300 ms apart (over again until it exits, a slow
+/// machine may not be in raw mode the first time); returns (success, output).
+fn under_pty_chunks(child: &str, chunks: &[Vec<u8>]) -> (bool, String) {
+    let exe = std::env::current_exe().unwrap();
+    let cmd = format!(
+        "stty cols 100 rows 30; {} --ignored --exact --nocapture {child}",
+        exe.display()
+    );
+    let mut p = Command::new("script")
+        .args(["-qec", &cmd, "/dev/null"])
+        .env("TERM", "xterm-256color")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("util-linux `script` is needed for the pty tests");
+    let mut stdin = p.stdin.take().unwrap();
+    let start = Instant::now();
+    let mut next = start + Duration::from_millis(500);
+    let mut i = 0;
+    while p.try_wait().unwrap().is_none() {
+        assert!(start.elapsed() < Duration::from_secs(30), "{child} hung");
+        if Instant::now() >= next {
+            let _ = stdin
+                .write_all(&chunks[i % chunks.len()])
+                .and_then(|()| stdin.flush());
+            i += 1;
+            next += Duration::from_millis(300);
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    drop(stdin);
+    let out = p.wait_with_output().unwrap();
+    let text =
+        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    (out.status.success(), text)
+}
+
+/// Item 7 (issue 30): ~1 kB pasted into the `:` prompt, bracketed as a terminal pastes it, is one
+/// event: `esc` then `q` after it still close the prompt and quit. The terminal is asked for
+/// bracketed paste on entry and told to stop on leaving.
+#[test]
+fn keys_after_a_paste_into_the_prompt_still_work() {
+    let mut paste = b"\x1b[200~".to_vec();
+    paste.extend(std::iter::repeat_n(b'x', 1100));
+    paste.extend(b"\x1b[201~");
+    let (ok, out) = under_pty_chunks(
+        "child_quits_on_q",
+        &[b":".to_vec(), paste, b"\x1b".to_vec(), b"q".to_vec()],
+    );
+    assert!(ok, "{out}");
+    assert!(out.contains("\x1b[?2004h"), "bracketed paste never enabled");
+    assert!(out.rfind("\x1b[?2004l") > out.rfind("\x1b[?2004h"));
+    assert!(out.contains("CHILD-DONE"), "{out:?}");
+}
+
+/// The same paste without brackets (a terminal that does not bracket it) arrives as keys: the
+/// line stops at its bound and `esc`, `q` after it still work.
+#[test]
+fn keys_after_an_unbracketed_paste_still_work() {
+    let paste = vec![b'y'; 1100];
+    let (ok, out) = under_pty_chunks(
+        "child_quits_on_q",
+        &[b":".to_vec(), paste, b"\x1b".to_vec(), b"q".to_vec()],
+    );
+    assert!(ok, "{out}");
+    assert!(out.contains("CHILD-DONE"), "{out:?}");
+}

@@ -4,31 +4,92 @@
 //! Commands are words: the first names the command, the rest are its arguments. A later feature
 //! adds its commands to [`COMMANDS`] and a branch in `App::run_command`.
 
-/// A line of text with a cursor (a char index, 0..=len).
+/// Characters a line holds at most (a long path fits; a runaway paste stops here).
+pub const MAX_LINE: usize = 4096;
+
+/// A line of text with a cursor (a char index, 0..=len), at most [`MAX_LINE`] characters.
+/// Typing at the end (what typing and pasting do) is O(1) amortised: the length in characters
+/// is kept, and an ASCII line's char index is its byte index.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct TextLine {
     pub text: String,
     pub cursor: usize,
+    /// `text` in characters.
+    chars: usize,
 }
 
 impl TextLine {
     fn byte(&self, char_idx: usize) -> usize {
+        if char_idx >= self.chars {
+            return self.text.len();
+        }
+        if self.chars == self.text.len() {
+            return char_idx;
+        }
         self.text
             .char_indices()
             .nth(char_idx)
             .map_or(self.text.len(), |(b, _)| b)
     }
     fn len(&self) -> usize {
-        self.text.chars().count()
+        self.chars
     }
     pub fn set(&mut self, text: &str) {
-        self.text = text.to_string();
-        self.cursor = self.len();
+        self.text = text.chars().take(MAX_LINE).collect();
+        self.chars = self.text.chars().count();
+        self.cursor = self.chars;
     }
+    /// Take the text out, leaving the line empty.
+    pub fn take(&mut self) -> String {
+        self.chars = 0;
+        self.cursor = 0;
+        std::mem::take(&mut self.text)
+    }
+    /// True when the line holds [`MAX_LINE`] characters: nothing more is typed.
+    pub fn full(&self) -> bool {
+        self.chars >= MAX_LINE
+    }
+    /// Type `c` at the cursor (nothing when the line is full).
     pub fn insert(&mut self, c: char) {
+        if self.full() {
+            return;
+        }
         let b = self.byte(self.cursor);
-        self.text.insert(b, c);
+        if b == self.text.len() {
+            self.text.push(c);
+        } else {
+            self.text.insert(b, c);
+        }
+        self.chars += 1;
         self.cursor += 1;
+    }
+    /// Paste `text` at the cursor, as one edit: line breaks and tabs become spaces (a pasted
+    /// newline never runs the line), other control characters are left out. False when the
+    /// line filled before the paste ended.
+    pub fn paste(&mut self, text: &str) -> bool {
+        self.cursor = self.cursor.min(self.chars);
+        let b = self.byte(self.cursor);
+        let tail = self.text.split_off(b);
+        let tail_chars = self.chars - self.cursor;
+        self.chars = self.cursor;
+        let mut whole = true;
+        for c in text.chars() {
+            let c = match c {
+                '\n' | '\r' | '\t' => ' ',
+                c if c.is_control() => continue,
+                c => c,
+            };
+            if self.chars + tail_chars >= MAX_LINE {
+                whole = false;
+                break;
+            }
+            self.text.push(c);
+            self.chars += 1;
+        }
+        self.cursor = self.chars;
+        self.text.push_str(&tail);
+        self.chars += tail_chars;
+        whole
     }
     pub fn left(&mut self) {
         self.cursor = self.cursor.saturating_sub(1);
@@ -47,12 +108,14 @@ impl TextLine {
             self.cursor -= 1;
             let b = self.byte(self.cursor);
             self.text.remove(b);
+            self.chars -= 1;
         }
     }
     pub fn delete(&mut self) {
         if self.cursor < self.len() {
             let b = self.byte(self.cursor);
             self.text.remove(b);
+            self.chars -= 1;
         }
     }
     /// Delete the word before the cursor (and the spaces after it), like a shell's ctrl-w.
@@ -67,10 +130,12 @@ impl TextLine {
         }
         let (a, b) = (self.byte(start), self.byte(self.cursor));
         self.text.replace_range(a..b, "");
+        self.chars -= self.cursor - start;
         self.cursor = start;
     }
     pub fn clear(&mut self) {
         self.text.clear();
+        self.chars = 0;
         self.cursor = 0;
     }
 
@@ -115,8 +180,7 @@ impl Prompt {
 
     /// Take the line for running, remembering it in the history.
     pub fn submit(&mut self) -> String {
-        let text = std::mem::take(&mut self.line.text).trim().to_string();
-        self.line.cursor = 0;
+        let text = self.line.take().trim().to_string();
         self.browsing = None;
         if !text.is_empty() && self.history.last() != Some(&text) {
             if self.history.len() == HISTORY {

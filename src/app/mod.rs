@@ -113,6 +113,9 @@ pub enum Event {
     /// The front end is about to end (quit, its input closed, a signal, a panic): a nudge in
     /// progress ends in a stop.
     Ending,
+    /// Text pasted into the terminal (bracketed paste): one event, typed into the line being
+    /// edited, if any; keys after it work as ever.
+    Paste(String),
     /// A key was let go (terminals that report releases; `release KEY` in replay scripts).
     KeyRelease(Key),
     /// The screen changed size.
@@ -560,6 +563,7 @@ impl App {
             Event::LinkState { link, state } => self.on_link_state(link, state),
             Event::Key(key) => self.on_key(key, false, &mut fx),
             Event::KeyRepeat(key) => self.on_key(key, true, &mut fx),
+            Event::Paste(text) => self.on_paste(&text),
             Event::KeyRelease(key) => self.on_key_release(key, &mut fx),
             Event::Ending => self.leave_fly(&mut fx),
             Event::Resize => self.dirty = true,
@@ -599,6 +603,26 @@ impl App {
         self.poll_sessions(&mut fx);
         self.follow_selected_command();
         fx
+    }
+
+    /// Pasted text: into the `:` line or the value being edited; elsewhere nothing (a paste
+    /// never runs commands or presses keys).
+    fn on_paste(&mut self, text: &str) {
+        let line = match self.ui.mode {
+            crate::keymap::Mode::Prompt => &mut self.ui.prompt.line,
+            crate::keymap::Mode::Edit => &mut self.ui.edit,
+            _ => return,
+        };
+        if !line.paste(text) {
+            self.ui.message = Some((
+                SEV_WARNING,
+                format!(
+                    "line full: {} characters at most",
+                    crate::app::input::MAX_LINE
+                ),
+            ));
+        }
+        self.dirty = true;
     }
 
     /// Timers: the 1 Hz GCS heartbeat and vehicle timeouts.
@@ -752,6 +776,19 @@ impl App {
         let ack = CommandAck::from_frame(frame).filter(|_| !copy);
         match msg {
             Some(MavMessage::HEARTBEAT(hb)) => {
+                if self.vehicles.full_for(key) {
+                    // A full table makes room: never at the cost of the target or of a vehicle
+                    // with work in flight.
+                    let kept = self
+                        .sessions
+                        .iter()
+                        .filter(|(_, s)| s.busy())
+                        .map(|(k, _)| *k)
+                        .chain(self.target)
+                        .chain(self.nudge.target)
+                        .collect::<Vec<_>>();
+                    self.vehicles.keep(kept);
+                }
                 let ev = self
                     .vehicles
                     .on_heartbeat(link, key, hb, frame.version, now);
@@ -760,7 +797,9 @@ impl App {
                 // A camera or gimbal alone on its system (no autopilot heard there) gets a
                 // session of its own, so it can be targeted and operated; an autopilot of the
                 // system heard later takes over (the payload is reached through it).
+                let flood = self.vehicles.get(key).is_some_and(|v| v.flood);
                 let alone = !autopilot
+                    && !flood
                     && self.vehicles.get(key).is_some_and(|v| v.is_payload())
                     && self
                         .sessions
@@ -771,11 +810,14 @@ impl App {
                     if autopilot {
                         self.drop_payload_sessions(key.0);
                     }
+                    // Found during a heartbeat flood: nothing starts on its own (the operator
+                    // can still ask).
+                    let auto = autopilot && !flood;
                     let mut s = Session::new(
                         key,
                         hb.autopilot,
-                        self.cfg.request_streams && autopilot,
-                        self.cfg.fetch_params && autopilot,
+                        self.cfg.request_streams && auto,
+                        self.cfg.fetch_params && auto,
                         self.cfg.streams.clone(),
                     );
                     s.mission.gcs = (self.cfg.sysid, self.cfg.compid);
@@ -890,6 +932,8 @@ impl App {
             match ev {
                 VehicleEvent::Found(key) => {
                     let (desc, autopilot) = match self.vehicles.get(key) {
+                        // Found in a flood: listed and counted, told of once for all.
+                        Some(v) if v.flood => continue,
                         Some(v) => (
                             format!("{} {}", v.autopilot_name(), v.type_name()),
                             v.is_autopilot(),
@@ -905,6 +949,17 @@ impl App {
                         self.target = Some(key);
                     }
                 }
+                VehicleEvent::Lost(key) | VehicleEvent::Back(key)
+                    if self.vehicles.get(key).is_some_and(|v| v.flood) => {}
+                VehicleEvent::Flood(n) => self.notice(
+                    SEV_ERROR,
+                    None,
+                    format!(
+                        "heartbeat flood: {n} new ids within {} s; new vehicles are listed \
+                         without notices or automatic downloads, the target stays",
+                        crate::proto::vehicles::FLOOD_WINDOW / crate::clock::SECOND
+                    ),
+                ),
                 VehicleEvent::Lost(key) => {
                     self.notice(
                         SEV_WARNING,

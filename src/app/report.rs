@@ -5,7 +5,9 @@
 //! `vehicles[].{sysid,compid,type,autopilot,mode,armed,system_status,lost}`. Extra fields may be
 //! added, never renamed. Bounded tables and queues say what they let go: `links[].dropped` (frames
 //! a queue dropped), `links[].echoes` (our own frames heard back), `links[].evicted_sources`, and
-//! `vehicles_evicted` at the top. A tlog link's skipped bytes are in `links[].garbage_bytes`, and
+//! `vehicles_evicted` at the top (with `vehicles_refused`: newcomers turned away because every
+//! component kept was the target or busy, and `heartbeat_floods` / `flood_found`: floods of new
+//! ids and the components found during them). A tlog link's skipped bytes are in `links[].garbage_bytes`, and
 //! where its replay is in `links[].replay.{position_s,duration_s,speed,paused,ended}` (speed 0 =
 //! as fast as possible; `null` on other links).
 //!
@@ -292,6 +294,9 @@ impl App {
             "params": params,
             "streams": streams,
             "vehicles_evicted": self.vehicles.evicted,
+            "vehicles_refused": self.vehicles.refused,
+            "heartbeat_floods": self.vehicles.floods,
+            "flood_found": self.vehicles.flood_found,
             "signing": {
                 "key": self.signing.key.is_some(),
                 "key_id": self.signing.key.as_ref().map(|k| k.id()),

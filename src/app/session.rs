@@ -619,6 +619,15 @@ impl Session {
     }
 
     /// The vehicle rebooted: every machine starts over where it must.
+    /// True while work is in flight: a command waiting for its answer, a sequence, a parameter
+    /// download or edit, a mission transfer. Such a vehicle is never evicted.
+    pub fn busy(&self) -> bool {
+        self.sequence.is_some()
+            || self.params.busy()
+            || self.mission.busy()
+            || self.commands.entries().any(|e| e.open())
+    }
+
     pub fn on_reboot(&mut self) {
         self.streams.on_reboot();
         self.mission.on_reboot();

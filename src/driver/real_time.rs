@@ -265,7 +265,11 @@ impl<C: Clock + Clone> RealTime<C> {
             return;
         }
         self.links.outputs = Some(Outputs {
-            mgr: LinkManager::start(outputs, local_sources()),
+            mgr: LinkManager::start_queued(
+                outputs,
+                local_sources(),
+                crate::link::manager::OUTPUT_QUEUE,
+            ),
             fwd: Forwarder::new(outputs),
         });
         step_edge(&mut self.app, &mut self.links, self.clock.now());

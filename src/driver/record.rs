@@ -12,7 +12,7 @@
 //! SETUP_SIGNING (it carries the secret key) is never written.
 
 use std::fs::{File, OpenOptions};
-use std::io::{self, BufWriter, Write};
+use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{self, RecvTimeoutError, SyncSender, TrySendError};
 use std::thread::JoinHandle;
@@ -123,7 +123,7 @@ impl Recorder {
         let (tx, rx) = mpsc::sync_channel::<Vec<u8>>(RECORD_QUEUE);
         let spawned = std::thread::Builder::new()
             .name("tlog writer".into())
-            .spawn(move || write_loop(BufWriter::with_capacity(WRITE_BUFFER, file), rx));
+            .spawn(move || write_loop(file, bytes, rx));
         let thread = spawned.map_err(|e| RecordingStatus {
             path: path.clone(),
             bytes,
@@ -281,12 +281,49 @@ impl Drop for Recorder {
     }
 }
 
-/// The writer thread: batches in, written through a buffer; flushed once the oldest unflushed
-/// record is [`FLUSH_EVERY`] old, and at the end (the queue closed), then synced to disk. Asleep
-/// while nothing comes. Returns the first error, which ends the recording.
-fn write_loop(mut out: BufWriter<File>, rx: mpsc::Receiver<Vec<u8>>) -> Result<(), String> {
+/// After a write that stopped `done` bytes into `buf` (the file was `len` long before it): cut
+/// the file back to the last whole record written.
+fn cut(file: &mut File, len: u64, buf: &[u8], done: usize) -> usize {
+    let keep = crate::link::tlog::whole_records(buf, done);
+    if file.metadata().is_ok_and(|m| m.is_file()) {
+        let _ = file.set_len(len + keep as u64);
+    }
+    keep
+}
+
+/// The writer thread: batches in, written through a buffer; written out once the oldest
+/// unwritten record is [`FLUSH_EVERY`] old or the buffer holds [`WRITE_BUFFER`], and at the end
+/// (the queue closed), then synced to disk. Asleep while nothing comes. Returns the first error,
+/// which ends the recording; the file is then cut back to its last whole record (`len` is how
+/// long it was at the start), so a full disk never leaves part of one.
+fn write_loop(mut file: File, mut len: u64, rx: mpsc::Receiver<Vec<u8>>) -> Result<(), String> {
     let err = |e: io::Error| e.to_string();
+    let mut buf: Vec<u8> = Vec::with_capacity(WRITE_BUFFER);
     let mut unflushed_since: Option<Instant> = None;
+    // Batches hold whole records: what is written whole ends on a record's end.
+    let mut write_out = |file: &mut File, buf: &mut Vec<u8>| -> Result<(), String> {
+        if buf.is_empty() {
+            return Ok(());
+        }
+        let mut done = 0;
+        while done < buf.len() {
+            match file.write(&buf[done..]) {
+                Ok(0) => {
+                    cut(file, len, buf, done);
+                    return Err("the disk took no more".into());
+                }
+                Ok(n) => done += n,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => {
+                    cut(file, len, buf, done);
+                    return Err(err(e));
+                }
+            }
+        }
+        len += buf.len() as u64;
+        buf.clear();
+        Ok(())
+    };
     loop {
         let got = match unflushed_since {
             None => rx.recv().map_err(|_| RecvTimeoutError::Disconnected),
@@ -294,20 +331,23 @@ fn write_loop(mut out: BufWriter<File>, rx: mpsc::Receiver<Vec<u8>>) -> Result<(
         };
         match got {
             Ok(batch) => {
-                out.write_all(&batch).map_err(err)?;
+                buf.extend_from_slice(&batch);
                 unflushed_since.get_or_insert_with(Instant::now);
+                if buf.len() >= WRITE_BUFFER {
+                    write_out(&mut file, &mut buf)?;
+                }
             }
             Err(RecvTimeoutError::Timeout) => {}
             Err(RecvTimeoutError::Disconnected) => break,
         }
         if unflushed_since.is_some_and(|t| t.elapsed() >= FLUSH_EVERY) {
-            out.flush().map_err(err)?;
+            write_out(&mut file, &mut buf)?;
             unflushed_since = None;
         }
     }
-    out.flush().map_err(err)?;
+    write_out(&mut file, &mut buf)?;
     // A character device (a pipe, /dev/null) cannot be synced: not an error of the log.
-    match out.get_ref().sync_data() {
+    match file.sync_data() {
         Err(e) if e.kind() != io::ErrorKind::InvalidInput => Err(err(e)),
         _ => Ok(()),
     }

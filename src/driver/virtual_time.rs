@@ -15,7 +15,7 @@ use crate::app::{App, AppConfig, Event};
 use crate::clock::Micros;
 use crate::keymap::Key;
 use crate::link::replay::ReplayCmd;
-use crate::link::source::{TlogOpenError, TlogSource, VirtualSource};
+use crate::link::source::{TlogSource, VirtualSource};
 use crate::link::{Frame, FrameParser, LinkId, LinkSpec, LinkState, ParserStats};
 
 /// The wall-clock time shown for virtual time zero when nothing better is known.
@@ -196,7 +196,20 @@ pub fn all_virtual(specs: &[LinkSpec]) -> bool {
 impl VirtualRunner {
     /// A runner over ready-made sources; `cfg.links` names them in order.
     pub fn new(cfg: AppConfig, sources: Vec<Box<dyn VirtualSource>>) -> Self {
-        let links = sources.into_iter().map(|s| VLink::new(Some(s))).collect();
+        Self::with_links(cfg, sources.into_iter().map(Ok).collect())
+    }
+
+    /// A runner over sources, or for each that could not open why: that link is down from the
+    /// start (the run goes on, and its report says why).
+    fn with_links(cfg: AppConfig, sources: Vec<Result<Box<dyn VirtualSource>, String>>) -> Self {
+        let states: Vec<LinkState> = sources
+            .iter()
+            .map(|s| match s {
+                Ok(_) => LinkState::Up,
+                Err(why) => LinkState::Down(why.clone()),
+            })
+            .collect();
+        let links = sources.into_iter().map(|s| VLink::new(s.ok())).collect();
         let mut r = Self {
             app: App::new(cfg),
             links: VLinks {
@@ -207,39 +220,36 @@ impl VirtualRunner {
             },
             now: 0,
         };
-        for link in 0..r.links.links.len() {
-            r.step(Event::LinkState {
-                link,
-                state: LinkState::Up,
-            });
+        for (link, state) in states.into_iter().enumerate() {
+            r.step(Event::LinkState { link, state });
         }
         r
     }
 
-    /// Build sources from link specs. The epoch shown is the first tlog's start, else fixed.
+    /// Build sources from link specs. The epoch shown is the first tlog's start, else fixed. A
+    /// tlog that cannot be replayed (missing, not a regular file, no MAVLink records) is a link
+    /// down from the start, its reason the error: the run and its report go on.
     pub fn from_specs(specs: &[LinkSpec], mut cfg: AppConfig) -> Result<Self, RunnerError> {
-        let mut sources: Vec<Box<dyn VirtualSource>> = Vec::new();
+        let mut sources: Vec<Result<Box<dyn VirtualSource>, String>> = Vec::new();
         let mut epoch = None;
         for spec in specs {
             match spec {
-                LinkSpec::Tlog { path, speed } => {
-                    let path = path.clone();
-                    let src = TlogSource::open(&path).map_err(|e| match e {
-                        TlogOpenError::Io(source) => RunnerError::Io { path, source },
-                        TlogOpenError::Tlog(source) => RunnerError::Tlog { path, source },
-                    })?;
-                    epoch = epoch.or(src.start_time());
-                    sources.push(Box::new(src.with_speed(*speed)));
-                }
+                LinkSpec::Tlog { path, speed } => match TlogSource::open(path) {
+                    Ok(src) => {
+                        epoch = epoch.or(src.start_time());
+                        sources.push(Ok(Box::new(src.with_speed(*speed))));
+                    }
+                    Err(e) => sources.push(Err(format!("{path}: {e}"))),
+                },
                 LinkSpec::Sim { .. } => {
-                    sources.push(local_source(spec).map_err(RunnerError::Sim)?);
+                    sources.push(Ok(local_source(spec).map_err(RunnerError::Sim)?));
                 }
                 other => return Err(RunnerError::NotVirtual(other.to_string())),
             }
         }
         cfg.links = specs.iter().map(|s| s.to_string()).collect();
         cfg.epoch = epoch.unwrap_or_else(virtual_epoch);
-        Ok(Self::new(cfg, sources))
+        Ok(Self::with_links(cfg, sources))
     }
 
     pub fn now(&self) -> Micros {

@@ -17,11 +17,21 @@ pub struct LinkManager {
     states: mpsc::UnboundedReceiver<(LinkId, LinkEvent)>,
 }
 
+/// Reports a forwarding output may have waiting (its clients' frames for the vehicles).
+pub const OUTPUT_QUEUE: usize = 32;
+
 impl LinkManager {
     /// Start a task for every spec; link ids are the specs' positions. `local` builds the
     /// in-process sources (`sim://`, `tlog:`).
     pub fn start(specs: &[LinkSpec], local: SourceFactory) -> Self {
-        let (ftx, frames) = mpsc::channel(EVENT_QUEUE);
+        Self::start_queued(specs, local, EVENT_QUEUE)
+    }
+
+    /// As [`LinkManager::start`], with at most `queue` reports waiting (each the frames of one
+    /// read): forwarding outputs get [`OUTPUT_QUEUE`], so a client flooding one costs a bounded
+    /// amount of memory (the rest is dropped and counted).
+    pub fn start_queued(specs: &[LinkSpec], local: SourceFactory, queue: usize) -> Self {
+        let (ftx, frames) = mpsc::channel(queue);
         let (stx, states) = mpsc::unbounded_channel();
         let mut m = Self {
             handles: Vec::new(),

@@ -59,6 +59,14 @@ const TAIL: u64 = 64 * 1024;
 /// doubles, so a log of any length is indexed in bounded memory.
 pub const SEEK_INDEX_MAX: usize = 4096;
 
+/// A jump in log time longer than this between two records (forward, or back by more than a
+/// second: a flipped bit in a timestamp, two sessions in one file) is skipped: the replay takes
+/// the next record [`GAP_SHOWN`] after the one before, so no gap is waited for and a replay's
+/// cost does not grow with a gap's size.
+pub const GAP_SKIP: Micros = 60 * SECOND;
+/// How far apart two records across a skipped gap are replayed.
+pub const GAP_SHOWN: Micros = SECOND;
+
 /// Where a replay reads from: a file can move (seek back), a stream cannot.
 pub trait TlogInput: Read + Send {
     /// Move to `offset`; a stream says it cannot.
@@ -177,6 +185,16 @@ pub struct TlogSource {
     /// The status last reported and when, and whether the position moved by a jump since.
     reported: Option<(Micros, ReplayStatus)>,
     jumped: bool,
+    /// Log time of `next` (gaps skipped: see [`GAP_SKIP`]).
+    next_t: Micros,
+    /// Log time taken out by the gaps skipped so far (negative: a jump back taken out).
+    skew: i128,
+    /// The raw log time (since the first record) of the last record read.
+    last_raw: Micros,
+    /// After a seek back by the index: the log time the next record read is at.
+    resync: Option<Micros>,
+    /// Gaps skipped.
+    pub gaps_skipped: u64,
 }
 
 impl std::fmt::Debug for TlogSource {
@@ -223,7 +241,17 @@ fn last_record_time(file: &mut std::fs::File) -> io::Result<Option<u64>> {
 
 impl TlogSource {
     /// Replay the tlog at `path`, read through a buffer as it plays, at real time.
+    ///
+    /// Only a regular file is replayed: a device (`/dev/zero` would be garbage for ever) or a
+    /// FIFO is refused before it is opened.
     pub fn open(path: impl AsRef<std::path::Path>) -> Result<Self, TlogOpenError> {
+        if !std::fs::metadata(path.as_ref())?.is_file() {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                "not a regular file (a device, FIFO, socket or directory): refused",
+            )
+            .into());
+        }
         let mut file = std::fs::File::open(path)?;
         let last = last_record_time(&mut file)?;
         let input: Box<dyn TlogInput> = Box::new(Seekable(BufReader::new(file)));
@@ -274,6 +302,11 @@ impl TlogSource {
             note: None,
             reported: None,
             jumped: false,
+            next_t: 0,
+            skew: 0,
+            last_raw: 0,
+            resync: None,
+            gaps_skipped: 0,
         })
     }
 
@@ -309,9 +342,30 @@ impl TlogSource {
         &self.index
     }
 
-    /// Log time of a record.
+    /// Log time of a record, gaps skipped so far taken out.
     fn rel(&self, r: &TlogRecord) -> Micros {
-        r.time_us.saturating_sub(self.t0)
+        (r.time_us.saturating_sub(self.t0) as i128 - self.skew).clamp(0, Micros::MAX as i128)
+            as Micros
+    }
+
+    /// Take out of the log's time the gap before `r`, if it is one to skip, and note its time.
+    fn skip_gap(&mut self, r: &TlogRecord) {
+        let raw = r.time_us.saturating_sub(self.t0);
+        if let Some(t) = self.resync.take() {
+            self.skew = raw as i128 - t as i128;
+        } else {
+            let step = raw as i128 - self.last_raw as i128;
+            if step > GAP_SKIP as i128 || step < -(SECOND as i128) {
+                self.skew += step - GAP_SHOWN as i128;
+                self.gaps_skipped += 1;
+                self.note = Some(format!(
+                    "skipped a jump of {:.0} s in the log's time",
+                    step as f64 / SECOND as f64
+                ));
+            }
+        }
+        self.last_raw = raw;
+        self.next_t = self.rel(r);
     }
 
     /// Read the record after the one just emitted or passed over. A read error ends the replay
@@ -322,8 +376,8 @@ impl TlogSource {
         self.next = match self.reader.next() {
             Some(Ok(r)) => {
                 self.next_offset = self.reader.offset() - (8 + r.frame.len()) as u64;
-                let t = self.rel(&r);
-                self.index.add(t, self.next_offset);
+                self.skip_gap(&r);
+                self.index.add(self.next_t, self.next_offset);
                 Some(r)
             }
             Some(Err(e)) => {
@@ -333,7 +387,13 @@ impl TlogSource {
                 ));
                 None
             }
-            None => None,
+            None => {
+                if self.gaps_skipped > 0 {
+                    // The log's length, gaps skipped (the last record's time said more).
+                    self.duration = Some(self.next_t);
+                }
+                None
+            }
         };
     }
 
@@ -387,16 +447,18 @@ impl TlogSource {
             self.note = Some("cannot seek back: nothing indexed".into());
             return;
         }
-        if let Some((_, off)) = jump {
+        if let Some((t, off)) = jump {
             if let Err(e) = self.reader.get_mut().seek_to(off) {
                 self.note = Some(format!("cannot seek: {e}"));
                 return;
             }
             self.reader.restart_at(off);
+            // The record there is at the log time the index gave it (gaps skipped before it).
+            self.resync = Some(t);
             self.advance();
         }
-        while let Some(r) = &self.next {
-            if self.rel(r) >= target {
+        while self.next.is_some() {
+            if self.next_t >= target {
                 break;
             }
             self.advance();
@@ -431,7 +493,7 @@ impl VirtualSource for TlogSource {
         self.touch(now);
         let mut out = Vec::new();
         while let Some(r) = &self.next {
-            let t = self.rel(r);
+            let t = self.next_t;
             if self.due_at(t) > now || out.len() >= REPLAY_CHUNK {
                 break;
             }
@@ -453,7 +515,7 @@ impl VirtualSource for TlogSource {
     fn next_deadline(&self) -> Micros {
         self.next
             .as_ref()
-            .map_or(Micros::MAX, |r| self.due_at(self.rel(r)))
+            .map_or(Micros::MAX, |_| self.due_at(self.next_t))
     }
     fn skipped(&self) -> u64 {
         self.reader.skipped().bytes

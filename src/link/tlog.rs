@@ -63,7 +63,7 @@ impl std::fmt::Display for Skipped {
 
 /// Length of the frame starting at `d[0]`, from its header; `None` if not a magic byte or not
 /// enough bytes for the header.
-fn frame_len(d: &[u8]) -> Option<usize> {
+pub(crate) fn frame_len(d: &[u8]) -> Option<usize> {
     match *d.first()? {
         MAGIC_V1 => Some(6 + *d.get(1)? as usize + 2),
         MAGIC_V2 => {
@@ -351,6 +351,23 @@ pub fn read_tlog(bytes: &[u8]) -> Result<Vec<TlogRecord>, TlogError> {
 }
 
 /// Append one record to a tlog buffer.
+/// The longest prefix of `records` (whole records, as [`write_record`] writes them) that ends
+/// on a record's end and is at most `n` bytes.
+pub fn whole_records(records: &[u8], n: usize) -> usize {
+    let mut at = 0;
+    while at + TS_LEN < records.len() {
+        let Some(len) = frame_len(&records[at + TS_LEN..]) else {
+            break;
+        };
+        let end = at + TS_LEN + len;
+        if end > n || end > records.len() {
+            break;
+        }
+        at = end;
+    }
+    at
+}
+
 pub fn write_record(out: &mut Vec<u8>, time_us: u64, frame: &[u8]) {
     out.extend_from_slice(&time_us.to_be_bytes());
     out.extend_from_slice(frame);

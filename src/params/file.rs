@@ -333,7 +333,12 @@ fn parse_number(s: &str) -> Result<f64, String> {
 /// The text of a parameter file holding `params`, in `format` (see the module docs for the
 /// layouts). `.parm` ignores components: give it one component's parameters.
 pub fn write(format: Format, params: &[Saved], header: &Header) -> String {
-    let mut sorted: Vec<&Saved> = params.iter().collect();
+    // Names are checked as they come from the vehicle; one that is not a name would be file
+    // syntax (a newline, a comment), so it never gets here.
+    let mut sorted: Vec<&Saved> = params
+        .iter()
+        .filter(|p| crate::wire::param_pck::name_ok(p.name.as_bytes()))
+        .collect();
     let mut out = String::with_capacity(params.len() * 40 + 256);
     match format {
         Format::Parm => {

@@ -53,6 +53,11 @@ pub const MAV_TYPE_CAMERA: u8 = 30;
 pub const HOLE_TRIES: u32 = 3;
 /// The wait for a missing image before asking again.
 pub const HOLE_RETRY: Micros = 3 * SECOND;
+/// Missing images are looked for among the newest this many indices only (below the highest
+/// known): a camera whose count runs far ahead costs a fixed amount per message.
+pub const HOLE_SPAN: i32 = 256;
+/// Requests for missing images waiting at once, at most (the newest first).
+pub const HOLE_QUEUE: usize = 16;
 /// After a CAMERA_INFORMATION request finished without the message, the wait before 521.
 pub const FALLBACK_WAIT: Micros = SECOND;
 /// VIDEO_STREAM_INFORMATION (all streams, param2 = 0) is asked this many times at most, this
@@ -354,40 +359,87 @@ impl Camera {
         self.status.is_some_and(|s| s.video_status == 1)
     }
 
-    /// Image indices below the highest known that never came.
-    pub fn missing(&self) -> Vec<i32> {
+    /// The window holes are looked for in: the newest [`HOLE_SPAN`] indices below the highest
+    /// known (an image heard, or the count CAMERA_CAPTURE_STATUS gives).
+    fn hole_window(&self) -> std::ops::Range<i32> {
         let top = self
             .images
             .keys()
             .next_back()
-            .map(|i| i + 1)
+            .map(|i| i.saturating_add(1))
             .unwrap_or(0)
             .max(self.status.map_or(0, |s| s.image_count));
-        // Bounded: a camera's count can be large; only the newest 1000 are looked for.
-        let first = self.first_index.unwrap_or(0);
-        (top.saturating_sub(1000).max(first)..top)
-            .filter(|i| !self.images.contains_key(i))
-            .collect()
+        // A camera whose numbering starts above 0 (told once) has no holes below its first.
+        top.saturating_sub(HOLE_SPAN).max(self.first_index.unwrap_or(0))..top
+    }
+
+    /// Image indices in the hole window that never came, oldest first: the ranges between the
+    /// images heard there (O(log n + HOLE_SPAN), however far the count ran).
+    pub fn missing(&self) -> Vec<i32> {
+        let w = self.hole_window();
+        let mut out = Vec::new();
+        let mut next = w.start;
+        for &i in self.images.range(w.clone()).map(|(i, _)| i) {
+            out.extend(next..i);
+            next = i + 1;
+        }
+        out.extend(next..w.end);
+        out
+    }
+
+    /// Image requests waiting in `pending`.
+    fn hole_requests(&self) -> usize {
+        self.pending
+            .iter()
+            .filter(|(cmd, p)| *cmd == CMD_REQUEST_MESSAGE && p[0] == CAMERA_IMAGE_CAPTURED as f64)
+            .count()
     }
 
     fn find_holes(&mut self, now: Micros) {
-        for i in self.missing() {
+        let w = self.hole_window();
+        // Holes that fell out of the window are forgotten, and their waiting requests dropped.
+        while self
+            .asked
+            .first_key_value()
+            .is_some_and(|(&i, _)| i < w.start)
+        {
+            self.asked.pop_first();
+        }
+        self.pending.retain(|(cmd, p)| {
+            !(*cmd == CMD_REQUEST_MESSAGE
+                && p[0] == CAMERA_IMAGE_CAPTURED as f64
+                && (p[1] as i32) < w.start)
+        });
+        let mut queued = self.hole_requests();
+        // The newest first, a bounded number waiting at once.
+        for i in self.missing().into_iter().rev() {
+            if queued >= HOLE_QUEUE {
+                break;
+            }
             let (n, last) = self.asked.entry(i).or_insert((0, 0));
             if *n == 0 || (*n < HOLE_TRIES && now >= *last + HOLE_RETRY) {
                 *n += 1;
                 *last = now;
+                let before = self.pending.len();
                 self.request(CAMERA_IMAGE_CAPTURED, i as f64);
+                queued += self.pending.len() - before;
             }
         }
     }
 
-    /// When a missing image is next asked for again.
+    /// When a missing image is next asked for again (the holes asked for are at most
+    /// [`HOLE_SPAN`]).
     fn hole_deadline(&self) -> Option<Micros> {
         self.asked
             .iter()
             .filter(|(i, (n, _))| *n < HOLE_TRIES && !self.images.contains_key(i))
             .map(|(_, (_, last))| last + HOLE_RETRY)
             .min()
+    }
+
+    /// Missing-image bookkeeping held: (holes asked for, requests waiting).
+    pub fn hole_tracking(&self) -> (usize, usize) {
+        (self.asked.len(), self.pending.len())
     }
 
     /// The line the Camera screen heads with: `Sony ILX-LR1 (1:100)`.

@@ -47,6 +47,9 @@ const MAX_RTO: Micros = 4 * SECOND;
 /// Bounds of the burst stall gap.
 const MIN_STALL: Micros = 100 * MILLISECOND;
 const MAX_STALL: Micros = 2 * SECOND;
+/// No new block of the file for this long (duplicates, blocks beyond its end or unaligned do
+/// not count) fails the read, whatever the vehicle keeps sending: the caller falls back.
+pub const NO_PROGRESS: Micros = 10 * SECOND;
 /// A file larger than this is refused (param.pck for 65,535 parameters stays far below).
 pub const MAX_FILE: u32 = 4 * 1024 * 1024;
 
@@ -104,6 +107,8 @@ pub struct FtpRead {
     interval: Option<Micros>,
     deadline: Option<Micros>,
     bursts: u32,
+    /// When the last new block of the file came (or the read started).
+    last_progress: Micros,
     pub stats: FtpStats,
 }
 
@@ -128,16 +133,19 @@ impl FtpRead {
             interval: None,
             deadline: None,
             bursts: 0,
+            last_progress: now,
             stats: FtpStats::default(),
         };
         let out = r.open(now);
         (r, out)
     }
 
-    /// Bytes received so far and the size expected (exact once the end is known).
+    /// Useful bytes received so far (each block of the file once, below its end) and the size
+    /// expected (exact once the end is known); the bytes never exceed the size.
     pub fn progress(&self) -> (u64, Option<u32>) {
-        let got = self.blocks.values().map(|b| b.len() as u64).sum();
-        (got, self.end.or(self.announced))
+        let size = self.end.or(self.announced);
+        let got: u64 = self.blocks.values().map(|b| b.len() as u64).sum();
+        (size.map_or(got, |s| got.min(s as u64)), size)
     }
 
     /// A round trip measured by other traffic to the vehicle: used until one of ours is, and an
@@ -168,7 +176,13 @@ impl FtpRead {
     }
 
     pub fn next_deadline(&self) -> Option<Micros> {
-        self.deadline.filter(|_| self.phase != Phase::Finished)
+        match self.phase {
+            Phase::Finished => return None,
+            Phase::Opening => return self.deadline,
+            _ => {}
+        }
+        let stuck = self.last_progress + NO_PROGRESS;
+        Some(self.deadline.map_or(stuck, |d| d.min(stuck)))
     }
 
     /// The round-trip timeout.
@@ -255,19 +269,37 @@ impl FtpRead {
         out
     }
 
-    fn store(&mut self, offset: u32, data: &[u8]) {
+    /// Keep a block; true when it was new and in the file (useful progress).
+    fn store(&mut self, now: Micros, offset: u32, data: &[u8]) -> bool {
         if !offset.is_multiple_of(BLOCK as u32) || offset >= MAX_FILE {
-            return; // not a block we asked for
+            return false; // not a block we asked for
+        }
+        if self.end.is_some_and(|e| offset >= e && !data.is_empty()) {
+            return false; // beyond the end already known
+        }
+        if self
+            .announced
+            .is_some_and(|a| a > 0 && offset as u64 >= 2 * a as u64 + BLOCK as u64)
+        {
+            // Far beyond the size the open announced (an estimate, but not by half).
+            return false;
         }
         self.stats.bytes += data.len() as u64;
+        let mut useful = false;
         if data.len() < BLOCK {
             let end = offset + data.len() as u32;
+            useful = self.end.is_none_or(|e| end < e);
             self.end = Some(self.end.map_or(end, |e| e.min(end)));
         }
-        if !data.is_empty() {
+        if !data.is_empty() && !self.blocks.contains_key(&offset) {
             self.blocks.insert(offset, data.to_vec());
+            useful = true;
         }
         self.reads.remove(&offset);
+        if useful {
+            self.last_progress = now;
+        }
+        useful
     }
 
     /// Offsets of the blocks still missing below the end (all of them once the end is known;
@@ -301,6 +333,7 @@ impl FtpRead {
             (Phase::Opening, op::ACK, op::OPEN_FILE_RO) => {
                 self.sample_rtt(now.saturating_sub(self.pending_since));
                 self.session = p.session;
+                self.last_progress = now;
                 if p.data.len() >= 4 {
                     let size = u32::from_le_bytes([p.data[0], p.data[1], p.data[2], p.data[3]]);
                     self.announced = Some(size);
@@ -318,7 +351,11 @@ impl FtpRead {
             }
             (_, _, _) if p.session != self.session => Vec::new(),
             (Phase::Bursting | Phase::Filling, op::ACK, op::BURST_READ_FILE) => {
-                if self.phase == Phase::Bursting {
+                let useful = self.store(now, p.offset, &p.data);
+                if !useful && now >= self.last_progress + NO_PROGRESS {
+                    return self.stuck();
+                }
+                if self.phase == Phase::Bursting && useful {
                     if self.last_rx > self.pending_since {
                         let gap = now.saturating_sub(self.last_rx);
                         self.interval = Some(match self.interval {
@@ -329,13 +366,17 @@ impl FtpRead {
                         self.sample_rtt(now.saturating_sub(self.pending_since));
                     }
                 }
-                self.last_rx = now;
-                self.store(p.offset, &p.data);
                 if p.burst_complete != 0 && self.phase == Phase::Bursting {
+                    self.last_rx = now;
                     return self.after_burst(now);
                 }
                 if self.phase == Phase::Bursting {
-                    self.deadline = Some(now + self.stall_gap());
+                    // Only what the file is made of keeps the burst going: a stream of
+                    // duplicates, of blocks beyond the end or unaligned, stalls it.
+                    if useful {
+                        self.last_rx = now;
+                        self.deadline = Some(now + self.stall_gap());
+                    }
                     Vec::new()
                 } else {
                     self.fill(now)
@@ -367,7 +408,9 @@ impl FtpRead {
                         self.sample_rtt(now.saturating_sub(sent));
                     }
                 }
-                self.store(p.offset, &p.data);
+                if !self.store(now, p.offset, &p.data) && now >= self.last_progress + NO_PROGRESS {
+                    return self.stuck();
+                }
                 self.fill(now)
             }
             (Phase::Filling, op::NAK, op::READ_FILE) => {
@@ -384,6 +427,14 @@ impl FtpRead {
             }
             _ => Vec::new(),
         }
+    }
+
+    /// No useful progress for [`NO_PROGRESS`]: give up on FTP.
+    fn stuck(&mut self) -> Vec<FtpOut> {
+        self.fail(format!(
+            "MAVFTP: no new data for {} s",
+            NO_PROGRESS / SECOND
+        ))
     }
 
     /// The burst ended (or stalled): read what is missing.
@@ -464,7 +515,13 @@ impl FtpRead {
 
     /// Timers: an unanswered open, a stalled burst, reads that timed out.
     pub fn poll(&mut self, now: Micros) -> Vec<FtpOut> {
-        if self.deadline.is_none_or(|d| now < d) || self.phase == Phase::Finished {
+        if self.phase == Phase::Finished {
+            return Vec::new();
+        }
+        if self.phase != Phase::Opening && now >= self.last_progress + NO_PROGRESS {
+            return self.stuck();
+        }
+        if self.deadline.is_none_or(|d| now < d) {
             return Vec::new();
         }
         match self.phase {

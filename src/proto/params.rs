@@ -55,6 +55,8 @@ pub const SET_RESENDS: u32 = 3;
 /// PARAM_SETs waiting for their echo at once; more wait their turn (a file applied at once
 /// must not flood a radio).
 pub const SET_WINDOW: usize = 8;
+/// Refused parameter names told per component; the rest are counted ([`ParamSet::refused`]).
+pub const MAX_REFUSED_TOLD: u64 = 3;
 /// MAV_PROTOCOL_CAPABILITY bits read from AUTOPILOT_VERSION.
 pub const CAP_PARAM_ENCODE_BYTEWISE: u64 = 16;
 pub const CAP_FTP: u64 = 32;
@@ -122,6 +124,9 @@ pub struct ParamSet {
     /// How many the component says it has.
     pub count: Option<u16>,
     received: usize,
+    /// Values refused for their name (not 1–16 printable ASCII without spaces, `#` or `,`):
+    /// their index counts as received, so a download does not wait for them.
+    pub refused: u64,
 }
 
 impl ParamSet {
@@ -335,29 +340,56 @@ pub struct ParamValueMsg {
     pub index: u16,
     pub name: String,
     pub type_code: u8,
+    /// The name is not a parameter name: `name` shows its bytes escaped.
+    pub refused: bool,
 }
 
 impl ParamValueMsg {
     /// Wire order: param_value f32, param_count u16, param_index u16, param_id char[16],
-    /// param_type u8; MAVLink 2 may have cut trailing zeros.
+    /// param_type u8; MAVLink 2 may have cut trailing zeros. A name that is not a parameter
+    /// name ([`crate::wire::param_pck::name_ok`]) is still read, `refused`, its bytes escaped
+    /// in `name` for the operator.
     pub fn parse(payload: &[u8]) -> Option<ParamValueMsg> {
         let mut p = [0u8; 25];
         let n = payload.len().min(25);
         p[..n].copy_from_slice(&payload[..n]);
         let id = &p[8..24];
         let len = id.iter().position(|&b| b == 0).unwrap_or(16);
-        let name = std::str::from_utf8(&id[..len]).ok()?.to_string();
-        if name.is_empty() {
-            return None;
-        }
+        let refused = !crate::wire::param_pck::name_ok(&id[..len]);
+        let name = if refused {
+            escaped(&id[..len])
+        } else {
+            String::from_utf8_lossy(&id[..len]).into_owned()
+        };
         Some(ParamValueMsg {
             raw: f32::from_le_bytes([p[0], p[1], p[2], p[3]]),
             count: u16::from_le_bytes([p[4], p[5]]),
             index: u16::from_le_bytes([p[6], p[7]]),
             name,
             type_code: p[24],
+            refused,
         })
     }
+}
+
+/// Bytes as a quoted string, those that are not printable ASCII as `\n`, `\t` or `\xNN`.
+pub fn escaped(bytes: &[u8]) -> String {
+    let mut s = String::with_capacity(bytes.len() + 2);
+    s.push('"');
+    for &b in bytes {
+        match b {
+            b'\n' => s.push_str("\\n"),
+            b'\t' => s.push_str("\\t"),
+            b'"' | b'\\' => {
+                s.push('\\');
+                s.push(b as char);
+            }
+            0x20..=0x7e => s.push(b as char),
+            _ => s.push_str(&format!("\\x{b:02x}")),
+        }
+    }
+    s.push('"');
+    s
 }
 
 /// The parameter machines of one vehicle (its autopilot and the components of its system).
@@ -475,7 +507,12 @@ impl ParamMachine {
         if let Phase::Ftp(f) = &d.phase {
             // Over MAVFTP parameters come all at once at the end: show the bytes' share.
             let (bytes, size) = f.progress();
-            let total = count.or(self.ftp_total(f));
+            // Never more than the file can hold: a record is at least 4 bytes after the
+            // header's 6 (a count in a hostile header says nothing).
+            let total = count.or(self.ftp_total(f)).map(|t| match size {
+                Some(s) => t.min((s.saturating_sub(6) / 4).min(u16::MAX as u32) as u16),
+                None => t,
+            });
             let shown = match (total, size) {
                 (Some(t), Some(s)) if s > 0 => {
                     ((bytes as f64 / s as f64).min(1.0) * t as f64) as usize
@@ -516,6 +553,11 @@ impl ParamMachine {
     /// never on a high-latency link).
     pub fn auto_download(&self) -> bool {
         self.auto_started && self.download.is_some()
+    }
+
+    /// True while a download runs or an edit waits for its echo.
+    pub fn busy(&self) -> bool {
+        self.download.is_some() || self.edits_pending > 0
     }
 
     /// Start (or start over) downloading component `comp`'s parameters.
@@ -814,7 +856,7 @@ impl ParamMachine {
         let enc = self.encoding;
         let v = value::decode(m.raw, ptype, enc);
         let mut out = Vec::new();
-        if self.encoding_suspect.is_none() {
+        if self.encoding_suspect.is_none() && !m.refused {
             if let Some(why) = value::implausible(m.raw, ptype, enc) {
                 let other = enc.other();
                 let would = value::format(value::decode(m.raw, ptype, other), ptype);
@@ -860,6 +902,34 @@ impl ParamMachine {
         }
         let new_index = index
             .is_some_and(|i| (i as usize) < set.names.len() && set.names[i as usize].is_none());
+        if m.refused {
+            set.refused += 1;
+            if new_index {
+                // Taken as heard (under no name): the download does not wait for it.
+                if let Some(i) = index {
+                    set.names[i as usize] = Some(String::new());
+                    set.received += 1;
+                }
+            }
+            if set.refused <= MAX_REFUSED_TOLD {
+                out.push(ParamOut::Notice(
+                    SEV_WARNING,
+                    format!(
+                        "{}:{from} parameter name refused (not 1-16 printable ASCII without \
+                         spaces, # or ,): {}{}",
+                        self.key.0,
+                        m.name,
+                        if set.refused == MAX_REFUSED_TOLD {
+                            " (further ones counted only)"
+                        } else {
+                            ""
+                        }
+                    ),
+                ));
+            }
+            out.extend(self.after_value(now, from, index, new_index));
+            return out;
+        }
         let before = set.record(&m.name, index, ptype, Some(m.raw), v, downloading);
         let Some(p) = set.params.get_mut(&m.name) else {
             return out;
@@ -930,7 +1000,20 @@ impl ParamMachine {
             out.push(ParamOut::Send(self.param_set(from, &m.name, val, t)));
         }
         out.extend(self.send_queued(now));
-        // The download: a read answered, the arrival rate, completion.
+        out.extend(self.after_value(now, from, index, new_index));
+        out
+    }
+
+    /// The download after a value at `index` of `from` (`new_index`: not heard before): a read
+    /// answered, the arrival rate, completion.
+    fn after_value(
+        &mut self,
+        now: Micros,
+        from: u8,
+        index: Option<u16>,
+        new_index: bool,
+    ) -> Vec<ParamOut> {
+        let mut out = Vec::new();
         let mut rtt_read = None;
         if let Some(d) = self.download.as_mut().filter(|d| d.comp == from) {
             if let (Phase::List(l), Some(i)) = (&mut d.phase, index) {
@@ -1421,7 +1504,8 @@ mod tests {
             (m.name.as_str(), m.count, m.index, m.type_code),
             ("ABC", 5, 0, 9)
         );
-        assert!(ParamValueMsg::parse(&[]).is_none());
+        // No name at all is refused, not dropped.
+        assert!(ParamValueMsg::parse(&[]).unwrap().refused);
     }
 
     #[test]

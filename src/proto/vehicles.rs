@@ -7,7 +7,14 @@
 //! sysid with another compid (MAVProxy is 255:230) is normal.
 //!
 //! The table is bounded: past [`MAX_COMPONENTS`] the longest silent component is evicted and
-//! counted, so a flood of spoofed ids costs a fixed amount of memory.
+//! counted, so a flood of spoofed ids costs a fixed amount of memory. What the core keeps (the
+//! operator's target, a vehicle with work in flight: [`Registry::keep`]) is never evicted; a
+//! newcomer that finds only kept components in a full table is refused and counted.
+//!
+//! More than [`FLOOD_FOUND`] components found within [`FLOOD_WINDOW`] is a *flood* (spoofed
+//! heartbeats on an unsigned link): told once ([`VehicleEvent::Flood`]) and counted; components
+//! found while it lasts are marked [`Vehicle::flood`] so the core tells nothing of each. It ends
+//! after [`FLOOD_QUIET`] without a newly found component.
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
@@ -27,6 +34,13 @@ pub type VehicleKey = (u8, u8);
 
 /// Components kept at most; a new one past this evicts the longest silent.
 pub const MAX_COMPONENTS: usize = 128;
+
+/// More components than this found within [`FLOOD_WINDOW`] is a flood.
+pub const FLOOD_FOUND: usize = 16;
+/// The window [`FLOOD_FOUND`] is counted over.
+pub const FLOOD_WINDOW: Micros = 10 * SECOND;
+/// A flood ends after this long without a newly found component.
+pub const FLOOD_QUIET: Micros = 60 * SECOND;
 
 /// Reboots of one vehicle closer together than this are one reboot seen twice (on two links, or
 /// by two signs).
@@ -65,6 +79,8 @@ pub struct Vehicle {
     pub conflict: Option<String>,
     /// Set when a vehicle uses the ground station's own sysid, or another GCS our sysid:compid.
     pub uses_gcs_sysid: bool,
+    /// First heard during a heartbeat flood: listed, but nothing told of it on its own.
+    pub flood: bool,
 }
 
 impl Vehicle {
@@ -150,6 +166,8 @@ pub enum VehicleEvent {
     UsesGcsSysid(VehicleKey),
     /// Dropped from a full table (the longest silent).
     Evicted(VehicleKey),
+    /// A heartbeat flood began: this many components were found within [`FLOOD_WINDOW`].
+    Flood(usize),
 }
 
 /// All components heard by heartbeat.
@@ -162,6 +180,18 @@ pub struct Registry {
     pub evicted: u64,
     /// Links whose time runs slow or stands still (a replay played slowly or paused).
     paced: BTreeMap<LinkId, Pace>,
+    /// What eviction must spare (the target, vehicles with work in flight): set by the core.
+    kept: BTreeSet<VehicleKey>,
+    /// Newcomers refused because every component in the full table is kept.
+    pub refused: u64,
+    /// When the last components were found (at most [`FLOOD_FOUND`] + 1 kept).
+    found_times: VecDeque<Micros>,
+    /// While a flood lasts: when the last component was found.
+    flood_since: Option<Micros>,
+    /// Floods begun.
+    pub floods: u64,
+    /// Components found during a flood.
+    pub flood_found: u64,
 }
 
 /// How time runs on a link compared with ours (a replay's).
@@ -182,6 +212,61 @@ impl Registry {
             own,
             evicted: 0,
             paced: BTreeMap::new(),
+            kept: BTreeSet::new(),
+            refused: 0,
+            found_times: VecDeque::with_capacity(FLOOD_FOUND + 1),
+            flood_since: None,
+            floods: 0,
+            flood_found: 0,
+        }
+    }
+
+    /// Set what eviction must spare: the target and the vehicles with work in flight.
+    pub fn keep(&mut self, keys: impl IntoIterator<Item = VehicleKey>) {
+        self.kept.clear();
+        self.kept.extend(keys);
+    }
+
+    /// True while a heartbeat flood lasts.
+    pub fn flooding(&self) -> bool {
+        self.flood_since.is_some()
+    }
+
+    /// True when a heartbeat from `key` would add a component to a full table (the core then
+    /// says what to keep first).
+    pub fn full_for(&self, key: VehicleKey) -> bool {
+        self.vehicles.len() >= MAX_COMPONENTS && !self.vehicles.contains_key(&key)
+    }
+
+    /// Account a component found at `now` for flood detection; true while flooding.
+    fn found_at(&mut self, now: Micros, events: &mut Vec<VehicleEvent>) -> bool {
+        if self
+            .flood_since
+            .is_some_and(|t| now.saturating_sub(t) >= FLOOD_QUIET)
+        {
+            self.flood_since = None;
+        }
+        if self.found_times.len() > FLOOD_FOUND {
+            self.found_times.pop_front();
+        }
+        self.found_times.push_back(now);
+        if self.flood_since.is_none()
+            && self.found_times.len() > FLOOD_FOUND
+            && self
+                .found_times
+                .front()
+                .is_some_and(|&t| now.saturating_sub(t) < FLOOD_WINDOW)
+        {
+            self.floods += 1;
+            events.push(VehicleEvent::Flood(self.found_times.len()));
+            self.flood_since = Some(now);
+        }
+        if self.flood_since.is_some() {
+            self.flood_since = Some(now);
+            self.flood_found += 1;
+            true
+        } else {
+            false
         }
     }
 
@@ -268,14 +353,23 @@ impl Registry {
                     let oldest = self
                         .vehicles
                         .values()
+                        .filter(|v| !self.kept.contains(&(v.sysid, v.compid)))
                         .min_by_key(|v| v.last_heard)
                         .map(|v| (v.sysid, v.compid));
-                    if let Some(k) = oldest {
-                        self.vehicles.remove(&k);
-                        self.evicted += 1;
-                        events.push(VehicleEvent::Evicted(k));
+                    match oldest {
+                        Some(k) => {
+                            self.vehicles.remove(&k);
+                            self.evicted += 1;
+                            events.push(VehicleEvent::Evicted(k));
+                        }
+                        None => {
+                            // Everything here is kept: the newcomer waits outside.
+                            self.refused += 1;
+                            return events;
+                        }
                     }
                 }
+                let flood = self.found_at(now, &mut events);
                 let mut hb_times = VecDeque::with_capacity(8);
                 hb_times.push_back(now);
                 self.vehicles.insert(
@@ -301,6 +395,7 @@ impl Registry {
                         last_reboot: None,
                         conflict: None,
                         uses_gcs_sysid,
+                        flood,
                     },
                 );
                 events.push(VehicleEvent::Found(key));

@@ -151,7 +151,7 @@ pub fn decode(bytes: &[u8]) -> Result<PckFile, PckError> {
             return Err(PckError::Truncated { offset });
         }
         let suffix = &bytes[pos + 2..pos + 2 + name_len];
-        if !suffix.iter().all(|b| b.is_ascii_graphic()) {
+        if !suffix.iter().all(|&b| name_byte_ok(b)) {
             return Err(PckError::BadName { offset });
         }
         let mut name = last[..common].to_string();
@@ -180,6 +180,17 @@ pub fn decode(bytes: &[u8]) -> Result<PckFile, PckError> {
         total_params,
         params,
     })
+}
+
+/// A byte a parameter name may hold: printable ASCII but for the space, and for `#` and `,`,
+/// which start a comment and separate fields in parameter files.
+pub fn name_byte_ok(b: u8) -> bool {
+    b.is_ascii_graphic() && b != b'#' && b != b','
+}
+
+/// True for a parameter name: 1 to [`MAX_NAME_LEN`] bytes, each [`name_byte_ok`].
+pub fn name_ok(name: &[u8]) -> bool {
+    !name.is_empty() && name.len() <= MAX_NAME_LEN && name.iter().all(|&b| name_byte_ok(b))
 }
 
 /// Encode parameters the way ArduPilot does for reads of `read_size` bytes (the FTP block size:
