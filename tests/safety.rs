@@ -869,7 +869,10 @@ fn enter_confirms_only_on_a_highlighted_yes_and_not_as_the_key_that_asked() {
     key(&mut r, "enter");
     assert!(r.app.ui.confirm.is_some(), "asked");
     key(&mut r, "enter");
-    assert!(r.app.ui.confirm.is_some(), "an enter hard on the asking one does not answer");
+    assert!(
+        r.app.ui.confirm.is_some(),
+        "an enter hard on the asking one does not answer"
+    );
     // `enter` after reading the question, on No: cancelled, nothing sent.
     wait(&mut r, 0.5);
     key(&mut r, "enter");
@@ -887,11 +890,16 @@ fn enter_confirms_only_on_a_highlighted_yes_and_not_as_the_key_that_asked() {
     assert_eq!(r.app.ui.confirm.as_ref().map(|c| c.yes), Some(false));
     key(&mut r, "left");
     key(&mut r, "enter");
-    assert!(r.app.ui.confirm.is_some(), "enter right after a move does not answer");
+    assert!(
+        r.app.ui.confirm.is_some(),
+        "enter right after a move does not answer"
+    );
     wait(&mut r, 1.0);
     assert!(arms(&mut r).is_empty());
     // A repeated `enter` (the terminal says so) never answers, however late.
-    r.event(Event::KeyRepeat(Key::plain(mavterm::keymap::KeyCode::Enter)));
+    r.event(Event::KeyRepeat(Key::plain(
+        mavterm::keymap::KeyCode::Enter,
+    )));
     assert!(r.app.ui.confirm.is_some());
     // An `enter` on its own, on Yes: armed, once.
     wait(&mut r, 0.5);
