@@ -850,3 +850,82 @@ fn armed_uploads_and_parameter_changes_ask_naming_the_vehicle() {
     // No MISSION_COUNT (44) left.
     assert!(out.iter().all(|f| msgid(f) != 44));
 }
+
+/// The ARM commands among what the runner sent since the last call.
+fn arms(r: &mut VirtualRunner) -> Vec<Value> {
+    commands(&sent(r), 400)
+        .into_iter()
+        .filter(|c| c["param1"] == 1.0)
+        .collect()
+}
+
+#[test]
+fn enter_confirms_only_on_a_highlighted_yes_and_not_as_the_key_that_asked() {
+    let mut r = runner("");
+    // `arm` at the prompt: its `enter` asks, and an `enter` typed ahead (or bounced) right after
+    // it does not answer; the highlight starts on No.
+    key(&mut r, ":");
+    common::typed(&mut r, "arm");
+    key(&mut r, "enter");
+    assert!(r.app.ui.confirm.is_some(), "asked");
+    key(&mut r, "enter");
+    assert!(
+        r.app.ui.confirm.is_some(),
+        "an enter hard on the asking one does not answer"
+    );
+    // `enter` after reading the question, on No: cancelled, nothing sent.
+    wait(&mut r, 0.5);
+    key(&mut r, "enter");
+    assert!(r.app.ui.confirm.is_none(), "enter on No cancels");
+    wait(&mut r, 2.0);
+    assert!(arms(&mut r).is_empty());
+    assert!(!sim(&r).vehicle(1).unwrap().armed());
+    // Right moves the highlight to Yes, tab back to No, left to Yes again; each move sends
+    // nothing and an `enter` hard on a move's heels (a held or typed-ahead key) does not answer.
+    key(&mut r, "A");
+    wait(&mut r, 0.5);
+    key(&mut r, "right");
+    assert_eq!(r.app.ui.confirm.as_ref().map(|c| c.yes), Some(true));
+    key(&mut r, "tab");
+    assert_eq!(r.app.ui.confirm.as_ref().map(|c| c.yes), Some(false));
+    key(&mut r, "left");
+    key(&mut r, "enter");
+    assert!(
+        r.app.ui.confirm.is_some(),
+        "enter right after a move does not answer"
+    );
+    wait(&mut r, 1.0);
+    assert!(arms(&mut r).is_empty());
+    // A repeated `enter` (the terminal says so) never answers, however late.
+    r.event(Event::KeyRepeat(Key::plain(
+        mavterm::keymap::KeyCode::Enter,
+    )));
+    assert!(r.app.ui.confirm.is_some());
+    // An `enter` on its own, on Yes: armed, once.
+    wait(&mut r, 0.5);
+    key(&mut r, "enter");
+    wait(&mut r, 2.0);
+    let arm = arms(&mut r);
+    assert_eq!(arm.len(), 1, "{arm:?}");
+    assert_eq!(
+        (
+            arm[0]["target_system"].as_u64(),
+            arm[0]["target_component"].as_u64()
+        ),
+        (Some(1), Some(1))
+    );
+    assert!(sim(&r).vehicle(1).unwrap().armed());
+}
+
+#[test]
+fn the_question_box_shows_its_choices_and_the_highlight() {
+    let mut r = runner("");
+    key(&mut r, "A");
+    let s = common::screen(&r, 80, 24);
+    assert!(s.contains("[ No ]   Yes"), "{s}");
+    wait(&mut r, 0.5);
+    key(&mut r, "right");
+    let s = common::screen(&r, 80, 24);
+    assert!(s.contains("  No   [ Yes ]"), "{s}");
+    assert!(s.contains("ARM 1:1"), "{s}");
+}

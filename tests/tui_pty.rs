@@ -6,7 +6,7 @@
 //! child's stdout is a real tty, then inspects everything the child wrote to it.
 //!
 //! A Fly mode nudge in progress ends in its stop however the session ends (the quit key,
-//! Ctrl-C, SIGHUP): the child flies a stand-in vehicle on UDP, which writes down every frame it
+//! Ctrl-C, SIGHUP, SIGTERM, a panic in the UI loop): the child flies a stand-in vehicle on UDP, which writes down every frame it
 //! is sent; pymavlink reads them.
 
 mod common;
@@ -393,13 +393,61 @@ fn child_nudges_then_quits() {
 
 #[test]
 #[ignore = "run by pty tests inside a pseudo-terminal"]
-fn child_nudges_then_gets_sighup() {
+fn child_nudges_then_gets_a_signal() {
     run_nudge_child(RealClock::new(), false);
+}
+
+/// A real clock that panics once, the first time the UI thread (the one that made it) reads it
+/// after the vehicle has been sent three velocity targets (SET_POSITION_TARGET_LOCAL_NED, id 84,
+/// in the capture file): a panic in the middle of the UI loop while a nudge streams. Other
+/// threads (the link tasks) and later readings get the time, so what the panic leaves to do can
+/// still be done.
+#[derive(Clone)]
+struct PanicMidNudge {
+    clock: RealClock,
+    capture: std::path::PathBuf,
+    ui: std::thread::ThreadId,
+    fired: Arc<std::sync::atomic::AtomicBool>,
+}
+
+impl Clock for PanicMidNudge {
+    fn now(&self) -> Micros {
+        if std::thread::current().id() == self.ui && !self.fired.load(Ordering::SeqCst) {
+            let nudges = std::fs::read_to_string(&self.capture)
+                .unwrap_or_default()
+                .lines()
+                .filter(|l| l.starts_with("fd") && l.get(14..20) == Some("540000"))
+                .count();
+            if nudges >= 3 && !self.fired.swap(true, Ordering::SeqCst) {
+                panic!("clock exploded mid-nudge");
+            }
+        }
+        self.clock.now()
+    }
+}
+
+#[test]
+#[ignore = "run by pty tests inside a pseudo-terminal"]
+#[should_panic(expected = "clock exploded mid-nudge")]
+fn child_nudges_then_panics() {
+    let capture = std::path::PathBuf::from(std::env::var("MAVTERM_PTY_CAPTURE").unwrap());
+    let clock = PanicMidNudge {
+        clock: RealClock::new(),
+        capture,
+        ui: std::thread::current().id(),
+        fired: Arc::new(std::sync::atomic::AtomicBool::new(false)),
+    };
+    run_nudge_child(clock, false);
 }
 
 /// Run a nudge child typing `typing`: what it sent the vehicle, read by pymavlink, and its
 /// SET_POSITION_TARGET_LOCAL_NEDs.
 fn nudge_session(child: &str, steps: &[(u64, Step)]) -> Vec<serde_json::Value> {
+    nudge_session_ending(child, steps, "CHILD-DONE")
+}
+
+/// [`nudge_session`], the child's output showing `ends` (how it ended).
+fn nudge_session_ending(child: &str, steps: &[(u64, Step)], ends: &str) -> Vec<serde_json::Value> {
     let port = std::net::UdpSocket::bind("127.0.0.1:0")
         .unwrap()
         .local_addr()
@@ -417,7 +465,7 @@ fn nudge_session(child: &str, steps: &[(u64, Step)]) -> Vec<serde_json::Value> {
     };
     let (ok, out) = under_pty_with(child, typing, &env);
     assert!(ok, "{child}: {out:?}");
-    assert!(out.contains("CHILD-DONE"), "{out:?}");
+    assert!(out.contains(ends), "{out:?}");
     let text = std::fs::read_to_string(&path).unwrap();
     // One frame a datagram, or several back to back (MAVLink 2: 12 + payload + 13 if signed).
     let mut frames = Vec::new();
@@ -483,7 +531,26 @@ fn ctrl_c_during_a_nudge_sends_the_stop() {
 #[test]
 fn sighup_during_a_nudge_sends_the_stop() {
     let steps = [(300, FLY), (600, UP), (1100, Step::Signal("HUP"))];
-    ends_in_a_stop(&nudge_session("child_nudges_then_gets_sighup", &steps));
+    ends_in_a_stop(&nudge_session("child_nudges_then_gets_a_signal", &steps));
+}
+
+#[test]
+fn sigterm_during_a_nudge_sends_the_stop() {
+    let steps = [(300, FLY), (600, UP), (1100, Step::Signal("TERM"))];
+    ends_in_a_stop(&nudge_session("child_nudges_then_gets_a_signal", &steps));
+}
+
+#[test]
+fn a_panic_during_a_nudge_sends_the_stop_before_the_process_ends() {
+    // The child panics on its own once three velocity targets have gone (no key ends it): the
+    // stop goes out before the panic ends the process, and the panic is the one reported.
+    let steps = [(300, FLY), (600, UP)];
+    let targets = nudge_session_ending(
+        "child_nudges_then_panics",
+        &steps,
+        "clock exploded mid-nudge",
+    );
+    ends_in_a_stop(&targets);
 }
 
 /// Run `child` under `script`, writing `chunks` 300 ms apart (over again until it exits, a slow

@@ -3,9 +3,10 @@
 //!
 //! Every action goes to a heard, not-lost autopilot through its session's command queue.
 //! Dangerous ones ([`danger`]: one list for every entry point) first ask a question that names
-//! the action and the vehicle. Only `y` answers it, and only [`CONFIRM_GUARD`] after it appeared
-//! and after the key before it (key repeats and keys typed ahead never do); `n`, esc or any later
-//! key cancels and nothing is sent. A question expires ([`CONFIRM_EXPIRY`], the vehicle lost, the
+//! the action and the vehicle. Only `y`, or `enter` on a highlighted *Yes* (the highlight starts
+//! on *No*; left, right and tab move it), answers it, and only [`CONFIRM_GUARD`] after it
+//! appeared and after the key before it (key repeats and keys typed ahead never do); `n`, esc,
+//! `enter` on *No* or any other key cancels and nothing is sent. A question expires ([`CONFIRM_EXPIRY`], the vehicle lost, the
 //! target or the vehicle's armed state, mode or mission changed); one is asked at a time, the
 //! others wait their turn; the checks are made again before anything confirmed leaves.
 //!
@@ -61,6 +62,9 @@ pub struct Confirm {
     pub asked: Micros,
     /// The last key that came while it was open (or the one that asked).
     pub last_key: Micros,
+    /// The choice highlighted in the box: *Yes* (true) or *No* (false, where it starts);
+    /// left/right/tab move it, `enter` takes it.
+    pub yes: bool,
     /// What it was asked in: it expires when that changes.
     context: Context,
 }
@@ -74,6 +78,7 @@ impl Confirm {
             target,
             asked: 0,
             last_key: 0,
+            yes: false,
             context: Context::default(),
         }
     }
@@ -412,11 +417,13 @@ impl App {
         self.carry_out(target, action, fx)
     }
 
-    /// A key while a confirmation is asked: only `y` goes ahead, and only pressed at least
-    /// [`CONFIRM_GUARD`] after the question appeared and after the key before it (a key repeat
-    /// — `repeat`, or a key that comes in a repeat's rhythm — and a key typed ahead are
-    /// ignored, but `n` and esc always cancel); any other key cancels. The checks are made again
-    /// before anything leaves.
+    /// A key while a confirmation is asked: only `y`, or `enter` on a highlighted *Yes*, goes
+    /// ahead, and only pressed at least [`CONFIRM_GUARD`] after the question appeared and after
+    /// the key before it (a key repeat — `repeat`, or a key that comes in a repeat's rhythm —
+    /// and a key typed ahead are ignored, but `n` and esc always cancel). Left, right, tab and
+    /// backtab move the highlight between *No* (where it starts) and *Yes* and send nothing;
+    /// `enter` on *No* and any other key cancel. The checks are made again before anything
+    /// leaves.
     pub(super) fn on_confirm_key(&mut self, key: Key, repeat: bool, fx: &mut Vec<Effect>) {
         let now = self.now;
         let Some(c) = self.ui.confirm.as_mut() else {
@@ -424,9 +431,21 @@ impl App {
         };
         let early = repeat || now < c.asked + CONFIRM_GUARD || now < c.last_key + CONFIRM_GUARD;
         c.last_key = now;
+        use crate::keymap::KeyCode;
+        let plain = !key.ctrl && !key.alt;
+        // Moving the highlight sends nothing, early or not; it is a key like any other for the
+        // guard, so an `enter` hard on its heels does not answer.
+        if plain
+            && matches!(
+                key.code,
+                KeyCode::Left | KeyCode::Right | KeyCode::Tab | KeyCode::BackTab
+            )
+        {
+            c.yes = !c.yes;
+            return;
+        }
         // `n` and esc say no at once: a no never sends anything.
-        let no =
-            key == Key::ch('n') || key == Key::ch('N') || key.code == crate::keymap::KeyCode::Esc;
+        let no = key == Key::ch('n') || key == Key::ch('N') || key.code == KeyCode::Esc;
         if early && !no {
             self.ui.message = Some((
                 SEV_WARNING,
@@ -437,7 +456,10 @@ impl App {
         let Some(c) = self.ui.confirm.take() else {
             return;
         };
-        if key == Key::ch('y') || key == Key::ch('Y') {
+        let yes = key == Key::ch('y')
+            || key == Key::ch('Y')
+            || (plain && key.code == KeyCode::Enter && c.yes);
+        if yes {
             let outcome = match self.expired(&c) {
                 Some(why) => Err(format!("question expired ({why}): nothing sent")),
                 None => match c.action {

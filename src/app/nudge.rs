@@ -32,13 +32,41 @@ use super::{App, Effect};
 pub const RATE_HZ: u64 = 10;
 /// Between two velocity targets.
 pub const PERIOD: Micros = 1_000_000 / RATE_HZ;
-/// Default deadman once a key repeats: a terminal repeats a held key every 30–40 ms (25–33 Hz),
-/// so 0.3 s is several repeats missed or bunched by an SSH link, and the shortest that is not
+/// Default deadman once a key repeats: the longest gap between two repeats of a held key in the
+/// documented defaults ([`REPEAT_DEFAULTS`]) is the Linux console's 92 ms (10.9 per second),
+/// so 0.3 s is three repeats missed or bunched by an SSH link, and the shortest that is not
 /// fooled by them. `nudge_deadman` sets it.
 pub const DEADMAN: Micros = 300_000;
-/// Before a key's first repeat: terminals wait 250–600 ms before repeating a held key (660 ms
-/// is X11's default), so the first press lasts this long at least.
+/// Before a key's first repeat: the longest first delay among the documented defaults
+/// ([`REPEAT_DEFAULTS`]) is X11's 660 ms, so a first press lasts this long at least.
 pub const FIRST_REPEAT_WAIT: Micros = 700_000;
+/// The documented key-repeat defaults (first delay, then the gap between repeats, in µs) that
+/// [`DEADMAN`] and [`FIRST_REPEAT_WAIT`] are chosen to survive; a terminal passes on the
+/// repeats of the system it runs on.
+/// - X11 (Xorg's XKB): 660 ms, then every 40 ms (25 Hz): the server's `XkbDfltRepeatDelay` and
+///   `XkbDfltRepeatInterval` (xserver `xkb/xkbAccessX.c`), what `xset r rate` with no values
+///   puts back (xset(1)).
+/// - Linux console: 250 ms, then 10.9 per second (92 ms), "the IBM defaults" kbdrate(8) resets.
+/// - Windows (conhost and Windows Terminal get the system's repeats): `KeyboardDelay` 1 of 0–3
+///   (0 ≈ 250 ms … 3 ≈ 1 s, so ≈ 500 ms, ±20 %: up to 600 ms) and `KeyboardSpeed` 31 (≈ 30 per
+///   second, 33 ms): the defaults in the registry reference for `HKCU\Control Panel\Keyboard`
+///   (SystemParametersInfo SPI_GETKEYBOARDDELAY / SPI_GETKEYBOARDSPEED give the same scales).
+/// - macOS: `InitialKeyRepeat` / `KeyRepeat` count 15 ms units (15 = 225 ms and 2 = 30 ms are
+///   the shortest its settings offer). Apple documents no default; the figures published are
+///   25 (375 ms) and 2 (30 ms), or 68 (1020 ms) and 6 (90 ms). The first is survived; with the
+///   second a held key's nudge stops once at 0.7 s and goes on at its first repeat (1.02 s).
+pub const REPEAT_DEFAULTS: [(&str, Micros, Micros); 6] = [
+    ("X11 (Xorg XKB)", 660_000, 40_000),
+    ("Linux console (kbdrate)", 250_000, 91_743),
+    (
+        "Windows (KeyboardDelay 1, KeyboardSpeed 31)",
+        500_000,
+        33_333,
+    ),
+    ("Windows, delay 20 % long", 600_000, 33_333),
+    ("macOS (InitialKeyRepeat 25, KeyRepeat 2)", 375_000, 30_000),
+    ("macOS (KeyRepeat 6)", 375_000, 90_000),
+];
 /// A stop (zero velocity, never acknowledged) is sent this many times, [`PERIOD`] apart.
 pub const STOP_SENDS: u8 = 3;
 /// Speeds chosen by `1`, `2`, `3` (m/s).
@@ -617,6 +645,64 @@ mod tests {
         }
         // Not at 0.3 s (terminals wait up to 0.66 s before the first repeat): after 0.7 s.
         assert_eq!(first_stop, Some(710_000));
+    }
+
+    /// A key held from 0 to `hold` with the repeats of (`delay`, `gap`), driven as the driver
+    /// does (each key at its time, the nudge polled at its deadlines): when each velocity target
+    /// went and whether it moved, and the time of the last key.
+    fn held_for(delay: Micros, gap: Micros, hold: Micros) -> (Vec<(Micros, bool)>, Micros) {
+        let mut n = Nudge::default();
+        n.enter((1, 1), "overview");
+        let mut keys = vec![0];
+        let mut k = delay;
+        while k <= hold {
+            keys.push(k);
+            k += gap;
+        }
+        let last = *keys.last().unwrap();
+        let mut sent = Vec::new();
+        let mut keys = keys.into_iter().peekable();
+        loop {
+            let key = keys.peek().copied();
+            let due = n.next_deadline();
+            let (t, m) = match (key, due) {
+                (Some(k), d) if d.is_none_or(|d| k <= d) => {
+                    keys.next();
+                    (k, n.press(k, Axis::Forward, 1.0))
+                }
+                (_, Some(d)) => (d, n.poll(d)),
+                _ => break,
+            };
+            if let Some((_, m)) = m {
+                sent.push((t, vel(&m)[0] != 0.0));
+            }
+        }
+        (sent, last)
+    }
+
+    #[test]
+    fn a_key_held_at_every_documented_repeat_rate_never_stops_and_stops_after_its_release() {
+        assert_eq!(DEADMAN, 300_000);
+        for (name, delay, gap) in REPEAT_DEFAULTS {
+            assert!(delay < FIRST_REPEAT_WAIT && gap < DEADMAN, "{name}");
+            let (sent, last) = held_for(delay, gap, 3_000_000);
+            // Held 3 s: every target until the last key moves, at 10 Hz.
+            let moving: Vec<Micros> = sent.iter().filter(|s| s.1).map(|s| s.0).collect();
+            assert!(
+                sent.iter().filter(|s| s.0 <= last).all(|s| s.1),
+                "{name}: a held key stopped: {sent:?}"
+            );
+            assert!(moving.len() >= 30, "{name}: {moving:?}");
+            // Let go after `last`: the stop the deadman after it, three times 100 ms apart.
+            let stops: Vec<Micros> = sent.iter().filter(|s| !s.1).map(|s| s.0).collect();
+            let at = last + DEADMAN + 1;
+            assert_eq!(stops, vec![at, at + PERIOD, at + 2 * PERIOD], "{name}");
+            assert!(moving.iter().all(|&t| t < at), "{name}");
+        }
+        // A tap (let go before any repeat): it stops FIRST_REPEAT_WAIT after the press.
+        let (sent, _) = held_for(1_000_000, 40_000, 0);
+        let stop = sent.iter().find(|s| !s.1).map(|s| s.0);
+        assert_eq!(stop, Some(FIRST_REPEAT_WAIT + 1));
     }
 
     #[test]
