@@ -28,7 +28,8 @@ fn stand_in(ports: &[u16], dir: &Path, args: &[&str]) -> ChildGuard {
         a.extend(["--port".into(), p.to_string().into()]);
     }
     a.extend(["--log-out".into(), dir.join("log.json").into()]);
-    a.extend(["--duration".into(), "60".into()]);
+    // Past any test here: the stand-in is killed when the test ends.
+    a.extend(["--duration".into(), "300".into()]);
     a.extend(args.iter().map(|s| s.into()));
     common::stand_in("fake_stream_vehicle.py", &a)
 }
@@ -52,12 +53,36 @@ fn mavterm(links: &[String], secs: u32) -> Value {
     serde_json::from_slice(&run.stdout).unwrap()
 }
 
-/// The stand-in's record of port `port`: (message ids received, requests, overlaps).
+/// The stand-in's record of port `port` once mavterm has exited: (message ids received,
+/// requests, overlaps). The stand-in is asked to read its sockets to the end and write its log
+/// (`log.json.flush`); its answer, the log marked with the token asked, is waited for.
 fn record(dir: &Path, port: u16) -> (Vec<u64>, Vec<Value>, u64) {
-    // Written every half second: wait for the one after mavterm ended.
-    std::thread::sleep(std::time::Duration::from_millis(700));
-    let v: Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("log.json")).unwrap()).unwrap();
+    static TOKEN: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+    let token = TOKEN
+        .fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+        .to_string();
+    let log = dir.join("log.json");
+    let flush = dir.join("log.json.flush");
+    let tmp = dir.join("log.json.flush.tmp");
+    std::fs::write(&tmp, &token).unwrap();
+    std::fs::rename(&tmp, &flush).unwrap();
+    let start = std::time::Instant::now();
+    let v = loop {
+        let v: Option<Value> = std::fs::read_to_string(&log)
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok());
+        match v {
+            Some(v) if v["flushed"] == token.as_str() => break v,
+            _ => {
+                // A bound on a hung stand-in only, far past any load.
+                assert!(
+                    start.elapsed() < std::time::Duration::from_secs(60),
+                    "the stand-in never answered the flush"
+                );
+                std::thread::sleep(std::time::Duration::from_millis(20));
+            }
+        }
+    };
     let p = &v[port.to_string()];
     (
         p["received"]
