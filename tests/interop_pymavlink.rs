@@ -61,7 +61,13 @@ fn pymavlink_sequence_pattern_and_our_heartbeat() {
     py_out.read_line(&mut line).unwrap();
     let status = child.0.wait().unwrap();
     let mut err = String::new();
-    child.0.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    child
+        .0
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
     assert!(status.success(), "python failed: {err}");
     let py: Value = serde_json::from_str(&line).unwrap();
     let out = mavterm.wait_with_output().unwrap();

@@ -22,11 +22,14 @@ really sends what it was asked, at the interval asked, on the port it was asked 
 Written to --log-out (JSON) every half second and when it ends: per port, every message id
 received, the stream requests received with their time ([t, "group", id, hz] and [t, "interval",
 msgid, hz]), and how many SET_MESSAGE_INTERVALs came while another still waited for its answer
-("overlaps"). When a file LOG-OUT.flush appears (the test writes it once mavterm has exited), what
+("overlaps"), and the wall-clock times (time.time()) of its sends of each message in the last 12 s
+("sent": {msgid: [t, ...]}), for the test to know what rate really came. When a file
+LOG-OUT.flush appears (the test writes it once mavterm has exited), what
 mavterm sent is read to the end of the sockets and the log written with "flushed" set to that
 file's text: the test waits for that, not for a time.
 """
 import argparse
+import collections
 import json
 import os
 import time
@@ -119,6 +122,7 @@ class Port:
         self.requests = []
         self.overlaps = 0
         self.acks = []  # (due, result)
+        self.sent = {}  # msgid -> deque of send times (time.time())
 
     def interval(self, msgid):
         if msgid in self.intervals:
@@ -143,6 +147,7 @@ def log():
             "received": sorted(p.received),
             "requests": p.requests,
             "overlaps": p.overlaps,
+            "sent": {str(m): list(ts) for m, ts in p.sent.items()},
         }
         for p in ports
     }
@@ -250,6 +255,10 @@ while time.time() < end:
             nxt = p.next.get(msgid, now)
             if nxt <= now:
                 send(p.m, msgid)
+                ts = p.sent.setdefault(msgid, collections.deque())
+                ts.append(time.time())
+                while ts and ts[0] < ts[-1] - 12.0:
+                    ts.popleft()
                 # Keep the schedule (no drift), but never burst after a stall.
                 nxt += iv
                 p.next[msgid] = nxt if nxt > now else now + iv
