@@ -718,6 +718,14 @@ fn links_pane_shows_signing_counts_per_source() {
     }
     a.ui.focus = mavterm::app::Pane::Links;
     insta::assert_snapshot!("links_signing_80x24", draw(&a, 80, 24, ui::links::render));
+    // Wider, the counts keep their `signing:` label.
+    let wide = draw(&a, 100, 24, ui::links::render);
+    assert!(
+        wide.contains(
+            "     signing: signed 10 · unsigned 0 · bad sig 2 · replayed 1 · future 1 · rejected 4"
+        ),
+        "{wide}"
+    );
 }
 
 #[test]
