@@ -102,6 +102,7 @@ fn a_ground_station_on_an_output_gets_every_frame_and_commands_the_vehicle() {
         Command::new(python)
             .arg(common::test_path("py/fwd_gcs.py"))
             .arg(port.to_string())
+            .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
             .spawn()
@@ -128,6 +129,12 @@ fn a_ground_station_on_an_output_gets_every_frame_and_commands_the_vehicle() {
         "json".into(),
     ]);
     let report = report(mavterm);
+    // mavterm has exited: the ground station reads what is left and tells.
+    {
+        use std::io::Write;
+        let mut stdin = gcs_child.0.stdin.take().unwrap();
+        writeln!(stdin).unwrap();
+    }
     let mut text = String::new();
     gcs_out.read_to_string(&mut text).unwrap();
     let gcs: Value = serde_json::from_str(text.trim()).unwrap();
