@@ -1,7 +1,9 @@
 //! MAVLink 2 signing in the core, with pymavlink as the reference both ways: what mavterm signs
 //! verifies in pymavlink with the same key (and fails with another); what pymavlink signs is
 //! taken; tampered bytes, a wrong key, replayed and stale timestamps and unsigned frames are
-//! rejected and counted; the timestamp never goes back across restarts; `signing setup` and
+//! rejected and counted; a timestamp more than a minute ahead of the wall clock (2^48-1, or a
+//! vehicle an hour ahead) is refused as `future` and moves no clock, and a state file poisoned
+//! with one is repaired at start; the timestamp never goes back across restarts; `signing setup` and
 //! `signing off` send the SETUP_SIGNING MAVProxy sends, only after a confirmation and only on a
 //! `?secure=1` link; the Links pane shows the counts per source.
 
