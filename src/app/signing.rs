@@ -410,10 +410,9 @@ impl App {
             SEV_WARNING,
             None,
             format!(
-                "{file} held {} ({} ahead of the clock; a frame from the future taken by an \
-                 older run?): repaired, we sign from the system clock. A vehicle that took \
-                 those timestamps refuses ours until `signing setup` over a ?secure=1 link and \
-                 a reboot",
+                "{file} held {}, {} ahead of the clock: repaired, we sign from the system \
+                 clock (an older run took a frame from the future?). A vehicle that took those \
+                 timestamps refuses ours until `signing setup` over ?secure=1 and a reboot",
                 date_text(bad),
                 codec::span_text(bad - reference)
             ),
@@ -513,14 +512,12 @@ impl App {
                 (
                     SEV_ERROR,
                     format!(
-                        "{who}: signed frames from the future on link {link} (its link id {}): \
-                         dated {}, {} ahead of our clock, over the 1 min allowed: {fate}, our \
-                         clock not moved. One of the two clocks is wrong: ours (check `date \
-                         -u`), or the vehicle's (`signing setup` over a ?secure=1 link gives it \
-                         ours)",
-                        f.link_id,
+                        "{who}: signed frames from the future, {} ahead of our clock (dated {}), \
+                         on link {link} (its link id {}): {fate}, our clock kept. Ours wrong? set \
+                         it (`date -u`). Its? `signing setup` over a ?secure=1 link gives it ours",
+                        codec::span_text(f.timestamp.saturating_sub(f.wall)),
                         date_text(f.timestamp),
-                        codec::span_text(f.timestamp.saturating_sub(f.wall))
+                        f.link_id,
                     ),
                 )
             }
