@@ -91,6 +91,7 @@ fn bench(c: &mut Criterion) {
                     allow_unsigned_heartbeat: false,
                     state_path: None,
                     saved_timestamp: 0,
+                    saved_at: None,
                 }),
                 ..AppConfig::default()
             });

@@ -5,9 +5,11 @@
 //!   passphrase, or `hex:`). A key file that its group or others may read is refused, as ssh
 //!   refuses such a private key: `chmod 600` it.
 //! - The timestamp is kept in `signing.json` in mavterm's data directory
-//!   (`~/.local/share/mavterm/`): the core writes a reservation a minute ahead while it signs,
-//!   and the edge writes the last timestamp used when the run ends. The next run starts after
-//!   it, so our timestamps never go backwards, even when the system clock does.
+//!   (`~/.local/share/mavterm/`): the core writes a reservation 30 s ahead while it signs, and
+//!   the edge writes the last timestamp used when the run ends. The next run starts after it, so
+//!   our timestamps never go backwards, even when the system clock does. The file's modification
+//!   time goes with it: the core repairs a file further ahead of the clock that wrote it than a
+//!   sound run leaves one (`app::signing::STATE_LIMIT`).
 
 use std::path::{Path, PathBuf};
 
@@ -98,14 +100,25 @@ pub fn load_state(path: &Path) -> Result<u64, StoreError> {
     }
 }
 
+/// When the state file at `path` was last written, as a signing timestamp (`None`: no file, or
+/// no time kept for it).
+pub fn state_written_at(path: &Path) -> Option<u64> {
+    let t = std::fs::metadata(path).ok()?.modified().ok()?;
+    let us = t.duration_since(std::time::UNIX_EPOCH).ok()?.as_micros();
+    Some(codec::timestamp_from_unix_micros(
+        us.min(i64::MAX as u128) as i64
+    ))
+}
+
 /// The core's signing settings: the key `spec` names, and, when `state` is given, the timestamp
-/// kept there (its directory is made, so the core's writes can land).
+/// kept there and when it was written (its directory is made, so the core's writes can land).
 pub fn signing_config(
     spec: &str,
     allow_unsigned_heartbeat: bool,
     state: Option<PathBuf>,
 ) -> Result<SigningConfig, StoreError> {
     let key = read_key(spec)?;
+    let saved_at = state.as_deref().and_then(state_written_at);
     let saved_timestamp = match &state {
         Some(path) => {
             if let Some(dir) = path.parent() {
@@ -123,6 +136,7 @@ pub fn signing_config(
         allow_unsigned_heartbeat,
         state_path: state,
         saved_timestamp,
+        saved_at,
     })
 }
 

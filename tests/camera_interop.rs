@@ -262,7 +262,21 @@ fn a_pymavlink_camera_over_udp_is_discovered_and_shoots() {
     use std::io::Read;
     run.stderr.take().unwrap().read_to_string(&mut err).unwrap();
     assert!(status.success(), "{err}");
-    let got: Vec<Vec<f64>> = serde_json::from_str(&std::fs::read_to_string(&log).unwrap()).unwrap();
+    // The camera writes its log after each command it answers: wait for the one `s` sent (it
+    // may still be on its way to a busy camera when mavterm exits), not for a time.
+    let start = std::time::Instant::now();
+    let got: Vec<Vec<f64>> = loop {
+        let got: Vec<Vec<f64>> = std::fs::read_to_string(&log)
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok())
+            .unwrap_or_default();
+        if got.iter().any(|c| c[0] == 2000.0)
+            || start.elapsed() > std::time::Duration::from_secs(30)
+        {
+            break got;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
     // REQUEST_MESSAGE 259 first, then the settings, storage and capture status.
     let first: Vec<(f64, f64)> = got.iter().take(4).map(|c| (c[0], c[1])).collect();
     assert_eq!(

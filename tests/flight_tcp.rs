@@ -11,7 +11,9 @@ fn guided_arm_takeoff_over_tcp_in_real_time() {
     let _sim = common::sim_server(port, "");
     let dir = tempfile::tempdir().unwrap();
     let script = dir.path().join("fly.txt");
-    // The sim's EKF uses GPS 5 s after boot; the sim booted a moment before us.
+    // The sim's EKF uses GPS 5 s after boot; the sim booted a moment before us. The climb to
+    // 10 m takes the sim 6.7 s: looked at 14 s after the takeoff, so a busy machine's delays in
+    // the commands do not decide what is seen.
     std::fs::write(
         &script,
         "6 text \":mode guided\\n\"\n\
@@ -19,10 +21,10 @@ fn guided_arm_takeoff_over_tcp_in_real_time() {
          8.5 key y\n\
          10 text \":takeoff 10\\n\"\n\
          10.5 key y\n\
-         19 snapshot overview\n\
-         19.1 key 3\n\
-         19.2 snapshot commands\n\
-         19.3 quit\n",
+         24 snapshot overview\n\
+         24.1 key 3\n\
+         24.2 snapshot commands\n\
+         24.3 quit\n",
     )
     .unwrap();
     let screens = dir.path().join("screens");

@@ -5,8 +5,8 @@
 
 mod common;
 
+use std::io::{BufRead, Read, Write};
 use std::process::{Command, Stdio};
-use std::time::Duration;
 
 use serde_json::Value;
 
@@ -23,13 +23,29 @@ fn source(report: &Value, sysid: u64) -> &Value {
 fn pymavlink_sequence_pattern_and_our_heartbeat() {
     let python = common::python(); // before the clock starts: it may have to make the venv
     let port = common::free_udp_port();
+    // The stand-in loads pymavlink and makes its frames first, then sends once mavterm holds the
+    // port: mavterm's 8 s are for the traffic (about a second of it), not for Python's start.
+    let mut child = common::ChildGuard(
+        Command::new(python)
+            .arg(common::test_path("py/udp_pattern.py"))
+            .arg(port.to_string())
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    let mut py_out = std::io::BufReader::new(child.0.stdout.take().unwrap());
+    let mut line = String::new();
+    py_out.read_line(&mut line).unwrap();
+    assert_eq!(line.trim(), "ready", "udp_pattern.py did not start");
     let mavterm = Command::new(common::mavterm())
         .args([
             "--link",
             &format!("udpin:127.0.0.1:{port}"),
             "--headless",
             "--duration",
-            "5",
+            "8",
             "--report",
             "json",
         ])
@@ -37,26 +53,23 @@ fn pymavlink_sequence_pattern_and_our_heartbeat() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    // Wait until mavterm holds the port (our own bind then fails).
-    let start = std::time::Instant::now();
-    while std::net::UdpSocket::bind(("127.0.0.1", port)).is_ok() {
-        assert!(
-            start.elapsed() < Duration::from_secs(3),
-            "mavterm did not bind {port}"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let py = Command::new(python)
-        .arg(common::test_path("py/udp_pattern.py"))
-        .arg(port.to_string())
-        .output()
+    common::wait_udp_bound(port);
+    let mut stdin = child.0.stdin.take().unwrap();
+    writeln!(stdin, "go").unwrap();
+    drop(stdin);
+    line.clear();
+    py_out.read_line(&mut line).unwrap();
+    let status = child.0.wait().unwrap();
+    let mut err = String::new();
+    child
+        .0
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
         .unwrap();
-    assert!(
-        py.status.success(),
-        "python failed: {}",
-        String::from_utf8_lossy(&py.stderr)
-    );
-    let py: Value = serde_json::from_slice(&py.stdout).unwrap();
+    assert!(status.success(), "python failed: {err}");
+    let py: Value = serde_json::from_str(&line).unwrap();
     let out = mavterm.wait_with_output().unwrap();
     assert!(
         out.status.success(),

@@ -552,7 +552,8 @@ fn a_replay_in_real_time_pauses_and_seeks_on_the_keys() {
             let t = rt.now() + 50_000;
             let _ = rt.run(Some(t), &mut NoFrontend).await;
             waited += 1;
-            assert!(waited < 100, "no paused status");
+            // 30 s: only against a hang.
+            assert!(waited < 600, "no paused status");
         }
         let n = rt.app.links[0].parser.frames;
         assert!(n > 0);

@@ -1,7 +1,9 @@
 //! MAVLink 2 signing in the core, with pymavlink as the reference both ways: what mavterm signs
 //! verifies in pymavlink with the same key (and fails with another); what pymavlink signs is
 //! taken; tampered bytes, a wrong key, replayed and stale timestamps and unsigned frames are
-//! rejected and counted; the timestamp never goes back across restarts; `signing setup` and
+//! rejected and counted; a timestamp more than a minute ahead of the wall clock (2^48-1, or a
+//! vehicle an hour ahead) is refused as `future` and moves no clock, and a state file poisoned
+//! with one is repaired at start; the timestamp never goes back across restarts; `signing setup` and
 //! `signing off` send the SETUP_SIGNING MAVProxy sends, only after a confirmation and only on a
 //! `?secure=1` link; the Links pane shows the counts per source.
 
@@ -41,10 +43,20 @@ fn signing(pass: &str, allow_hb: bool) -> SigningConfig {
         allow_unsigned_heartbeat: allow_hb,
         state_path: None,
         saved_timestamp: 0,
+        saved_at: None,
     }
 }
 
 fn app_with(links: &[&str], signing: Option<SigningConfig>, epoch_unix: i64) -> App {
+    app_with_fx(links, signing, epoch_unix).0
+}
+
+/// [`app_with`], and what the core did when its links came up (its first update).
+fn app_with_fx(
+    links: &[&str],
+    signing: Option<SigningConfig>,
+    epoch_unix: i64,
+) -> (App, Vec<Effect>) {
     let mut a = App::new(AppConfig {
         links: links.iter().map(|s| s.to_string()).collect(),
         epoch: epoch(epoch_unix),
@@ -53,16 +65,17 @@ fn app_with(links: &[&str], signing: Option<SigningConfig>, epoch_unix: i64) -> 
         signing,
         ..AppConfig::default()
     });
+    let mut fx = Vec::new();
     for i in 0..links.len() {
-        a.update(
+        fx.extend(a.update(
             0,
             Event::LinkState {
                 link: i,
                 state: LinkState::Up,
             },
-        );
+        ));
     }
-    a
+    (a, fx)
 }
 
 fn app(links: &[&str], key: Option<&str>, allow_hb: bool) -> App {
@@ -462,7 +475,14 @@ fn timestamps_never_go_back_across_restarts() {
     // The run dies without its final save: what the file holds is still ahead of all it used.
     assert!(load_state(&path).unwrap() > last_a);
 
-    // Second run, with the system clock an hour behind: still after every timestamp used.
+    // Second run, with the system clock an hour behind the one that wrote the file (its
+    // modification time): still after every timestamp used, the file is not doubted.
+    let file = std::fs::File::options().write(true).open(&path).unwrap();
+    file.set_modified(
+        std::time::SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(EPOCH_UNIX as u64 + 120),
+    )
+    .unwrap();
+    drop(file);
     let cfg = signing_config(PASS, false, Some(path.clone())).unwrap();
     let mut b = app_with(&["udpin:0.0.0.0:14550"], Some(cfg), EPOCH_UNIX - 3600);
     let first_b: Vec<Vec<u8>> = sends(&b.update(SECOND, Event::Tick))
@@ -680,6 +700,9 @@ fn links_pane_shows_signing_counts_per_source() {
     );
     feed(&mut a, 1_200_000, 0, &wrong[0]);
     feed(&mut a, 1_300_000, 0, &wrong[1]);
+    // Dated the end of time: from the future.
+    let end = sign(&key, 0, (1 << 48) - 1, &[copter_hb(1, 12, 4)]);
+    feed(&mut a, 1_350_000, 0, &end[0]);
     let unsigned = common::pymavlink_encode(&[
         json!({"sysid": 51, "compid": 68, "seq": 0, "msg": "RADIO_STATUS",
                "fields": {"rssi": 1, "remrssi": 2, "txbuf": 3, "noise": 4, "remnoise": 5,
@@ -698,6 +721,14 @@ fn links_pane_shows_signing_counts_per_source() {
     }
     a.ui.focus = mavterm::app::Pane::Links;
     insta::assert_snapshot!("links_signing_80x24", draw(&a, 80, 24, ui::links::render));
+    // Wider, the counts keep their `signing:` label.
+    let wide = draw(&a, 100, 24, ui::links::render);
+    assert!(
+        wide.contains(
+            "     signing: signed 10 · unsigned 0 · bad sig 2 · replayed 1 · future 1 · rejected 4"
+        ),
+        "{wide}"
+    );
 }
 
 #[test]
@@ -721,4 +752,249 @@ fn a_vehicle_that_signs_while_we_have_no_key_is_a_notice() {
         "notices_no_key_80x24",
         draw(&a, 80, 10, ui::messages::render)
     );
+}
+
+// ---- Timestamps from the future (one bad frame must not lock the link) ----
+
+use mavterm::wire::signing::{FUTURE_MARGIN, MAX_TIMESTAMP};
+
+/// One minute in timestamp units, from the guide (10 µs units).
+const MINUTE: u64 = 6_000_000;
+
+/// The timestamps of the frames among `fx` that pymavlink reads as signed with `key`.
+fn sent_timestamps(key: &str, fx: &[Effect]) -> Vec<u64> {
+    let frames: Vec<Vec<u8>> = sends(fx).into_iter().map(|(_, f)| f).collect();
+    let (got, _) = verify(key, &frames);
+    got.iter()
+        .map(|g| {
+            assert_eq!(g["sig_ok"], true, "{g}");
+            g["timestamp"].as_u64().unwrap()
+        })
+        .collect()
+}
+
+#[test]
+fn a_frame_dated_the_end_of_time_is_refused_and_the_link_goes_on() {
+    assert_eq!(MAX_TIMESTAMP, (1u64 << 48) - 1);
+    assert_eq!(FUTURE_MARGIN, MINUTE, "the margin chosen: a minute");
+    let key = mavproxy_key(PASS);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("signing.json");
+    let mut cfg = signing(PASS, false);
+    cfg.state_path = Some(path.clone());
+    let mut a = app_with(&["udpin:0.0.0.0:14550"], Some(cfg), EPOCH_UNIX);
+    // Signed with the right key (by pymavlink), timestamp 2^48-1, then the vehicle's normal
+    // frames on the same stream (link id 0), at the wall clock.
+    let end = sign(&key, 0, MAX_TIMESTAMP, &[copter_hb(1, 0, 6)]);
+    feed(&mut a, 100_000, 0, &end[0]);
+    let reqs: Vec<Value> = (1..6).map(|i| copter_hb(1, i, 4)).collect();
+    let normal = sign(&key, 0, spec_ts(200_000), &reqs);
+    for (i, f) in normal.iter().enumerate() {
+        feed(&mut a, 200_000 + i as u64 * 100_000, 0, f);
+    }
+    // The same end-of-time frame again later: counted, not told again.
+    feed(&mut a, 800_000, 0, &end[0]);
+    let c = counts(&a, 0, (1, 1));
+    assert_eq!(c["future"], 2, "{c}");
+    assert_eq!(c["signed"], 5, "{c}");
+    assert_eq!(c["rejected"], 2, "{c}");
+    let v = a.vehicles.get((1, 1)).expect("the vehicle is heard");
+    assert_eq!(v.custom_mode, 4, "the end-of-time frame (mode 6) not read");
+    // Named once, with its stream and its date (2^48-1 x 10 µs after 2015-01-01 is
+    // 2104-03-13 02:56:07 UTC).
+    let told: Vec<String> = notices(&a)
+        .into_iter()
+        .filter(|t| t.contains("from the future"))
+        .collect();
+    assert_eq!(told.len(), 1, "{told:?}");
+    assert!(
+        told[0].starts_with("1:1: ")
+            && told[0].contains("link 0 (its link id 0)")
+            && told[0].contains("2104-03-13 02:56:07 UTC")
+            && told[0].contains("rejected"),
+        "{told:?}"
+    );
+    // Our clock stayed with the wall clock: what we sign next is read by pymavlink at the wall
+    // clock's timestamp, and the state file never holds the end of time.
+    let mut written = Vec::new();
+    let mut ts = Vec::new();
+    for s in 1..=40 {
+        let fx = a.update(s * SECOND, Event::Tick);
+        for e in &fx {
+            if let Effect::WriteFile { path: p, contents } = e {
+                assert_eq!(p, &path);
+                written.push(mavterm::wire::signing::decode_state(contents).unwrap());
+            }
+        }
+        for t in sent_timestamps(&key, &fx) {
+            ts.push((s, t));
+        }
+    }
+    for (s, t) in &ts {
+        assert!(
+            *t >= spec_ts(s * SECOND) && *t < spec_ts(s * SECOND) + 100,
+            "at {s} s we signed {t}, the wall clock is {}",
+            spec_ts(s * SECOND)
+        );
+    }
+    assert!(!written.is_empty());
+    for w in &written {
+        // At most the 30 s reservation past the last used.
+        assert!(*w <= spec_ts(40 * SECOND) + 100 + 3_000_000, "state {w}");
+    }
+    // A new stream of a vehicle whose clock is right is still taken.
+    let other = sign(&key, 2, spec_ts(41 * SECOND), &[copter_hb(1, 9, 5)]);
+    feed(&mut a, 41 * SECOND, 0, &other[0]);
+    assert_eq!(a.vehicles.get((1, 1)).unwrap().custom_mode, 5);
+}
+
+#[test]
+fn a_frame_from_the_future_on_a_trusted_link_is_taken_but_moves_no_clock() {
+    let key = mavproxy_key(PASS);
+    let mut a = app(&["serial:/dev/ttyACM0?secure=1"], Some(PASS), false);
+    let end = sign(&key, 0, MAX_TIMESTAMP, &[copter_hb(1, 0, 6)]);
+    feed(&mut a, 100_000, 0, &end[0]);
+    assert_eq!(a.vehicles.get((1, 1)).unwrap().custom_mode, 6, "taken");
+    let c = counts(&a, 0, (1, 1));
+    assert_eq!(
+        (c["future"].as_u64(), c["rejected"].as_u64()),
+        (Some(1), Some(0))
+    );
+    let n = notices(&a);
+    assert!(
+        n.iter()
+            .any(|t| t.contains("from the future") && t.contains("taken: the link is trusted")),
+        "{n:?}"
+    );
+    let ts = sent_timestamps(&key, &a.update(SECOND, Event::Tick));
+    assert!(ts[0] < spec_ts(SECOND) + 100, "{ts:?}");
+}
+
+#[test]
+fn a_poisoned_state_file_is_repaired_at_start() {
+    use mavterm::signing_store::{load_state, signing_config};
+    let key = mavproxy_key(PASS);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("signing.json");
+    // What the probe left: the end of time, written by a clock that read "now".
+    std::fs::write(&path, "{\"timestamp\": 281474976710655}").unwrap();
+    let file = std::fs::File::options().write(true).open(&path).unwrap();
+    file.set_modified(
+        std::time::SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(EPOCH_UNIX as u64),
+    )
+    .unwrap();
+    drop(file);
+    let cfg = signing_config(PASS, false, Some(path.clone())).unwrap();
+    assert_eq!(cfg.saved_timestamp, MAX_TIMESTAMP);
+    let (mut a, fx) = app_with_fx(&["udpin:0.0.0.0:14550"], Some(cfg), EPOCH_UNIX);
+    let told: Vec<String> = notices(&a)
+        .into_iter()
+        .filter(|t| t.contains("repaired"))
+        .collect();
+    assert_eq!(told.len(), 1, "{:?}", notices(&a));
+    assert!(
+        told[0].contains(&path.display().to_string())
+            && told[0].contains("2104-03-13 02:56:07 UTC")
+            && told[0].contains("signing setup"),
+        "{told:?}"
+    );
+    assert_eq!(a.report()["signing"]["state_repaired_from"], MAX_TIMESTAMP);
+    // The first thing done: our frames at the wall clock, and the file written again.
+    let ts = sent_timestamps(&key, &fx);
+    assert!(
+        !ts.is_empty() && ts.iter().all(|t| *t >= spec_ts(0) && *t < spec_ts(0) + 100),
+        "{ts:?}"
+    );
+    let w: Vec<&Vec<u8>> = fx
+        .iter()
+        .filter_map(|e| match e {
+            Effect::WriteFile { contents, .. } => Some(contents),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(w.len(), 1, "{fx:?}");
+    std::fs::write(&path, w[0]).unwrap();
+    let kept = load_state(&path).unwrap();
+    // A reservation of 30 s (3,000,000 units) past the last used, as every run writes.
+    assert!(
+        kept > ts[0] && kept <= *ts.last().unwrap() + 3_000_000,
+        "{kept}"
+    );
+    // A signed vehicle at the wall clock is taken.
+    let hb = sign(&key, 0, spec_ts(2 * SECOND), &[copter_hb(1, 0, 4)]);
+    feed(&mut a, 2 * SECOND, 0, &hb[0]);
+    assert!(a.vehicles.get((1, 1)).is_some());
+
+    // Within the limit of the clock that wrote it (a reservation after a crash, 80 s ahead):
+    // kept, and ours start after it, silently.
+    let ahead = spec_ts(0) + 80 * 100_000;
+    std::fs::write(&path, format!("{{\"timestamp\": {ahead}}}")).unwrap();
+    let file = std::fs::File::options().write(true).open(&path).unwrap();
+    file.set_modified(
+        std::time::SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(EPOCH_UNIX as u64),
+    )
+    .unwrap();
+    drop(file);
+    let cfg = signing_config(PASS, false, Some(path.clone())).unwrap();
+    let mut b = app_with(&["udpin:0.0.0.0:14550"], Some(cfg), EPOCH_UNIX);
+    assert!(!notices(&b).iter().any(|t| t.contains("repaired")));
+    let ts = sent_timestamps(&key, &b.update(SECOND, Event::Tick));
+    assert!(ts[0] > ahead, "{ts:?}");
+}
+
+#[test]
+fn a_vehicle_an_hour_ahead_is_refused_until_signing_setup_gives_it_our_clock() {
+    let key = mavproxy_key(PASS);
+    let links = ["udpin:0.0.0.0:14550", "serial:/dev/ttyACM0?secure=1"];
+    let mut a = app(&links, Some(PASS), false);
+    let hour = 60 * MINUTE;
+    // Its clock an hour ahead: every frame refused on the radio link, the vehicle not taken.
+    let reqs: Vec<Value> = (0..3).map(|i| copter_hb(1, i, 4)).collect();
+    let ahead = sign(&key, 0, spec_ts(0) + hour, &reqs);
+    for (i, f) in ahead.iter().enumerate() {
+        feed(&mut a, 100_000 * (i as u64 + 1), 0, f);
+    }
+    assert!(a.vehicles.get((1, 1)).is_none());
+    let c = counts(&a, 0, (1, 1));
+    assert_eq!(
+        (c["future"].as_u64(), c["rejected"].as_u64()),
+        (Some(3), Some(3))
+    );
+    let n = notices(&a);
+    let told: Vec<&String> = n.iter().filter(|t| t.contains("from the future")).collect();
+    assert_eq!(told.len(), 1, "{n:?}");
+    assert!(
+        told[0].contains("1 h 00 min ahead") && told[0].contains("signing setup"),
+        "what the operator does is said: {told:?}"
+    );
+    // 50 s ahead (within the minute): taken, and our clock follows it (the guide's rule).
+    let near = sign(
+        &key,
+        1,
+        spec_ts(400_000) + 50 * 100_000,
+        &[copter_hb(1, 3, 4)],
+    );
+    feed(&mut a, 400_000, 0, &near[0]);
+    assert!(a.vehicles.get((1, 1)).is_some());
+    assert!(a.signing.clock.last() >= spec_ts(400_000) + 50 * 100_000);
+    assert!(a.signing.clock.last() <= spec_ts(400_000) + FUTURE_MARGIN);
+
+    // The operator's way out: on the USB link (trusted, so its frames are taken there) send
+    // our key with our clock; ArduPilot sets its clock to SETUP_SIGNING's initial_timestamp.
+    let usb = sign(&key, 0, spec_ts(0) + hour + 10, &[copter_hb(1, 4, 4)]);
+    feed(&mut a, 500_000, 1, &usb[0]);
+    command(&mut a, 600_000, "signing setup");
+    let fx = keys(&mut a, 700_000, &["y"]);
+    let sent = setup_signing(&fx);
+    assert_eq!(sent.len(), 1, "{fx:?}");
+    let (got, _) = verify(&key, &[sent[0].1.clone()]);
+    let initial = got[0]["initial_timestamp"].as_u64().unwrap();
+    assert!(
+        initial < spec_ts(700_000) + FUTURE_MARGIN,
+        "our clock, not the vehicle's: {initial}"
+    );
+    // Its frames from that clock on are taken on the radio link too (a new stream: link id 2).
+    let after = sign(&key, 2, initial + 1000, &[copter_hb(1, 5, 5)]);
+    feed(&mut a, 800_000, 0, &after[0]);
+    assert_eq!(a.vehicles.get((1, 1)).unwrap().custom_mode, 5);
 }

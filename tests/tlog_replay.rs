@@ -127,11 +127,19 @@ fn garbage_is_counted_on_a_tlog_link_in_real_time_too() {
         .enable_all()
         .build()
         .unwrap();
-    let app = rt.block_on(mavterm::driver::real_time::run_for(
-        &[spec],
-        AppConfig::default(),
-        std::time::Duration::from_millis(1500),
-    ));
+    // Played in real time to its end (0.9 s of records): waited for, not timed.
+    let app = rt.block_on(async {
+        use mavterm::driver::real_time::{NoFrontend, RealTime};
+        let mut rt = RealTime::start(&[spec], AppConfig::default());
+        let hang = rt.now() + 30 * mavterm::clock::SECOND;
+        while !matches!(&rt.app.links[0].state, mavterm::app::links::LinkState::Down(r) if r == "end of log")
+        {
+            assert!(rt.now() < hang, "{:?}", rt.app.links[0].state);
+            let t = rt.now() + 50_000;
+            let _ = rt.run(Some(t), &mut NoFrontend).await;
+        }
+        rt.app
+    });
     let link = &app.report()["links"][0];
     assert_eq!(link["garbage_bytes"], 55 + 9, "{link}");
     assert_eq!(link["frames"], 10, "{link}");

@@ -326,7 +326,7 @@ impl App {
         let vehicles = Registry::new((cfg.sysid, cfg.compid), cfg.lost_timeout);
         let signing = signing::SigningState::new(cfg.signing.as_ref());
         let nudge = nudge::Nudge::new(cfg.nudge_deadman);
-        Self {
+        let mut app = Self {
             cfg,
             now: 0,
             links,
@@ -348,7 +348,9 @@ impl App {
             last_drawn_sec: 0,
             quit: false,
             suspend: false,
-        }
+        };
+        app.signing_start();
+        app
     }
 
     /// Wall-clock time of a core time, in the zone times are shown in.

@@ -92,6 +92,7 @@ impl App {
                                 "bad_signature": s.signing.bad_signature,
                                 "replayed": s.signing.replayed,
                                 "too_old": s.signing.too_old,
+                                "future": s.signing.future,
                                 "rejected": s.signing.rejected,
                             },
                         })
@@ -301,6 +302,7 @@ impl App {
                 "key": self.signing.key.is_some(),
                 "key_id": self.signing.key.as_ref().map(|k| k.id()),
                 "timestamp": self.signing.clock.last(),
+                "state_repaired_from": self.signing.repaired_from,
             },
             "outputs": outputs,
             "recording": recording,

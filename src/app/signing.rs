@@ -6,7 +6,13 @@
 //! - With a key, every frame we send is signed (MAVLink 2; link id = the link's number, one
 //!   timestamp clock for all links that never goes backwards, kept across runs by the edge).
 //!   Incoming signed frames are checked: a bad signature, a timestamp not after the last of its
-//!   stream (link id, sysid, compid) or a new stream more than a minute behind ours is rejected.
+//!   stream (link id, sysid, compid), a new stream more than a minute behind ours, or a timestamp
+//!   more than [`codec::FUTURE_MARGIN`] (a minute) ahead of the wall clock is rejected. Only a
+//!   frame taken raises our clock, so no frame from the future carries it away; nor does one
+//!   on a trusted link, where everything is taken.
+//! - Our clock is kept within that margin of the wall clock, and so is the state file (plus the
+//!   reservation, [`RESERVE`]): a file further ahead of the clock that wrote it (an older run
+//!   that took a frame from the future) is repaired at start, with a notice.
 //!   Unsigned frames are rejected, except RADIO_STATUS and RADIO (SiK radios cannot sign, as
 //!   ArduPilot and MAVProxy accept them) and, with `--signing-allow-unsigned-heartbeat`,
 //!   HEARTBEAT.
@@ -45,6 +51,10 @@ pub const WATCH: Micros = 5 * SECOND;
 /// starts at most this far ahead of the last timestamp used: never behind it, and well within
 /// the minute a vehicle's new stream may be behind ours.
 pub const RESERVE: u64 = 3_000_000;
+/// How far ahead of the wall clock that wrote it the state file may be: our clock is at most
+/// [`codec::FUTURE_MARGIN`] ahead (it only takes timestamps within it), the reservation
+/// [`RESERVE`] more. A file beyond this is repaired at start.
+pub const STATE_LIMIT: u64 = codec::FUTURE_MARGIN + RESERVE;
 
 /// Signing settings the core starts with: made at the edge from `--signing-key` and the state
 /// file.
@@ -57,6 +67,9 @@ pub struct SigningConfig {
     pub state_path: Option<PathBuf>,
     /// The timestamp the last run kept: ours start after it.
     pub saved_timestamp: u64,
+    /// The wall timestamp at which it was written (the file's modification time), when known:
+    /// a system clock that went back since then is no reason to doubt the file.
+    pub saved_at: Option<u64>,
 }
 
 /// How a frame stood with signing.
@@ -72,6 +85,8 @@ pub enum SigKind {
     Replayed,
     /// A new stream more than a minute behind our timestamp.
     TooOld,
+    /// A timestamp more than a minute ahead of the wall clock.
+    Future,
 }
 
 /// A frame's signing verdict: what it was, and whether it is used.
@@ -79,6 +94,30 @@ pub enum SigKind {
 pub struct Checked {
     pub kind: SigKind,
     pub accepted: bool,
+    /// For [`SigKind::Future`]: what to tell of it.
+    pub future: Option<FutureStamp>,
+}
+
+/// A timestamp from the future, as heard.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FutureStamp {
+    pub timestamp: u64,
+    /// The wall timestamp it was held against.
+    pub wall: u64,
+    pub link_id: u8,
+    /// The first such frame of its stream.
+    pub first: bool,
+}
+
+impl Checked {
+    /// True when this frame is told of, `first` being whether it is the first of its kind from
+    /// its source: a timestamp from the future is told once per stream, the rest once per kind.
+    fn is_told(&self, first: bool) -> bool {
+        match self.future {
+            Some(f) => f.first,
+            None => first,
+        }
+    }
 }
 
 /// Signing counts of one source on one link.
@@ -93,6 +132,8 @@ pub struct SigningCounts {
     pub replayed: u64,
     /// New streams more than a minute old (counted with the replays on screen).
     pub too_old: u64,
+    /// Timestamps more than a minute ahead of the wall clock.
+    pub future: u64,
     /// Frames rejected (of any kind above).
     pub rejected: u64,
 }
@@ -107,6 +148,7 @@ impl SigningCounts {
             SigKind::BadSignature => &mut self.bad_signature,
             SigKind::Replayed => &mut self.replayed,
             SigKind::TooOld => &mut self.too_old,
+            SigKind::Future => &mut self.future,
         };
         *n += 1;
         if !c.accepted {
@@ -117,7 +159,13 @@ impl SigningCounts {
 
     /// True when there is something about signing to show for this source.
     pub fn any_signing(&self) -> bool {
-        self.signed + self.unchecked + self.bad_signature + self.replayed + self.too_old > 0
+        self.signed
+            + self.unchecked
+            + self.bad_signature
+            + self.replayed
+            + self.too_old
+            + self.future
+            > 0
             || self.rejected > 0
     }
 }
@@ -172,6 +220,11 @@ pub struct SigningState {
     /// clock, so a crash between writes never lets the next run reuse a timestamp.
     reserved: u64,
     save_failure_told: bool,
+    /// The state file was repaired at start: written at the first chance.
+    repair_due: bool,
+    /// What the state file held when it was repaired (for the notice at start).
+    pub repaired_from: Option<u64>,
+    saved_at: Option<u64>,
     pub watch: Option<Watch>,
 }
 
@@ -189,8 +242,30 @@ impl SigningState {
             loaded: cfg.saved_timestamp,
             reserved: cfg.saved_timestamp,
             save_failure_told: false,
+            repair_due: false,
+            repaired_from: None,
+            saved_at: cfg.saved_at,
             watch: None,
         }
+    }
+
+    /// At start, at wall timestamp `wall`: a saved timestamp further ahead than [`STATE_LIMIT`]
+    /// of the clock that wrote it (or of ours now, when later) was not written by a run that
+    /// kept the rules: ours start from `wall` instead, and the file is written again. Returns
+    /// what it held then.
+    fn repair(&mut self, wall: u64) -> Option<u64> {
+        self.key.as_ref()?;
+        let reference = wall.max(self.saved_at.unwrap_or(0));
+        if self.loaded <= reference.saturating_add(STATE_LIMIT) {
+            return None;
+        }
+        let bad = self.loaded;
+        self.clock = Clock::after(wall);
+        self.loaded = wall;
+        self.reserved = wall;
+        self.repair_due = true;
+        self.repaired_from = Some(bad);
+        Some(bad)
     }
 
     /// The signature for the next frame on `link`, when we sign.
@@ -209,7 +284,8 @@ impl SigningState {
     fn save_due(&mut self) -> Option<Effect> {
         let path = self.state_path.as_ref()?;
         let last = self.clock.last();
-        if last <= self.loaded || last + RESERVE / 2 <= self.reserved {
+        let repair = std::mem::take(&mut self.repair_due);
+        if !repair && (last <= self.loaded || last + RESERVE / 2 <= self.reserved) {
             return None;
         }
         self.reserved = last + RESERVE;
@@ -230,6 +306,13 @@ impl SigningState {
     pub fn is_state_file(&self, path: &std::path::Path) -> bool {
         self.state_path.as_deref() == Some(path)
     }
+}
+
+/// A signing timestamp as a UTC date: `2104-03-13 02:56:07 UTC`.
+fn date_text(timestamp: u64) -> String {
+    chrono::DateTime::from_timestamp_micros(codec::unix_micros_of(timestamp))
+        .map(|d| d.format("%Y-%m-%d %H:%M:%S UTC").to_string())
+        .unwrap_or_else(|| format!("timestamp {timestamp}"))
 }
 
 /// The link id we sign with on link `link`: its number (links past 255 share the last ids).
@@ -262,6 +345,7 @@ impl App {
         };
         let Self { signing, links, .. } = self;
         let trusted = links[link].trusted;
+        let mut future = None;
         let (kind, accepted) = match (signing.key.as_ref(), signed) {
             (None, true) => (SigKind::Unchecked, true),
             (None, false) => (SigKind::Unsigned, true),
@@ -277,6 +361,7 @@ impl App {
                     frame.sysid,
                     frame.compid,
                     current,
+                    wall,
                 );
                 match verdict {
                     Verdict::Good(ts) => {
@@ -286,10 +371,52 @@ impl App {
                     Verdict::BadSignature => (SigKind::BadSignature, trusted),
                     Verdict::Replayed => (SigKind::Replayed, trusted),
                     Verdict::TooOld => (SigKind::TooOld, trusted),
+                    // Taken on a trusted link, but our clock stays where it is.
+                    Verdict::Future {
+                        timestamp,
+                        link_id,
+                        first,
+                    } => {
+                        future = Some(FutureStamp {
+                            timestamp,
+                            wall,
+                            link_id,
+                            first,
+                        });
+                        (SigKind::Future, trusted)
+                    }
                 }
             }
         };
-        Checked { kind, accepted }
+        Checked {
+            kind,
+            accepted,
+            future,
+        }
+    }
+
+    /// At start: a state file beyond [`STATE_LIMIT`] is repaired, and told.
+    pub(super) fn signing_start(&mut self) {
+        let wall = self.signing_wall();
+        let Some(bad) = self.signing.repair(wall) else {
+            return;
+        };
+        let file = match &self.signing.state_path {
+            Some(p) => format!("signing state {}", p.display()),
+            None => "the signing timestamp given".to_string(),
+        };
+        let reference = wall.max(self.signing.saved_at.unwrap_or(0));
+        self.notice(
+            SEV_WARNING,
+            None,
+            format!(
+                "{file} held {}, {} ahead of the clock: repaired, we sign from the system \
+                 clock (an older run took a frame from the future?). A vehicle that took those \
+                 timestamps refuses ours until `signing setup` over ?secure=1 and a reboot",
+                date_text(bad),
+                codec::span_text(bad - reference)
+            ),
+        );
     }
 
     /// A rejected frame: counted on its source, told of once per kind.
@@ -298,7 +425,7 @@ impl App {
         let key = (frame.sysid, frame.compid);
         let first = self.links[link].source(key).signing.count(c);
         self.dirty = true;
-        if first {
+        if c.is_told(first) {
             self.tell_signing(link, key, c);
         }
     }
@@ -328,7 +455,7 @@ impl App {
                 return;
             }
         }
-        if first && c.kind != SigKind::Signed && c.kind != SigKind::Unsigned {
+        if c.is_told(first) && c.kind != SigKind::Signed && c.kind != SigKind::Unsigned {
             self.tell_signing(link, key, c);
         }
     }
@@ -380,6 +507,20 @@ impl App {
                      recording played back?): {fate}"
                 ),
             ),
+            SigKind::Future => {
+                let Some(f) = c.future else { return };
+                (
+                    SEV_ERROR,
+                    format!(
+                        "{who}: signed frames from the future, {} ahead of our clock (dated {}), \
+                         on link {link} (its link id {}): {fate}, our clock kept. Ours wrong? set \
+                         it (`date -u`). Its? `signing setup` over a ?secure=1 link gives it ours",
+                        codec::span_text(f.timestamp.saturating_sub(f.wall)),
+                        date_text(f.timestamp),
+                        f.link_id,
+                    ),
+                )
+            }
         };
         self.notice(sev, Some(key), text);
     }

@@ -1,7 +1,7 @@
 //! The links pane: one row per link (state, rates, loss over the 10 s window and since start,
 //! CRC errors, sequence counters); an expanded link adds one row per source sysid:compid, and
 //! under it a line of MAVLink signing counts (signed, unsigned, bad signature, replayed,
-//! rejected) when we sign or the source does. Below them, the forwarding outputs (`--out`), when
+//! timestamps from the future, rejected) when we sign or the source does. Below them, the forwarding outputs (`--out`), when
 //! there are any: state, frames sent to the ground station there, frames it sent, frames dropped.
 
 use ratatui::layout::{Constraint, Rect};
@@ -16,9 +16,10 @@ use crate::app::signing::SigningCounts;
 use crate::app::{App, Pane};
 use crate::link::LinkSpec;
 
-/// The signing line under a source row: `signed 120 · unsigned 5 · bad sig 3 · replayed 1 ·
-/// rejected 9` with a key; without one, signed frames are unchecked.
-fn signing_line<'a>(c: &SigningCounts, key: bool, theme: &Theme) -> Line<'a> {
+/// The signing line under a source row: `signing: signed 120 · unsigned 5 · bad sig 3 ·
+/// replayed 1 · future 1 · rejected 10` with a key (the `signing:` label when `width` has room
+/// for it); without one, signed frames are unchecked.
+fn signing_line<'a>(c: &SigningCounts, key: bool, width: u16, theme: &Theme) -> Line<'a> {
     let dim = theme.dim();
     let n = |label: &'static str, v: u64, bad: bool| -> Vec<Span<'a>> {
         let style = if bad && v > 0 { theme.alert() } else { dim };
@@ -30,6 +31,20 @@ fn signing_line<'a>(c: &SigningCounts, key: bool, theme: &Theme) -> Line<'a> {
     let sep = || Span::styled(" · ", dim);
     let mut spans = vec![Span::styled("     signing: ", dim)];
     if key {
+        // The counts fit 80 columns; the label only when there is room beside them.
+        let counts = [
+            c.signed,
+            c.unsigned,
+            c.bad_signature,
+            c.replayed + c.too_old,
+            c.future,
+            c.rejected,
+        ];
+        let digits: usize = counts.iter().map(|v| v.to_string().len()).sum();
+        // "     signing: " + labels, spaces and separators.
+        if 14 + 64 + digits > width as usize {
+            spans[0] = Span::styled("     ", dim);
+        }
         spans.extend(n("signed", c.signed, false));
         spans.push(sep());
         spans.extend(n("unsigned", c.unsigned, false));
@@ -37,6 +52,8 @@ fn signing_line<'a>(c: &SigningCounts, key: bool, theme: &Theme) -> Line<'a> {
         spans.extend(n("bad sig", c.bad_signature, true));
         spans.push(sep());
         spans.extend(n("replayed", c.replayed + c.too_old, true));
+        spans.push(sep());
+        spans.extend(n("future", c.future, true));
         spans.push(sep());
         spans.extend(n("rejected", c.rejected, true));
     } else {
@@ -427,7 +444,10 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             ));
             rows.push(Row::new(keep(cells)).style(theme.dim()));
             if key || s.signing.any_signing() {
-                overlays.push((rows.len(), signing_line(&s.signing, key, theme)));
+                overlays.push((
+                    rows.len(),
+                    signing_line(&s.signing, key, inner.width, theme),
+                ));
                 rows.push(Row::new(vec![Cell::from("")]));
             }
         }

@@ -10,14 +10,20 @@
 //! SHA-256 as MAVProxy and Mission Planner do, `hex:` 64 hex digits, or `file:PATH`), signing a
 //! frame ([`sign_frame`]), checking one ([`verify`]), our outgoing timestamp ([`Clock`], which
 //! never goes backwards), and the incoming streams (link id, sysid, compid) with their last
-//! timestamps and the one-minute rule for new streams ([`Streams`]). The caller passes the wall
-//! time in: this module never reads a clock.
+//! timestamps, the one-minute rule for new streams and the bound on timestamps from the future
+//! ([`Streams`]). The caller passes the wall time in: this module never reads a clock.
+//!
+//! The guide raises our clock to every good incoming timestamp and never lowers it, so one
+//! frame dated far ahead (a vehicle whose clock jumped, or anyone holding the key) would carry
+//! our clock, and everything we sign after, to that date. Here a timestamp more than
+//! [`FUTURE_MARGIN`] ahead of the wall clock is refused ([`Verdict::Future`]): it opens no
+//! stream and never raises our clock.
 //!
 //! The `mavlink` crate's `SigningData` reads the system clock itself and keeps its state behind a
 //! mutex, so it cannot live in a pure core; its signature computation is used in the tests as an
 //! independent check of ours.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use sha2::{Digest, Sha256};
 
@@ -30,6 +36,17 @@ pub const SIGNATURE_VALUE_LEN: usize = 6;
 /// One minute in timestamp units (10 µs): a new stream's first timestamp may be at most this far
 /// behind ours.
 pub const ONE_MINUTE: u64 = 6_000_000;
+/// How far ahead of our wall clock an incoming timestamp may be: one minute.
+///
+/// - It is the guide's own tolerance the other way: a new stream may be a minute behind.
+/// - It holds what a sound peer can be ahead by: a ground station restarted after a crash starts
+///   from its reservation (ours is 30 s, `app::signing::RESERVE`) and the vehicles it talks to
+///   take its clock; that leaves 30 s for the clocks of two machines to disagree.
+/// - Past it, following the vehicle is no cure: a vehicle more than a minute ahead refuses a
+///   new stream of ours that keeps to the wall clock (the C library's one-minute rule), and
+///   taking its clock is how one bad frame locked the link. A clock a minute off is broken:
+///   the operator sets it right (ours), or `signing setup` gives the vehicle ours.
+pub const FUTURE_MARGIN: u64 = ONE_MINUTE;
 /// 2015-01-01 00:00:00 UTC in Unix seconds: the signing timestamp's epoch.
 pub const EPOCH_UNIX_SECONDS: i64 = 1_420_070_400;
 /// Largest timestamp that fits the 48-bit field.
@@ -262,6 +279,14 @@ pub enum Verdict {
     Replayed,
     /// The first frame of a stream, more than a minute behind our timestamp.
     TooOld,
+    /// Good signature, but a timestamp more than [`FUTURE_MARGIN`] ahead of the wall clock:
+    /// refused, and neither its stream nor our clock moves. `first`: the first such frame of its
+    /// stream (to name it once).
+    Future {
+        timestamp: u64,
+        link_id: u8,
+        first: bool,
+    },
 }
 
 /// The incoming streams of one link: (link id, sysid, compid) → last good timestamp.
@@ -270,6 +295,8 @@ pub struct Streams {
     last: BTreeMap<(u8, u8, u8), u64>,
     /// Streams forgotten to stay within [`MAX_STREAMS`].
     pub evicted: u64,
+    /// Streams told of a timestamp from the future (at most [`MAX_STREAMS`]).
+    future_told: BTreeSet<(u8, u8, u8)>,
 }
 
 impl Streams {
@@ -282,9 +309,10 @@ impl Streams {
     }
 
     /// Check a signed frame (`raw`, its exact bytes, from `sysid`:`compid`) at our current
-    /// timestamp `current`. The signature is checked first, so a frame with a bad one changes
-    /// nothing; a good one then must be newer than its stream's last, or, opening a stream, not
-    /// more than a minute behind `current`.
+    /// timestamp `current` and wall timestamp `wall`. The signature is checked first, so a frame
+    /// with a bad one changes nothing; a good one must not be more than [`FUTURE_MARGIN`] ahead
+    /// of `wall` (else it changes nothing either), then must be newer than its stream's last, or,
+    /// opening a stream, not more than a minute behind `current`.
     pub fn check(
         &mut self,
         key: &SecretKey,
@@ -292,6 +320,7 @@ impl Streams {
         sysid: u8,
         compid: u8,
         current: u64,
+        wall: u64,
     ) -> Verdict {
         let Some(sig) = read_signature(raw) else {
             return Verdict::BadSignature;
@@ -300,6 +329,14 @@ impl Streams {
             return Verdict::BadSignature;
         }
         let stream = (sig.link_id, sysid, compid);
+        if sig.timestamp > wall.saturating_add(FUTURE_MARGIN) {
+            let first = self.future_told.len() < MAX_STREAMS && self.future_told.insert(stream);
+            return Verdict::Future {
+                timestamp: sig.timestamp,
+                link_id: sig.link_id,
+                first,
+            };
+        }
         match self.last.get_mut(&stream) {
             Some(last) if sig.timestamp <= *last => Verdict::Replayed,
             Some(last) => {
@@ -325,6 +362,24 @@ impl Streams {
             self.last.remove(&k);
             self.evicted += 1;
         }
+    }
+}
+
+/// The wall-clock time (µs since the Unix epoch) of a signing timestamp.
+pub fn unix_micros_of(timestamp: u64) -> i64 {
+    EPOCH_UNIX_SECONDS * 1_000_000 + (timestamp.min(MAX_TIMESTAMP) * 10) as i64
+}
+
+/// A timestamp difference for people: `45 s`, `59 min`, `2 h 05 min`, `3 d 4 h`, `78 years`.
+pub fn span_text(units: u64) -> String {
+    // Whole seconds, rounded: 3599.9 s is an hour.
+    let s = units.saturating_add(50_000) / 100_000;
+    match s {
+        0..=119 => format!("{s} s"),
+        120..=3599 => format!("{} min", s / 60),
+        3600..=172_799 => format!("{} h {:02} min", s / 3600, s / 60 % 60),
+        172_800..=63_071_999 => format!("{} d {} h", s / 86_400, s / 3600 % 24),
+        _ => format!("{} years", s / 31_557_600),
     }
 }
 
@@ -517,36 +572,99 @@ mod tests {
         let now = 100 * ONE_MINUTE;
         let at = |link, ts| signed_heartbeat(&key, link, ts);
         assert_eq!(
-            s.check(&key, &at(0, now), 255, 190, now),
+            s.check(&key, &at(0, now), 255, 190, now, now),
             Verdict::Good(now)
         );
-        assert_eq!(s.check(&key, &at(0, now), 255, 190, now), Verdict::Replayed);
         assert_eq!(
-            s.check(&key, &at(0, now - 1), 255, 190, now),
+            s.check(&key, &at(0, now), 255, 190, now, now),
             Verdict::Replayed
         );
         assert_eq!(
-            s.check(&key, &at(0, now + 1), 255, 190, now),
+            s.check(&key, &at(0, now - 1), 255, 190, now, now),
+            Verdict::Replayed
+        );
+        assert_eq!(
+            s.check(&key, &at(0, now + 1), 255, 190, now, now),
             Verdict::Good(now + 1)
         );
         // A new stream (another link id) exactly a minute behind is taken, more is not.
         assert_eq!(
-            s.check(&key, &at(1, now - ONE_MINUTE - 1), 255, 190, now),
+            s.check(&key, &at(1, now - ONE_MINUTE - 1), 255, 190, now, now),
             Verdict::TooOld
         );
         assert_eq!(
-            s.check(&key, &at(1, now - ONE_MINUTE), 255, 190, now),
+            s.check(&key, &at(1, now - ONE_MINUTE), 255, 190, now, now),
             Verdict::Good(now - ONE_MINUTE)
         );
         // A bad signature leaves the stream as it was.
         let mut t = at(1, now + 50);
         t[12] ^= 1;
-        assert_eq!(s.check(&key, &t, 255, 190, now), Verdict::BadSignature);
+        assert_eq!(s.check(&key, &t, 255, 190, now, now), Verdict::BadSignature);
         assert_eq!(
-            s.check(&key, &at(1, now - ONE_MINUTE + 1), 255, 190, now),
+            s.check(&key, &at(1, now - ONE_MINUTE + 1), 255, 190, now, now),
             Verdict::Good(now - ONE_MINUTE + 1)
         );
         assert_eq!(s.len(), 2);
+    }
+
+    #[test]
+    fn timestamps_from_the_future_are_refused_and_move_nothing() {
+        let key = SecretKey::from_passphrase("secret");
+        let mut s = Streams::default();
+        let wall = 100 * ONE_MINUTE;
+        let at = |link, ts| signed_heartbeat(&key, link, ts);
+        // The largest timestamp the field holds: refused, and told once for its stream.
+        let end = at(0, MAX_TIMESTAMP);
+        let future = |first| Verdict::Future {
+            timestamp: MAX_TIMESTAMP,
+            link_id: 0,
+            first,
+        };
+        assert_eq!(s.check(&key, &end, 1, 1, wall, wall), future(true));
+        assert_eq!(s.check(&key, &end, 1, 1, wall, wall), future(false));
+        assert!(s.is_empty(), "no stream opened");
+        // Normal frames of the same stream after it are taken.
+        assert_eq!(
+            s.check(&key, &at(0, wall), 1, 1, wall, wall),
+            Verdict::Good(wall)
+        );
+        // Exactly the margin ahead is taken, one more is not; held against the wall clock, not
+        // against our clock (which a taken frame raised: no ratchet).
+        assert_eq!(
+            s.check(&key, &at(0, wall + FUTURE_MARGIN), 1, 1, wall, wall),
+            Verdict::Good(wall + FUTURE_MARGIN)
+        );
+        let current = wall + FUTURE_MARGIN;
+        assert!(matches!(
+            s.check(&key, &at(0, wall + FUTURE_MARGIN + 1), 1, 1, current, wall),
+            // This stream was named already.
+            Verdict::Future { first: false, .. }
+        ));
+        // A bad signature is a bad signature, whatever its timestamp.
+        let mut t = at(0, MAX_TIMESTAMP);
+        t[12] ^= 1;
+        assert_eq!(s.check(&key, &t, 1, 1, wall, wall), Verdict::BadSignature);
+        // Another stream is named once of its own.
+        assert!(matches!(
+            s.check(&key, &at(4, MAX_TIMESTAMP), 1, 1, wall, wall),
+            Verdict::Future {
+                link_id: 4,
+                first: true,
+                ..
+            }
+        ));
+    }
+
+    #[test]
+    fn timestamps_read_as_dates_and_spans() {
+        // 2^48-1 units of 10 µs after 2015-01-01 (Python: datetime(2015,1,1) + timedelta(µs=(2**48-1)*10)).
+        let us = unix_micros_of(MAX_TIMESTAMP);
+        let date = chrono::DateTime::from_timestamp_micros(us).unwrap();
+        assert_eq!(date.format("%Y-%m-%d").to_string(), "2104-03-13");
+        assert_eq!(timestamp_from_unix_micros(us), MAX_TIMESTAMP);
+        assert_eq!(span_text(45 * 100_000), "45 s");
+        assert_eq!(span_text(3600 * 100_000), "1 h 00 min");
+        assert_eq!(span_text(MAX_TIMESTAMP), "89 years");
     }
 
     #[test]
@@ -556,7 +674,7 @@ mod tests {
         for i in 0..(MAX_STREAMS + 10) {
             let f = signed_heartbeat(&key, (i % 256) as u8, 1000 + i as u64);
             // Other senders: vary the sysid through the table key instead of the frame bytes.
-            let v = s.check(&key, &f, (i / 256) as u8 + 1, 1, 1000);
+            let v = s.check(&key, &f, (i / 256) as u8 + 1, 1, 1000, 1000);
             assert_eq!(v, Verdict::Good(1000 + i as u64));
         }
         assert_eq!(s.len(), MAX_STREAMS);

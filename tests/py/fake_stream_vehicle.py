@@ -19,11 +19,17 @@ really sends what it was asked, at the interval asked, on the port it was asked 
                               SRn_ rates do), intervals set by SET_MESSAGE_INTERVAL are lost.
   --fade-at T --fade-for D    at T seconds, send nothing at all for D seconds, then carry on.
 
-Written to --log-out (JSON) when it ends: per port, every message id received, the stream
-requests received with their time ([t, "group", id, hz] and [t, "interval", msgid, hz]), and how
-many SET_MESSAGE_INTERVALs came while another still waited for its answer ("overlaps").
+Written to --log-out (JSON) every half second and when it ends: per port, every message id
+received, the stream requests received with their time ([t, "group", id, hz] and [t, "interval",
+msgid, hz]), and how many SET_MESSAGE_INTERVALs came while another still waited for its answer
+("overlaps"), and the wall-clock times (time.time()) of its sends of each message in the last 12 s
+("sent": {msgid: [t, ...]}), for the test to know what rate really came. When a file
+LOG-OUT.flush appears (the test writes it once mavterm has exited), what
+mavterm sent is read to the end of the sockets and the log written with "flushed" set to that
+file's text: the test waits for that, not for a time.
 """
 import argparse
+import collections
 import json
 import os
 import time
@@ -116,6 +122,7 @@ class Port:
         self.requests = []
         self.overlaps = 0
         self.acks = []  # (due, result)
+        self.sent = {}  # msgid -> deque of send times (time.time())
 
     def interval(self, msgid):
         if msgid in self.intervals:
@@ -131,15 +138,20 @@ ports = [Port(p) for p in args.port]
 print("listening", flush=True)
 
 
+flushed = None  # the last flush asked and done
+
+
 def log():
     out = {
         str(p.port): {
             "received": sorted(p.received),
             "requests": p.requests,
             "overlaps": p.overlaps,
+            "sent": {str(m): list(ts) for m, ts in p.sent.items()},
         }
         for p in ports
     }
+    out["flushed"] = flushed
     tmp = args.log_out + ".tmp"
     with open(tmp, "w") as f:
         json.dump(out, f)
@@ -193,6 +205,23 @@ def handle(p, msg, now):
                 p.intervals[msgid] = 1e9
 
 
+def drain(p):
+    """Handle what one more read of port `p` holds; False once nothing is left."""
+    if p.m.port is None:
+        return False
+    try:
+        data = p.m.port.recv(65536)
+    except (BlockingIOError, InterruptedError):
+        return False
+    except OSError:
+        return False
+    if not data:
+        return False
+    for msg in p.m.mav.parse_buffer(data) or []:
+        handle(p, msg, time.time())
+    return True
+
+
 end = start + args.duration
 next_hb = 0.0
 rebooted = False
@@ -226,6 +255,10 @@ while time.time() < end:
             nxt = p.next.get(msgid, now)
             if nxt <= now:
                 send(p.m, msgid)
+                ts = p.sent.setdefault(msgid, collections.deque())
+                ts.append(time.time())
+                while ts and ts[0] < ts[-1] - 12.0:
+                    ts.popleft()
                 # Keep the schedule (no drift), but never burst after a stall.
                 nxt += iv
                 p.next[msgid] = nxt if nxt > now else now + iv
@@ -237,5 +270,20 @@ while time.time() < end:
     if now - last_log >= 0.5:
         log()
         last_log = now
+    flush = args.log_out + ".flush"
+    if os.path.exists(flush):
+        with open(flush) as f:
+            token = f.read().strip()
+        os.remove(flush)
+        flushed = token
+        # mavterm has exited: all it sent is in our sockets. Read it all, then tell.
+        for p in ports:
+            while True:
+                msg = p.m.recv_match(blocking=False)
+                if msg is not None:
+                    handle(p, msg, time.time())
+                elif not drain(p):
+                    break
+        log()
     time.sleep(0.002)
 log()

@@ -3,13 +3,14 @@
 Usage: fwd_gcs.py PORT. Listens on udpin:127.0.0.1:PORT as system 250, prints `listening`, then
 takes every frame mavterm forwards. A heartbeat once a second, as a GCS does; on the first
 heartbeat of system 1: a SETUP_SIGNING for it (mavterm must not pass it on) and COMMAND_LONG
-DO_SET_MODE GUIDED (it must). Ends 2 s after the frames stop (mavterm exited), or after 30 s, and
-prints one JSON object: every frame received (hex, sysid, msgid), the frames sent, whether a
+DO_SET_MODE GUIDED (it must). Ends when a line comes on stdin (the test: mavterm has exited),
+having read what is left on its socket, or after 120 s, and prints one JSON object: every frame received (hex, sysid, msgid), the frames sent, whether a
 heartbeat of system 1 in GUIDED (custom mode 4) came after, and the ACK.
 """
 import json
 import os
 import sys
+import threading
 import time
 
 os.environ.setdefault("MAVLINK20", "1")
@@ -38,15 +39,24 @@ def send(name, msg):
     sent[name] = bytes(msg.get_msgbuf()).hex()
 
 
-while time.time() - start < 30:
+ended = threading.Event()
+threading.Thread(target=lambda: (sys.stdin.readline(), ended.set()), daemon=True).start()
+
+while time.time() - start < 120:
     now = time.time()
-    if received and now - last_frame > 2.0:
-        break
+    if ended.is_set():
+        # mavterm has exited: what it sent is on our socket; read it to the end.
+        msg = m.recv_match(blocking=False)
+        if msg is None:
+            break
+    else:
+        msg = None
     # Heartbeats once the first frame showed where mavterm is.
-    if received and now >= next_hb:
+    if received and now >= next_hb and not ended.is_set():
         m.mav.heartbeat_send(mav.MAV_TYPE_GCS, mav.MAV_AUTOPILOT_INVALID, 0, 0, 0)
         next_hb = now + 1.0
-    msg = m.recv_match(blocking=True, timeout=0.2)
+    if msg is None:
+        msg = m.recv_match(blocking=True, timeout=0.2)
     if msg is None:
         continue
     last_frame = time.time()

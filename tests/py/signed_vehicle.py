@@ -2,8 +2,14 @@
 tampered, wrongly signed, replayed and unsigned frames, and checks mavterm's own frames with the
 same key.
 
-Usage: signed_vehicle.py PORT KEYHEX
-Prints one JSON line: what was sent, and pymavlink's reading of every frame mavterm sent back.
+Usage: signed_vehicle.py PORT KEYHEX [future]
+With `future`, the first frame is signed with the right key but timestamp 2^48-1 (the end of
+the field: a vehicle whose clock jumped), and the pattern follows at the wall clock.
+
+Prints `ready` once pymavlink is loaded, then waits for a line on stdin (mavterm is up) before it
+sends; at the end one JSON line: what was sent, and pymavlink's reading of every frame mavterm
+sent back. It listens until it has heard at least three of mavterm's frames after its pattern
+(mavterm's heartbeat is 1 Hz), within 20 s.
 """
 import json
 import socket
@@ -94,7 +100,19 @@ def receive(until):
             })
 
 
-sent = {"good": 0, "tampered": 0, "wrong_key": 0, "replayed": 0, "unsigned": 0, "radio": 0}
+sent = {"good": 0, "tampered": 0, "wrong_key": 0, "replayed": 0, "unsigned": 0, "radio": 0,
+        "future": 0}
+print("ready", flush=True)
+sys.stdin.readline()
+start = now_ts()
+# Signed from now on: the wait for mavterm is not in the timestamps.
+good.signing.timestamp = start
+wrong.signing.timestamp = start
+if len(sys.argv) > 3 and sys.argv[3] == "future":
+    end_of_time = signer(key, 1, 0)
+    end_of_time.signing.timestamp = (1 << 48) - 1
+    sock.sendto(heartbeat(end_of_time, 6), dest)
+    sent["future"] += 1
 first = None
 for i in range(10):
     f = heartbeat(good)
@@ -117,7 +135,10 @@ for i in range(10):
         sock.sendto(v2.MAVLink_radio_status_message(100, 90, 80, 20, 25, 0, 0).pack(radio), dest)
         sent["radio"] += 1
     receive(time.time() + 0.15)
-receive(time.time() + 1.5)
+heard = len(back)
+deadline = time.time() + 20
+while len(back) < heard + 3 and time.time() < deadline:
+    receive(time.time() + 0.1)
 
-print(json.dumps({"sent": sent, "back": back, "summary": {
+print(json.dumps({"sent": sent, "back": back, "start_ts": start, "end_ts": now_ts(), "summary": {
     "goodsig": reader.signing.goodsig_count, "badsig": reader.signing.badsig_count}}))

@@ -59,10 +59,10 @@ if MODE == "ftp_off":
             fail(f"a build without MAVFTP answered: {r}")
     ok("no answer to FTP in 3 s")
     m.mav.command_long_send(1, 1, mav.MAV_CMD_REQUEST_MESSAGE, 0, 148, 0, 0, 0, 0, 0, 0)
-    ack = m.recv_match(type="COMMAND_ACK", blocking=True, timeout=3)
+    ack = m.recv_match(type="COMMAND_ACK", blocking=True, timeout=15)
     if ack is None or ack.command != mav.MAV_CMD_REQUEST_MESSAGE or ack.result != 0:
         fail(f"REQUEST_MESSAGE 148: {ack}")
-    av = m.recv_match(type="AUTOPILOT_VERSION", blocking=True, timeout=3)
+    av = m.recv_match(type="AUTOPILOT_VERSION", blocking=True, timeout=15)
     if av is None:
         fail("no AUTOPILOT_VERSION")
     if av.capabilities & mav.MAV_PROTOCOL_CAPABILITY_FTP:

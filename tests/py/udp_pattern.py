@@ -2,7 +2,9 @@
 encodes them), then check that mavterm's own heartbeat decodes in pymavlink.
 
 Usage: udp_pattern.py PORT
-Prints one JSON line: what was sent and what was received back.
+Prints `ready` once pymavlink is loaded and the frames are made, then waits for a line on stdin
+(mavterm holds the port) before it sends; at the end one JSON line: what was sent and what was
+received back (mavterm's heartbeat, 1 Hz: waited for up to 30 s).
 """
 import json
 import os
@@ -59,6 +61,8 @@ m3.signing.sign_outgoing = True
 frames = [heartbeat(v2, m1, s) for s in seq1]
 frames += [heartbeat(v1, m2, s) for s in seq2]
 frames += [heartbeat(v2, m3, s) for s in seq3]
+print("ready", flush=True)
+sys.stdin.readline()
 # Interleave the systems as a router would.
 for f in frames:
     sock.sendto(f, dest)
@@ -69,7 +73,7 @@ parser = v2.MAVLink(None)
 parser.robust_parsing = True
 got = None
 bad = 0
-deadline = time.time() + 4
+deadline = time.time() + 30
 while time.time() < deadline and got is None:
     try:
         data, _ = sock.recvfrom(65536)
