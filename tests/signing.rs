@@ -984,17 +984,18 @@ fn a_vehicle_an_hour_ahead_is_refused_until_signing_setup_gives_it_our_clock() {
     let usb = sign(&key, 0, spec_ts(0) + hour + 10, &[copter_hb(1, 4, 4)]);
     feed(&mut a, 500_000, 1, &usb[0]);
     command(&mut a, 600_000, "signing setup");
-    let fx = keys(&mut a, 700_000, &["y"]);
+    // The y a little after the question (a key within 0.3 s of it does not answer).
+    let fx = keys(&mut a, 1_000_000, &["y"]);
     let sent = setup_signing(&fx);
     assert_eq!(sent.len(), 1, "{fx:?}");
     let (got, _) = verify(&key, &[sent[0].1.clone()]);
     let initial = got[0]["initial_timestamp"].as_u64().unwrap();
     assert!(
-        initial < spec_ts(700_000) + FUTURE_MARGIN,
+        initial < spec_ts(1_000_000) + FUTURE_MARGIN,
         "our clock, not the vehicle's: {initial}"
     );
     // Its frames from that clock on are taken on the radio link too (a new stream: link id 2).
     let after = sign(&key, 2, initial + 1000, &[copter_hb(1, 5, 5)]);
-    feed(&mut a, 800_000, 0, &after[0]);
+    feed(&mut a, 1_100_000, 0, &after[0]);
     assert_eq!(a.vehicles.get((1, 1)).unwrap().custom_mode, 5);
 }
