@@ -115,16 +115,21 @@ impl Mode {
     }
 }
 
-/// The full screens, in number-key order (`screen_1` shows the first). Each has a
-/// `[normal.NAME]` keymap section.
-pub const SCREENS: &[&str] = &[
-    "overview",
-    "parameters",
-    "commands",
-    "inspector",
-    "mission",
-    "camera",
-];
+/// Expands the screen list ([`crate::screen_list`]) into the keymap's part of it: the section
+/// names and the `screen_N` actions.
+macro_rules! keymap_screens {
+    ($( $n:literal $name:ident $title:literal $what:literal
+        $(select = $sel:ident)? $(note = $note:ident)? ;)*) => {
+        /// The full screens, in number-key order (`screen_1` shows the first). Each may have a
+        /// `[normal.NAME]` keymap section.
+        pub const SCREENS: &[&str] = &[$(stringify!($name)),*];
+
+        /// The `screen_N` actions, with their names and descriptions.
+        const SCREEN_ACTIONS: &[(Action, &str, &str)] =
+            &[$((Action::Screen($n - 1), concat!("screen_", $n), $what)),*];
+    };
+}
+crate::for_each_screen!(keymap_screens);
 
 /// A section of a keymap file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -291,9 +296,8 @@ pub enum Action {
 }
 
 impl Action {
-    /// Every bindable action with its name in keymap files and a one-line description, in the
-    /// order the help popup lists them.
-    pub const ALL: &'static [(Action, &'static str, &'static str)] = &[
+    /// The actions listed before the `screen_N` ones.
+    const BEFORE_SCREENS: &'static [(Action, &'static str, &'static str)] = &[
         (Action::Quit, "quit", "quit mavterm"),
         (
             Action::Suspend,
@@ -307,12 +311,10 @@ impl Action {
             "close the dialog or leave the line",
         ),
         (Action::Prompt, "prompt", "open the : command line"),
-        (Action::Screen(0), "screen_1", "show the overview screen"),
-        (Action::Screen(1), "screen_2", "show the parameters screen"),
-        (Action::Screen(2), "screen_3", "show the commands screen"),
-        (Action::Screen(3), "screen_4", "show the message inspector"),
-        (Action::Screen(4), "screen_5", "show the mission screen"),
-        (Action::Screen(5), "screen_6", "show the camera screen"),
+    ];
+
+    /// The actions listed after the `screen_N` ones.
+    const AFTER_SCREENS: &'static [(Action, &'static str, &'static str)] = &[
         (Action::Up, "up", "move the selection up"),
         (Action::Down, "down", "move the selection down"),
         (Action::PageUp, "page_up", "scroll up a page"),
@@ -581,6 +583,10 @@ impl Action {
         ),
     ];
 
+    /// Every bindable action with its name in keymap files and a one-line description, in the
+    /// order the help popup lists them.
+    pub const ALL: &'static [(Action, &'static str, &'static str)] = &ALL_ACTIONS;
+
     /// The actions of the text line (`[prompt]` and `[edit]`).
     const TEXT_LINE: &'static [Action] = &[
         Action::Submit,
@@ -665,6 +671,30 @@ impl Action {
             .unwrap_or("")
     }
 }
+
+const ALL_LEN: usize =
+    Action::BEFORE_SCREENS.len() + SCREEN_ACTIONS.len() + Action::AFTER_SCREENS.len();
+
+/// [`Action::ALL`]: the actions before the screens, the screens', the rest.
+const ALL_ACTIONS: [(Action, &str, &str); ALL_LEN] = {
+    let mut out = [(Action::Quit, "", ""); ALL_LEN];
+    let parts = [
+        Action::BEFORE_SCREENS,
+        SCREEN_ACTIONS,
+        Action::AFTER_SCREENS,
+    ];
+    let (mut p, mut at) = (0, 0);
+    while p < parts.len() {
+        let mut i = 0;
+        while i < parts[p].len() {
+            out[at] = parts[p][i];
+            at += 1;
+            i += 1;
+        }
+        p += 1;
+    }
+    out
+};
 
 /// A key name that means nothing to us.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
