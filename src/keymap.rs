@@ -115,16 +115,21 @@ impl Mode {
     }
 }
 
-/// The full screens, in number-key order (`screen_1` shows the first). Each has a
-/// `[normal.NAME]` keymap section.
-pub const SCREENS: &[&str] = &[
-    "overview",
-    "parameters",
-    "commands",
-    "inspector",
-    "mission",
-    "camera",
-];
+/// Expands the screen list ([`crate::screen_list`]) into the keymap's part of it: the section
+/// names and the `screen_N` actions.
+macro_rules! keymap_screens {
+    ($( $n:literal $name:ident $title:literal $what:literal
+        $(select = $sel:ident)? $(note = $note:ident)? ;)*) => {
+        /// The full screens, in number-key order (`screen_1` shows the first). Each may have a
+        /// `[normal.NAME]` keymap section.
+        pub const SCREENS: &[&str] = &[$(stringify!($name)),*];
+
+        /// The `screen_N` actions, with their names and descriptions.
+        const SCREEN_ACTIONS: &[(Action, &str, &str)] =
+            &[$((Action::Screen($n - 1), concat!("screen_", $n), $what)),*];
+    };
+}
+crate::for_each_screen!(keymap_screens);
 
 /// A section of a keymap file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -291,9 +296,8 @@ pub enum Action {
 }
 
 impl Action {
-    /// Every bindable action with its name in keymap files and a one-line description, in the
-    /// order the help popup lists them.
-    pub const ALL: &'static [(Action, &'static str, &'static str)] = &[
+    /// The actions listed before the `screen_N` ones.
+    const BEFORE_SCREENS: &'static [(Action, &'static str, &'static str)] = &[
         (Action::Quit, "quit", "quit mavterm"),
         (
             Action::Suspend,
@@ -307,12 +311,10 @@ impl Action {
             "close the dialog or leave the line",
         ),
         (Action::Prompt, "prompt", "open the : command line"),
-        (Action::Screen(0), "screen_1", "show the overview screen"),
-        (Action::Screen(1), "screen_2", "show the parameters screen"),
-        (Action::Screen(2), "screen_3", "show the commands screen"),
-        (Action::Screen(3), "screen_4", "show the message inspector"),
-        (Action::Screen(4), "screen_5", "show the mission screen"),
-        (Action::Screen(5), "screen_6", "show the camera screen"),
+    ];
+
+    /// The actions listed after the `screen_N` ones.
+    const AFTER_SCREENS: &'static [(Action, &'static str, &'static str)] = &[
         (Action::Up, "up", "move the selection up"),
         (Action::Down, "down", "move the selection down"),
         (Action::PageUp, "page_up", "scroll up a page"),
@@ -581,6 +583,10 @@ impl Action {
         ),
     ];
 
+    /// Every bindable action with its name in keymap files and a one-line description, in the
+    /// order the help popup lists them.
+    pub const ALL: &'static [(Action, &'static str, &'static str)] = &ALL_ACTIONS;
+
     /// The actions of the text line (`[prompt]` and `[edit]`).
     const TEXT_LINE: &'static [Action] = &[
         Action::Submit,
@@ -665,6 +671,30 @@ impl Action {
             .unwrap_or("")
     }
 }
+
+const ALL_LEN: usize =
+    Action::BEFORE_SCREENS.len() + SCREEN_ACTIONS.len() + Action::AFTER_SCREENS.len();
+
+/// [`Action::ALL`]: the actions before the screens, the screens', the rest.
+const ALL_ACTIONS: [(Action, &str, &str); ALL_LEN] = {
+    let mut out = [(Action::Quit, "", ""); ALL_LEN];
+    let parts = [
+        Action::BEFORE_SCREENS,
+        SCREEN_ACTIONS,
+        Action::AFTER_SCREENS,
+    ];
+    let (mut p, mut at) = (0, 0);
+    while p < parts.len() {
+        let mut i = 0;
+        while i < parts[p].len() {
+            out[at] = parts[p][i];
+            at += 1;
+            i += 1;
+        }
+        p += 1;
+    }
+    out
+};
 
 /// A key name that means nothing to us.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -917,6 +947,258 @@ impl Collector {
     }
 }
 
+/// A binding as read: its section, action name and value.
+type Entry<'d, 'i> = (
+    Section,
+    &'d toml::Spanned<toml::de::DeString<'i>>,
+    &'d toml::Spanned<toml::de::DeValue<'i>>,
+);
+
+impl Collector {
+    /// The bindings of every section, `[normal.SCREEN]` included, in file order; what is not a
+    /// known section or screen is a problem.
+    fn entries<'d, 'i>(&mut self, doc: &'d toml::de::DeTable<'i>) -> Vec<Entry<'d, 'i>> {
+        let mut entries: Vec<Entry> = Vec::new();
+        for (name, value) in by_pos(doc) {
+            let section = match name.get_ref().as_ref() {
+                "normal" | "bindings" => Section::Normal,
+                "help" => Section::Help,
+                "prompt" => Section::Prompt,
+                "edit" => Section::Edit,
+                other => {
+                    let message = if Action::from_name(other).is_some() {
+                        format!("`{other}` is outside any section: put it under [normal]")
+                    } else {
+                        format!(
+                            "unknown section `{other}` (normal, normal.SCREEN, help, prompt, edit)"
+                        )
+                    };
+                    self.add(name.span().start, message);
+                    continue;
+                }
+            };
+            let Some(table) = value.get_ref().as_table() else {
+                self.add(
+                    value.span().start,
+                    format!(
+                        "`{}` must be a section, e.g. [{}]",
+                        name.get_ref(),
+                        name.get_ref()
+                    ),
+                );
+                continue;
+            };
+            for (k, v) in by_pos(table) {
+                if let Some(sub) = v.get_ref().as_table() {
+                    let screen = SCREENS.iter().position(|s| *s == k.get_ref().as_ref());
+                    match (section, screen) {
+                        (Section::Normal, Some(i)) => {
+                            for (k2, v2) in by_pos(sub) {
+                                if v2.get_ref().is_table() {
+                                    self.add(
+                                        k2.span().start,
+                                        format!(
+                                            "[normal.{}] has no sub-sections, found `{}`",
+                                            SCREENS[i],
+                                            k2.get_ref()
+                                        ),
+                                    );
+                                } else {
+                                    entries.push((Section::Screen(i), k2, v2));
+                                }
+                            }
+                        }
+                        (Section::Normal, None) => self.add(
+                            k.span().start,
+                            format!(
+                                "unknown screen `{}` in [normal.SCREEN] (screens: {})",
+                                k.get_ref(),
+                                screen_list()
+                            ),
+                        ),
+                        _ => self.add(
+                            k.span().start,
+                            format!("{section} has no sub-sections, found `{}`", k.get_ref()),
+                        ),
+                    }
+                } else {
+                    entries.push((section, k, v));
+                }
+            }
+        }
+        entries.sort_by_key(|(_, k, _)| k.span().start);
+
+        entries
+    }
+
+    /// The keymap the entries bind, and where each (section, key) was first bound.
+    fn bind(
+        &mut self,
+        entries: Vec<Entry>,
+        index: &LineIndex,
+    ) -> (Keymap, BTreeMap<(Section, Key), usize>) {
+        let mut km = Keymap::empty();
+        // Where each (section, key) was first bound, for clash messages.
+        let mut first_at: BTreeMap<(Section, Key), usize> = BTreeMap::new();
+        for (section, name, value) in entries {
+            let action = Action::from_name(name.get_ref());
+            let bindings = km.sections.entry(section).or_default();
+            match action {
+                Some(a) => {
+                    bindings.listed.insert(a);
+                }
+                None => {
+                    self.unknown_actions.push(name.get_ref().to_string());
+                    self.unknown_action_modes.insert(section.mode());
+                    self.add(
+                        name.span().start,
+                        format!("unknown action `{}` in {section}", name.get_ref()),
+                    );
+                }
+            }
+            let Some(list) = value.get_ref().as_array() else {
+                self.add(
+                    value.span().start,
+                    format!(
+                        "expected a list of key names, e.g. {} = [\"x\"], found a {}",
+                        name.get_ref(),
+                        value.get_ref().type_str()
+                    ),
+                );
+                continue;
+            };
+            for item in list.iter() {
+                let Some(kname) = item.get_ref().as_str() else {
+                    self.add(
+                        item.span().start,
+                        format!(
+                            "expected a key name in quotes, found a {}",
+                            item.get_ref().type_str()
+                        ),
+                    );
+                    continue;
+                };
+                let key = match kname.parse::<Key>() {
+                    Ok(key) => key,
+                    Err(_) => {
+                        // The key names are listed once, after the problems.
+                        self.unknown_keys.push(kname.to_string());
+                        self.add(item.span().start, format!("unknown key `{kname}`"));
+                        continue;
+                    }
+                };
+                let Some(action) = action else { continue };
+                let at = item.span().start;
+                match bindings.keys.get(&key) {
+                    None => {
+                        bindings.keys.insert(key, action);
+                        bindings.order.push(key);
+                        first_at.insert((section, key), at);
+                    }
+                    Some(prev) if *prev == action => {} // the same key twice is harmless
+                    Some(prev) => {
+                        let set = self.clashes.entry((section, key)).or_default();
+                        set.insert(*prev);
+                        set.insert(action);
+                        self.add(
+                            at,
+                            format!("key `{key}` is already bound to `{}`", prev.name()),
+                        );
+                    }
+                }
+            }
+        }
+        for ((section, key), at) in &first_at {
+            if let Some(b) = km.sections.get_mut(section) {
+                b.at.insert(*key, index.line_col(*at));
+            }
+        }
+        (km, first_at)
+    }
+
+    /// Normal mode on a screen sees `[normal]` and `[normal.SCREEN]` together: a key bound to
+    /// different actions in both is a problem.
+    fn screen_clashes(
+        &mut self,
+        km: &Keymap,
+        first_at: &BTreeMap<(Section, Key), usize>,
+        index: &LineIndex,
+    ) {
+        if let Some(normal) = km.sections.get(&Section::Normal) {
+            for (section, b) in &km.sections {
+                let Section::Screen(i) = *section else {
+                    continue;
+                };
+                for key in &b.order {
+                    let (Some(here), Some(there)) = (b.keys.get(key), normal.keys.get(key)) else {
+                        continue;
+                    };
+                    if here == there {
+                        continue;
+                    }
+                    let at_here = first_at[&(*section, *key)];
+                    let at_there = first_at[&(Section::Normal, *key)];
+                    let (later, earlier_action, earlier_section, earlier_at) = if at_here > at_there
+                    {
+                        (at_here, there, Section::Normal, at_there)
+                    } else {
+                        (at_there, here, *section, at_here)
+                    };
+                    let (l, col) = index.line_col(earlier_at);
+                    let set = self.clashes.entry((*section, *key)).or_default();
+                    set.insert(*here);
+                    set.insert(*there);
+                    self.add(
+                        later,
+                        format!(
+                            "key `{key}` is already bound to `{}` in {earlier_section} \
+                             (line {l}, column {col}); on the {} screen both apply",
+                            earlier_action.name(),
+                            SCREENS[i]
+                        ),
+                    );
+                }
+            }
+        }
+    }
+
+    /// The error of a file with problems.
+    fn into_error(mut self, index: &LineIndex, origin: &str) -> KeymapError {
+        self.problems.sort_by_key(|(at, _)| *at); // stable: same place keeps the found order
+        let more = self.problems.len().saturating_sub(MAX_PROBLEMS);
+        let problems = self
+            .problems
+            .into_iter()
+            .take(MAX_PROBLEMS)
+            .map(|(at, message)| {
+                let (line, col) = index.line_col(at);
+                Problem { line, col, message }
+            })
+            .collect();
+        let duplicate_keys = self
+            .clashes
+            .iter()
+            .map(|((section, k), acts)| {
+                let names: Vec<&str> = acts.iter().map(|a| a.name()).collect();
+                match section {
+                    Section::Normal => format!("{k} ({})", names.join(", ")),
+                    s => format!("{k} ({}) in {s}", names.join(", ")),
+                }
+            })
+            .collect();
+        let hints = hints(&self.unknown_action_modes, !self.unknown_keys.is_empty());
+        KeymapError::Invalid(Box::new(InvalidKeymap {
+            origin: origin.to_string(),
+            unknown_actions: self.unknown_actions,
+            unknown_keys: self.unknown_keys,
+            duplicate_keys,
+            problems,
+            more,
+            hints,
+        }))
+    }
+}
+
 type DeEntry<'d, 'i> = (
     &'d toml::Spanned<toml::de::DeString<'i>>,
     &'d toml::Spanned<toml::de::DeValue<'i>>,
@@ -1012,230 +1294,13 @@ impl Keymap {
             clashes: BTreeMap::new(),
             unknown_action_modes: BTreeSet::new(),
         };
-
-        type Entry<'d, 'i> = (
-            Section,
-            &'d toml::Spanned<toml::de::DeString<'i>>,
-            &'d toml::Spanned<toml::de::DeValue<'i>>,
-        );
-        let mut entries: Vec<Entry> = Vec::new();
-        for (name, value) in by_pos(doc.get_ref()) {
-            let section = match name.get_ref().as_ref() {
-                "normal" | "bindings" => Section::Normal,
-                "help" => Section::Help,
-                "prompt" => Section::Prompt,
-                "edit" => Section::Edit,
-                other => {
-                    let message = if Action::from_name(other).is_some() {
-                        format!("`{other}` is outside any section: put it under [normal]")
-                    } else {
-                        format!(
-                            "unknown section `{other}` (normal, normal.SCREEN, help, prompt, edit)"
-                        )
-                    };
-                    c.add(name.span().start, message);
-                    continue;
-                }
-            };
-            let Some(table) = value.get_ref().as_table() else {
-                c.add(
-                    value.span().start,
-                    format!(
-                        "`{}` must be a section, e.g. [{}]",
-                        name.get_ref(),
-                        name.get_ref()
-                    ),
-                );
-                continue;
-            };
-            for (k, v) in by_pos(table) {
-                if let Some(sub) = v.get_ref().as_table() {
-                    let screen = SCREENS.iter().position(|s| *s == k.get_ref().as_ref());
-                    match (section, screen) {
-                        (Section::Normal, Some(i)) => {
-                            for (k2, v2) in by_pos(sub) {
-                                if v2.get_ref().is_table() {
-                                    c.add(
-                                        k2.span().start,
-                                        format!(
-                                            "[normal.{}] has no sub-sections, found `{}`",
-                                            SCREENS[i],
-                                            k2.get_ref()
-                                        ),
-                                    );
-                                } else {
-                                    entries.push((Section::Screen(i), k2, v2));
-                                }
-                            }
-                        }
-                        (Section::Normal, None) => c.add(
-                            k.span().start,
-                            format!(
-                                "unknown screen `{}` in [normal.SCREEN] (screens: {})",
-                                k.get_ref(),
-                                screen_list()
-                            ),
-                        ),
-                        _ => c.add(
-                            k.span().start,
-                            format!("{section} has no sub-sections, found `{}`", k.get_ref()),
-                        ),
-                    }
-                } else {
-                    entries.push((section, k, v));
-                }
-            }
-        }
-        entries.sort_by_key(|(_, k, _)| k.span().start);
-
-        let mut km = Keymap::empty();
-        // Where each (section, key) was first bound, for clash messages.
-        let mut first_at: BTreeMap<(Section, Key), usize> = BTreeMap::new();
-        for (section, name, value) in entries {
-            let action = Action::from_name(name.get_ref());
-            let bindings = km.sections.entry(section).or_default();
-            match action {
-                Some(a) => {
-                    bindings.listed.insert(a);
-                }
-                None => {
-                    c.unknown_actions.push(name.get_ref().to_string());
-                    c.unknown_action_modes.insert(section.mode());
-                    c.add(
-                        name.span().start,
-                        format!("unknown action `{}` in {section}", name.get_ref()),
-                    );
-                }
-            }
-            let Some(list) = value.get_ref().as_array() else {
-                c.add(
-                    value.span().start,
-                    format!(
-                        "expected a list of key names, e.g. {} = [\"x\"], found a {}",
-                        name.get_ref(),
-                        value.get_ref().type_str()
-                    ),
-                );
-                continue;
-            };
-            for item in list.iter() {
-                let Some(kname) = item.get_ref().as_str() else {
-                    c.add(
-                        item.span().start,
-                        format!(
-                            "expected a key name in quotes, found a {}",
-                            item.get_ref().type_str()
-                        ),
-                    );
-                    continue;
-                };
-                let key = match kname.parse::<Key>() {
-                    Ok(key) => key,
-                    Err(_) => {
-                        // The key names are listed once, after the problems.
-                        c.unknown_keys.push(kname.to_string());
-                        c.add(item.span().start, format!("unknown key `{kname}`"));
-                        continue;
-                    }
-                };
-                let Some(action) = action else { continue };
-                let at = item.span().start;
-                match bindings.keys.get(&key) {
-                    None => {
-                        bindings.keys.insert(key, action);
-                        bindings.order.push(key);
-                        first_at.insert((section, key), at);
-                    }
-                    Some(prev) if *prev == action => {} // the same key twice is harmless
-                    Some(prev) => {
-                        let set = c.clashes.entry((section, key)).or_default();
-                        set.insert(*prev);
-                        set.insert(action);
-                        c.add(
-                            at,
-                            format!("key `{key}` is already bound to `{}`", prev.name()),
-                        );
-                    }
-                }
-            }
-        }
-        for ((section, key), at) in &first_at {
-            if let Some(b) = km.sections.get_mut(section) {
-                b.at.insert(*key, index.line_col(*at));
-            }
-        }
-        // Normal mode on a screen sees `[normal]` and `[normal.SCREEN]` together.
-        if let Some(normal) = km.sections.get(&Section::Normal) {
-            for (section, b) in &km.sections {
-                let Section::Screen(i) = *section else {
-                    continue;
-                };
-                for key in &b.order {
-                    let (Some(here), Some(there)) = (b.keys.get(key), normal.keys.get(key)) else {
-                        continue;
-                    };
-                    if here == there {
-                        continue;
-                    }
-                    let at_here = first_at[&(*section, *key)];
-                    let at_there = first_at[&(Section::Normal, *key)];
-                    let (later, earlier_action, earlier_section, earlier_at) = if at_here > at_there
-                    {
-                        (at_here, there, Section::Normal, at_there)
-                    } else {
-                        (at_there, here, *section, at_here)
-                    };
-                    let (l, col) = index.line_col(earlier_at);
-                    let set = c.clashes.entry((*section, *key)).or_default();
-                    set.insert(*here);
-                    set.insert(*there);
-                    c.add(
-                        later,
-                        format!(
-                            "key `{key}` is already bound to `{}` in {earlier_section} \
-                             (line {l}, column {col}); on the {} screen both apply",
-                            earlier_action.name(),
-                            SCREENS[i]
-                        ),
-                    );
-                }
-            }
-        }
+        let entries = c.entries(doc.get_ref());
+        let (km, first_at) = c.bind(entries, &index);
+        c.screen_clashes(&km, &first_at, &index);
         if c.problems.is_empty() {
             return Ok(km);
         }
-        c.problems.sort_by_key(|(at, _)| *at); // stable: same place keeps the found order
-        let more = c.problems.len().saturating_sub(MAX_PROBLEMS);
-        let problems = c
-            .problems
-            .into_iter()
-            .take(MAX_PROBLEMS)
-            .map(|(at, message)| {
-                let (line, col) = index.line_col(at);
-                Problem { line, col, message }
-            })
-            .collect();
-        let duplicate_keys = c
-            .clashes
-            .iter()
-            .map(|((section, k), acts)| {
-                let names: Vec<&str> = acts.iter().map(|a| a.name()).collect();
-                match section {
-                    Section::Normal => format!("{k} ({})", names.join(", ")),
-                    s => format!("{k} ({}) in {s}", names.join(", ")),
-                }
-            })
-            .collect();
-        let hints = hints(&c.unknown_action_modes, !c.unknown_keys.is_empty());
-        Err(KeymapError::Invalid(Box::new(InvalidKeymap {
-            origin: origin.to_string(),
-            unknown_actions: c.unknown_actions,
-            unknown_keys: c.unknown_keys,
-            duplicate_keys,
-            problems,
-            more,
-            hints,
-        })))
+        Err(c.into_error(&index, origin))
     }
 
     /// Read a keymap file (no layering).

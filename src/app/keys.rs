@@ -88,10 +88,10 @@ impl App {
 
     /// Show screen `i` (0 = `screen_1`) if this build has it.
     fn show_screen(&mut self, i: usize) {
-        let name = crate::keymap::SCREENS.get(i).copied().unwrap_or("?");
-        match screen::by_name(name) {
+        match screen::by_action_index(i) {
             Some(s) => self.ui.screen = s.name,
             None => {
+                let name = crate::keymap::SCREENS.get(i).copied().unwrap_or("?");
                 self.ui.message = Some((SEV_WARNING, format!("no {name} screen in this build yet")))
             }
         }
@@ -479,33 +479,8 @@ impl App {
     }
 
     fn move_selection(&mut self, step: isize) {
-        fn clamp(v: usize, step: isize, len: usize) -> usize {
-            if len == 0 {
-                return 0;
-            }
-            (v as isize + step).clamp(0, len as isize - 1) as usize
-        }
-        if self.ui.screen == "parameters" {
-            let n = self.param_rows().len();
-            self.ui.params.sel = clamp(self.ui.params.sel, step, n);
-            return;
-        }
-        if self.ui.screen == "inspector" {
-            self.move_inspector(step);
-            return;
-        }
-        if self.ui.screen == "mission" {
-            let n = self.mission_rows().len();
-            self.ui.mission.sel = clamp(self.ui.mission.sel, step, n);
-            return;
-        }
-        if self.ui.screen == "commands" {
-            let n = self
-                .target
-                .and_then(|k| self.sessions.get(&k))
-                .map_or(0, |s| s.commands.entries().len());
-            self.ui.cmd_sel = clamp(self.ui.cmd_sel, step, n);
-            self.ui.cmd_sel_id = self.command_id_at(self.ui.cmd_sel);
+        if let Some(select) = screen::by_name(self.ui.screen).and_then(|s| s.select) {
+            select(self, step);
             return;
         }
         match self.ui.focus {
@@ -516,4 +491,39 @@ impl App {
             Pane::Messages => self.scroll_messages(step),
         }
     }
+
+    /// The Parameters screen's selection ([`screen::Screen::select`]).
+    pub(super) fn select_parameters(&mut self, step: isize) {
+        let n = self.param_rows().len();
+        self.ui.params.sel = clamp(self.ui.params.sel, step, n);
+    }
+
+    /// The MAVLink Inspector's selection.
+    pub(super) fn select_inspector(&mut self, step: isize) {
+        self.move_inspector(step);
+    }
+
+    /// The Mission screen's selection.
+    pub(super) fn select_mission(&mut self, step: isize) {
+        let n = self.mission_rows().len();
+        self.ui.mission.sel = clamp(self.ui.mission.sel, step, n);
+    }
+
+    /// The Commands screen's selection: kept on its command by queue id.
+    pub(super) fn select_commands(&mut self, step: isize) {
+        let n = self
+            .target
+            .and_then(|k| self.sessions.get(&k))
+            .map_or(0, |s| s.commands.entries().len());
+        self.ui.cmd_sel = clamp(self.ui.cmd_sel, step, n);
+        self.ui.cmd_sel_id = self.command_id_at(self.ui.cmd_sel);
+    }
+}
+
+/// `v` moved by `step`, clamped to a list of `len` rows.
+fn clamp(v: usize, step: isize, len: usize) -> usize {
+    if len == 0 {
+        return 0;
+    }
+    (v as isize + step).clamp(0, len as isize - 1) as usize
 }

@@ -11,8 +11,9 @@ use ratatui::widgets::{Block, Borders, Paragraph, Wrap};
 use ratatui::Frame;
 
 use super::Theme;
+use crate::app::session::Session;
 use crate::app::App;
-use crate::proto::camera::{flag_names, mode_name, CameraAction, Discovery};
+use crate::proto::camera::{flag_names, mode_name, Camera, CameraAction, Discovery};
 
 fn mib(v: f32) -> String {
     format!("{v:.0} MiB")
@@ -37,8 +38,25 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         return;
     };
     let sel = app.selected_camera();
-    let sys = s.key.0;
     let mut lines = Vec::new();
+    camera_rows(s, sel, theme, &mut lines);
+    if let Some(c) = sel.and_then(|id| s.cameras.cameras.get(&id)) {
+        camera_lines(c, theme, &mut lines);
+        action_lines(s, c, theme, &mut lines);
+    }
+    gimbal_lines(app, s, theme, &mut lines);
+    let title = title(app, s, sel);
+    frame.render_widget(
+        Paragraph::new(lines)
+            .block(block.title(title))
+            .wrap(Wrap { trim: false }),
+        area,
+    );
+}
+
+/// The target's cameras, one row each (`>` the selected one).
+fn camera_rows(s: &Session, sel: Option<u8>, theme: &Theme, lines: &mut Vec<Line<'static>>) {
+    let sys = s.key.0;
     for c in s.cameras.cameras.values() {
         let mark = if Some(c.compid) == sel { ">" } else { " " };
         let state = match c.discovery {
@@ -56,163 +74,172 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             style,
         ));
     }
-    let c = sel.and_then(|id| s.cameras.cameras.get(&id));
-    if let Some(c) = c {
-        if let Some(i) = &c.info {
-            let fw = i.firmware;
-            lines.push(Line::raw(format!(
-                "fw {}.{}.{}.{}  {}x{}  lens {}  {:.1} mm  sensor {:.1}x{:.1} mm",
-                fw.0,
-                fw.1,
-                fw.2,
-                fw.3,
-                i.resolution.0,
-                i.resolution.1,
-                i.lens_id,
-                i.focal_length_mm,
-                i.sensor_mm.0,
-                i.sensor_mm.1
-            )));
-            lines.push(Line::styled(
-                format!("flags {}", flag_names(i.flags).join(" ")),
-                theme.dim(),
-            ));
-        }
-        let mode = c.settings.map_or("mode ?".to_string(), |st| {
-            format!(
-                "mode {}  zoom {:.0}%  focus {:.0}%",
-                mode_name(st.mode),
-                st.zoom,
-                st.focus
-            )
-        });
-        let storage = c.storage.map_or("storage ?".to_string(), |st| {
-            let status = match st.status {
-                0 => "empty",
-                1 => "unformatted",
-                2 => "ready",
-                _ => "not supported",
-            };
-            let free = c.status.map_or(st.available, |cs| cs.available_mib);
-            format!("storage {} free of {} ({status})", mib(free), mib(st.total))
-        });
-        lines.push(Line::raw(format!("{mode}  {storage}")));
-        let status = match c.status {
-            Some(cs) => {
-                let video = if cs.video_status == 1 {
-                    let t = cs.recording_ms / 1000;
-                    format!("RECORDING {:02}:{:02}", t / 60, t % 60)
-                } else {
-                    "video idle".into()
-                };
-                let images = match cs.image_status {
-                    1 => "capturing".to_string(),
-                    3 => format!("capturing every {:.1} s", cs.image_interval),
-                    _ => "idle".to_string(),
-                };
-                format!("images {} captured ({images})  {video}", cs.image_count)
-            }
-            None => "capture status ?".into(),
+}
+
+/// The selected camera in full: what CAMERA_INFORMATION says, its mode and storage, capture
+/// status, the last images and its video streams.
+fn camera_lines(c: &Camera, theme: &Theme, lines: &mut Vec<Line<'static>>) {
+    if let Some(i) = &c.info {
+        let fw = i.firmware;
+        lines.push(Line::raw(format!(
+            "fw {}.{}.{}.{}  {}x{}  lens {}  {:.1} mm  sensor {:.1}x{:.1} mm",
+            fw.0,
+            fw.1,
+            fw.2,
+            fw.3,
+            i.resolution.0,
+            i.resolution.1,
+            i.lens_id,
+            i.focal_length_mm,
+            i.sensor_mm.0,
+            i.sensor_mm.1
+        )));
+        lines.push(Line::styled(
+            format!("flags {}", flag_names(i.flags).join(" ")),
+            theme.dim(),
+        ));
+    }
+    let mode = c.settings.map_or("mode ?".to_string(), |st| {
+        format!(
+            "mode {}  zoom {:.0}%  focus {:.0}%",
+            mode_name(st.mode),
+            st.zoom,
+            st.focus
+        )
+    });
+    let storage = c.storage.map_or("storage ?".to_string(), |st| {
+        let status = match st.status {
+            0 => "empty",
+            1 => "unformatted",
+            2 => "ready",
+            _ => "not supported",
         };
-        let style = if c.recording() {
-            theme.alert()
-        } else {
-            theme.border()
-        };
-        lines.push(Line::styled(status, style));
-        if let Some(img) = c.last_image.and_then(|i| c.images.get(&i)) {
-            let t = chrono::DateTime::from_timestamp_micros(img.time_utc_us as i64)
-                .map_or("?".into(), |t| t.format("%H:%M:%S").to_string());
-            let result = match img.result {
-                1 => "ok",
-                0 => "FAILED",
-                _ => "?",
-            };
-            lines.push(Line::raw(format!(
-                "last #{} {t} {:.7} {:.7} {:.1} m {result}",
-                img.index,
-                img.lat_e7 as f64 / 1e7,
-                img.lon_e7 as f64 / 1e7,
-                img.relative_alt_mm as f64 / 1000.0
-            )));
-        }
-        if !c.images.is_empty() {
-            let shown: Vec<String> = c
-                .images
-                .keys()
-                .rev()
-                .take(12)
-                .rev()
-                .map(|i| i.to_string())
-                .collect();
-            let missing = c.missing();
-            let holes = if missing.is_empty() {
-                String::new()
+        let free = c.status.map_or(st.available, |cs| cs.available_mib);
+        format!("storage {} free of {} ({status})", mib(free), mib(st.total))
+    });
+    lines.push(Line::raw(format!("{mode}  {storage}")));
+    let status = match c.status {
+        Some(cs) => {
+            let video = if cs.video_status == 1 {
+                let t = cs.recording_ms / 1000;
+                format!("RECORDING {:02}:{:02}", t / 60, t % 60)
             } else {
-                format!("  missing {:?}", missing)
+                "video idle".into()
             };
-            lines.push(Line::raw(format!(
-                "list {} ({} kept){holes}",
-                shown.join(" "),
-                c.images.len()
-            )));
+            let images = match cs.image_status {
+                1 => "capturing".to_string(),
+                3 => format!("capturing every {:.1} s", cs.image_interval),
+                _ => "idle".to_string(),
+            };
+            format!("images {} captured ({images})  {video}", cs.image_count)
         }
-        for st in c.streams.values() {
-            lines.push(Line::raw(format!(
-                "stream {} {} {}x{} {}",
-                st.id, st.name, st.resolution.0, st.resolution.1, st.uri
-            )));
-        }
-        // What the camera can be asked, as its flags and mode allow.
-        let actions: [(&str, CameraAction); 5] = [
-            (
-                "shoot",
-                CameraAction::Shoot {
-                    count: 1,
-                    interval: 0.0,
-                },
-            ),
-            (
-                if c.recording() {
-                    "video stop"
-                } else {
-                    "video start"
-                },
-                if c.recording() {
-                    CameraAction::VideoStop
-                } else {
-                    CameraAction::VideoStart
-                },
-            ),
-            (
-                "mode",
-                CameraAction::Mode(if c.settings.is_some_and(|s| s.mode == 1) {
-                    0
-                } else {
-                    1
-                }),
-            ),
-            ("zoom", CameraAction::Zoom(0.0)),
-            ("focus", CameraAction::Focus(0.0)),
-        ];
-        let mut spans = Vec::new();
-        let mut why = Vec::new();
-        for (name, a) in actions {
-            match s.cameras.action(c.compid, &a) {
-                Ok(_) => spans.push(Span::styled(format!("[{name}] "), theme.good())),
-                Err(e) => {
-                    spans.push(Span::styled(format!("({name}) "), theme.dim()));
-                    why.push(e);
-                }
+        None => "capture status ?".into(),
+    };
+    let style = if c.recording() {
+        theme.alert()
+    } else {
+        theme.border()
+    };
+    lines.push(Line::styled(status, style));
+    if let Some(img) = c.last_image.and_then(|i| c.images.get(&i)) {
+        let t = chrono::DateTime::from_timestamp_micros(img.time_utc_us as i64)
+            .map_or("?".into(), |t| t.format("%H:%M:%S").to_string());
+        let result = match img.result {
+            1 => "ok",
+            0 => "FAILED",
+            _ => "?",
+        };
+        lines.push(Line::raw(format!(
+            "last #{} {t} {:.7} {:.7} {:.1} m {result}",
+            img.index,
+            img.lat_e7 as f64 / 1e7,
+            img.lon_e7 as f64 / 1e7,
+            img.relative_alt_mm as f64 / 1000.0
+        )));
+    }
+    if !c.images.is_empty() {
+        let shown: Vec<String> = c
+            .images
+            .keys()
+            .rev()
+            .take(12)
+            .rev()
+            .map(|i| i.to_string())
+            .collect();
+        let missing = c.missing();
+        let holes = if missing.is_empty() {
+            String::new()
+        } else {
+            format!("  missing {:?}", missing)
+        };
+        lines.push(Line::raw(format!(
+            "list {} ({} kept){holes}",
+            shown.join(" "),
+            c.images.len()
+        )));
+    }
+    for st in c.streams.values() {
+        lines.push(Line::raw(format!(
+            "stream {} {} {}x{} {}",
+            st.id, st.name, st.resolution.0, st.resolution.1, st.uri
+        )));
+    }
+}
+
+/// What the camera can be asked, as its flags and mode allow, and why not.
+fn action_lines(s: &Session, c: &Camera, theme: &Theme, lines: &mut Vec<Line<'static>>) {
+    let actions: [(&str, CameraAction); 5] = [
+        (
+            "shoot",
+            CameraAction::Shoot {
+                count: 1,
+                interval: 0.0,
+            },
+        ),
+        (
+            if c.recording() {
+                "video stop"
+            } else {
+                "video start"
+            },
+            if c.recording() {
+                CameraAction::VideoStop
+            } else {
+                CameraAction::VideoStart
+            },
+        ),
+        (
+            "mode",
+            CameraAction::Mode(if c.settings.is_some_and(|s| s.mode == 1) {
+                0
+            } else {
+                1
+            }),
+        ),
+        ("zoom", CameraAction::Zoom(0.0)),
+        ("focus", CameraAction::Focus(0.0)),
+    ];
+    let mut spans = Vec::new();
+    let mut why = Vec::new();
+    for (name, a) in actions {
+        match s.cameras.action(c.compid, &a) {
+            Ok(_) => spans.push(Span::styled(format!("[{name}] "), theme.good())),
+            Err(e) => {
+                spans.push(Span::styled(format!("({name}) "), theme.dim()));
+                why.push(e);
             }
-        }
-        lines.push(Line::from(spans));
-        for w in why {
-            lines.push(Line::styled(format!("  {w}"), theme.dim()));
         }
     }
-    gimbal_lines(app, s, theme, &mut lines);
-    let title = match sel {
+    lines.push(Line::from(spans));
+    for w in why {
+        lines.push(Line::styled(format!("  {w}"), theme.dim()));
+    }
+}
+
+/// The border's title: the selected camera and the keys for it.
+fn title(app: &App, s: &Session, sel: Option<u8>) -> String {
+    let sys = s.key.0;
+    match sel {
         Some(id) => {
             let n = s.cameras.cameras.len();
             let i = s.cameras.cameras.keys().position(|&c| c == id).unwrap_or(0) + 1;
@@ -236,22 +263,11 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             )
         }
         None => " Camera  alt-arrows point the gimbal  c level ".to_string(),
-    };
-    frame.render_widget(
-        Paragraph::new(lines)
-            .block(block.title(title))
-            .wrap(Wrap { trim: false }),
-        area,
-    );
+    }
 }
 
 /// The gimbals: one line each (`>` the one the keys point), then the selected one's flags.
-fn gimbal_lines(
-    app: &App,
-    s: &crate::app::session::Session,
-    theme: &Theme,
-    lines: &mut Vec<Line<'static>>,
-) {
+fn gimbal_lines(app: &App, s: &Session, theme: &Theme, lines: &mut Vec<Line<'static>>) {
     use crate::proto::gimbal::{names, CAP_FLAGS};
     let sys = s.key.0;
     let sel = s

@@ -3,7 +3,7 @@
 //! commands. Any key closes it, `q` and `esc` included; only its scroll keys (the `[help]`
 //! section's up, down, page and home/end keys, named in its last line) scroll it instead.
 //!
-//! Order: the keys that work everywhere (screens 1–6, moving around, the target, the prompt and
+//! Order: the keys that work everywhere (the screens' number keys, moving around, the target, the prompt and
 //! the palette, help, quit), then the current screen's own keys, then flying the target, then
 //! the replay keys (while replaying), then anything else bound, then the commands. The popup is
 //! at most 80 columns wide: a description that does not fit is wrapped, never cut.
@@ -16,8 +16,9 @@ use ratatui::Frame;
 use super::inspector::wrap_words as wrap;
 use super::Theme;
 use crate::app::input::COMMANDS;
+use crate::app::screen::SCREENS;
 use crate::app::App;
-use crate::keymap::{Action, Mode, Section, SCREENS};
+use crate::keymap::{Action, Mode};
 
 /// The widest the popup gets, borders included.
 pub const MAX_WIDTH: u16 = 80;
@@ -25,14 +26,8 @@ pub const MAX_WIDTH: u16 = 80;
 /// Widest key or command kept on one line with its description.
 const KEY_COLUMN_MAX: usize = 24;
 
-/// The keys that work on every screen, in the order listed.
+/// The keys that work on every screen, in the order listed, after the screens' number keys.
 const GLOBAL: &[Action] = &[
-    Action::Screen(0),
-    Action::Screen(1),
-    Action::Screen(2),
-    Action::Screen(3),
-    Action::Screen(4),
-    Action::Screen(5),
     Action::Up,
     Action::Down,
     Action::PageUp,
@@ -60,10 +55,6 @@ const FLIGHT: &[Action] = &[
     Action::Fly,
 ];
 
-/// The Parameters screen's marks, below its keys.
-const PARAM_MARKS: &str = "marks: * changed since the download, ≠ differs from the loaded \
-file, … edit sent, ✓ confirmed by the vehicle, ✗ failed (why: in the detail pane)";
-
 /// A group of the help: a heading and its (keys, description) rows.
 pub struct HelpGroup {
     pub heading: String,
@@ -84,9 +75,7 @@ pub fn help_groups(app: &App) -> Vec<HelpGroup> {
         .into_iter()
         .filter(|(_, keys)| !keys.is_empty())
         .filter(|(a, _)| match a {
-            Action::Screen(i) => SCREENS
-                .get(*i as usize)
-                .is_some_and(|n| crate::app::screen::by_name(n).is_some()),
+            Action::Screen(i) => crate::app::screen::by_action_index(*i as usize).is_some(),
             a => replaying || !a.is_replay(),
         })
         .map(|(a, keys)| {
@@ -109,28 +98,32 @@ pub fn help_groups(app: &App) -> Vec<HelpGroup> {
             })
             .collect::<Vec<_>>()
     };
-    let on_screen: Vec<Action> = SCREENS
-        .iter()
-        .position(|s| *s == screen)
-        .map(|i| {
+    let shown = crate::app::screen::by_name(screen);
+    let on_screen: Vec<Action> = shown
+        .map(|s| {
             app.keymap
-                .section(Section::Screen(i))
+                .section(s.section())
                 .into_iter()
                 .map(|(_, a)| a)
                 .collect()
         })
         .unwrap_or_default();
-    let title = crate::app::screen::by_name(screen).map_or(screen, |s| s.title);
+    let title = shown.map_or(screen, |s| s.title);
+    let global: Vec<Action> = SCREENS
+        .iter()
+        .map(|s| s.action())
+        .chain(GLOBAL.iter().copied())
+        .collect();
     let mut groups = vec![
         HelpGroup {
             heading: "Everywhere".into(),
-            rows: take(&|a| GLOBAL.contains(&a), Some(GLOBAL)),
+            rows: take(&|a| global.contains(&a), Some(&global)),
             note: None,
         },
         HelpGroup {
             heading: format!("{title} screen"),
             rows: take(&|a| on_screen.contains(&a), None),
-            note: (screen == "parameters").then_some(PARAM_MARKS),
+            note: shown.and_then(|s| s.help_note),
         },
         HelpGroup {
             heading: "Flying the target".into(),

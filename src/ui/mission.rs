@@ -9,6 +9,7 @@ use ratatui::Frame;
 
 use super::Theme;
 use crate::app::mission::Shown;
+use crate::app::session::Session;
 use crate::app::App;
 use crate::keymap::{Action, Mode};
 use crate::mission::{command_has_position, MissionItem, MissionType};
@@ -41,26 +42,20 @@ fn params_text(i: &MissionItem) -> String {
     out.join(" ")
 }
 
-pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
+/// The first key bound to `a` on the Mission screen, or nothing.
+fn key(app: &App, a: Action) -> String {
+    app.keymap
+        .keys_for(Mode::Normal, "mission", a)
+        .first()
+        .map(|k| k.to_string())
+        .unwrap_or_default()
+}
+
+/// The border's title: the lists (the shown one in brackets), where the rows come from, and
+/// the keys that switch them.
+fn title(app: &App, t: MissionType, session: Option<&Session>) -> String {
     let view = &app.ui.mission;
-    let t = view.mission_type();
-    let session = app.target.and_then(|k| app.sessions.get(&k));
-    // Item 0 is home in a file (WPL's first line, a plan's planned home) and on a vehicle whose
-    // profile says its mission holds home (ArduPilot); elsewhere it is a real item.
-    let vehicle_home = app
-        .target
-        .is_some_and(|k| app.profile(k).mission_home_item());
-    let shown_home = match view.shown {
-        Shown::File => true,
-        Shown::Vehicle => vehicle_home,
-    };
-    let key = |a| {
-        app.keymap
-            .keys_for(Mode::Normal, "mission", a)
-            .first()
-            .map(|k| k.to_string())
-            .unwrap_or_default()
-    };
+    let key = |a| key(app, a);
     let lists: Vec<String> = MissionType::ALL
         .iter()
         .map(|lt| {
@@ -100,30 +95,19 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             None => "vehicle (not downloaded)".into(),
         },
     };
-    let title = format!(
+    format!(
         " {}  {}  {} list {} file/vehicle ",
         lists.join(" "),
         source,
         key(Action::MissionList),
         key(Action::MissionSource)
-    );
-    let mut block = Block::default()
-        .borders(Borders::ALL)
-        .border_style(theme.focus_border())
-        .title(title);
-    let inner = block.inner(area);
-    // Below the status line and the column titles, the rows; the window follows the selection.
-    let rows = app.mission_rows();
-    let visible = inner.height.saturating_sub(2) as usize;
-    let first = super::fmt::scroll_offset(view.sel, visible, rows.len());
-    if let Some(more) = super::fmt::list_more(first, visible, rows.len()) {
-        block = block.title_bottom(Line::from(format!(" {more} ")));
-    }
-    frame.render_widget(block, area);
-    if inner.height == 0 {
-        return;
-    }
-    // Status line: transfer, current item, distance to it.
+    )
+}
+
+/// The status line's parts: transfer, current item, distance to it, items reached, the last
+/// refusal; the keys when there is nothing to say.
+fn status(app: &App, session: Option<&Session>, t: MissionType, vehicle_home: bool) -> Vec<String> {
+    let key = |a| key(app, a);
     let mut status = Vec::new();
     if let Some(s) = session {
         if let Some(p) = s.mission.progress() {
@@ -193,6 +177,70 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             key(Action::MissionGoto)
         ));
     }
+    status
+}
+
+/// A row's cells: its sequence number after its mark, command (`HOME` for home), position,
+/// altitude with its frame, and the parameters it uses.
+fn cells(i: &MissionItem, mark: &str, home: bool) -> [String; 6] {
+    let name = if home {
+        "HOME".into()
+    } else {
+        i.command_name()
+    };
+    let positioned = command_has_position(i.command) || home;
+    let (lat, lon) = if positioned {
+        (format!("{:.7}", i.param5()), format!("{:.7}", i.param6()))
+    } else {
+        (String::new(), String::new())
+    };
+    let alt = if i.has_altitude() || home {
+        format!("{:.1} {}", i.z, i.alt_ref())
+    } else {
+        String::new()
+    };
+    [
+        format!("{mark}{}", i.seq),
+        name,
+        lat,
+        lon,
+        alt,
+        params_text(i),
+    ]
+}
+
+pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
+    let view = &app.ui.mission;
+    let t = view.mission_type();
+    let session = app.target.and_then(|k| app.sessions.get(&k));
+    // Item 0 is home in a file (WPL's first line, a plan's planned home) and on a vehicle whose
+    // profile says its mission holds home (ArduPilot); elsewhere it is a real item.
+    let vehicle_home = app
+        .target
+        .is_some_and(|k| app.profile(k).mission_home_item());
+    let shown_home = match view.shown {
+        Shown::File => true,
+        Shown::Vehicle => vehicle_home,
+    };
+    let key = |a| key(app, a);
+    let title = title(app, t, session);
+    let mut block = Block::default()
+        .borders(Borders::ALL)
+        .border_style(theme.focus_border())
+        .title(title);
+    let inner = block.inner(area);
+    // Below the status line and the column titles, the rows; the window follows the selection.
+    let rows = app.mission_rows();
+    let visible = inner.height.saturating_sub(2) as usize;
+    let first = super::fmt::scroll_offset(view.sel, visible, rows.len());
+    if let Some(more) = super::fmt::list_more(first, visible, rows.len()) {
+        block = block.title_bottom(Line::from(format!(" {more} ")));
+    }
+    frame.render_widget(block, area);
+    if inner.height == 0 {
+        return;
+    }
+    let status = status(app, session, t, vehicle_home);
     frame.render_widget(
         Paragraph::new(Line::styled(status.join("  "), theme.header())),
         Rect { height: 1, ..inner },
@@ -260,30 +308,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
                 " "
             };
             let home = t == MissionType::Mission && i.seq == 0 && shown_home;
-            let name = if home {
-                "HOME".into()
-            } else {
-                i.command_name()
-            };
-            let positioned = command_has_position(i.command) || home;
-            let (lat, lon) = if positioned {
-                (format!("{:.7}", i.param5()), format!("{:.7}", i.param6()))
-            } else {
-                (String::new(), String::new())
-            };
-            let alt = if i.has_altitude() || home {
-                format!("{:.1} {}", i.z, i.alt_ref())
-            } else {
-                String::new()
-            };
-            let cells = [
-                format!("{mark}{}", i.seq),
-                name,
-                lat,
-                lon,
-                alt,
-                params_text(i),
-            ];
+            let cells = cells(i, mark, home);
             let row = Row::new(
                 cells
                     .iter()

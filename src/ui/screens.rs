@@ -1,24 +1,23 @@
-//! The screen registry: each screen the core knows (`app::screen::SCREENS`) and the function in
-//! its own file that draws it. A new screen is one file and one line here.
+//! The screens' drawing: the ui's side of the one screen list ([`crate::screen_list`]). Each
+//! screen `NAME` is drawn by `ui::NAME::render`, bound here by expanding that list.
 
 use ratatui::layout::Rect;
 use ratatui::Frame;
 
-use super::{camera, commands, inspector, mission, overview, parameters, Theme};
+use super::{overview, Theme};
 use crate::app::App;
 
 /// Draws a screen into the area above the status bar.
 pub type RenderFn = fn(&App, &mut Frame, Rect, &Theme);
 
-/// (screen name, renderer).
-pub const REGISTRY: &[(&str, RenderFn)] = &[
-    ("overview", overview::render),
-    ("parameters", parameters::render),
-    ("commands", commands::render),
-    ("inspector", inspector::render),
-    ("mission", mission::render),
-    ("camera", camera::render),
-];
+macro_rules! ui_screens {
+    ($( $n:literal $name:ident $title:literal $what:literal
+        $(select = $sel:ident)? $(note = $note:ident)? ;)*) => {
+        /// (screen name, renderer), in number-key order.
+        pub const REGISTRY: &[(&str, RenderFn)] = &[$((stringify!($name), super::$name::render)),*];
+    };
+}
+crate::for_each_screen!(ui_screens);
 
 /// Draw the screen the core says is shown.
 pub fn render(app: &App, frame: &mut Frame, body: Rect, theme: &Theme) {
@@ -35,13 +34,10 @@ mod tests {
 
     #[test]
     fn every_screen_of_the_core_has_a_renderer_and_a_keymap_name() {
-        for s in crate::app::screen::SCREENS {
-            assert!(
-                REGISTRY.iter().any(|(n, _)| *n == s.name),
-                "{} is not registered",
-                s.name
-            );
-            assert!(crate::keymap::SCREENS.contains(&s.name), "{}", s.name);
+        for (i, s) in crate::app::screen::SCREENS.iter().enumerate() {
+            assert_eq!(REGISTRY[i].0, s.name);
+            assert_eq!(crate::keymap::SCREENS[i], s.name);
         }
+        assert_eq!(REGISTRY.len(), crate::app::screen::SCREENS.len());
     }
 }
