@@ -686,3 +686,129 @@ fn a_flooded_output_queues_a_bounded_number_of_reports() {
         "{reports} reports were waiting"
     );
 }
+
+fn heartbeat_of(
+    sysid: u8,
+    compid: u8,
+    mavtype: dialect::MavType,
+    autopilot: dialect::MavAutopilot,
+) -> Vec<u8> {
+    let msg = MavMessage::HEARTBEAT(dialect::HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype,
+        autopilot,
+        base_mode: dialect::MavModeFlag::empty(),
+        system_status: dialect::MavState::MAV_STATE_STANDBY,
+        mavlink_version: 3,
+    });
+    encode(
+        Version::V2,
+        Header {
+            sysid,
+            compid,
+            seq: 0,
+        },
+        &msg,
+    )
+}
+
+fn two_links() -> App {
+    let mut a = App::new(AppConfig {
+        links: vec!["sim".into(), "udp".into()],
+        ..AppConfig::default()
+    });
+    for link in 0..2 {
+        a.update(
+            0,
+            Event::LinkState {
+                link,
+                state: LinkState::Up,
+            },
+        );
+    }
+    a
+}
+
+/// Item 1 (round two): a camera alone on its system is the target; a (spoofed) autopilot
+/// heartbeat on its sysid neither takes the target away nor drops the camera's session.
+#[test]
+fn the_target_stays_on_a_payload_when_an_autopilot_appears_on_its_sysid() {
+    let mut a = two_links();
+    feed(
+        &mut a,
+        0,
+        0,
+        &heartbeat_of(
+            5,
+            100,
+            dialect::MavType::MAV_TYPE_CAMERA,
+            dialect::MavAutopilot::MAV_AUTOPILOT_INVALID,
+        ),
+    );
+    assert_eq!(a.target, Some((5, 100)));
+    feed(&mut a, SECOND, 1, &heartbeat(5, 1, 0));
+    assert_eq!(a.target, Some((5, 100)), "the target moved");
+    assert!(
+        a.sessions.contains_key(&(5, 100)),
+        "the target's session was dropped"
+    );
+    // Later vehicles take no target either.
+    feed(&mut a, 2 * SECOND, 1, &heartbeat(6, 1, 0));
+    assert_eq!(a.target, Some((5, 100)));
+}
+
+/// Item 1 (round two): new autopilots arriving below the flood threshold (one every 2 s, 40 of
+/// them) get automatic starts for the first AUTO_FREE (8) and then at most AUTO_BUDGET (4) a
+/// minute.
+#[test]
+fn a_trickle_of_new_autopilots_starts_at_most_the_budget() {
+    let mut a = two_links();
+    let mut asked = std::collections::BTreeSet::new();
+    let mut t: Micros = 0;
+    for sysid in 10..50u8 {
+        t += 2 * SECOND;
+        let fx = feed(&mut a, t, 1, &heartbeat(sysid, 1, 0));
+        let fx: Vec<Effect> = fx.into_iter().chain(a.update(t, Event::Tick)).collect();
+        for m in sent(&fx) {
+            if let Some(s) = m.target_system_id() {
+                asked.insert(s);
+            }
+        }
+    }
+    assert_eq!(a.report()["heartbeat_floods"], 0, "no flood was seen");
+    // 80 s: 8 free, then 4 in each of two minutes.
+    assert!(
+        asked.len() <= 8 + 2 * 4,
+        "{} autopilots got requests",
+        asked.len()
+    );
+    assert!(asked.len() >= 8, "the first autopilots got their requests");
+}
+
+/// Item 1 (round two): a vehicle that is not the target but has work in flight (its
+/// parameters downloading) survives a flood that fills the table.
+#[test]
+fn a_busy_non_target_vehicle_survives_a_flood() {
+    let mut a = two_links();
+    feed(&mut a, 0, 0, &heartbeat(1, 1, 0));
+    feed(&mut a, 0, 0, &heartbeat(2, 1, 0));
+    a.update(0, Event::Tick);
+    assert_eq!(a.target, Some((1, 1)));
+    assert!(a.sessions[&(2, 1)].params.downloading().is_some());
+    let mut t: Micros = 0;
+    let mut batch = Vec::new();
+    for sysid in 100..=110u8 {
+        for compid in 1..=255u8 {
+            batch.extend(heartbeat(sysid, compid, 0));
+        }
+        t += 20_000;
+        feed(&mut a, t, 1, &batch);
+        batch.clear();
+        a.update(t, Event::Tick);
+        assert!(
+            a.vehicles.get((2, 1)).is_some(),
+            "busy vehicle evicted at {t}"
+        );
+    }
+    assert_eq!(a.target, Some((1, 1)));
+}
