@@ -295,6 +295,7 @@ impl App {
             "streams": streams,
             "vehicles_evicted": self.vehicles.evicted,
             "vehicles_refused": self.vehicles.refused,
+            "auto_held": self.auto_held,
             "heartbeat_floods": self.vehicles.floods,
             "flood_found": self.vehicles.flood_found,
             "signing": {

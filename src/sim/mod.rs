@@ -103,14 +103,11 @@ pub fn open(cfg: SimConfig) -> Sim {
     })
 }
 
-/// Write the state files the simulator has waiting, atomically (temp file, then rename).
+/// Write the state files the simulator has waiting, atomically ([`crate::fsio::write_atomic`]:
+/// a temporary of a unique name, fsync, rename; a special file is refused).
 pub fn save_pending(sim: &mut Sim) {
     for (path, contents) in sim.take_writes() {
-        let mut tmp = path.as_os_str().to_owned();
-        tmp.push(".tmp");
-        let tmp = PathBuf::from(tmp);
-        if let Err(e) = std::fs::write(&tmp, &contents).and_then(|()| std::fs::rename(&tmp, &path))
-        {
+        if let Err(e) = crate::fsio::write_atomic(&path, &contents) {
             tracing::warn!("sim: cannot save parameters to {}: {e}", path.display());
         }
     }
