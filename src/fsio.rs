@@ -4,19 +4,19 @@
 
 use std::path::Path;
 
-/// Read a file the core asked for, bounded: parameter files are small, and a wrong path must
-/// not fill the memory.
-///
-/// Only a regular file is read: a FIFO, a device or a socket is refused before it is opened
-/// (`stat` does not block), and the open itself never waits (`O_NONBLOCK`; the file is checked
-/// again once open, in case it was swapped in between).
-pub fn read_bounded(path: &Path) -> Result<Vec<u8>, String> {
-    use std::io::Read;
-    const MAX: u64 = 16 * 1024 * 1024;
-    const NOT_REGULAR: &str = "not a regular file (a FIFO, device, socket or directory): refused";
-    let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
-    if !meta.is_file() {
-        return Err(NOT_REGULAR.into());
+/// What [`read_bounded`] reads at most.
+pub const MAX_READ: u64 = 16 * 1024 * 1024;
+
+const NOT_REGULAR: &str = "not a regular file (a FIFO, device, socket or directory): refused";
+
+/// Open a regular file for reading without ever waiting: a FIFO, a device or a socket is
+/// refused before it is opened (`stat` does not block), the open itself never waits
+/// (`O_NONBLOCK`), and the file is checked again once open, in case it was swapped in between.
+/// A missing file is an error of kind `NotFound`.
+pub fn open_regular(path: &Path) -> std::io::Result<std::fs::File> {
+    use std::io::{Error, ErrorKind};
+    if !std::fs::metadata(path)?.is_file() {
+        return Err(Error::new(ErrorKind::InvalidInput, NOT_REGULAR));
     }
     let mut opts = std::fs::OpenOptions::new();
     opts.read(true);
@@ -25,18 +25,44 @@ pub fn read_bounded(path: &Path) -> Result<Vec<u8>, String> {
         use std::os::unix::fs::OpenOptionsExt;
         opts.custom_flags(libc::O_NONBLOCK);
     }
-    let f = opts.open(path).map_err(|e| e.to_string())?;
-    if !f.metadata().map_err(|e| e.to_string())?.is_file() {
-        return Err(NOT_REGULAR.into());
+    let f = opts.open(path)?;
+    if !f.metadata()?.is_file() {
+        return Err(Error::new(ErrorKind::InvalidInput, NOT_REGULAR));
     }
+    Ok(f)
+}
+
+/// Read a regular file ([`open_regular`]) of at most `max` bytes; a larger one is refused
+/// (`InvalidData`), never read whole.
+pub fn read_file(path: &Path, max: u64) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let f = open_regular(path)?;
     let mut out = Vec::new();
-    f.take(MAX + 1)
-        .read_to_end(&mut out)
-        .map_err(|e| e.to_string())?;
-    if out.len() as u64 > MAX {
-        return Err(format!("larger than {} MiB", MAX / 1024 / 1024));
+    f.take(max + 1).read_to_end(&mut out)?;
+    if out.len() as u64 > max {
+        let limit = if max >= 1024 * 1024 {
+            format!("{} MiB", max / 1024 / 1024)
+        } else {
+            format!("{max} bytes")
+        };
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("larger than {limit}: refused"),
+        ));
     }
     Ok(out)
+}
+
+/// [`read_file`] of UTF-8 text.
+pub fn read_text(path: &Path, max: u64) -> std::io::Result<String> {
+    String::from_utf8(read_file(path, max)?)
+        .map_err(|_| std::io::Error::new(std::io::ErrorKind::InvalidData, "not UTF-8 text"))
+}
+
+/// Read a file the core asked for, bounded ([`MAX_READ`]): parameter files are small, and a
+/// wrong path must not fill the memory; only a regular file, never waiting ([`open_regular`]).
+pub fn read_bounded(path: &Path) -> Result<Vec<u8>, String> {
+    read_file(path, MAX_READ).map_err(|e| e.to_string())
 }
 
 /// Write a file so that a crash never leaves it half written: a temporary with a unique name in

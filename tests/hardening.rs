@@ -812,3 +812,77 @@ fn a_busy_non_target_vehicle_survives_a_flood() {
     }
     assert_eq!(a.target, Some((1, 1)));
 }
+
+/// Item 6 (round two): a FIFO given as `--input`, `--keymap` or `--config` is refused at once,
+/// the error naming the path (the guard turns a hang on the FIFO's open into a failure).
+#[cfg(unix)]
+#[test]
+fn a_fifo_as_input_keymap_or_config_is_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("pipe");
+    assert!(std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap()
+        .success());
+    let script = dir.path().join("empty.txt");
+    std::fs::write(&script, "").unwrap();
+    let f = fifo.to_str().unwrap();
+    let s = script.to_str().unwrap();
+    let cases: [Vec<&str>; 3] = [
+        vec!["--headless", "--link", "sim://", "--input", f],
+        vec![
+            "--headless",
+            "--link",
+            "sim://",
+            "--input",
+            s,
+            "--keymap",
+            f,
+        ],
+        vec![
+            "--headless",
+            "--link",
+            "sim://",
+            "--report",
+            "json",
+            "--config",
+            f,
+        ],
+    ];
+    for args in cases {
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_mavterm"))
+            .args(&args)
+            .env("HOME", dir.path())
+            .env("XDG_CONFIG_HOME", dir.path())
+            .stdin(std::process::Stdio::null())
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut status = None;
+        for _ in 0..600 {
+            if let Some(st) = child.try_wait().unwrap() {
+                status = Some(st);
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(100));
+        }
+        let Some(status) = status else {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{args:?}: hung on the FIFO");
+        };
+        let mut err = String::new();
+        use std::io::Read;
+        child
+            .stderr
+            .take()
+            .unwrap()
+            .read_to_string(&mut err)
+            .unwrap();
+        assert!(!status.success(), "{args:?}: {err}");
+        assert!(err.contains(f), "{args:?}: the error names the path: {err}");
+        assert!(err.contains("not a regular file"), "{args:?}: {err}");
+    }
+}

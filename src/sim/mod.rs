@@ -93,12 +93,14 @@ fn state_path(base: &Option<PathBuf>, index: usize, sysid: u8) -> Option<PathBuf
 /// The simulator with its parameter state read from its state files (`state=FILE`): the edge
 /// that reads; [`Sim::new_with_state`] itself touches no file.
 pub fn open(cfg: SimConfig) -> Sim {
-    Sim::new_with_state(cfg, |p| match std::fs::read_to_string(p) {
-        Ok(text) => Some(text),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
-        Err(e) => {
-            tracing::warn!("sim: cannot read parameter state {}: {e}", p.display());
-            None
+    Sim::new_with_state(cfg, |p| {
+        match crate::fsio::read_text(p, crate::fsio::MAX_READ) {
+            Ok(text) => Some(text),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+            Err(e) => {
+                tracing::warn!("sim: cannot read parameter state {}: {e}", p.display());
+                None
+            }
         }
     })
 }
