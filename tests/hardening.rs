@@ -201,6 +201,12 @@ fn hostile_parameter_names_are_refused_and_never_reach_a_file() {
     let kept: Vec<&String> = set.params.keys().collect();
     assert_eq!(kept, ["RTL_ALT", "WPNAV_SPEED"]);
     assert_eq!(set.refused, 6);
+    let rep = a.report();
+    assert_eq!(
+        rep["params"][0]["components"][0]["refused_names"], 6,
+        "{}",
+        rep["params"]
+    );
     // Not stalled: every index is accounted for.
     assert!(set.complete(), "{:?}", set.progress());
     let told: Vec<&str> = a

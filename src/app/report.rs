@@ -195,6 +195,7 @@ impl App {
                             "received": got,
                             "count": count,
                             "complete": set.complete(),
+                            "refused_names": set.refused,
                             "edits": edits,
                         })
                     })
