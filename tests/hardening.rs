@@ -892,3 +892,28 @@ fn a_fifo_as_input_keymap_or_config_is_refused_at_once() {
         assert!(err.contains("not a regular file"), "{args:?}: {err}");
     }
 }
+
+/// Item 7 (round two): a bracketed paste goes into the palette's search and the parameter
+/// search, not only into the `:` line.
+#[test]
+fn a_paste_reaches_the_palette_and_the_parameter_search() {
+    use mavterm::keymap::Mode;
+    let mut a = App::new(AppConfig {
+        links: vec!["test".into()],
+        ..AppConfig::default()
+    });
+    press(&mut a, 0, &["ctrl-p"]);
+    assert!(a.ui.palette.is_some());
+    a.update(0, Event::Paste("takeoff".into()));
+    let p = a.ui.palette.as_ref().unwrap();
+    assert_eq!(p.query.text, "takeoff");
+    assert!(!p.matches.is_empty());
+    press(&mut a, 0, &["esc"]);
+    a.ui.palette = None;
+    a.ui.mode = Mode::Normal;
+    a.ui.screen = "parameters";
+    press(&mut a, 0, &["/"]);
+    assert_eq!(a.ui.mode, Mode::Edit);
+    a.update(0, Event::Paste("RTL_".into()));
+    assert_eq!(a.ui.params.filter, "RTL_");
+}

@@ -624,12 +624,39 @@ impl App {
     /// Pasted text: into the `:` line or the value being edited; elsewhere nothing (a paste
     /// never runs commands or presses keys).
     fn on_paste(&mut self, text: &str) {
-        let line = match self.ui.mode {
-            crate::keymap::Mode::Prompt => &mut self.ui.prompt.line,
-            crate::keymap::Mode::Edit => &mut self.ui.edit,
-            _ => return,
+        let edit = self.ui.mode == crate::keymap::Mode::Edit;
+        let whole = match self.ui.palette.as_mut() {
+            // The palette's search or the field typed into.
+            Some(p) if edit => {
+                p.error = None;
+                match p.form.as_mut() {
+                    None => {
+                        let whole = p.query.paste(text);
+                        p.refilter();
+                        whole
+                    }
+                    Some(form) => form.fields[form.focus].paste(text),
+                }
+            }
+            _ => {
+                let line = match self.ui.mode {
+                    crate::keymap::Mode::Prompt => &mut self.ui.prompt.line,
+                    crate::keymap::Mode::Edit => &mut self.ui.edit,
+                    _ => return,
+                };
+                let whole = line.paste(text);
+                // The parameter search follows its line, as it does for typed keys.
+                if edit
+                    && self.ui.params.editing == Some(params::ParamEdit::Filter)
+                    && self.ui.params.filter != self.ui.edit.text
+                {
+                    self.ui.params.filter = self.ui.edit.text.clone();
+                    self.ui.params.sel = 0;
+                }
+                whole
+            }
         };
-        if !line.paste(text) {
+        if !whole {
             self.ui.message = Some((
                 SEV_WARNING,
                 format!(
