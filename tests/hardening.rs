@@ -201,6 +201,9 @@ fn hostile_parameter_names_are_refused_and_never_reach_a_file() {
     let kept: Vec<&String> = set.params.keys().collect();
     assert_eq!(kept, ["RTL_ALT", "WPNAV_SPEED"]);
     assert_eq!(set.refused, 6);
+    a.ui.screen = "parameters";
+    let text = mavterm::headless::replay::screen_text(&a, (80, 24), &Default::default());
+    assert!(text.contains("6 names refused"), "{text}");
     let rep = a.report();
     assert_eq!(
         rep["params"][0]["components"][0]["refused_names"], 6,
