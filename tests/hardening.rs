@@ -923,3 +923,30 @@ fn a_paste_reaches_the_palette_and_the_parameter_search() {
     a.update(0, Event::Paste("RTL_".into()));
     assert_eq!(a.ui.params.filter, "RTL_");
 }
+
+/// Item 5 (round two): a file whose first MiBs hold no record is refused at open, not read
+/// whole: here 6 MiB of garbage before a real record (which a full scan would find).
+#[test]
+fn a_tlog_starting_with_mibs_of_garbage_is_refused_at_open() {
+    use mavterm::link::source::{TlogSource, OPEN_GIVE_UP};
+    let log = std::fs::read(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/copter-mavftp-params.vehicle.tlog"
+    ))
+    .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("junk.tlog");
+    let mut bytes = vec![0x55u8; 6 * 1024 * 1024];
+    bytes.extend_from_slice(&log[..4096]);
+    std::fs::write(&path, &bytes).unwrap();
+    let e = TlogSource::open(&path)
+        .err()
+        .expect("a file of garbage opened");
+    let text = e.to_string();
+    assert!(text.contains("no MAVLink records"), "{text}");
+    // The real log still opens.
+    let ok = dir.path().join("ok.tlog");
+    std::fs::write(&ok, &log).unwrap();
+    assert!(TlogSource::open(&ok).is_ok());
+    assert!(OPEN_GIVE_UP < 6 * 1024 * 1024);
+}
