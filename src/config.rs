@@ -156,10 +156,11 @@ pub fn load_user(explicit: Option<&Path>) -> Result<FileConfig, ConfigError> {
 
 /// Read and check the config file at `path`.
 pub fn read(path: &Path) -> Result<FileConfig, ConfigError> {
-    let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Io {
-        path: path.to_path_buf(),
-        error,
-    })?;
+    let text =
+        crate::fsio::read_text(path, crate::fsio::MAX_READ).map_err(|error| ConfigError::Io {
+            path: path.to_path_buf(),
+            error,
+        })?;
     load(path, &text)
 }
 

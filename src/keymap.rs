@@ -1305,9 +1305,11 @@ impl Keymap {
 
     /// Read a keymap file (no layering).
     pub fn from_file(path: &Path) -> Result<Keymap, KeymapError> {
-        let text = std::fs::read_to_string(path).map_err(|source| KeymapError::Io {
-            path: path.to_path_buf(),
-            source,
+        let text = crate::fsio::read_text(path, crate::fsio::MAX_READ).map_err(|source| {
+            KeymapError::Io {
+                path: path.to_path_buf(),
+                source,
+            }
         })?;
         Keymap::from_toml(&text, &path.display().to_string())
     }

@@ -10,6 +10,7 @@ pub mod cli;
 pub mod clock;
 pub mod config;
 pub mod driver;
+pub mod fsio;
 pub mod headless;
 pub mod keymap;
 pub mod link;

@@ -90,7 +90,7 @@ fn load_param_meta(cli: &Cli) -> Result<Option<std::sync::Arc<mavterm::params::m
             _ => return Ok(None),
         },
     };
-    let text = std::fs::read_to_string(&path)
+    let text = mavterm::fsio::read_text(&path, 64 * 1024 * 1024)
         .with_context(|| format!("reading parameter metadata {}", path.display()))?;
     let meta = mavterm::params::meta::MetaSet::parse(&text)
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;

@@ -54,7 +54,7 @@ pub fn read_key_file(path: &Path) -> Result<SecretKey, StoreError> {
         path: path.to_path_buf(),
         error,
     };
-    let f = std::fs::File::open(path).map_err(|e| fail(e.to_string()))?;
+    let f = crate::fsio::open_regular(path).map_err(|e| fail(e.to_string()))?;
     let meta = f.metadata().map_err(|e| fail(e.to_string()))?;
     if !meta.is_file() {
         return Err(fail("not a file".into()));
@@ -93,7 +93,7 @@ pub fn load_state(path: &Path) -> Result<u64, StoreError> {
         path: path.to_path_buf(),
         error,
     };
-    match std::fs::read(path) {
+    match crate::fsio::read_file(path, 4096) {
         Ok(bytes) => codec::decode_state(&bytes).map_err(fail),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(0),
         Err(e) => Err(fail(e.to_string())),

@@ -340,6 +340,8 @@ impl Recorder {
             path: path.to_path_buf(),
             source,
         };
+        // A FIFO would block the start, a device would take the keys: refused before opening.
+        crate::fsio::check_plain_target(path).map_err(err)?;
         let mut file = File::create(path).map_err(err)?;
         let mut head = format!(
             "# mavterm {} recording: replay with mavterm --headless --input FILE\n",

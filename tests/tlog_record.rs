@@ -222,38 +222,32 @@ fn a_log_that_cannot_be_opened_is_told_on_screen_and_the_session_goes_on() {
     }
 }
 
+/// A device (or a FIFO) as the log is refused at the start with a notice, and nothing else
+/// stops: a FIFO would block the start, a device would swallow the log. (It replaces the test
+/// that recorded to /dev/full; the full disk is pinned by the recorder's own test and
+/// tests/hardening.rs::a_full_disk_leaves_only_whole_records_in_the_tlog.)
 #[cfg(target_os = "linux")]
 #[test]
-fn a_full_disk_stops_the_recording_with_a_notice_and_nothing_else() {
-    // /dev/full opens, then refuses every write with ENOSPC.
+fn a_device_as_the_log_is_refused_with_a_notice_and_nothing_else() {
     let mut r = sim_runner();
     r.record(&TlogTarget::File("/dev/full".into()));
-    let mut t = 0;
-    while r.app.recording.as_ref().unwrap().error.is_none() {
-        t += SECOND;
-        assert!(t <= 60 * SECOND, "no error after a minute");
-        r.advance_to(t);
-        // The writer fails on its own thread: give it a moment of real time.
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
-    r.advance_to(t + 2 * SECOND);
+    r.advance_to(2 * SECOND);
     let screen = common::screen(&r, 200, 60);
     assert!(
-        screen.contains("recording stopped: /dev/full: No space left on device"),
+        screen.contains("not recording: /dev/full: not a regular file"),
         "{screen}"
     );
-    assert!(screen.contains("log full stopped"), "{screen}");
     assert_eq!(
         r.app
             .notices
             .iter()
-            .filter(|n| n.text.contains("recording stopped"))
+            .filter(|n| n.text.contains("not recording"))
             .count(),
         1,
         "told once"
     );
     let frames = r.app.links[0].parser.frames;
-    r.advance_to(t + 4 * SECOND);
+    r.advance_to(6 * SECOND);
     assert!(r.app.links[0].parser.frames > frames);
 }
 

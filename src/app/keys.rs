@@ -222,6 +222,7 @@ impl App {
             Command::Target(sysid, compid) => {
                 let key = self.autopilot(sysid, compid)?;
                 self.target = Some(key);
+                self.target_held = true;
                 Ok(Some(format!("target {}:{}", key.0, key.1)))
             }
             Command::Link(text) => {
@@ -314,6 +315,7 @@ impl App {
             (Some(i), false) => (i + keys.len() - 1) % keys.len(),
         };
         self.target = Some(keys[next]);
+        self.target_held = true;
     }
 
     /// Carry out an action bound in normal mode.
@@ -360,6 +362,7 @@ impl App {
                         .filter(|v| v.is_autopilot() || sessions.contains_key(&(v.sysid, v.compid)))
                     {
                         self.target = Some((v.sysid, v.compid));
+                        self.target_held = true;
                     }
                 }
             }

@@ -280,6 +280,12 @@ impl Default for UiState {
     }
 }
 
+/// Autopilots that get automatic starts (streams, parameter download) without a budget.
+pub const AUTO_FREE: usize = 8;
+/// Beyond [`AUTO_FREE`] autopilots: automatic starts allowed per [`AUTO_WINDOW`].
+pub const AUTO_BUDGET: usize = 4;
+pub const AUTO_WINDOW: Micros = 60 * crate::clock::SECOND;
+
 /// The whole state of mavterm.
 #[derive(Debug, Clone)]
 pub struct App {
@@ -311,6 +317,13 @@ pub struct App {
     dirty: bool,
     last_drawn_sec: u64,
     pub quit: bool,
+    /// A target was chosen (the first autopilot heard, or by the operator): no automatic pick
+    /// after that.
+    target_held: bool,
+    /// Automatic starts for new autopilots within the last [`AUTO_WINDOW`], beyond [`AUTO_FREE`].
+    auto_starts: std::collections::VecDeque<Micros>,
+    /// New autopilots whose automatic starts the budget held back.
+    pub auto_held: u64,
     /// The operator asked to suspend (Ctrl-Z): the terminal front end takes it, gives the
     /// terminal back and stops the process until `fg`.
     pub suspend: bool,
@@ -347,6 +360,9 @@ impl App {
             dirty: true,
             last_drawn_sec: 0,
             quit: false,
+            target_held: false,
+            auto_starts: std::collections::VecDeque::new(),
+            auto_held: 0,
             suspend: false,
         };
         app.signing_start();
@@ -610,12 +626,39 @@ impl App {
     /// Pasted text: into the `:` line or the value being edited; elsewhere nothing (a paste
     /// never runs commands or presses keys).
     fn on_paste(&mut self, text: &str) {
-        let line = match self.ui.mode {
-            crate::keymap::Mode::Prompt => &mut self.ui.prompt.line,
-            crate::keymap::Mode::Edit => &mut self.ui.edit,
-            _ => return,
+        let edit = self.ui.mode == crate::keymap::Mode::Edit;
+        let whole = match self.ui.palette.as_mut() {
+            // The palette's search or the field typed into.
+            Some(p) if edit => {
+                p.error = None;
+                match p.form.as_mut() {
+                    None => {
+                        let whole = p.query.paste(text);
+                        p.refilter();
+                        whole
+                    }
+                    Some(form) => form.fields[form.focus].paste(text),
+                }
+            }
+            _ => {
+                let line = match self.ui.mode {
+                    crate::keymap::Mode::Prompt => &mut self.ui.prompt.line,
+                    crate::keymap::Mode::Edit => &mut self.ui.edit,
+                    _ => return,
+                };
+                let whole = line.paste(text);
+                // The parameter search follows its line, as it does for typed keys.
+                if edit
+                    && self.ui.params.editing == Some(params::ParamEdit::Filter)
+                    && self.ui.params.filter != self.ui.edit.text
+                {
+                    self.ui.params.filter = self.ui.edit.text.clone();
+                    self.ui.params.sel = 0;
+                }
+                whole
+            }
         };
-        if !line.paste(text) {
+        if !whole {
             self.ui.message = Some((
                 SEV_WARNING,
                 format!(
@@ -781,14 +824,25 @@ impl App {
                 if self.vehicles.full_for(key) {
                     // A full table makes room: never at the cost of the target or of a vehicle
                     // with work in flight.
-                    let kept = self
-                        .sessions
-                        .iter()
-                        .filter(|(_, s)| s.busy())
-                        .map(|(k, _)| *k)
-                        .chain(self.target)
-                        .chain(self.nudge.target)
-                        .collect::<Vec<_>>();
+                    // Work in flight: a busy session, the target of every open command and
+                    // the component whose parameters are downloading.
+                    let mut kept = Vec::new();
+                    for (k, s) in &self.sessions {
+                        if s.busy() {
+                            kept.push(*k);
+                        }
+                        kept.extend(
+                            s.commands
+                                .entries()
+                                .filter(|e| e.open())
+                                .map(|e| e.spec.target),
+                        );
+                        if let Some((comp, ..)) = s.params.downloading() {
+                            kept.push((k.0, comp));
+                        }
+                    }
+                    kept.extend(self.target);
+                    kept.extend(self.nudge.target);
                     self.vehicles.keep(kept);
                 }
                 let ev = self
@@ -813,8 +867,10 @@ impl App {
                         self.drop_payload_sessions(key.0);
                     }
                     // Found during a heartbeat flood: nothing starts on its own (the operator
-                    // can still ask).
-                    let auto = autopilot && !flood;
+                    // can still ask). Beyond AUTO_FREE autopilots, automatic starts are held to
+                    // AUTO_BUDGET a minute, so a trickle of new ids below the flood threshold
+                    // cannot start unbounded downloads.
+                    let auto = autopilot && !flood && self.auto_budget(now);
                     let mut s = Session::new(
                         key,
                         hb.autopilot,
@@ -824,8 +880,9 @@ impl App {
                     );
                     s.mission.gcs = (self.cfg.sysid, self.cfg.compid);
                     self.sessions.insert(key, s);
-                    if alone && self.target.is_none() {
+                    if alone && self.target.is_none() && !self.target_held {
                         self.target = Some(key);
+                        self.target_held = true;
                     }
                 }
             }
@@ -870,7 +927,11 @@ impl App {
         let id = (key.1, frame.msgid);
         let profile = self.links[link].profile;
         let mut outs = Vec::new();
+        let quiet = self.vehicles.get(key).is_some_and(|v| v.flood);
         let mut handle = |k: &VehicleKey, s: &mut Session| {
+            if quiet && s.quiet.len() < 256 {
+                s.quiet.insert(key.1);
+            }
             let out = s.on_message(now, link, profile, id, msg, ack.as_ref(), frame.payload());
             if !out.is_empty() {
                 outs.push((*k, out));
@@ -914,19 +975,46 @@ impl App {
     }
 
     /// The sessions of stand-alone payloads of system `sysid`: an autopilot of it was heard.
+    /// The target's session stays (the autopilot heard may be spoofed; only the operator moves
+    /// the target).
     fn drop_payload_sessions(&mut self, sysid: u8) {
         let payloads: Vec<VehicleKey> = self
             .sessions
             .range((sysid, 0)..=(sysid, u8::MAX))
             .map(|(k, _)| *k)
             .filter(|k| !self.vehicles.get(*k).is_some_and(|v| v.is_autopilot()))
+            .filter(|k| self.target != Some(*k) && self.nudge.target != Some(*k))
             .collect();
         for k in payloads {
             self.sessions.remove(&k);
-            if self.target == Some(k) {
-                self.target = None;
-            }
         }
+    }
+
+    /// Whether an automatic start (stream setup, parameter download) for a newly heard
+    /// autopilot fits the budget: always while at most [`AUTO_FREE`] autopilots are known,
+    /// beyond that [`AUTO_BUDGET`] per [`AUTO_WINDOW`]. Counts what it allows.
+    fn auto_budget(&mut self, now: Micros) -> bool {
+        let autopilots = self
+            .sessions
+            .keys()
+            .filter(|k| self.vehicles.get(**k).is_some_and(|v| v.is_autopilot()))
+            .count();
+        if autopilots <= AUTO_FREE {
+            return true;
+        }
+        while self
+            .auto_starts
+            .front()
+            .is_some_and(|&t| now.saturating_sub(t) >= AUTO_WINDOW)
+        {
+            self.auto_starts.pop_front();
+        }
+        if self.auto_starts.len() >= AUTO_BUDGET {
+            self.auto_held += 1;
+            return false;
+        }
+        self.auto_starts.push_back(now);
+        true
     }
 
     fn on_vehicle_events(&mut self, events: Vec<VehicleEvent>, fx: &mut Vec<Effect>) {
@@ -947,8 +1035,11 @@ impl App {
                         Some(key),
                         format!("vehicle {}:{} found ({desc})", key.0, key.1),
                     );
-                    if autopilot && self.target.is_none() {
+                    // The first autopilot heard becomes the target; after that only the
+                    // operator changes it.
+                    if autopilot && self.target.is_none() && !self.target_held {
                         self.target = Some(key);
+                        self.target_held = true;
                     }
                 }
                 VehicleEvent::Lost(key) | VehicleEvent::Back(key)

@@ -196,6 +196,7 @@ impl App {
                             "received": got,
                             "count": count,
                             "complete": set.complete(),
+                            "refused_names": set.refused,
                             "edits": edits,
                         })
                     })
@@ -296,6 +297,7 @@ impl App {
             "streams": streams,
             "vehicles_evicted": self.vehicles.evicted,
             "vehicles_refused": self.vehicles.refused,
+            "auto_held": self.auto_held,
             "heartbeat_floods": self.vehicles.floods,
             "flood_found": self.vehicles.flood_found,
             "signing": {

@@ -71,6 +71,9 @@ pub struct Session {
     /// was sent). The first heartbeat with another mode stops their resends: the vehicle
     /// changed mode (ours took, or the pilot, a failsafe or another GCS changed it).
     mode_asks: Vec<(u64, Option<u32>)>,
+    /// Components of this system first heard during a heartbeat flood: no automatic camera
+    /// discovery for them (at most 256).
+    pub quiet: std::collections::BTreeSet<u8>,
 }
 
 impl Session {
@@ -95,6 +98,7 @@ impl Session {
             gimbals: GimbalSet::default(),
             mode_seen: None,
             mode_asks: Vec::new(),
+            quiet: std::collections::BTreeSet::new(),
         }
     }
 
@@ -205,7 +209,9 @@ impl Session {
             Some(MavMessage::HEARTBEAT(hb)) => Some(hb.mavtype as u8),
             _ => None,
         };
-        if hb_type.is_some() || (259..=269).contains(&id) || id == 285 {
+        if (hb_type.is_some() || (259..=269).contains(&id) || id == 285)
+            && !self.quiet.contains(&from)
+        {
             let notes = self.cameras.on_message(now, from, id, hb_type, payload);
             out.extend(notes.into_iter().map(|(s, t)| SessionOut::Notice(s, t)));
         }

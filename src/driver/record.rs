@@ -60,12 +60,24 @@ fn open_target(
     start: chrono::NaiveDateTime,
 ) -> Result<(PathBuf, File), (PathBuf, String)> {
     match target {
-        TlogTarget::File(path) => OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(path)
-            .map(|f| (path.clone(), f))
-            .map_err(|e| (path.clone(), e.to_string())),
+        TlogTarget::File(path) => {
+            // A FIFO would block the start, a device would take the log: only a regular file
+            // (or a new one), opened without waiting and checked again once open.
+            let fail = |e: io::Error| (path.clone(), e.to_string());
+            crate::fsio::check_plain_target(path).map_err(fail)?;
+            let mut opts = OpenOptions::new();
+            opts.create(true).append(true);
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::OpenOptionsExt;
+                opts.custom_flags(libc::O_NONBLOCK);
+            }
+            let f = opts.open(path).map_err(fail)?;
+            if !f.metadata().map_err(fail)?.is_file() {
+                return Err((path.clone(), "not a regular file: refused".into()));
+            }
+            Ok((path.clone(), f))
+        }
         TlogTarget::NewIn(dir) => {
             std::fs::create_dir_all(dir).map_err(|e| (dir.clone(), e.to_string()))?;
             let stem = start.format("%Y-%m-%d_%H-%M-%S").to_string();
@@ -89,12 +101,17 @@ fn open_target(
     }
 }
 
+/// How long [`Recorder::finish`] waits for the writer to write out and sync.
+pub const FINISH_WAIT: Duration = Duration::from_secs(2);
+
 /// The recording: the batch being filled, the queue to the writer thread, and what the core was
 /// last told.
 pub struct Recorder {
     path: PathBuf,
     tx: Option<SyncSender<Vec<u8>>>,
     thread: Option<JoinHandle<Result<(), String>>>,
+    /// Closed when the writer thread ends: [`Recorder::finish`] waits on it, bounded.
+    done: Option<mpsc::Receiver<()>>,
     batch: Vec<u8>,
     batch_frames: u64,
     /// File size: what it had at the start plus every batch the writer took.
@@ -119,11 +136,21 @@ impl Recorder {
             dropped: 0,
             error: Some(e),
         })?;
+        Self::with_file(path, file)
+    }
+
+    /// Start the writer on an open file.
+    fn with_file(path: PathBuf, file: File) -> Result<Recorder, RecordingStatus> {
         let bytes = file.metadata().map(|m| m.len()).unwrap_or(0);
         let (tx, rx) = mpsc::sync_channel::<Vec<u8>>(RECORD_QUEUE);
+        let (done_tx, done_rx) = mpsc::sync_channel::<()>(1);
         let spawned = std::thread::Builder::new()
             .name("tlog writer".into())
-            .spawn(move || write_loop(file, bytes, rx));
+            .spawn(move || {
+                let r = write_loop(file, bytes, rx);
+                drop(done_tx);
+                r
+            });
         let thread = spawned.map_err(|e| RecordingStatus {
             path: path.clone(),
             bytes,
@@ -134,6 +161,7 @@ impl Recorder {
             path,
             tx: Some(tx),
             thread: Some(thread),
+            done: Some(done_rx),
             batch: Vec::new(),
             batch_frames: 0,
             bytes,
@@ -260,7 +288,22 @@ impl Recorder {
                 }
             }
             drop(tx);
-            if let Some(Ok(Err(e)) | Err(e)) = self
+            // A write stuck in the kernel (a dead network file system) must not keep the
+            // process alive after quit: waited for FINISH_WAIT, then the thread is given up.
+            let ended = match self.done.take() {
+                Some(done) => !matches!(
+                    done.recv_timeout(FINISH_WAIT),
+                    Err(RecvTimeoutError::Timeout)
+                ),
+                None => true,
+            };
+            if !ended {
+                self.thread = None;
+                self.error.get_or_insert(format!(
+                    "the writer did not finish within {} s: given up (the log may lack its end)",
+                    FINISH_WAIT.as_secs()
+                ));
+            } else if let Some(Ok(Err(e)) | Err(e)) = self
                 .thread
                 .take()
                 .map(|t| t.join().map_err(|_| "the writer failed".to_string()))
@@ -461,8 +504,10 @@ mod tests {
     #[cfg(target_os = "linux")]
     #[test]
     fn a_full_disk_stops_the_recording_and_says_so() {
-        // /dev/full takes opens and refuses every write with ENOSPC.
-        let mut r = Recorder::start(&TlogTarget::File("/dev/full".into()), start_time()).unwrap();
+        // /dev/full takes opens and refuses every write with ENOSPC (as a target it is refused,
+        // a device: opened here by hand).
+        let full = OpenOptions::new().append(true).open("/dev/full").unwrap();
+        let mut r = Recorder::with_file("/dev/full".into(), full).unwrap();
         assert_eq!(r.report(0).unwrap().error, None);
         let mut t = 0;
         // The writer's buffer holds 64 KiB: past that (or at its once-a-second flush) it fails.
@@ -485,5 +530,52 @@ mod tests {
         r.record(t, &frame(0, 1));
         r.end_step();
         assert_eq!(r.finish().bytes, before);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_fifo_or_device_target_is_refused_at_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("pipe");
+        let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        for p in [fifo, PathBuf::from("/dev/null")] {
+            let e = Recorder::start(&TlogTarget::File(p.clone()), start_time())
+                .err()
+                .unwrap_or_else(|| panic!("{} taken", p.display()));
+            assert!(e.error.unwrap().contains("not a regular file"));
+        }
+    }
+
+    /// A write stuck in the kernel (here: a FIFO nobody reads, opened read-write so the open
+    /// itself does not wait) does not keep `finish` waiting: it gives the writer up and says so.
+    #[cfg(unix)]
+    #[test]
+    fn finish_gives_up_on_a_stuck_writer() {
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("pipe");
+        let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        let f = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open(&fifo)
+            .unwrap();
+        let (tx, rx) = mpsc::channel();
+        std::thread::spawn(move || {
+            let mut r = Recorder::with_file(fifo, f).unwrap();
+            // Each batch (88 KB) more than a pipe holds (64 KiB), so the writer blocks in write(2).
+            for step in 0..64u64 {
+                for i in 0..4000u64 {
+                    r.record(step * 4000 + i, &frame(0, i as u8));
+                }
+                r.end_step();
+            }
+            let _ = tx.send(r.finish());
+        });
+        let st = rx
+            .recv_timeout(Duration::from_secs(60))
+            .expect("finish waited on a stuck writer");
+        assert!(st.error.unwrap().contains("given up"));
     }
 }

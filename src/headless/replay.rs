@@ -121,7 +121,7 @@ pub fn run_script(
                 match &opts.screens_dir {
                     Some(dir) => {
                         let path = dir.join(format!("{name}.txt"));
-                        std::fs::write(&path, text)
+                        crate::fsio::write_atomic(&path, text.as_bytes())
                             .map_err(|source| ReplayError::Screen { path, source })?;
                     }
                     None => {

@@ -173,9 +173,11 @@ fn valid_name(name: &str) -> bool {
 
 impl Script {
     pub fn load(path: &Path) -> Result<Script, ScriptError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ScriptError::Io {
-            path: path.display().to_string(),
-            source,
+        let text = crate::fsio::read_text(path, crate::fsio::MAX_READ).map_err(|source| {
+            ScriptError::Io {
+                path: path.display().to_string(),
+                source,
+            }
         })?;
         Script::parse(&text)
     }

@@ -239,6 +239,9 @@ fn last_record_time(file: &mut std::fs::File) -> io::Result<Option<u64>> {
     Ok(last)
 }
 
+/// A log whose first this many bytes hold no record is refused at open ([`TlogError::NoRecords`]).
+pub const OPEN_GIVE_UP: u64 = 4 * 1024 * 1024;
+
 impl TlogSource {
     /// Replay the tlog at `path`, read through a buffer as it plays, at real time.
     ///
@@ -269,7 +272,10 @@ impl TlogSource {
 
     fn from_input(input: Box<dyn TlogInput>) -> Result<Self, TlogOpenError> {
         let mut reader = TlogReader::new(input);
+        // A file that starts with OPEN_GIVE_UP bytes holding no record is not a tlog.
+        reader.give_up_after(Some(OPEN_GIVE_UP));
         let next = reader.next().transpose()?;
+        reader.give_up_after(None);
         if next.is_none() && reader.offset() > 0 {
             return Err(TlogError::NoRecords {
                 bytes: reader.offset(),

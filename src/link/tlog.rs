@@ -173,9 +173,17 @@ pub struct TlogReader<R> {
     high_water: u64,
     /// The open gap has been counted.
     gap_counted: bool,
+    /// Give up (end, as at the end of the file) once this many bytes are read with no record.
+    give_up_after: Option<u64>,
 }
 
 impl<R: Read> TlogReader<R> {
+    /// End (as at the end of the file) once `bytes` are read without a record: a file that is
+    /// not a tlog is not read whole to find out. `None` reads on.
+    pub fn give_up_after(&mut self, bytes: Option<u64>) {
+        self.give_up_after = bytes;
+    }
+
     pub fn new(inner: R) -> Self {
         TlogReader {
             inner,
@@ -185,6 +193,7 @@ impl<R: Read> TlogReader<R> {
             in_step: true,
             in_gap: false,
             failed: false,
+            give_up_after: None,
             skipped: Skipped::default(),
             offset: 0,
             high_water: 0,
@@ -310,6 +319,9 @@ impl<R: Read> Iterator for TlogReader<R> {
                 self.in_step = true;
                 self.in_gap = false;
                 return Some(Ok(TlogRecord { time_us, frame }));
+            }
+            if self.give_up_after.is_some_and(|max| self.offset >= max) {
+                return None;
             }
             // Not a record: skip to the next place whose frame would start with a magic byte
             // (or, with none in sight, to the last few bytes, which may be a timestamp).

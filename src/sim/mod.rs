@@ -93,24 +93,23 @@ fn state_path(base: &Option<PathBuf>, index: usize, sysid: u8) -> Option<PathBuf
 /// The simulator with its parameter state read from its state files (`state=FILE`): the edge
 /// that reads; [`Sim::new_with_state`] itself touches no file.
 pub fn open(cfg: SimConfig) -> Sim {
-    Sim::new_with_state(cfg, |p| match std::fs::read_to_string(p) {
-        Ok(text) => Some(text),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
-        Err(e) => {
-            tracing::warn!("sim: cannot read parameter state {}: {e}", p.display());
-            None
+    Sim::new_with_state(cfg, |p| {
+        match crate::fsio::read_text(p, crate::fsio::MAX_READ) {
+            Ok(text) => Some(text),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+            Err(e) => {
+                tracing::warn!("sim: cannot read parameter state {}: {e}", p.display());
+                None
+            }
         }
     })
 }
 
-/// Write the state files the simulator has waiting, atomically (temp file, then rename).
+/// Write the state files the simulator has waiting, atomically ([`crate::fsio::write_atomic`]:
+/// a temporary of a unique name, fsync, rename; a special file is refused).
 pub fn save_pending(sim: &mut Sim) {
     for (path, contents) in sim.take_writes() {
-        let mut tmp = path.as_os_str().to_owned();
-        tmp.push(".tmp");
-        let tmp = PathBuf::from(tmp);
-        if let Err(e) = std::fs::write(&tmp, &contents).and_then(|()| std::fs::rename(&tmp, &path))
-        {
+        if let Err(e) = crate::fsio::write_atomic(&path, &contents) {
             tracing::warn!("sim: cannot save parameters to {}: {e}", path.display());
         }
     }

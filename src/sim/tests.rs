@@ -2476,3 +2476,28 @@ fn deterministic_through_calibrations() {
     assert_eq!(a, run(50_000));
     assert_eq!(a, run(100_000));
 }
+
+/// The state is saved atomically with a temporary of a unique name: a `state.parm.tmp` planted
+/// next to it (here a symlink to another file) is never written through.
+#[cfg(unix)]
+#[test]
+fn state_save_never_writes_through_a_planted_temporary() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("state.parm");
+    let victim = dir.path().join("victim");
+    std::fs::write(&victim, b"keep").unwrap();
+    std::os::unix::fs::symlink(&victim, dir.path().join("state.parm.tmp")).unwrap();
+    let q = format!("state={}", path.display());
+    let mut g = Gcs::new(&q);
+    g.run_until(10_000);
+    g.send(MavMessage::PARAM_SET(PARAM_SET_DATA {
+        param_value: 2500.0,
+        target_system: 1,
+        target_component: 1,
+        param_id: "RTL_ALT".into(),
+        param_type: MavParamType::MAV_PARAM_TYPE_INT32,
+    }));
+    save_pending(&mut g.sim);
+    assert_eq!(std::fs::read(&victim).unwrap(), b"keep");
+    assert!(std::fs::read_to_string(&path).unwrap().contains("RTL_ALT"));
+}

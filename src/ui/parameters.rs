@@ -449,6 +449,13 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         .borders(Borders::ALL)
         .border_style(theme.focus_border())
         .title(head);
+    // Values whose name is not a parameter name, refused and counted: said, not hidden.
+    if let Some(n) = set.map(|s| s.refused).filter(|n| *n > 0) {
+        block = block.title_bottom(Line::from(Span::styled(
+            format!(" {n} names refused "),
+            theme.alert(),
+        )));
+    }
     if !rows.is_empty() {
         // A line of column titles above the rows.
         let list_h = block.inner(list_area).height.saturating_sub(1) as usize;

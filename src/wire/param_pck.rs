@@ -105,7 +105,9 @@ pub enum PckError {
         common: usize,
         prev: usize,
     },
-    #[error("param.pck: name at offset {offset} is not ASCII")]
+    #[error(
+        "param.pck: name at offset {offset} is not a parameter name (1-16 printable ASCII without spaces, '#' or ',')"
+    )]
     BadName { offset: usize },
     #[error("param.pck: header says {expected} parameters, file holds {found}")]
     CountMismatch { expected: u16, found: usize },
@@ -156,6 +158,11 @@ pub fn decode(bytes: &[u8]) -> Result<PckFile, PckError> {
         }
         let mut name = last[..common].to_string();
         name.push_str(std::str::from_utf8(suffix).map_err(|_| PckError::BadName { offset })?);
+        // The shared prefix plus the entry's own bytes can reach 15 + 16 = 31 bytes: held to the
+        // same rule as a PARAM_VALUE's name (`name_ok`, 1 to MAX_NAME_LEN bytes).
+        if !name_ok(name.as_bytes()) {
+            return Err(PckError::BadName { offset });
+        }
         let vpos = pos + 2 + name_len;
         let value = ptype.read(&bytes[vpos..]);
         let default = has_default.then(|| ptype.read(&bytes[vpos + vsize..]));
@@ -307,6 +314,29 @@ mod tests {
             pos = v + 4;
             n += 1;
         }
+    }
+
+    #[test]
+    fn a_name_longer_than_16_bytes_through_the_shared_prefix_is_refused() {
+        // Built by hand from ArduPilot's layout (AP_Param::send_parameter): u16 magic, u16
+        // count, u16 total; per entry a type byte (4 = FLOAT), a byte holding the shared
+        // prefix length (low nibble) and name length - 1 (high nibble), the name bytes, the value.
+        let mut f = vec![0x1b, 0x67, 2, 0, 2, 0];
+        f.extend([4, 0xF0]);
+        f.extend(b"ABCDEFGHIJKLMNOP");
+        f.extend(1.0f32.to_le_bytes());
+        // 15 shared bytes + 16 own = 31 bytes: no parameter can have this name.
+        let second = f.len();
+        f.extend([4, 0xFF]);
+        f.extend(b"QRSTUVWXYZ012345");
+        f.extend(2.0f32.to_le_bytes());
+        assert_eq!(decode(&f), Err(PckError::BadName { offset: second }));
+        // 15 shared + 1 own = 16 bytes is a parameter name.
+        let mut ok = f[..second].to_vec();
+        ok.extend([4, 0x0F, b'Q']);
+        ok.extend(2.0f32.to_le_bytes());
+        let d = decode(&ok).unwrap();
+        assert_eq!(d.params[1].name, "ABCDEFGHIJKLMNOQ");
     }
 
     #[test]
