@@ -394,6 +394,12 @@ impl TlogSource {
                 None
             }
             None => {
+                if self.reader.ended_in_gap() {
+                    self.note = Some(format!(
+                        "no record in the {} MiB after byte {at}: the replay ends there",
+                        super::tlog::MAX_GAP >> 20
+                    ));
+                }
                 if self.gaps_skipped > 0 {
                     // The log's length, gaps skipped (the last record's time said more).
                     self.duration = Some(self.next_t);

@@ -24,6 +24,11 @@ const TS_LEN: usize = 8;
 const LOOKAHEAD: usize = 2 * (TS_LEN + MAX_FRAME_LEN);
 /// How much the streaming reader asks for at a time.
 const CHUNK: usize = 64 * 1024;
+/// A run of this many bytes holding no record ends the reading there, as the end of the file
+/// would ([`TlogReader::ended_in_gap`]): however large a file of garbage is, one read of it is
+/// bounded (a replay's `--duration` is checked between reads), and no real log holds a gap
+/// of this size.
+pub const MAX_GAP: u64 = 64 * 1024 * 1024;
 
 /// One record: when it was logged and the frame's bytes.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -175,6 +180,10 @@ pub struct TlogReader<R> {
     gap_counted: bool,
     /// Give up (end, as at the end of the file) once this many bytes are read with no record.
     give_up_after: Option<u64>,
+    /// Offset where the open gap began.
+    gap_from: u64,
+    /// Reading ended on a gap of [`MAX_GAP`] bytes.
+    ended_in_gap: bool,
 }
 
 impl<R: Read> TlogReader<R> {
@@ -194,6 +203,8 @@ impl<R: Read> TlogReader<R> {
             in_gap: false,
             failed: false,
             give_up_after: None,
+            gap_from: 0,
+            ended_in_gap: false,
             skipped: Skipped::default(),
             offset: 0,
             high_water: 0,
@@ -226,7 +237,14 @@ impl<R: Read> TlogReader<R> {
         self.failed = false;
         self.in_step = true;
         self.in_gap = false;
+        self.ended_in_gap = false;
         self.offset = offset;
+    }
+
+    /// Reading ended because [`MAX_GAP`] bytes in a row held no record (not at the end of the
+    /// stream).
+    pub fn ended_in_gap(&self) -> bool {
+        self.ended_in_gap
     }
 
     /// What has been skipped so far.
@@ -279,6 +297,7 @@ impl<R: Read> TlogReader<R> {
         if !self.in_gap {
             self.in_gap = true;
             self.gap_counted = false;
+            self.gap_from = self.offset;
         }
         let end = self.offset + n as u64;
         let fresh = end.saturating_sub(self.offset.max(self.high_water));
@@ -298,7 +317,7 @@ impl<R: Read> Iterator for TlogReader<R> {
     type Item = io::Result<TlogRecord>;
 
     fn next(&mut self) -> Option<Self::Item> {
-        if self.failed {
+        if self.failed || self.ended_in_gap {
             return None;
         }
         loop {
@@ -321,6 +340,10 @@ impl<R: Read> Iterator for TlogReader<R> {
                 return Some(Ok(TlogRecord { time_us, frame }));
             }
             if self.give_up_after.is_some_and(|max| self.offset >= max) {
+                return None;
+            }
+            if self.in_gap && self.offset - self.gap_from >= MAX_GAP {
+                self.ended_in_gap = true;
                 return None;
             }
             // Not a record: skip to the next place whose frame would start with a magic byte
@@ -423,6 +446,29 @@ mod tests {
             });
         }
         (buf, recs)
+    }
+
+    #[test]
+    fn a_gap_of_max_gap_bytes_ends_the_reading_there() {
+        // A record, MAX_GAP + 1 MiB of zeros (no magic byte), a record: the reading ends in
+        // the gap, bounded, and says so; a gap just under the limit is read through.
+        let (one, recs) = log(1);
+        for (gap, records, ended) in [
+            (MAX_GAP + (1 << 20), 1, true),
+            (MAX_GAP - (1 << 20), 2, false),
+        ] {
+            let mut buf = one.clone();
+            buf.resize(buf.len() + gap as usize, 0);
+            buf.extend_from_slice(&one);
+            let mut r = TlogReader::new(&buf[..]);
+            let got: Vec<TlogRecord> = r.by_ref().map(|x| x.unwrap()).collect();
+            assert_eq!(got.len(), records, "gap {gap}");
+            assert_eq!(got[0], recs[0]);
+            assert_eq!(r.ended_in_gap(), ended, "gap {gap}");
+            if ended {
+                assert!(r.offset() < one.len() as u64 + MAX_GAP + (1 << 17));
+            }
+        }
     }
 
     #[test]
