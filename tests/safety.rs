@@ -435,6 +435,118 @@ fn mode_land_goes_out_at_once_during_a_takeoff_and_abandons_it() {
 }
 
 #[test]
+fn a_second_land_goes_out_at_once_behind_an_unanswered_first() {
+    // The first NAV_LAND is lost: a second `L` is not refused for the first one's answer.
+    let mut r = runner("drop_cmd=21:1");
+    key(&mut r, "L");
+    let out = sent(&mut r);
+    assert_eq!(commands(&out, 21).len(), 1, "{out:?}");
+    wait(&mut r, 0.2);
+    key(&mut r, "L");
+    let out = sent(&mut r);
+    assert_eq!(
+        commands(&out, 21).len(),
+        1,
+        "the second LAND at once: {out:?}"
+    );
+    // RTL behind it, and the first LAND is never resent on its own.
+    key(&mut r, "R");
+    let out = sent(&mut r);
+    assert_eq!(commands(&out, 20).len(), 1, "RTL at once: {out:?}");
+    wait(&mut r, 10.0);
+    let out = sent(&mut r);
+    assert!(commands(&out, 21).is_empty(), "no LAND resent: {out:?}");
+}
+
+/// Starts a take-off whose arm (dropped by the sim) gets no answer; returns once the arm left.
+fn takeoff_waiting_for_the_arm(r: &mut VirtualRunner) {
+    command(r, "takeoff 10");
+    common::yes(r);
+    let mut out = Vec::new();
+    for _ in 0..100 {
+        wait(r, 0.05);
+        out.extend(sent(r));
+        if !commands(&out, 400).is_empty() {
+            break;
+        }
+    }
+    assert_eq!(commands(&out, 400).len(), 1, "the arm: {out:?}");
+    assert!(r.app.sessions[&(1, 1)].sequence.is_some());
+}
+
+#[test]
+fn a_long_or_palette_land_during_a_takeoff_goes_out_and_abandons_it() {
+    for (way, line) in [
+        ("long", "long NAV_LAND"),
+        ("long RTL", "long NAV_RETURN_TO_LAUNCH"),
+        ("long DO_SET_MODE", "long DO_SET_MODE 1 9"),
+    ] {
+        let mut r = runner("drop_cmd=400:1");
+        takeoff_waiting_for_the_arm(&mut r);
+        command(&mut r, line);
+        let out = sent(&mut r);
+        let number = match way {
+            "long" => 21,
+            "long RTL" => 20,
+            _ => 176,
+        };
+        assert_eq!(commands(&out, number).len(), 1, "{way} at once: {out:?}");
+        assert!(
+            r.app.sessions[&(1, 1)]
+                .sequence
+                .as_ref()
+                .is_none_or(|s| s.finished()),
+            "{way}: the take-off stopped"
+        );
+        wait(&mut r, 15.0);
+        let out = sent(&mut r);
+        assert!(commands(&out, 22).is_empty(), "{way}: no take-off: {out:?}");
+        assert!(commands(&out, 400).is_empty(), "{way}: {out:?}");
+    }
+    // The palette's NAV_LAND, the same.
+    let (mut b, ix) = Bench::new(&[(1, &[(0, false)])]);
+    b.feed(0.0, ix[0][0]);
+    b.command(0.5, "takeoff 10");
+    b.keys(1.0, &["y"]);
+    assert!(b.app.sessions[&(1, 1)].sequence.is_some());
+    let out = operator_frames(&from_palette(&mut b, 1.2, 21, "NAV_LAND", [0.0, 0.0]));
+    assert_eq!(commands(&out, 21).len(), 1, "palette: {out:?}");
+    assert!(
+        b.app.sessions[&(1, 1)]
+            .sequence
+            .as_ref()
+            .is_none_or(|s| s.finished()),
+        "palette: the take-off stopped"
+    );
+    let out = operator_frames(&b.tick_to(20.0));
+    assert!(commands(&out, 22).is_empty(), "palette: {out:?}");
+}
+
+#[test]
+fn a_mode_name_that_does_not_resolve_cancels_nothing() {
+    let mut r = runner("drop_cmd=176:1");
+    command(&mut r, "mode loiter");
+    assert_eq!(set_mode(&sent(&mut r), 5.0), 1);
+    command(&mut r, "mode lnad");
+    assert!(sent(&mut r).is_empty());
+    // The LOITER request still stands: resent since the first copy got no answer.
+    wait(&mut r, 5.0);
+    let out = sent(&mut r);
+    assert!(set_mode(&out, 5.0) >= 1, "LOITER still pending: {out:?}");
+    assert_eq!(sim(&r).vehicle(1).unwrap().custom_mode(), 5);
+    // Nor does it abandon a take-off.
+    let mut r = runner("drop_cmd=400:1");
+    takeoff_waiting_for_the_arm(&mut r);
+    command(&mut r, "mode lnad");
+    assert!(r.app.sessions[&(1, 1)]
+        .sequence
+        .as_ref()
+        .is_some_and(|s| !s.finished()));
+    let texts: Vec<&str> = r.app.notices.iter().map(|n| n.text.as_str()).collect();
+    assert!(!texts.iter().any(|t| t.contains("abandoned")), "{texts:?}");
+}
+
+#[test]
 fn a_pilots_mode_change_stops_our_do_set_mode_resend() {
     // STABILIZE; we ask LOITER and hear no ACK; the heartbeat then shows RTL (a failsafe, the
     // pilot's switch, another GCS): our request is not sent again.

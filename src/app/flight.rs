@@ -479,15 +479,30 @@ impl App {
             let name = spec.name();
             Ok((spec, name))
         };
-        // A mode request, LAND or RTL: whatever mode change or take-off is still running gives
-        // way to it at once.
-        if let FlightAction::Mode(_) | FlightAction::Land | FlightAction::Rtl = &action {
+        // A mode request, LAND or RTL (from a key, the prompt, the palette, `long` or a re-issue):
+        // whatever mode change, LAND, RTL or take-off is still running gives way to it at once.
+        // The request is resolved first: one that will not be sent cancels nothing.
+        let mode_step = match &action {
+            FlightAction::Mode(name) => Some(self.mode_step(key, autopilot, mavtype, name)?),
+            _ => None,
+        };
+        let by = match &action {
+            FlightAction::Mode(m) => Some(format!("mode {m}")),
+            FlightAction::Land => Some("LAND".into()),
+            FlightAction::Rtl => Some("RTL".into()),
+            FlightAction::Command { command, params } if is_mode_request(*command) => Some(
+                CommandSpec {
+                    target: key,
+                    command: *command,
+                    params: *params,
+                    form: crate::proto::commands::form_for(*command),
+                }
+                .name(),
+            ),
+            _ => None,
+        };
+        if let Some(by) = by {
             let now = self.now;
-            let by = match &action {
-                FlightAction::Mode(m) => format!("mode {m}"),
-                FlightAction::Land => "LAND".into(),
-                _ => "RTL".into(),
-            };
             if let Some(s) = self.sessions.get_mut(&via) {
                 let out = s.supersede_mode(now, &by);
                 self.session_out(via, out, fx);
@@ -521,7 +536,7 @@ impl App {
                 form: crate::proto::commands::form_for(command),
             })?,
             FlightAction::Mode(name) => {
-                let step = self.mode_step(key, autopilot, mavtype, &name)?;
+                let step = mode_step.ok_or("no mode step")?;
                 let seq = Sequence::new(format!("mode {}", step.label), vec![step]);
                 return self
                     .start(key, seq, fx)
@@ -692,4 +707,11 @@ impl App {
         self.session_out(key, out, fx);
         Ok(Some(format!("{}: cancel sent", e.spec.name())))
     }
+}
+
+/// DO_SET_MODE, NAV_LAND, NAV_RETURN_TO_LAUNCH: a mode request, which never waits behind another.
+pub fn is_mode_request(command: u16) -> bool {
+    command == MavCmd::MAV_CMD_DO_SET_MODE as u16
+        || command == MavCmd::MAV_CMD_NAV_LAND as u16
+        || command == MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH as u16
 }

@@ -483,7 +483,8 @@ impl Session {
     }
 
     /// A new mode request (a mode, LAND, RTL): the take-off or mode change still running is
-    /// abandoned, and a DO_SET_MODE still waiting is superseded (not waited for, never resent).
+    /// abandoned, and a DO_SET_MODE, NAV_LAND or NAV_RETURN_TO_LAUNCH still waiting is superseded
+    /// (not waited for, never resent).
     pub fn supersede_mode(&mut self, now: Micros, by: &str) -> Vec<SessionOut> {
         let mut out = Vec::new();
         if let Some(seq) = self.sequence.take().filter(|s| !s.finished()) {
@@ -492,9 +493,16 @@ impl Session {
                 format!("{}: abandoned for {by}", seq.name),
             ));
         }
-        let done = self
-            .commands
-            .supersede(now, self.key, MavCmd::MAV_CMD_DO_SET_MODE as u16);
+        // Every mode request still open (DO_SET_MODE, NAV_LAND, NAV_RETURN_TO_LAUNCH) to this
+        // vehicle: a safe mode never waits behind one that got no answer.
+        let mut done = Vec::new();
+        for command in [
+            MavCmd::MAV_CMD_DO_SET_MODE,
+            MavCmd::MAV_CMD_NAV_LAND,
+            MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH,
+        ] {
+            done.extend(self.commands.supersede(now, self.key, command as u16));
+        }
         self.mode_asks.clear();
         out.extend(self.drive(now, done));
         out

@@ -370,7 +370,8 @@ impl Camera {
             .unwrap_or(0)
             .max(self.status.map_or(0, |s| s.image_count));
         // A camera whose numbering starts above 0 (told once) has no holes below its first.
-        top.saturating_sub(HOLE_SPAN).max(self.first_index.unwrap_or(0))..top
+        top.saturating_sub(HOLE_SPAN)
+            .max(self.first_index.unwrap_or(0))..top
     }
 
     /// Image indices in the hole window that never came, oldest first: the ranges between the
