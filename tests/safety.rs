@@ -150,6 +150,44 @@ fn d_d_never_disarms_in_flight() {
     assert!(sim(&r).vehicle(1).unwrap().armed());
 }
 
+#[test]
+fn a_stale_landed_state_is_not_trusted() {
+    let hb = |seq: u64| {
+        json!({"sysid": 1, "compid": 1, "seq": seq, "msg": "HEARTBEAT",
+        "fields": {"type": 2, "autopilot": 3, "base_mode": 129, "custom_mode": 4,
+        "system_status": 4, "mavlink_version": 3}})
+    };
+    let on_ground = |seq: u64| {
+        json!({"sysid": 1, "compid": 1, "seq": seq, "msg": "EXTENDED_SYS_STATE",
+        "fields": {"vtol_state": 0, "landed_state": 1}})
+    };
+    let at = |seq: u64, relative_alt: i64| {
+        json!({"sysid": 1, "compid": 1, "seq": seq, "msg": "GLOBAL_POSITION_INT",
+        "fields": {"time_boot_ms": 1000, "lat": -353632621, "lon": 1491652374,
+        "alt": 584000 + relative_alt, "relative_alt": relative_alt,
+        "vx": 0, "vy": 0, "vz": 0, "hdg": 0}})
+    };
+    // Fresh ON_GROUND, armed: `D` disarms without a question.
+    let mut b = bench_in(4, true);
+    b.raw(0.1, &[on_ground(20)]);
+    let out = operator_frames(&b.keys(0.5, &["D"]));
+    assert!(b.app.ui.confirm.is_none());
+    assert_eq!(commands(&out, 400).len(), 1, "{out:?}");
+    // ON_GROUND heard 8 s ago, then only the heartbeat and a position 50 m up: it asks.
+    b.raw(8.0, &[hb(21), at(22, 50_000)]);
+    let out = b.keys(8.1, &["D"]);
+    asked_nothing_sent(&mut b, 8.1, out, 400, "stale ON_GROUND, 50 m up");
+    // Only the heartbeat for 8 s (state and height both stale): unknown, so flying: it asks.
+    b.raw(16.0, &[hb(23)]);
+    let out = b.keys(16.1, &["D"]);
+    asked_nothing_sent(&mut b, 16.1, out, 400, "nothing fresh");
+    // A fresh position on the ground: the height rule lets it go.
+    b.raw(17.0, &[hb(24), at(25, 0)]);
+    let out = operator_frames(&b.keys(17.1, &["D"]));
+    assert!(b.app.ui.confirm.is_none());
+    assert_eq!(commands(&out, 400).len(), 1, "{out:?}");
+}
+
 /// A core on one link ("x") fed frames pymavlink encoded.
 struct Bench {
     app: App,
@@ -707,9 +745,19 @@ const DANGEROUS: &[(&str, u64, [f64; 2], bool)] = &[
     ("DO_START_MAG_CAL", 42424, [0.0, 0.0], false),
 ];
 
+/// What asks only while the vehicle flies its mission (armed in AUTO): (name, number, params).
+const DANGEROUS_IN_ITS_MISSION: &[(&str, u64, [f64; 2])] = &[
+    ("DO_SET_MISSION_CURRENT", 224, [3.0, 0.0]), // a jump, as `wp set 3`
+];
+
 /// ArduCopter 1:1, on the ground disarmed, or armed and in the air (EXTENDED_SYS_STATE).
 fn bench_for(flying: bool) -> Bench {
-    let (mut b, ix) = Bench::new(&[(1, &[(if flying { 4 } else { 0 }, flying)])]);
+    bench_in(if flying { 4 } else { 0 }, flying)
+}
+
+/// ArduCopter 1:1 in `mode`: on the ground disarmed, or armed and in the air.
+fn bench_in(mode: u32, flying: bool) -> Bench {
+    let (mut b, ix) = Bench::new(&[(1, &[(mode, flying)])]);
     b.feed(0.0, ix[0][0]);
     if flying {
         b.raw(
@@ -781,10 +829,18 @@ fn asked_nothing_sent(b: &mut Bench, t: f64, out: Vec<Vec<u8>>, number: u64, wha
 
 #[test]
 fn every_dangerous_command_asks_from_every_entry_point() {
-    for &(name, number, [p1, p2], flying) in DANGEROUS {
+    let table = DANGEROUS
+        .iter()
+        .map(|&(n, c, p, flying)| (n, c, p, if flying { 4 } else { 0 }, flying))
+        .chain(
+            DANGEROUS_IN_ITS_MISSION
+                .iter()
+                .map(|&(n, c, p)| (n, c, p, 3, true)),
+        );
+    for (name, number, [p1, p2], mode, flying) in table {
         let what = format!("{name} {p1} {p2}");
         // The prompt.
-        let mut b = bench_for(flying);
+        let mut b = bench_in(mode, flying);
         let out = b.command(1.0, &format!("long {name} {p1} {p2}"));
         asked_nothing_sent(&mut b, 1.0, out, number, &format!("prompt: {what}"));
         // The palette.
@@ -826,6 +882,11 @@ fn every_dangerous_command_asks_from_every_entry_point() {
     let out = operator_frames(&b.command(1.0, "long COMPONENT_ARM_DISARM 0 0"));
     assert!(b.app.ui.confirm.is_none());
     assert_eq!(commands(&out, 400).len(), 1, "{out:?}");
+    // A jump while the vehicle is not flying its mission (armed in GUIDED) goes as well.
+    let mut b = bench_for(true);
+    let out = operator_frames(&b.command(1.0, "long DO_SET_MISSION_CURRENT 3"));
+    assert!(b.app.ui.confirm.is_none());
+    assert_eq!(commands(&out, 224).len(), 1, "{out:?}");
 }
 
 /// A camera 1:100: its heartbeat with sequence `seq`, and (first) its CAMERA_INFORMATION

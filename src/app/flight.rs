@@ -227,8 +227,9 @@ impl App {
     }
 
     /// True when `key` (or its system's autopilot) is armed and not on the ground: by
-    /// EXTENDED_SYS_STATE's `landed_state` where it comes, else by the height above home (an
-    /// armed vehicle whose height is unknown counts as flying). Not by `system_status`, which
+    /// EXTENDED_SYS_STATE's `landed_state` while fresh (within STALE_AFTER), else by the height
+    /// above home while fresh (an armed vehicle whose state and height are unknown or stale
+    /// counts as flying). Not by `system_status`, which
     /// is CRITICAL during a failsafe.
     pub(super) fn airborne(&self, key: VehicleKey) -> bool {
         let via = self.session_for(key).unwrap_or(key);
@@ -238,12 +239,18 @@ impl App {
         if !v.armed() {
             return false;
         }
+        // Either only while fresh: a state or height heard long ago tells nothing now.
+        let now = self.now;
         let flight = self.sessions.get(&via).map(|s| &s.flight);
-        if let Some(l) = flight.and_then(|f| f.landed_state).filter(|l| *l != 0) {
-            return l != LANDED_ON_GROUND;
+        if let Some(l) = flight
+            .and_then(|f| f.landed_state)
+            .filter(|l| l.value != 0 && !l.is_stale(now))
+        {
+            return l.value != LANDED_ON_GROUND;
         }
         flight
             .and_then(|f| f.position.as_ref())
+            .filter(|p| !p.is_stale(now))
             .is_none_or(|p| p.value.relative_alt_m() > FLYING_ABOVE_M)
     }
 
@@ -264,7 +271,14 @@ impl App {
     /// The confirmation question for `action` on `key`, if it needs one.
     fn question(&self, key: VehicleKey, action: &FlightAction) -> Option<String> {
         let (command, params) = action_command(action)?;
-        let what = danger(command, &params, self.airborne(key))?;
+        // A jump in the mission the vehicle is flying asks, as `wp set N` does.
+        let jump = command == MavCmd::MAV_CMD_DO_SET_MISSION_CURRENT as u16
+            && self.flies_its_mission(self.session_for(key).unwrap_or(key));
+        let what = match danger(command, &params, self.airborne(key)) {
+            Some(what) => what,
+            None if jump => "JUMP in the mission it is flying",
+            None => return None,
+        };
         let what = match action {
             FlightAction::Takeoff(alt) => format!("TAKE OFF to {alt} m"),
             FlightAction::Arm | FlightAction::Disarm { .. } | FlightAction::Reboot => what.into(),

@@ -216,7 +216,7 @@ impl App {
 
     /// Armed in its family's mission mode (ArduPilot AUTO, PX4 MISSION): flying its mission. A
     /// family with no known mission mode counts as flying it whenever it is armed (asking is safer).
-    fn flies_its_mission(&self, key: VehicleKey) -> bool {
+    pub(super) fn flies_its_mission(&self, key: VehicleKey) -> bool {
         let profile = self.profile(key);
         self.vehicles.get(key).is_some_and(|v| {
             v.armed()

@@ -349,8 +349,8 @@ pub struct FlightTelemetry {
     next_home_request: Option<Micros>,
     /// HOME_POSITION requests sent, all told.
     pub home_requests: u32,
-    /// EXTENDED_SYS_STATE's `landed_state` (MAV_LANDED_STATE), once heard.
-    pub landed_state: Option<u8>,
+    /// EXTENDED_SYS_STATE's `landed_state` (MAV_LANDED_STATE) and when it was heard.
+    pub landed_state: Option<Timed<u8>>,
 }
 
 impl FlightTelemetry {
@@ -421,7 +421,10 @@ impl FlightTelemetry {
             // vtol_state, landed_state (a trailing zero may be cut by MAVLink 2): read from the
             // payload, so a value newer than the dialect is kept.
             (id::EXTENDED_SYS_STATE, _) => {
-                self.landed_state = Some(payload.get(1).copied().unwrap_or(0));
+                self.landed_state = Some(Timed {
+                    value: payload.get(1).copied().unwrap_or(0),
+                    at: now,
+                });
             }
             (id::GLOBAL_POSITION_INT, Some(MavMessage::GLOBAL_POSITION_INT(p))) => {
                 let value = Position {
