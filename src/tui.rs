@@ -402,7 +402,14 @@ struct TerminalFrontend<B: Backend, C: Clock> {
     clock: C,
     period: Micros,
     last_draw: Option<Micros>,
+    /// A suspend held back: `u64::MAX` while a nudge's stop is still being sent, then when the
+    /// process may stop.
+    suspend_after: Option<Micros>,
 }
+
+/// After a nudge's last stop, the moment given to the link tasks to write it before the process
+/// stops (as the wind-down's).
+const SUSPEND_FLUSH: Micros = 50_000;
 
 /// The signals that end a session with the terminal restored: SIGTERM, SIGHUP (the SSH
 /// connection dropped), SIGQUIT and SIGINT (raw mode turns Ctrl-C into a key; a `kill -INT`
@@ -501,11 +508,9 @@ where
                 ev = self.events.next() => ev,
                 ask = self.signals.recv() => match ask {
                     SignalAsk::End => return Ok(None),
-                    SignalAsk::Stop => {
-                        self.guard.suspend()?;
-                        self.forget_screen()?;
-                        return Ok(Some(Event::Resize)); // redraw it all
-                    }
+                    // Through the core, as Ctrl-Z: Fly mode ends in its stop before the
+                    // process stops (see `after`).
+                    SignalAsk::Stop => return Ok(Some(Event::Suspend)),
                     SignalAsk::Continued => {
                         self.guard.retake()?;
                         self.forget_screen()?;
@@ -546,10 +551,15 @@ where
     fn wake_at(&self, app: &App) -> Option<Micros> {
         // A change held back by the frame-rate cap, and the clock on screen (whole seconds).
         let next_second = (app.now / SECOND + 1) * SECOND;
-        match (app.is_dirty(), self.last_draw) {
-            (true, Some(t)) => Some((t + self.period).min(next_second)),
-            _ => Some(next_second),
-        }
+        let draw = match (app.is_dirty(), self.last_draw) {
+            (true, Some(t)) => (t + self.period).min(next_second),
+            _ => next_second,
+        };
+        // A suspend held back for the nudge's last stop to be written.
+        Some(match self.suspend_after {
+            Some(t) if t != u64::MAX => draw.min(t),
+            _ => draw,
+        })
     }
 
     fn after(&mut self, app: &mut App, now: Micros) -> io::Result<()> {
@@ -560,7 +570,16 @@ where
                 r.key(t, key).map_err(io::Error::other)?;
             }
         }
-        if std::mem::take(&mut app.suspend) {
+        // A suspend waits for a nudge's stop to be sent in full (three copies, 100 ms apart),
+        // then a moment for the link tasks to write the last one.
+        if app.suspend && app.nudge.stopping() {
+            self.suspend_after = Some(u64::MAX);
+        } else if app.suspend && self.suspend_after == Some(u64::MAX) {
+            self.suspend_after = Some(now + SUSPEND_FLUSH);
+        }
+        if app.suspend && self.suspend_after.is_none_or(|t| now >= t) {
+            app.suspend = false;
+            self.suspend_after = None;
             self.guard.suspend()?;
             self.forget_screen()?;
             self.terminal
@@ -609,6 +628,7 @@ pub async fn run_terminal<C: Clock + Clone + Send>(
         clock: rt.clock(),
         period: SECOND / u64::from(opts.fps.clamp(1, 120)),
         last_draw: None,
+        suspend_after: None,
     };
     let result = rt.run(None, &mut front).await;
     let end = front.quit_at.unwrap_or_else(|| front.clock.now());

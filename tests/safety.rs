@@ -630,9 +630,21 @@ type Ending = dyn Fn(&mut Bench, &[Vec<usize>]) -> Vec<Vec<u8>>;
 fn a_nudge_ends_in_three_stops_whichever_way_fly_mode_ends() {
     // Armed in GUIDED (4), then: LOITER (5) armed, GUIDED disarmed.
     let modes: &[(u32, bool)] = &[(4, true), (5, true), (4, false)];
-    let ways: [(&str, &Ending); 8] = [
+    let ways: [(&str, &Ending); 11] = [
         ("a mode change away from GUIDED", &|b, ix| {
             b.feed(1.3, ix[0][1])
+        }),
+        ("esc", &|b, _| b.keys(1.3, &["esc"])),
+        // Ctrl-Z and a `kill -TSTP`: Fly mode is left before the front end suspends.
+        ("the suspend key", &|b, _| {
+            let out = b.keys(1.3, &["ctrl-z"]);
+            assert!(b.app.suspend, "suspend asked");
+            out
+        }),
+        ("a kill -TSTP", &|b, _| {
+            let out = sends(&b.app.update(1_300_000, Event::Suspend));
+            assert!(b.app.suspend, "suspend asked");
+            out
         }),
         ("a disarm", &|b, ix| b.feed(1.3, ix[0][2])),
         ("the prompt opening", &|b, _| b.keys(1.3, &[":"])),
