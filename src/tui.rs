@@ -213,9 +213,17 @@ impl TerminalGuard {
                 };
                 prev(info);
                 // A panic on another thread (a link task) would leave the UI drawing on a
-                // terminal we just gave back: end the program instead, with the message shown.
+                // terminal we just gave back: the session ends instead (the UI draws no more),
+                // through the wind-down, so a nudge in progress ends in its stop on the links
+                // still up; then the program exits with 101. A UI that does not get there
+                // within a second is ended regardless.
                 if restored && std::thread::current().id() != ui_thread {
-                    std::process::exit(101);
+                    LINK_PANICKED.store(true, std::sync::atomic::Ordering::SeqCst);
+                    link_panic().notify_one();
+                    std::thread::spawn(|| {
+                        std::thread::sleep(std::time::Duration::from_secs(1));
+                        std::process::exit(101);
+                    });
                 }
             }));
         }
@@ -424,6 +432,16 @@ struct Signals {
     cont: tokio::signal::unix::Signal,
 }
 
+/// Set by the panic hook when a thread other than the UI's panicked: the session winds down and
+/// the program exits with 101.
+static LINK_PANICKED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Wakes the front end when [`LINK_PANICKED`] is set.
+fn link_panic() -> &'static tokio::sync::Notify {
+    static N: std::sync::OnceLock<tokio::sync::Notify> = std::sync::OnceLock::new();
+    N.get_or_init(tokio::sync::Notify::new)
+}
+
 /// What a signal asks of the session.
 enum SignalAsk {
     End,
@@ -458,6 +476,7 @@ impl Signals {
             let futs = self.end.iter_mut().map(|s| Box::pin(s.recv()));
             tokio::select! {
                 _ = futures_util::future::select_all(futs) => SignalAsk::End,
+                _ = link_panic().notified() => SignalAsk::End,
                 _ = self.stop.recv() => SignalAsk::Stop,
                 _ = self.cont.recv() => SignalAsk::Continued,
             }
@@ -563,6 +582,10 @@ where
     }
 
     fn after(&mut self, app: &mut App, now: Micros) -> io::Result<()> {
+        // The terminal was given back by a link task's panic: nothing more is drawn.
+        if LINK_PANICKED.load(std::sync::atomic::Ordering::SeqCst) {
+            return Ok(());
+        }
         if let Some((t, key)) = self.pending_key.take() {
             if app.quit {
                 self.quit_at = Some(t);
@@ -640,6 +663,10 @@ pub async fn run_terminal<C: Clock + Clone + Send>(
     let restored = guard.restore();
     // The telemetry log written out and flushed, whichever way the loop ended (an error too).
     rt.finish();
+    if LINK_PANICKED.load(std::sync::atomic::Ordering::SeqCst) {
+        // Wound down (the stop sent, logs flushed): the panic's exit code.
+        std::process::exit(101);
+    }
     restored?;
     result?;
     recorded?;
