@@ -610,6 +610,27 @@ fn a_pilots_mode_change_stops_our_do_set_mode_resend() {
     assert!(set_mode(&operator_frames(&all), 5.0) >= 2);
 }
 
+#[test]
+fn a_px4_long_do_set_mode_that_took_is_ours() {
+    // PX4 1:1 in MANUAL (main mode 1); `long DO_SET_MODE 1 3` asks POSCTL (main mode 3), and
+    // the heartbeat then shows it (custom_mode 3 << 16): no warning of a change of its own.
+    let hb = |seq: u64, custom_mode: u64| {
+        json!({"sysid": 1, "compid": 1, "seq": seq, "msg": "HEARTBEAT",
+        "fields": {"type": 2, "autopilot": 12, "base_mode": 1, "custom_mode": custom_mode,
+        "system_status": 3, "mavlink_version": 3}})
+    };
+    let (mut b, _) = Bench::new(&[(9, &[(0, false)])]);
+    b.raw(0.0, &[hb(0, 1 << 16)]);
+    let out = operator_frames(&b.command(1.0, "long DO_SET_MODE 1 3"));
+    assert_eq!(commands(&out, 176).len(), 1, "{out:?}");
+    b.raw(1.5, &[hb(1, 3 << 16)]);
+    let texts: Vec<&str> = b.app.notices.iter().map(|n| n.text.as_str()).collect();
+    assert!(
+        !texts.iter().any(|t| t.contains("changed mode on its own")),
+        "{texts:?}"
+    );
+}
+
 /// The SET_POSITION_TARGET_LOCAL_NEDs among `frames`, read by pymavlink: (vx, vy, vz, yaw
 /// rate, frame, mask) each.
 fn velocity_targets(frames: &[Vec<u8>]) -> Vec<Value> {

@@ -71,6 +71,8 @@ pub struct Session {
     /// was sent). The first heartbeat with another mode stops their resends: the vehicle
     /// changed mode (ours took, or the pilot, a failsafe or another GCS changed it).
     mode_asks: Vec<(u64, Option<u32>)>,
+    /// The autopilot family (its profile encodes DO_SET_MODE).
+    autopilot: MavAutopilot,
 }
 
 impl Session {
@@ -95,6 +97,7 @@ impl Session {
             gimbals: GimbalSet::default(),
             mode_seen: None,
             mode_asks: Vec::new(),
+            autopilot,
         }
     }
 
@@ -461,7 +464,10 @@ impl Session {
                 self.mode_asks.push((id, left));
                 continue;
             }
-            let ours = e.spec.params[1] == mode as f64
+            // Ours when the request carries the mode shown, as the profile encodes it (PX4:
+            // main mode in param2, sub mode in param3).
+            let want = crate::proto::profile::of(self.autopilot).set_mode_params(mode);
+            let ours = e.spec.params[1..3] == want[1..3]
                 || self
                     .sequence
                     .as_ref()
