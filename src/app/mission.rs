@@ -524,7 +524,9 @@ impl App {
         let (text, what) = if path.to_ascii_lowercase().ends_with(".plan") {
             let (fw, vt) = match key.and_then(|k| self.vehicles.get(k)) {
                 Some(v) => (v.autopilot as u64, Some(v.mavtype as u64)),
-                None => (MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA as u64, None),
+                // No vehicle known: nothing says whose the plan is (QGroundControl's generic
+                // firmware type), rather than claiming ArduPilot.
+                None => (MavAutopilot::MAV_AUTOPILOT_GENERIC as u64, None),
             };
             let p = plan::Plan::new(
                 list(MissionType::Mission).unwrap_or_default(),
