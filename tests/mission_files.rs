@@ -370,7 +370,6 @@ fn lists_a_plan_cannot_hold_are_refused_on_save() {
 #[test]
 fn a_plan_saved_with_no_vehicle_known_claims_no_firmware() {
     use mavterm::app::AppConfig;
-    use mavterm::driver::virtual_time::Driver;
     use mavterm::driver::virtual_time::VirtualRunner;
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out.plan");

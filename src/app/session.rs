@@ -83,7 +83,7 @@ impl Session {
         fetch_params: bool,
         rates: StreamRates,
     ) -> Self {
-        Self {
+        let mut s = Self {
             key,
             pinned: None,
             heard: BTreeMap::new(),
@@ -98,7 +98,11 @@ impl Session {
             mode_seen: None,
             mode_asks: Vec::new(),
             autopilot,
-        }
+        };
+        let profile = crate::proto::profile::of(autopilot);
+        s.mission.set_int_items(profile.mission_int());
+        s.flight.set_vfr_hud_expected(profile.vfr_hud_motion());
+        s
     }
 
     /// The link this system was heard on most recently among those `up_only` or not, and
@@ -186,6 +190,7 @@ impl Session {
                 let n = payload.len().min(8);
                 caps[..n].copy_from_slice(&payload[..n]);
                 let caps = u64::from_le_bytes(caps);
+                self.mission.on_capabilities(caps);
                 out.extend(
                     self.params
                         .on_autopilot_version(now, caps)
