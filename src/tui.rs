@@ -213,9 +213,17 @@ impl TerminalGuard {
                 };
                 prev(info);
                 // A panic on another thread (a link task) would leave the UI drawing on a
-                // terminal we just gave back: end the program instead, with the message shown.
+                // terminal we just gave back: the session ends instead (the UI draws no more),
+                // through the wind-down, so a nudge in progress ends in its stop on the links
+                // still up; then the program exits with 101. A UI that does not get there
+                // within a second is ended regardless.
                 if restored && std::thread::current().id() != ui_thread {
-                    std::process::exit(101);
+                    LINK_PANICKED.store(true, std::sync::atomic::Ordering::SeqCst);
+                    link_panic().notify_one();
+                    std::thread::spawn(|| {
+                        std::thread::sleep(std::time::Duration::from_secs(1));
+                        std::process::exit(101);
+                    });
                 }
             }));
         }
@@ -404,7 +412,14 @@ struct TerminalFrontend<B: Backend, C: Clock> {
     clock: C,
     period: Micros,
     last_draw: Option<Micros>,
+    /// A suspend held back: `u64::MAX` while a nudge's stop is still being sent, then when the
+    /// process may stop.
+    suspend_after: Option<Micros>,
 }
+
+/// After a nudge's last stop, the moment given to the link tasks to write it before the process
+/// stops (as the wind-down's).
+const SUSPEND_FLUSH: Micros = 50_000;
 
 /// The signals that end a session with the terminal restored: SIGTERM, SIGHUP (the SSH
 /// connection dropped), SIGQUIT and SIGINT (raw mode turns Ctrl-C into a key; a `kill -INT`
@@ -417,6 +432,16 @@ struct Signals {
     stop: tokio::signal::unix::Signal,
     #[cfg(unix)]
     cont: tokio::signal::unix::Signal,
+}
+
+/// Set by the panic hook when a thread other than the UI's panicked: the session winds down and
+/// the program exits with 101.
+static LINK_PANICKED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Wakes the front end when [`LINK_PANICKED`] is set.
+fn link_panic() -> &'static tokio::sync::Notify {
+    static N: std::sync::OnceLock<tokio::sync::Notify> = std::sync::OnceLock::new();
+    N.get_or_init(tokio::sync::Notify::new)
 }
 
 /// What a signal asks of the session.
@@ -453,6 +478,7 @@ impl Signals {
             let futs = self.end.iter_mut().map(|s| Box::pin(s.recv()));
             tokio::select! {
                 _ = futures_util::future::select_all(futs) => SignalAsk::End,
+                _ = link_panic().notified() => SignalAsk::End,
                 _ = self.stop.recv() => SignalAsk::Stop,
                 _ = self.cont.recv() => SignalAsk::Continued,
             }
@@ -503,11 +529,9 @@ where
                 ev = self.events.next() => ev,
                 ask = self.signals.recv() => match ask {
                     SignalAsk::End => return Ok(None),
-                    SignalAsk::Stop => {
-                        self.guard.suspend()?;
-                        self.forget_screen()?;
-                        return Ok(Some(Event::Resize)); // redraw it all
-                    }
+                    // Through the core, as Ctrl-Z: Fly mode ends in its stop before the
+                    // process stops (see `after`).
+                    SignalAsk::Stop => return Ok(Some(Event::Suspend)),
                     SignalAsk::Continued => {
                         self.guard.retake()?;
                         self.forget_screen()?;
@@ -548,13 +572,22 @@ where
     fn wake_at(&self, app: &App) -> Option<Micros> {
         // A change held back by the frame-rate cap, and the clock on screen (whole seconds).
         let next_second = (app.now / SECOND + 1) * SECOND;
-        match (app.is_dirty(), self.last_draw) {
-            (true, Some(t)) => Some((t + self.period).min(next_second)),
-            _ => Some(next_second),
-        }
+        let draw = match (app.is_dirty(), self.last_draw) {
+            (true, Some(t)) => (t + self.period).min(next_second),
+            _ => next_second,
+        };
+        // A suspend held back for the nudge's last stop to be written.
+        Some(match self.suspend_after {
+            Some(t) if t != u64::MAX => draw.min(t),
+            _ => draw,
+        })
     }
 
     fn after(&mut self, app: &mut App, now: Micros) -> io::Result<()> {
+        // The terminal was given back by a link task's panic: nothing more is drawn.
+        if LINK_PANICKED.load(std::sync::atomic::Ordering::SeqCst) {
+            return Ok(());
+        }
         if let Some((t, key)) = self.pending_key.take() {
             if app.quit {
                 self.quit_at = Some(t);
@@ -562,7 +595,16 @@ where
                 r.key(t, key).map_err(io::Error::other)?;
             }
         }
-        if std::mem::take(&mut app.suspend) {
+        // A suspend waits for a nudge's stop to be sent in full (three copies, 100 ms apart),
+        // then a moment for the link tasks to write the last one.
+        if app.suspend && app.nudge.stopping() {
+            self.suspend_after = Some(u64::MAX);
+        } else if app.suspend && self.suspend_after == Some(u64::MAX) {
+            self.suspend_after = Some(now + SUSPEND_FLUSH);
+        }
+        if app.suspend && self.suspend_after.is_none_or(|t| now >= t) {
+            app.suspend = false;
+            self.suspend_after = None;
             self.guard.suspend()?;
             self.forget_screen()?;
             self.terminal
@@ -611,6 +653,7 @@ pub async fn run_terminal<C: Clock + Clone + Send>(
         clock: rt.clock(),
         period: SECOND / u64::from(opts.fps.clamp(1, 120)),
         last_draw: None,
+        suspend_after: None,
     };
     let result = rt.run(None, &mut front).await;
     let end = front.quit_at.unwrap_or_else(|| front.clock.now());
@@ -622,6 +665,10 @@ pub async fn run_terminal<C: Clock + Clone + Send>(
     let restored = guard.restore();
     // The telemetry log written out and flushed, whichever way the loop ended (an error too).
     rt.finish();
+    if LINK_PANICKED.load(std::sync::atomic::Ordering::SeqCst) {
+        // Wound down (the stop sent, logs flushed): the panic's exit code.
+        std::process::exit(101);
+    }
     restored?;
     result?;
     recorded?;

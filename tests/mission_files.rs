@@ -366,3 +366,31 @@ fn lists_a_plan_cannot_hold_are_refused_on_save() {
     let e = p.to_json().unwrap_err();
     assert!(e.contains("cut short"), "{e}");
 }
+
+#[test]
+fn a_plan_saved_with_no_vehicle_known_claims_no_firmware() {
+    use mavterm::app::AppConfig;
+    use mavterm::driver::virtual_time::VirtualRunner;
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.plan");
+    let mut r = VirtualRunner::from_specs(&[], AppConfig::default()).unwrap();
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/missions/square.waypoints");
+    for (t, line) in [
+        (1, format!("wp load {}", file.display())),
+        (2, format!("wp save {}", out.display())),
+    ] {
+        r.advance_to(t * 1_000_000);
+        r.key(":".parse().unwrap());
+        for c in line.chars() {
+            r.key(mavterm::keymap::Key::ch(c));
+        }
+        r.key("enter".parse().unwrap());
+    }
+    r.advance_to(3_000_000);
+    let text =
+        std::fs::read_to_string(&out).unwrap_or_else(|e| panic!("{e}: {:?}", r.app.ui.message));
+    let v: Value = serde_json::from_str(&text).unwrap();
+    // MAV_AUTOPILOT_GENERIC (0), not ArduPilot (3).
+    assert_eq!(v["mission"]["firmwareType"], 0, "{text}");
+}

@@ -242,3 +242,39 @@ fn param_comp_switches_the_component_and_fetch_asks_it_by_the_list() {
     )));
     assert_eq!(a.ui.params.comp, Some(154));
 }
+
+#[test]
+fn load_leaves_out_values_the_c_cast_float_cannot_carry_before_asking() {
+    // ArduCopter takes INT32 values C-cast into the float: 2^24 + 1 would arrive as 2^24.
+    let mut r = downloaded();
+    let before = sim_param(&r, "COMPASS_DEV_ID");
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("big.parm");
+    std::fs::write(&path, "COMPASS_DEV_ID 16777217\nFLTMODE1 5\n").unwrap();
+    run(&mut r, &format!("param load {}", path.display()));
+    let c = r.app.ui.confirm.as_ref().expect("a confirmation");
+    assert!(c.text.contains("FLTMODE1 7 → 5"), "{}", c.text);
+    assert!(!c.text.contains("COMPASS_DEV_ID"), "{}", c.text);
+    let told: Vec<&str> = r
+        .app
+        .notices
+        .iter()
+        .map(|n| n.text.as_str())
+        .filter(|t| t.contains("COMPASS_DEV_ID") && t.contains("not sent"))
+        .collect();
+    assert_eq!(told.len(), 1, "{told:?}");
+    assert!(told[0].contains("16777217"), "{told:?}");
+    common::yes(&mut r);
+    let t = r.now() + 2 * SECOND;
+    r.advance_to(t);
+    assert_eq!(sim_param(&r, "FLTMODE1"), 5.0);
+    assert_eq!(sim_param(&r, "COMPASS_DEV_ID"), before, "never sent");
+    assert!(r
+        .app
+        .param_set()
+        .unwrap()
+        .get("COMPASS_DEV_ID")
+        .unwrap()
+        .edit
+        .is_none());
+}

@@ -308,6 +308,53 @@ fn a_generic_vehicle_s_int32_values_are_written_exactly() {
     assert_eq!(report["params"][0]["encoding"], "bytewise");
 }
 
+/// The issue's exact INT32 values written to the generic vehicle (bytewise), each onto a
+/// parameter that holds another value: −1, 2^24 + 1, INT32_MAX and INT32_MIN arrive exactly in
+/// the stand-in's own table, and each echo is confirmed.
+#[test]
+fn a_generic_vehicle_takes_minus_one_2_24_plus_1_and_the_int32_limits_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let port = common::free_tcp_port();
+    let _v = fake(port, dir.path(), &["--autopilot", "generic"]);
+    let script = "3 text \":param set INT_ONE -1\\n\"\n\
+                  3.2 text \":param set INT_MINUS1 16777217\\n\"\n\
+                  3.4 text \":param set INT_BIG 2147483647\\n\"\n\
+                  3.6 text \":param set INT_MAX -2147483648\\n\"\n\
+                  8 quit\n";
+    let path = dir.path().join("script.txt");
+    std::fs::write(&path, script).unwrap();
+    let run = Command::new(common::mavterm())
+        .args([
+            "--link",
+            &format!("tcp:127.0.0.1:{port}"),
+            "--headless",
+            "--input",
+        ])
+        .arg(&path)
+        .args(["--report", "json"])
+        .output()
+        .unwrap();
+    assert!(run.status.success());
+    let report: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    let want = [
+        ("INT_ONE", -1.0),
+        ("INT_MINUS1", 16_777_217.0),
+        ("INT_BIG", 2_147_483_647.0),
+        ("INT_MAX", -2_147_483_648.0),
+    ];
+    let held = table(dir.path());
+    for (name, v) in want {
+        assert_eq!(
+            held[name].0, v,
+            "{name}: the vehicle holds {}",
+            held[name].0
+        );
+        let e = edit(&report, name);
+        assert_eq!(e["state"], "confirmed", "{e}");
+        assert_eq!(e["vehicle_value"], v, "{e}");
+    }
+}
+
 /// Run `script` with screens saved to `dir/screens` at 160 columns; returns the report.
 fn replay_screens(dir: &Path, port: u16, script: &str) -> serde_json::Value {
     let path = dir.join("script.txt");

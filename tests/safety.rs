@@ -150,6 +150,44 @@ fn d_d_never_disarms_in_flight() {
     assert!(sim(&r).vehicle(1).unwrap().armed());
 }
 
+#[test]
+fn a_stale_landed_state_is_not_trusted() {
+    let hb = |seq: u64| {
+        json!({"sysid": 1, "compid": 1, "seq": seq, "msg": "HEARTBEAT",
+        "fields": {"type": 2, "autopilot": 3, "base_mode": 129, "custom_mode": 4,
+        "system_status": 4, "mavlink_version": 3}})
+    };
+    let on_ground = |seq: u64| {
+        json!({"sysid": 1, "compid": 1, "seq": seq, "msg": "EXTENDED_SYS_STATE",
+        "fields": {"vtol_state": 0, "landed_state": 1}})
+    };
+    let at = |seq: u64, relative_alt: i64| {
+        json!({"sysid": 1, "compid": 1, "seq": seq, "msg": "GLOBAL_POSITION_INT",
+        "fields": {"time_boot_ms": 1000, "lat": -353632621, "lon": 1491652374,
+        "alt": 584000 + relative_alt, "relative_alt": relative_alt,
+        "vx": 0, "vy": 0, "vz": 0, "hdg": 0}})
+    };
+    // Fresh ON_GROUND, armed: `D` disarms without a question.
+    let mut b = bench_in(4, true);
+    b.raw(0.1, &[on_ground(20)]);
+    let out = operator_frames(&b.keys(0.5, &["D"]));
+    assert!(b.app.ui.confirm.is_none());
+    assert_eq!(commands(&out, 400).len(), 1, "{out:?}");
+    // ON_GROUND heard 8 s ago, then only the heartbeat and a position 50 m up: it asks.
+    b.raw(8.0, &[hb(21), at(22, 50_000)]);
+    let out = b.keys(8.1, &["D"]);
+    asked_nothing_sent(&mut b, 8.1, out, 400, "stale ON_GROUND, 50 m up");
+    // Only the heartbeat for 8 s (state and height both stale): unknown, so flying: it asks.
+    b.raw(16.0, &[hb(23)]);
+    let out = b.keys(16.1, &["D"]);
+    asked_nothing_sent(&mut b, 16.1, out, 400, "nothing fresh");
+    // A fresh position on the ground: the height rule lets it go.
+    b.raw(17.0, &[hb(24), at(25, 0)]);
+    let out = operator_frames(&b.keys(17.1, &["D"]));
+    assert!(b.app.ui.confirm.is_none());
+    assert_eq!(commands(&out, 400).len(), 1, "{out:?}");
+}
+
 /// A core on one link ("x") fed frames pymavlink encoded.
 struct Bench {
     app: App,
@@ -435,6 +473,118 @@ fn mode_land_goes_out_at_once_during_a_takeoff_and_abandons_it() {
 }
 
 #[test]
+fn a_second_land_goes_out_at_once_behind_an_unanswered_first() {
+    // The first NAV_LAND is lost: a second `L` is not refused for the first one's answer.
+    let mut r = runner("drop_cmd=21:1");
+    key(&mut r, "L");
+    let out = sent(&mut r);
+    assert_eq!(commands(&out, 21).len(), 1, "{out:?}");
+    wait(&mut r, 0.2);
+    key(&mut r, "L");
+    let out = sent(&mut r);
+    assert_eq!(
+        commands(&out, 21).len(),
+        1,
+        "the second LAND at once: {out:?}"
+    );
+    // RTL behind it, and the first LAND is never resent on its own.
+    key(&mut r, "R");
+    let out = sent(&mut r);
+    assert_eq!(commands(&out, 20).len(), 1, "RTL at once: {out:?}");
+    wait(&mut r, 10.0);
+    let out = sent(&mut r);
+    assert!(commands(&out, 21).is_empty(), "no LAND resent: {out:?}");
+}
+
+/// Starts a take-off whose arm (dropped by the sim) gets no answer; returns once the arm left.
+fn takeoff_waiting_for_the_arm(r: &mut VirtualRunner) {
+    command(r, "takeoff 10");
+    common::yes(r);
+    let mut out = Vec::new();
+    for _ in 0..100 {
+        wait(r, 0.05);
+        out.extend(sent(r));
+        if !commands(&out, 400).is_empty() {
+            break;
+        }
+    }
+    assert_eq!(commands(&out, 400).len(), 1, "the arm: {out:?}");
+    assert!(r.app.sessions[&(1, 1)].sequence.is_some());
+}
+
+#[test]
+fn a_long_or_palette_land_during_a_takeoff_goes_out_and_abandons_it() {
+    for (way, line) in [
+        ("long", "long NAV_LAND"),
+        ("long RTL", "long NAV_RETURN_TO_LAUNCH"),
+        ("long DO_SET_MODE", "long DO_SET_MODE 1 9"),
+    ] {
+        let mut r = runner("drop_cmd=400:1");
+        takeoff_waiting_for_the_arm(&mut r);
+        command(&mut r, line);
+        let out = sent(&mut r);
+        let number = match way {
+            "long" => 21,
+            "long RTL" => 20,
+            _ => 176,
+        };
+        assert_eq!(commands(&out, number).len(), 1, "{way} at once: {out:?}");
+        assert!(
+            r.app.sessions[&(1, 1)]
+                .sequence
+                .as_ref()
+                .is_none_or(|s| s.finished()),
+            "{way}: the take-off stopped"
+        );
+        wait(&mut r, 15.0);
+        let out = sent(&mut r);
+        assert!(commands(&out, 22).is_empty(), "{way}: no take-off: {out:?}");
+        assert!(commands(&out, 400).is_empty(), "{way}: {out:?}");
+    }
+    // The palette's NAV_LAND, the same.
+    let (mut b, ix) = Bench::new(&[(1, &[(0, false)])]);
+    b.feed(0.0, ix[0][0]);
+    b.command(0.5, "takeoff 10");
+    b.keys(1.0, &["y"]);
+    assert!(b.app.sessions[&(1, 1)].sequence.is_some());
+    let out = operator_frames(&from_palette(&mut b, 1.2, 21, "NAV_LAND", [0.0, 0.0]));
+    assert_eq!(commands(&out, 21).len(), 1, "palette: {out:?}");
+    assert!(
+        b.app.sessions[&(1, 1)]
+            .sequence
+            .as_ref()
+            .is_none_or(|s| s.finished()),
+        "palette: the take-off stopped"
+    );
+    let out = operator_frames(&b.tick_to(20.0));
+    assert!(commands(&out, 22).is_empty(), "palette: {out:?}");
+}
+
+#[test]
+fn a_mode_name_that_does_not_resolve_cancels_nothing() {
+    let mut r = runner("drop_cmd=176:1");
+    command(&mut r, "mode loiter");
+    assert_eq!(set_mode(&sent(&mut r), 5.0), 1);
+    command(&mut r, "mode lnad");
+    assert!(sent(&mut r).is_empty());
+    // The LOITER request still stands: resent since the first copy got no answer.
+    wait(&mut r, 5.0);
+    let out = sent(&mut r);
+    assert!(set_mode(&out, 5.0) >= 1, "LOITER still pending: {out:?}");
+    assert_eq!(sim(&r).vehicle(1).unwrap().custom_mode(), 5);
+    // Nor does it abandon a take-off.
+    let mut r = runner("drop_cmd=400:1");
+    takeoff_waiting_for_the_arm(&mut r);
+    command(&mut r, "mode lnad");
+    assert!(r.app.sessions[&(1, 1)]
+        .sequence
+        .as_ref()
+        .is_some_and(|s| !s.finished()));
+    let texts: Vec<&str> = r.app.notices.iter().map(|n| n.text.as_str()).collect();
+    assert!(!texts.iter().any(|t| t.contains("abandoned")), "{texts:?}");
+}
+
+#[test]
 fn a_pilots_mode_change_stops_our_do_set_mode_resend() {
     // STABILIZE; we ask LOITER and hear no ACK; the heartbeat then shows RTL (a failsafe, the
     // pilot's switch, another GCS): our request is not sent again.
@@ -460,6 +610,27 @@ fn a_pilots_mode_change_stops_our_do_set_mode_resend() {
     assert!(set_mode(&operator_frames(&all), 5.0) >= 2);
 }
 
+#[test]
+fn a_px4_long_do_set_mode_that_took_is_ours() {
+    // PX4 1:1 in MANUAL (main mode 1); `long DO_SET_MODE 1 3` asks POSCTL (main mode 3), and
+    // the heartbeat then shows it (custom_mode 3 << 16): no warning of a change of its own.
+    let hb = |seq: u64, custom_mode: u64| {
+        json!({"sysid": 1, "compid": 1, "seq": seq, "msg": "HEARTBEAT",
+        "fields": {"type": 2, "autopilot": 12, "base_mode": 1, "custom_mode": custom_mode,
+        "system_status": 3, "mavlink_version": 3}})
+    };
+    let (mut b, _) = Bench::new(&[(9, &[(0, false)])]);
+    b.raw(0.0, &[hb(0, 1 << 16)]);
+    let out = operator_frames(&b.command(1.0, "long DO_SET_MODE 1 3"));
+    assert_eq!(commands(&out, 176).len(), 1, "{out:?}");
+    b.raw(1.5, &[hb(1, 3 << 16)]);
+    let texts: Vec<&str> = b.app.notices.iter().map(|n| n.text.as_str()).collect();
+    assert!(
+        !texts.iter().any(|t| t.contains("changed mode on its own")),
+        "{texts:?}"
+    );
+}
+
 /// The SET_POSITION_TARGET_LOCAL_NEDs among `frames`, read by pymavlink: (vx, vy, vz, yaw
 /// rate, frame, mask) each.
 fn velocity_targets(frames: &[Vec<u8>]) -> Vec<Value> {
@@ -480,9 +651,21 @@ type Ending = dyn Fn(&mut Bench, &[Vec<usize>]) -> Vec<Vec<u8>>;
 fn a_nudge_ends_in_three_stops_whichever_way_fly_mode_ends() {
     // Armed in GUIDED (4), then: LOITER (5) armed, GUIDED disarmed.
     let modes: &[(u32, bool)] = &[(4, true), (5, true), (4, false)];
-    let ways: [(&str, &Ending); 8] = [
+    let ways: [(&str, &Ending); 11] = [
         ("a mode change away from GUIDED", &|b, ix| {
             b.feed(1.3, ix[0][1])
+        }),
+        ("esc", &|b, _| b.keys(1.3, &["esc"])),
+        // Ctrl-Z and a `kill -TSTP`: Fly mode is left before the front end suspends.
+        ("the suspend key", &|b, _| {
+            let out = b.keys(1.3, &["ctrl-z"]);
+            assert!(b.app.suspend, "suspend asked");
+            out
+        }),
+        ("a kill -TSTP", &|b, _| {
+            let out = sends(&b.app.update(1_300_000, Event::Suspend));
+            assert!(b.app.suspend, "suspend asked");
+            out
         }),
         ("a disarm", &|b, ix| b.feed(1.3, ix[0][2])),
         ("the prompt opening", &|b, _| b.keys(1.3, &[":"])),
@@ -595,9 +778,19 @@ const DANGEROUS: &[(&str, u64, [f64; 2], bool)] = &[
     ("DO_START_MAG_CAL", 42424, [0.0, 0.0], false),
 ];
 
+/// What asks only while the vehicle flies its mission (armed in AUTO): (name, number, params).
+const DANGEROUS_IN_ITS_MISSION: &[(&str, u64, [f64; 2])] = &[
+    ("DO_SET_MISSION_CURRENT", 224, [3.0, 0.0]), // a jump, as `wp set 3`
+];
+
 /// ArduCopter 1:1, on the ground disarmed, or armed and in the air (EXTENDED_SYS_STATE).
 fn bench_for(flying: bool) -> Bench {
-    let (mut b, ix) = Bench::new(&[(1, &[(if flying { 4 } else { 0 }, flying)])]);
+    bench_in(if flying { 4 } else { 0 }, flying)
+}
+
+/// ArduCopter 1:1 in `mode`: on the ground disarmed, or armed and in the air.
+fn bench_in(mode: u32, flying: bool) -> Bench {
+    let (mut b, ix) = Bench::new(&[(1, &[(mode, flying)])]);
     b.feed(0.0, ix[0][0]);
     if flying {
         b.raw(
@@ -669,10 +862,18 @@ fn asked_nothing_sent(b: &mut Bench, t: f64, out: Vec<Vec<u8>>, number: u64, wha
 
 #[test]
 fn every_dangerous_command_asks_from_every_entry_point() {
-    for &(name, number, [p1, p2], flying) in DANGEROUS {
+    let table = DANGEROUS
+        .iter()
+        .map(|&(n, c, p, flying)| (n, c, p, if flying { 4 } else { 0 }, flying))
+        .chain(
+            DANGEROUS_IN_ITS_MISSION
+                .iter()
+                .map(|&(n, c, p)| (n, c, p, 3, true)),
+        );
+    for (name, number, [p1, p2], mode, flying) in table {
         let what = format!("{name} {p1} {p2}");
         // The prompt.
-        let mut b = bench_for(flying);
+        let mut b = bench_in(mode, flying);
         let out = b.command(1.0, &format!("long {name} {p1} {p2}"));
         asked_nothing_sent(&mut b, 1.0, out, number, &format!("prompt: {what}"));
         // The palette.
@@ -714,6 +915,11 @@ fn every_dangerous_command_asks_from_every_entry_point() {
     let out = operator_frames(&b.command(1.0, "long COMPONENT_ARM_DISARM 0 0"));
     assert!(b.app.ui.confirm.is_none());
     assert_eq!(commands(&out, 400).len(), 1, "{out:?}");
+    // A jump while the vehicle is not flying its mission (armed in GUIDED) goes as well.
+    let mut b = bench_for(true);
+    let out = operator_frames(&b.command(1.0, "long DO_SET_MISSION_CURRENT 3"));
+    assert!(b.app.ui.confirm.is_none());
+    assert_eq!(commands(&out, 224).len(), 1, "{out:?}");
 }
 
 /// A camera 1:100: its heartbeat with sequence `seq`, and (first) its CAMERA_INFORMATION

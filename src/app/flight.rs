@@ -232,8 +232,9 @@ impl App {
     }
 
     /// True when `key` (or its system's autopilot) is armed and not on the ground: by
-    /// EXTENDED_SYS_STATE's `landed_state` where it comes, else by the height above home (an
-    /// armed vehicle whose height is unknown counts as flying). Not by `system_status`, which
+    /// EXTENDED_SYS_STATE's `landed_state` while fresh (within STALE_AFTER), else by the height
+    /// above home while fresh (an armed vehicle whose state and height are unknown or stale
+    /// counts as flying). Not by `system_status`, which
     /// is CRITICAL during a failsafe.
     pub(super) fn airborne(&self, key: VehicleKey) -> bool {
         let via = self.session_for(key).unwrap_or(key);
@@ -243,12 +244,18 @@ impl App {
         if !v.armed() {
             return false;
         }
+        // Either only while fresh: a state or height heard long ago tells nothing now.
+        let now = self.now;
         let flight = self.sessions.get(&via).map(|s| &s.flight);
-        if let Some(l) = flight.and_then(|f| f.landed_state).filter(|l| *l != 0) {
-            return l != LANDED_ON_GROUND;
+        if let Some(l) = flight
+            .and_then(|f| f.landed_state)
+            .filter(|l| l.value != 0 && !l.is_stale(now))
+        {
+            return l.value != LANDED_ON_GROUND;
         }
         flight
             .and_then(|f| f.position.as_ref())
+            .filter(|p| !p.is_stale(now))
             .is_none_or(|p| p.value.relative_alt_m() > FLYING_ABOVE_M)
     }
 
@@ -269,7 +276,14 @@ impl App {
     /// The confirmation question for `action` on `key`, if it needs one.
     fn question(&self, key: VehicleKey, action: &FlightAction) -> Option<String> {
         let (command, params) = action_command(action)?;
-        let what = danger(command, &params, self.airborne(key))?;
+        // A jump in the mission the vehicle is flying asks, as `wp set N` does.
+        let jump = command == MavCmd::MAV_CMD_DO_SET_MISSION_CURRENT as u16
+            && self.flies_its_mission(self.session_for(key).unwrap_or(key));
+        let what = match danger(command, &params, self.airborne(key)) {
+            Some(what) => what,
+            None if jump => "JUMP in the mission it is flying",
+            None => return None,
+        };
         let what = match action {
             FlightAction::Takeoff(alt) => format!("TAKE OFF to {alt} m"),
             FlightAction::Arm | FlightAction::Disarm { .. } | FlightAction::Reboot => what.into(),
@@ -501,15 +515,30 @@ impl App {
             let name = spec.name();
             Ok((spec, name))
         };
-        // A mode request, LAND or RTL: whatever mode change or take-off is still running gives
-        // way to it at once.
-        if let FlightAction::Mode(_) | FlightAction::Land | FlightAction::Rtl = &action {
+        // A mode request, LAND or RTL (from a key, the prompt, the palette, `long` or a re-issue):
+        // whatever mode change, LAND, RTL or take-off is still running gives way to it at once.
+        // The request is resolved first: one that will not be sent cancels nothing.
+        let mode_step = match &action {
+            FlightAction::Mode(name) => Some(self.mode_step(key, autopilot, mavtype, name)?),
+            _ => None,
+        };
+        let by = match &action {
+            FlightAction::Mode(m) => Some(format!("mode {m}")),
+            FlightAction::Land => Some("LAND".into()),
+            FlightAction::Rtl => Some("RTL".into()),
+            FlightAction::Command { command, params } if is_mode_request(*command) => Some(
+                CommandSpec {
+                    target: key,
+                    command: *command,
+                    params: *params,
+                    form: crate::proto::commands::form_for(*command),
+                }
+                .name(),
+            ),
+            _ => None,
+        };
+        if let Some(by) = by {
             let now = self.now;
-            let by = match &action {
-                FlightAction::Mode(m) => format!("mode {m}"),
-                FlightAction::Land => "LAND".into(),
-                _ => "RTL".into(),
-            };
             if let Some(s) = self.sessions.get_mut(&via) {
                 let out = s.supersede_mode(now, &by);
                 self.session_out(via, out, fx);
@@ -543,7 +572,7 @@ impl App {
                 form: crate::proto::commands::form_for(command),
             })?,
             FlightAction::Mode(name) => {
-                let step = self.mode_step(key, autopilot, mavtype, &name)?;
+                let step = mode_step.ok_or("no mode step")?;
                 let seq = Sequence::new(format!("mode {}", step.label), vec![step]);
                 return self
                     .start(key, seq, fx)
@@ -714,4 +743,11 @@ impl App {
         self.session_out(key, out, fx);
         Ok(Some(format!("{}: cancel sent", e.spec.name())))
     }
+}
+
+/// DO_SET_MODE, NAV_LAND, NAV_RETURN_TO_LAUNCH: a mode request, which never waits behind another.
+pub fn is_mode_request(command: u16) -> bool {
+    command == MavCmd::MAV_CMD_DO_SET_MODE as u16
+        || command == MavCmd::MAV_CMD_NAV_LAND as u16
+        || command == MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH as u16
 }

@@ -27,6 +27,12 @@ impl App {
             return;
         }
         if self.nudge.active() && self.ui.mode == Mode::Normal {
+            // The suspend key (Ctrl-Z) leaves Fly mode with its stop, then suspends.
+            if self.keymap.lookup(Mode::Normal, self.ui.screen, &key) == Some(Action::Suspend) {
+                self.notice(SEV_INFO, self.nudge.target, "Fly mode left".into());
+                self.on_action(Action::Suspend, fx);
+                return;
+            }
             self.on_fly_key(key, fx);
             return;
         }
@@ -332,8 +338,12 @@ impl App {
                 self.quit = true;
                 fx.push(Effect::Quit);
             }
-            // The terminal front end stops the process (headless runs have nothing to suspend).
-            Action::Suspend => self.suspend = true,
+            // The terminal front end stops the process (headless runs have nothing to suspend),
+            // once a nudge in progress has ended in its stop, sent three times.
+            Action::Suspend => {
+                self.leave_fly(fx);
+                self.suspend = true;
+            }
             Action::FocusNext => self.ui.focus = Pane::ALL[(focus_idx + 1) % Pane::ALL.len()],
             Action::FocusPrev => {
                 self.ui.focus = Pane::ALL[(focus_idx + Pane::ALL.len() - 1) % Pane::ALL.len()]

@@ -216,7 +216,7 @@ impl App {
 
     /// Armed in its family's mission mode (ArduPilot AUTO, PX4 MISSION): flying its mission. A
     /// family with no known mission mode counts as flying it whenever it is armed (asking is safer).
-    fn flies_its_mission(&self, key: VehicleKey) -> bool {
+    pub(super) fn flies_its_mission(&self, key: VehicleKey) -> bool {
         let profile = self.profile(key);
         self.vehicles.get(key).is_some_and(|v| {
             v.armed()
@@ -524,7 +524,9 @@ impl App {
         let (text, what) = if path.to_ascii_lowercase().ends_with(".plan") {
             let (fw, vt) = match key.and_then(|k| self.vehicles.get(k)) {
                 Some(v) => (v.autopilot as u64, Some(v.mavtype as u64)),
-                None => (MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA as u64, None),
+                // No vehicle known: nothing says whose the plan is (QGroundControl's generic
+                // firmware type), rather than claiming ArduPilot.
+                None => (MavAutopilot::MAV_AUTOPILOT_GENERIC as u64, None),
             };
             let p = plan::Plan::new(
                 list(MissionType::Mission).unwrap_or_default(),

@@ -113,6 +113,9 @@ pub enum Event {
     /// The front end is about to end (quit, its input closed, a signal, a panic): a nudge in
     /// progress ends in a stop.
     Ending,
+    /// The process is asked to stop (a `kill -TSTP`): as the suspend key, Fly mode is left
+    /// (its stop sent in full) before the front end suspends.
+    Suspend,
     /// Text pasted into the terminal (bracketed paste): one event, typed into the line being
     /// edited, if any; keys after it work as ever.
     Paste(String),
@@ -584,6 +587,7 @@ impl App {
             Event::Paste(text) => self.on_paste(&text),
             Event::KeyRelease(key) => self.on_key_release(key, &mut fx),
             Event::Ending => self.leave_fly(&mut fx),
+            Event::Suspend => self.on_action(crate::keymap::Action::Suspend, &mut fx),
             Event::Resize => self.dirty = true,
             Event::FileWritten { path, error } if self.signing.is_state_file(&path) => {
                 self.signing_file_written(error)

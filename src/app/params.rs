@@ -489,22 +489,26 @@ impl App {
         if purpose == FileUse::Diff {
             return;
         }
-        // Values out of range for their type are never sent.
-        let (ok, bad): (Vec<_>, Vec<_>) = changes.into_iter().partition(|(c, n, v)| {
-            self.sessions[&key].params.sets[c].params[n]
-                .ptype
-                .check(*v)
-                .is_ok()
-        });
-        for (_, n, v) in &bad {
-            self.notice(
-                SEV_WARNING,
-                None,
-                format!(
+        // Values out of range for their type, or that the float cannot carry exactly under the
+        // vehicle's encoding (C-cast beyond ±2^24), are never sent: told before the question.
+        let encoding = self.sessions[&key].params.encoding;
+        let mut ok = Vec::new();
+        let mut bad = Vec::new();
+        for (c, n, v) in changes {
+            let ptype = self.sessions[&key].params.sets[&c].params[&n].ptype;
+            match ptype.check(v) {
+                Err(_) => bad.push(format!(
                     "{shown}: {n} = {} is out of range for its type: not sent",
-                    value::fmt_plain(*v)
-                ),
-            );
+                    value::fmt_plain(v)
+                )),
+                Ok(()) => match value::carry_check(v, ptype, encoding) {
+                    Err(e) => bad.push(format!("{shown}: {n} = {e}: not sent")),
+                    Ok(()) => ok.push((c, n, v)),
+                },
+            }
+        }
+        for text in bad {
+            self.notice(SEV_WARNING, None, text);
         }
         if ok.is_empty() {
             self.ui.message = Some((SEV_INFO, format!("{shown}: nothing to change")));

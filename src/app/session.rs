@@ -74,6 +74,8 @@ pub struct Session {
     /// Components of this system first heard during a heartbeat flood: no automatic camera
     /// discovery for them (at most 256).
     pub quiet: std::collections::BTreeSet<u8>,
+    /// The autopilot family (its profile encodes DO_SET_MODE).
+    autopilot: MavAutopilot,
 }
 
 impl Session {
@@ -84,7 +86,7 @@ impl Session {
         fetch_params: bool,
         rates: StreamRates,
     ) -> Self {
-        Self {
+        let mut s = Self {
             key,
             pinned: None,
             heard: BTreeMap::new(),
@@ -99,7 +101,12 @@ impl Session {
             mode_seen: None,
             mode_asks: Vec::new(),
             quiet: std::collections::BTreeSet::new(),
-        }
+            autopilot,
+        };
+        let profile = crate::proto::profile::of(autopilot);
+        s.mission.set_int_items(profile.mission_int());
+        s.flight.set_vfr_hud_expected(profile.vfr_hud_motion());
+        s
     }
 
     /// The link this system was heard on most recently among those `up_only` or not, and
@@ -187,6 +194,7 @@ impl Session {
                 let n = payload.len().min(8);
                 caps[..n].copy_from_slice(&payload[..n]);
                 let caps = u64::from_le_bytes(caps);
+                self.mission.on_capabilities(caps);
                 out.extend(
                     self.params
                         .on_autopilot_version(now, caps)
@@ -467,7 +475,10 @@ impl Session {
                 self.mode_asks.push((id, left));
                 continue;
             }
-            let ours = e.spec.params[1] == mode as f64
+            // Ours when the request carries the mode shown, as the profile encodes it (PX4:
+            // main mode in param2, sub mode in param3).
+            let want = crate::proto::profile::of(self.autopilot).set_mode_params(mode);
+            let ours = e.spec.params[1..3] == want[1..3]
                 || self
                     .sequence
                     .as_ref()
@@ -489,7 +500,8 @@ impl Session {
     }
 
     /// A new mode request (a mode, LAND, RTL): the take-off or mode change still running is
-    /// abandoned, and a DO_SET_MODE still waiting is superseded (not waited for, never resent).
+    /// abandoned, and a DO_SET_MODE, NAV_LAND or NAV_RETURN_TO_LAUNCH still waiting is superseded
+    /// (not waited for, never resent).
     pub fn supersede_mode(&mut self, now: Micros, by: &str) -> Vec<SessionOut> {
         let mut out = Vec::new();
         if let Some(seq) = self.sequence.take().filter(|s| !s.finished()) {
@@ -498,9 +510,16 @@ impl Session {
                 format!("{}: abandoned for {by}", seq.name),
             ));
         }
-        let done = self
-            .commands
-            .supersede(now, self.key, MavCmd::MAV_CMD_DO_SET_MODE as u16);
+        // Every mode request still open (DO_SET_MODE, NAV_LAND, NAV_RETURN_TO_LAUNCH) to this
+        // vehicle: a safe mode never waits behind one that got no answer.
+        let mut done = Vec::new();
+        for command in [
+            MavCmd::MAV_CMD_DO_SET_MODE,
+            MavCmd::MAV_CMD_NAV_LAND,
+            MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH,
+        ] {
+            done.extend(self.commands.supersede(now, self.key, command as u16));
+        }
         self.mode_asks.clear();
         out.extend(self.drive(now, done));
         out

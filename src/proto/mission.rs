@@ -595,7 +595,13 @@ pub struct MissionMachine {
     /// Recent texts from the vehicle: (time, text), for a refusal that follows them.
     texts: VecDeque<(Micros, String)>,
     rebooted: bool,
+    /// Items asked for as MISSION_REQUEST_INT (else the older MISSION_REQUEST): the profile's
+    /// answer until AUTOPILOT_VERSION's MAV_PROTOCOL_CAPABILITY_MISSION_INT bit says.
+    int_items: bool,
 }
+
+/// AUTOPILOT_VERSION's MAV_PROTOCOL_CAPABILITY_MISSION_INT.
+pub const CAP_MISSION_INT: u64 = 4;
 
 fn mav_type(t: MissionType) -> MavMissionType {
     match t {
@@ -665,13 +671,25 @@ fn request_list(key: VehicleKey, t: MissionType) -> MavMessage {
     })
 }
 
-fn request_item(key: VehicleKey, t: MissionType, seq: u16) -> MavMessage {
-    MavMessage::MISSION_REQUEST_INT(dialect::MISSION_REQUEST_INT_DATA {
-        seq,
-        target_system: key.0,
-        target_component: key.1,
-        mission_type: mav_type(t),
-    })
+/// MISSION_REQUEST_INT for item `seq`, or MISSION_REQUEST where the vehicle said it has no INT
+/// mission protocol (its answer, MISSION_ITEM, is read as well).
+fn request_item(key: VehicleKey, t: MissionType, seq: u16, int: bool) -> MavMessage {
+    if int {
+        MavMessage::MISSION_REQUEST_INT(dialect::MISSION_REQUEST_INT_DATA {
+            seq,
+            target_system: key.0,
+            target_component: key.1,
+            mission_type: mav_type(t),
+        })
+    } else {
+        #[allow(deprecated)] // the older request, for a vehicle without MISSION_INT
+        MavMessage::MISSION_REQUEST(dialect::MISSION_REQUEST_DATA {
+            seq,
+            target_system: key.0,
+            target_component: key.1,
+            mission_type: mav_type(t),
+        })
+    }
 }
 
 fn count_message(key: VehicleKey, t: MissionType, n: u16) -> MavMessage {
@@ -720,7 +738,19 @@ impl MissionMachine {
             last_refusal: None,
             texts: VecDeque::new(),
             rebooted: false,
+            int_items: true,
         }
+    }
+
+    /// Ask items as MISSION_REQUEST_INT (`true`) or MISSION_REQUEST: the profile's default, then
+    /// AUTOPILOT_VERSION's MAV_PROTOCOL_CAPABILITY_MISSION_INT once heard.
+    pub fn set_int_items(&mut self, int: bool) {
+        self.int_items = int;
+    }
+
+    /// AUTOPILOT_VERSION's capabilities: the MISSION_INT bit decides the item requests.
+    pub fn on_capabilities(&mut self, caps: u64) {
+        self.int_items = caps & CAP_MISSION_INT != 0;
     }
 
     /// The list `t` as it is on the vehicle, as far as we know.
@@ -1057,7 +1087,7 @@ impl MissionMachine {
             done: 0,
             total: count,
         }));
-        let m = request_item(self.key, mt, 0);
+        let m = request_item(self.key, mt, 0, self.int_items);
         out.push(MissionOut::Send(m));
     }
 
@@ -1156,7 +1186,7 @@ impl MissionMachine {
         if let Some(t) = self.running.as_mut() {
             t.deadline = now + timeout;
         }
-        let m = request_item(self.key, mt, done);
+        let m = request_item(self.key, mt, done, self.int_items);
         out.push(MissionOut::Send(m));
     }
 
@@ -1338,7 +1368,10 @@ impl MissionMachine {
             Phase::Items { items, asked, .. } => {
                 *asked = now;
                 let seq = items.len() as u16;
-                (request_item(self.key, mt, seq), item_timeout)
+                (
+                    request_item(self.key, mt, seq, self.int_items),
+                    item_timeout,
+                )
             }
             Phase::Count => (count_message(self.key, mt, n_items), ACK_TIMEOUT),
             Phase::Clear => (clear_message(self.key, mt), ACK_TIMEOUT),
@@ -1624,6 +1657,65 @@ mod tests {
         let (sev, text) = events(&out)[0].notice(V).unwrap();
         assert_eq!(sev, SEV_WARNING);
         assert_eq!(text, "mission upload refused by 1:1: NO_SPACE");
+    }
+
+    #[test]
+    fn autopilot_version_without_mission_int_downloads_with_mission_request() {
+        use mavlink::Message;
+        // The first request after MISSION_COUNT, as (message id, payload bytes).
+        let first_request = |caps: Option<u64>| {
+            let mut m = MissionMachine::new(V);
+            if let Some(c) = caps {
+                m.on_capabilities(c);
+            }
+            m.submit(0, Request::Download(MissionType::Mission))
+                .unwrap();
+            let out = m.on_message(
+                10,
+                &MissionMsg::Count {
+                    target: US,
+                    count: 2,
+                    mission_type: 0,
+                    opaque_id: 0,
+                },
+            );
+            let msg = sends(&out)[0].clone();
+            let mut buf = [0u8; 255];
+            let n = msg.ser(mavlink::MavlinkVersion::V2, &mut buf);
+            (msg.message_id(), buf[..n].to_vec())
+        };
+        // The spec: MISSION_REQUEST is id 40, MISSION_REQUEST_INT id 51; both seq (u16),
+        // target system, target component, mission type (its zero cut by MAVLink 2).
+        assert_eq!(first_request(Some(0)), (40, vec![0, 0, 1, 1]));
+        // The bit announced, or nothing heard (the profile: INT).
+        assert_eq!(first_request(Some(CAP_MISSION_INT)), (51, vec![0, 0, 1, 1]));
+        assert_eq!(first_request(None), (51, vec![0, 0, 1, 1]));
+        // MISSION_ITEM's answer is taken: the next request follows it in the same form.
+        let mut m = MissionMachine::new(V);
+        m.on_capabilities(0);
+        m.submit(0, Request::Download(MissionType::Mission))
+            .unwrap();
+        m.on_message(
+            10,
+            &MissionMsg::Count {
+                target: US,
+                count: 2,
+                mission_type: 0,
+                opaque_id: 0,
+            },
+        );
+        let out = m.on_message(
+            20,
+            &MissionMsg::Item {
+                target: US,
+                mission_type: 0,
+                item: wp(0, 0.0),
+                legacy: true,
+            },
+        );
+        #[allow(deprecated)]
+        let next = matches!(sends(&out)[..], [MavMessage::MISSION_REQUEST(r)] if r.seq == 1);
+        assert!(next, "{out:?}");
     }
 
     #[test]

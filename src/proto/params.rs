@@ -75,6 +75,9 @@ const MAX_GAP: Micros = 2 * SECOND;
 pub struct Edit {
     pub value: f64,
     pub state: EditState,
+    /// The float of the last PARAM_SET sent, bit for bit: the echo must carry these bits (not
+    /// a re-encoding under the encoding known when the echo comes).
+    sent: Option<f32>,
     sends: u32,
     mismatch_resent: bool,
     sent_at: Micros,
@@ -942,8 +945,12 @@ impl ParamMachine {
             .as_mut()
             .filter(|e| e.state == EditState::Pending && e.sends > 0)
         {
-            // The float's very bits: a value that only decodes the same is not what was sent.
-            let sent = value::encode(e.value, ptype, enc).to_bits();
+            // The float's very bits as sent: a value that only decodes the same is not what
+            // was sent.
+            let sent = e
+                .sent
+                .unwrap_or_else(|| value::encode(e.value, ptype, enc))
+                .to_bits();
             if m.raw.to_bits() == sent {
                 e.state = EditState::Confirmed;
                 self.edits_pending -= 1;
@@ -958,7 +965,9 @@ impl ParamMachine {
                 e.mismatch_resent = true;
                 e.sends += 1;
                 e.sent_at = now;
-                resend = Some((e.value, ptype));
+                let f = value::encode(e.value, ptype, enc);
+                e.sent = Some(f);
+                resend = Some((f, ptype));
             } else {
                 let why = if value::same(v, e.value, ptype) {
                     format!(
@@ -1187,6 +1196,7 @@ impl ParamMachine {
         p.edit = Some(Edit {
             value: v,
             state: EditState::Pending,
+            sent: None,
             sends: 0,
             mismatch_resent: false,
             sent_at: now,
@@ -1211,6 +1221,7 @@ impl ParamMachine {
             return Vec::new();
         }
         let mut room = SET_WINDOW.saturating_sub(self.edits_in_flight());
+        let enc = self.encoding;
         let mut go = Vec::new();
         for (comp, s) in self.sets.iter_mut() {
             for (name, p) in s.params.iter_mut() {
@@ -1225,8 +1236,10 @@ impl ParamMachine {
                 {
                     e.sends = 1;
                     e.sent_at = now;
+                    let f = value::encode(e.value, t, enc);
+                    e.sent = Some(f);
                     room -= 1;
-                    go.push((*comp, name.clone(), e.value, t));
+                    go.push((*comp, name.clone(), f, t));
                 }
             }
         }
@@ -1235,10 +1248,11 @@ impl ParamMachine {
             .collect()
     }
 
-    fn param_set(&self, comp: u8, name: &str, v: f64, t: ParamType) -> MavMessage {
+    /// PARAM_SET of `name` carrying the float `f` (the value already encoded).
+    fn param_set(&self, comp: u8, name: &str, f: f32, t: ParamType) -> MavMessage {
         use num_traits::FromPrimitive;
         MavMessage::PARAM_SET(dialect::PARAM_SET_DATA {
-            param_value: value::encode(v, t, self.encoding),
+            param_value: f,
             target_system: self.key.0,
             target_component: comp,
             param_id: param_id(name),
@@ -1323,6 +1337,7 @@ impl ParamMachine {
         }
         // Edits without an echo.
         if self.edits_pending > 0 {
+            let enc = self.encoding;
             let mut resend = Vec::new();
             for (comp, s) in self.sets.iter_mut() {
                 for (name, p) in s.params.iter_mut() {
@@ -1348,7 +1363,9 @@ impl ParamMachine {
                     } else {
                         e.sends += 1;
                         e.sent_at = now;
-                        resend.push((*comp, name.clone(), e.value, t));
+                        let f = value::encode(e.value, t, enc);
+                        e.sent = Some(f);
+                        resend.push((*comp, name.clone(), f, t));
                     }
                 }
             }
@@ -1659,5 +1676,41 @@ mod tests {
         assert_eq!(last.requests, 2 + LIST_TRIES);
         assert_eq!(last.retries, LIST_TRIES - 1);
         assert!(!m.autopilot().unwrap().complete());
+    }
+
+    #[test]
+    fn the_echo_is_checked_against_the_bits_sent_across_an_encoding_switch() {
+        // C-cast (ArduPilot heartbeat): INT32 7 goes out as the float 7.0 (0x40e00000).
+        let mut m = ParamMachine::new(KEY, MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA, false);
+        m.on_param_value(10, 1, &pv("I", 5.0, 6, 1, 0));
+        let out = m.set(20, 1, "I", 7.0).unwrap();
+        let sent = match sends(&out)[0] {
+            MavMessage::PARAM_SET(s) => s.param_value.to_bits(),
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(sent, 0x40e0_0000);
+        // AUTOPILOT_VERSION then says bytewise: the echo of what was sent is still ours.
+        m.on_autopilot_version(30, CAP_PARAM_ENCODE_BYTEWISE);
+        let out = m.on_param_value(40, 1, &pv("I", f32::from_bits(0x40e0_0000), 6, 1, 0));
+        assert!(sends(&out).is_empty(), "no resend: {out:?}");
+        assert_eq!(
+            m.autopilot()
+                .unwrap()
+                .get("I")
+                .unwrap()
+                .edit
+                .as_ref()
+                .unwrap()
+                .state,
+            EditState::Confirmed
+        );
+        // The other way: an echo carrying the bytewise re-encoding (0x00000007) of the same
+        // value is not the float sent: it is sent again.
+        let mut m = ParamMachine::new(KEY, MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA, false);
+        m.on_param_value(10, 1, &pv("I", 5.0, 6, 1, 0));
+        m.set(20, 1, "I", 7.0).unwrap();
+        m.on_autopilot_version(30, CAP_PARAM_ENCODE_BYTEWISE);
+        let out = m.on_param_value(40, 1, &pv("I", f32::from_bits(7), 6, 1, 0));
+        assert_eq!(sends(&out).len(), 1, "{out:?}");
     }
 }

@@ -36,6 +36,19 @@ pub trait Profile: Sync + std::fmt::Debug {
         Encoding::Bytewise
     }
 
+    /// Whether mission items are asked for as MISSION_REQUEST_INT when AUTOPILOT_VERSION is not
+    /// heard (where it is, its MAV_PROTOCOL_CAPABILITY_MISSION_INT bit decides). ArduPilot, PX4
+    /// and the spec's current protocol all use the INT forms.
+    fn mission_int(&self) -> bool {
+        true
+    }
+
+    /// Whether VFR_HUD is expected to carry speed, climb and heading; without it (or while it is
+    /// not fresh) GLOBAL_POSITION_INT's velocities and heading stand in.
+    fn vfr_hud_motion(&self) -> bool {
+        true
+    }
+
     /// Whether the vehicle's mission holds home as item 0 (real items from 1). The mission
     /// protocol does not reserve seq 0; only ArduPilot does.
     fn mission_home_item(&self) -> bool {

@@ -336,6 +336,9 @@ pub struct FlightTelemetry {
     pub motion: Option<Timed<Motion>>,
     /// When VFR_HUD last came: while it is fresh, it gives the motion.
     vfr_hud_at: Option<Micros>,
+    /// The profile's answer: VFR_HUD is expected to carry speed, climb and heading (else
+    /// GLOBAL_POSITION_INT always gives them).
+    vfr_hud_expected: bool,
     pub battery: Option<Timed<Battery>>,
     pub gps: Option<Timed<Gps>>,
     /// EKF_STATUS_REPORT flags.
@@ -349,8 +352,8 @@ pub struct FlightTelemetry {
     next_home_request: Option<Micros>,
     /// HOME_POSITION requests sent, all told.
     pub home_requests: u32,
-    /// EXTENDED_SYS_STATE's `landed_state` (MAV_LANDED_STATE), once heard.
-    pub landed_state: Option<u8>,
+    /// EXTENDED_SYS_STATE's `landed_state` (MAV_LANDED_STATE) and when it was heard.
+    pub landed_state: Option<Timed<u8>>,
 }
 
 impl FlightTelemetry {
@@ -361,6 +364,7 @@ impl FlightTelemetry {
             position: None,
             motion: None,
             vfr_hud_at: None,
+            vfr_hud_expected: true,
             battery: None,
             gps: None,
             ekf: None,
@@ -371,6 +375,11 @@ impl FlightTelemetry {
             home_requests: 0,
             landed_state: None,
         }
+    }
+
+    /// Whether VFR_HUD is expected to carry the motion (the profile's answer).
+    pub fn set_vfr_hud_expected(&mut self, expected: bool) {
+        self.vfr_hud_expected = expected;
     }
 
     /// True once anything shown was heard.
@@ -421,7 +430,10 @@ impl FlightTelemetry {
             // vtol_state, landed_state (a trailing zero may be cut by MAVLink 2): read from the
             // payload, so a value newer than the dialect is kept.
             (id::EXTENDED_SYS_STATE, _) => {
-                self.landed_state = Some(payload.get(1).copied().unwrap_or(0));
+                self.landed_state = Some(Timed {
+                    value: payload.get(1).copied().unwrap_or(0),
+                    at: now,
+                });
             }
             (id::GLOBAL_POSITION_INT, Some(MavMessage::GLOBAL_POSITION_INT(p))) => {
                 let value = Position {
@@ -435,9 +447,10 @@ impl FlightTelemetry {
                 // No VFR_HUD (or none lately): GLOBAL_POSITION_INT carries the same: vx, vy
                 // (north, east) and vz (down) in cm/s, hdg in centidegrees (UINT16_MAX unknown:
                 // the course over ground then, when moving, else the heading last known).
-                if self
-                    .vfr_hud_at
-                    .is_none_or(|t| now.saturating_sub(t) > STALE_AFTER)
+                if !self.vfr_hud_expected
+                    || self
+                        .vfr_hud_at
+                        .is_none_or(|t| now.saturating_sub(t) > STALE_AFTER)
                 {
                     let (vx, vy) = (p.vx as f64 / 100.0, p.vy as f64 / 100.0);
                     let speed = vx.hypot(vy);
