@@ -8,7 +8,7 @@
 //! note below its keys in the help (`note =` a constant of `app::screen`).
 //!
 //! Every layer expands this list with [`for_each_screen!`]: `keymap` (the section names and
-//! the `screen_N` actions), `app::screen` (the core's [`crate::app::screen::SCREENS`], number
+//! the `screen_N` actions), `app::screen` (the core's `SCREENS`, number
 //! keys and selection) and `ui::screens` (the renderers). Adding a screen: its file `ui/NAME.rs`
 //! with `pub fn render`, its `pub mod NAME;` in `ui/mod.rs`, and one line here.
 

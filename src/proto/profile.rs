@@ -13,7 +13,7 @@
 use crate::dialect::{MavAutopilot, MavModeFlag, MavType};
 use crate::params::value::Encoding;
 
-/// Which flight-mode table a vehicle uses (the tables are in [`crate::proto::modes`]).
+/// Which flight-mode table a vehicle uses (the tables are in `proto::modes`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ModeTable {
     ArduCopter,
