@@ -310,6 +310,26 @@ pub fn wait(r: &mut mavterm::driver::virtual_time::VirtualRunner, secs: f64) {
     r.advance_to(t);
 }
 
+/// The frames the core sent in `fx`.
+pub fn sent_frames(fx: &[mavterm::app::Effect]) -> Vec<Vec<u8>> {
+    fx.iter()
+        .filter_map(|e| match e {
+            mavterm::app::Effect::Send { frame, .. } => Some(frame.clone()),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The messages the core sent in `fx`.
+pub fn sent_messages(fx: &[mavterm::app::Effect]) -> Vec<mavterm::dialect::MavMessage> {
+    fx.iter()
+        .filter_map(|e| match e {
+            mavterm::app::Effect::Send { msg, .. } => Some(msg.clone()),
+            _ => None,
+        })
+        .collect()
+}
+
 /// The simulator behind link 0.
 pub fn sim(r: &mavterm::driver::virtual_time::VirtualRunner) -> &mavterm::sim::Sim {
     r.source(0)
