@@ -160,6 +160,11 @@ pub fn sim_server(port: u16, options: &str) -> ChildGuard {
 
 /// A HEARTBEAT frame of an ArduCopter (STANDBY) from `sysid`:1 with `custom_mode`.
 pub fn copter_heartbeat(sysid: u8, seq: u8, custom_mode: u32) -> Vec<u8> {
+    copter_heartbeat_from(sysid, 1, seq, custom_mode)
+}
+
+/// A HEARTBEAT frame of an ArduCopter (STANDBY) from `sysid`:`compid` with `custom_mode`.
+pub fn copter_heartbeat_from(sysid: u8, compid: u8, seq: u8, custom_mode: u32) -> Vec<u8> {
     use mavterm::dialect::{self, MavMessage};
     use mavterm::wire::frame::{encode, Header, Version};
     let msg = MavMessage::HEARTBEAT(dialect::HEARTBEAT_DATA {
@@ -170,15 +175,17 @@ pub fn copter_heartbeat(sysid: u8, seq: u8, custom_mode: u32) -> Vec<u8> {
         system_status: dialect::MavState::MAV_STATE_STANDBY,
         mavlink_version: 3,
     });
-    encode(
-        Version::V2,
-        Header {
-            sysid,
-            compid: 1,
-            seq,
-        },
-        &msg,
-    )
+    encode(Version::V2, Header { sysid, compid, seq }, &msg)
+}
+
+/// Make a FIFO at `path` with `mkfifo`.
+#[cfg(unix)]
+pub fn mkfifo(path: &std::path::Path) {
+    assert!(std::process::Command::new("mkfifo")
+        .arg(path)
+        .status()
+        .unwrap()
+        .success());
 }
 
 /// Run `tests/py/frames.py MODE` on `lines` (one per line in, one per line out).
