@@ -43,23 +43,8 @@ fn params_out(port: u16, duration: &str, out: &Path) -> Output {
 fn run_script(dir: &Path, port: u16, script: &str, extra: &[&OsStr]) -> serde_json::Value {
     let path = dir.join("script.txt");
     std::fs::write(&path, script).unwrap();
-    let run = Command::new(common::mavterm())
-        .args([
-            "--link",
-            &format!("tcp:127.0.0.1:{port}"),
-            "--headless",
-            "--input",
-        ])
-        .arg(&path)
-        .args(["--report", "json"])
-        .args(extra)
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    let report = [OsStr::new("--report"), OsStr::new("json")];
+    let run = common::headless_tcp(port, &path, report.iter().chain(extra));
     serde_json::from_slice(&run.stdout).unwrap()
 }
 

@@ -337,6 +337,32 @@ pub fn sent_messages(fx: &[mavterm::app::Effect]) -> Vec<mavterm::dialect::MavMe
         .collect()
 }
 
+/// Run the `mavterm` binary headless on `tcp:127.0.0.1:PORT`, replaying `script` (`--input`),
+/// with `extra` arguments after; it must succeed. Returns its output.
+pub fn headless_tcp<S: AsRef<std::ffi::OsStr>>(
+    port: u16,
+    script: &std::path::Path,
+    extra: impl IntoIterator<Item = S>,
+) -> std::process::Output {
+    let out = std::process::Command::new(mavterm())
+        .args([
+            "--link",
+            &format!("tcp:127.0.0.1:{port}"),
+            "--headless",
+            "--input",
+        ])
+        .arg(script)
+        .args(extra)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
 /// The simulator behind link 0.
 pub fn sim(r: &mavterm::driver::virtual_time::VirtualRunner) -> &mavterm::sim::Sim {
     r.source(0)
