@@ -33,19 +33,7 @@ use common::sent_messages as sent;
 /// parameter download beyond the flood budget, and tells of the flood once.
 #[test]
 fn a_heartbeat_flood_keeps_the_target_and_the_real_vehicle() {
-    let mut a = App::new(AppConfig {
-        links: vec!["sim".into(), "udp".into()],
-        ..AppConfig::default()
-    });
-    for link in 0..2 {
-        a.update(
-            0,
-            Event::LinkState {
-                link,
-                state: LinkState::Up,
-            },
-        );
-    }
+    let mut a = two_links();
     feed(&mut a, 0, 0, &heartbeat(1, 1, 0));
     assert_eq!(a.target, Some((1, 1)));
     let mut list_requests = Vec::new();

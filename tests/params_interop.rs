@@ -362,6 +362,17 @@ fn an_echo_whose_raw_bits_differ_is_not_confirmed() {
     assert_eq!(sets["AP_I16_001"], 2);
 }
 
+/// The stand-in's arguments for a PX4 (bytewise) vehicle whose HEARTBEAT says ArduPilot, with no
+/// MAVFTP parameter file.
+const BYTEWISE_AS_ARDUPILOT: [&str; 6] = [
+    "--autopilot",
+    "px4",
+    "--heartbeat",
+    "ardupilot",
+    "--ftp",
+    "nak",
+];
+
 /// A vehicle announcing ArduPilot whose values come bytewise, with no AUTOPILOT_VERSION to say
 /// so: the first impossible C-cast float is told once as "encoding looks wrong", and `param
 /// encoding bytewise` at the prompt reads every value right.
@@ -369,18 +380,7 @@ fn an_echo_whose_raw_bits_differ_is_not_confirmed() {
 fn encoding_that_looks_wrong_is_told_and_switched_at_the_prompt() {
     let dir = tempfile::tempdir().unwrap();
     let port = common::free_tcp_port();
-    let _v = fake(
-        port,
-        dir.path(),
-        &[
-            "--autopilot",
-            "px4",
-            "--heartbeat",
-            "ardupilot",
-            "--ftp",
-            "nak",
-        ],
-    );
+    let _v = fake(port, dir.path(), &BYTEWISE_AS_ARDUPILOT);
     let r = replay_screens(dir.path(), port, "5 quit\n");
     let suspect = r["params"][0]["encoding_suspect"].as_str().unwrap_or("");
     assert!(suspect.contains("bytewise it would be"), "{r}");
@@ -388,18 +388,7 @@ fn encoding_that_looks_wrong_is_told_and_switched_at_the_prompt() {
     drop(_v);
     // Again, switched at the prompt: every INT32 as the vehicle holds it.
     let port = common::free_tcp_port();
-    let _v = fake(
-        port,
-        dir.path(),
-        &[
-            "--autopilot",
-            "px4",
-            "--heartbeat",
-            "ardupilot",
-            "--ftp",
-            "nak",
-        ],
-    );
+    let _v = fake(port, dir.path(), &BYTEWISE_AS_ARDUPILOT);
     let out = dir.path().join("after.parm");
     let script = format!(
         "5 text \":param encoding bytewise\\n\"\n5.5 text \":param save {}\\n\"\n6.5 quit\n",
