@@ -3,7 +3,7 @@
 
 mod common;
 
-use std::process::Command;
+use std::ffi::OsStr;
 
 #[test]
 fn guided_arm_takeoff_over_tcp_in_real_time() {
@@ -28,23 +28,8 @@ fn guided_arm_takeoff_over_tcp_in_real_time() {
     )
     .unwrap();
     let screens = dir.path().join("screens");
-    let out = Command::new(common::mavterm())
-        .args([
-            "--link",
-            &format!("tcp:127.0.0.1:{port}"),
-            "--headless",
-            "--input",
-        ])
-        .arg(&script)
-        .args(["--size", "100x30", "--screens"])
-        .arg(&screens)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let size = ["--size", "100x30", "--screens"].map(OsStr::new);
+    common::headless_tcp(port, &script, size.into_iter().chain([screens.as_os_str()]));
     let overview = std::fs::read_to_string(screens.join("overview.txt")).unwrap();
     assert!(
         overview.contains("GUIDED") && overview.contains("ARMED"),

@@ -1,5 +1,7 @@
 //! Hostile links, vehicles and files (issue 30): each reproduction of the fault probe, bounded.
 
+mod common;
+
 use mavlink::Message;
 use mavterm::app::{App, AppConfig, Effect, Event};
 use mavterm::clock::{Micros, SECOND};
@@ -8,15 +10,7 @@ use mavterm::link::{FrameParser, LinkState, ParserStats};
 use mavterm::wire::frame::{encode, Header, Version};
 
 fn heartbeat(sysid: u8, compid: u8, seq: u8) -> Vec<u8> {
-    let msg = MavMessage::HEARTBEAT(dialect::HEARTBEAT_DATA {
-        custom_mode: 0,
-        mavtype: dialect::MavType::MAV_TYPE_QUADROTOR,
-        autopilot: dialect::MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
-        base_mode: dialect::MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
-        system_status: dialect::MavState::MAV_STATE_STANDBY,
-        mavlink_version: 3,
-    });
-    encode(Version::V2, Header { sysid, compid, seq }, &msg)
+    common::copter_heartbeat_from(sysid, compid, seq, 0)
 }
 
 fn feed(app: &mut App, now: Micros, link: usize, bytes: &[u8]) -> Vec<Effect> {
@@ -32,34 +26,14 @@ fn feed(app: &mut App, now: Micros, link: usize, bytes: &[u8]) -> Vec<Effect> {
     )
 }
 
-/// Every message the core sent in `fx`.
-fn sent(fx: &[Effect]) -> Vec<MavMessage> {
-    fx.iter()
-        .filter_map(|e| match e {
-            Effect::Send { msg, .. } => Some(msg.clone()),
-            _ => None,
-        })
-        .collect()
-}
+use common::sent_messages as sent;
 
 /// Item 1: a second, unsigned link carrying heartbeats from spoofed ids never takes the
 /// target away, never evicts the real vehicle (busy downloading its parameters), starts no
 /// parameter download beyond the flood budget, and tells of the flood once.
 #[test]
 fn a_heartbeat_flood_keeps_the_target_and_the_real_vehicle() {
-    let mut a = App::new(AppConfig {
-        links: vec!["sim".into(), "udp".into()],
-        ..AppConfig::default()
-    });
-    for link in 0..2 {
-        a.update(
-            0,
-            Event::LinkState {
-                link,
-                state: LinkState::Up,
-            },
-        );
-    }
+    let mut a = two_links();
     feed(&mut a, 0, 0, &heartbeat(1, 1, 0));
     assert_eq!(a.target, Some((1, 1)));
     let mut list_requests = Vec::new();
@@ -291,11 +265,7 @@ fn atomic_saves_keep_links_modes_special_files_and_other_files() {
 
     // A FIFO is refused (without blocking) and stays a FIFO.
     let fifo = d.join("fifo.parm");
-    assert!(std::process::Command::new("mkfifo")
-        .arg(&fifo)
-        .status()
-        .unwrap()
-        .success());
+    common::mkfifo(&fifo);
     assert!(write_atomic(&fifo, b"x").is_err());
     assert!(std::fs::symlink_metadata(&fifo)
         .unwrap()
@@ -373,11 +343,7 @@ fn loading_a_fifo_is_refused_without_blocking() {
     use mavterm::driver::virtual_time::VirtualRunner;
     let dir = tempfile::tempdir().unwrap();
     let fifo = dir.path().join("x.parm");
-    assert!(std::process::Command::new("mkfifo")
-        .arg(&fifo)
-        .status()
-        .unwrap()
-        .success());
+    common::mkfifo(&fifo);
     let (tx, rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
         let spec = "sim://".parse().unwrap();
@@ -832,11 +798,7 @@ fn a_busy_non_target_vehicle_survives_a_flood() {
 fn a_fifo_as_input_keymap_or_config_is_refused_at_once() {
     let dir = tempfile::tempdir().unwrap();
     let fifo = dir.path().join("pipe");
-    assert!(std::process::Command::new("mkfifo")
-        .arg(&fifo)
-        .status()
-        .unwrap()
-        .success());
+    common::mkfifo(&fifo);
     let script = dir.path().join("empty.txt");
     std::fs::write(&script, "").unwrap();
     let f = fifo.to_str().unwrap();

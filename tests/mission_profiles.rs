@@ -6,8 +6,8 @@
 
 mod common;
 
+use std::ffi::OsStr;
 use std::path::Path;
-use std::process::Command;
 
 /// The stand-in as `autopilot` with `extra` arguments; a download, the Mission screen, then the
 /// square mission loaded and uploaded, and the file's row 2 (its second waypoint) made current
@@ -40,23 +40,8 @@ fn run(autopilot: &str, extra: &[&str]) -> (String, Vec<Vec<Vec<f64>>>, Vec<u64>
     let path = dir.path().join("script.txt");
     std::fs::write(&path, script).unwrap();
     let screens = dir.path().join("screens");
-    let out = Command::new(common::mavterm())
-        .args([
-            "--link",
-            &format!("tcp:127.0.0.1:{port}"),
-            "--headless",
-            "--input",
-        ])
-        .arg(&path)
-        .args(["--size", "120x30", "--screens"])
-        .arg(&screens)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let size = ["--size", "120x30", "--screens"].map(OsStr::new);
+    common::headless_tcp(port, &path, size.into_iter().chain([screens.as_os_str()]));
     let screen = std::fs::read_to_string(screens.join("downloaded.txt")).unwrap();
     if std::env::var("PEEK").is_ok() {
         eprintln!("{screen}");

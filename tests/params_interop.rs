@@ -6,8 +6,9 @@
 mod common;
 
 use std::collections::BTreeMap;
+use std::ffi::OsStr;
 use std::path::Path;
-use std::process::Command;
+use std::process::{Command, Output};
 
 use common::ChildGuard;
 
@@ -18,6 +19,33 @@ fn fake(port: u16, dir: &Path, args: &[&str]) -> ChildGuard {
     a.extend(["--log-out".into(), dir.join("sets.json").into()]);
     a.extend(args.iter().map(|s| s.into()));
     common::stand_in("fake_param_vehicle.py", &a)
+}
+
+/// Download headless from the stand-in on `port` into `out` with `--params-out`, for `duration`
+/// seconds at most.
+fn params_out(port: u16, duration: &str, out: &Path) -> Output {
+    Command::new(common::mavterm())
+        .args([
+            "--link",
+            &format!("tcp:127.0.0.1:{port}"),
+            "--headless",
+            "--duration",
+            duration,
+        ])
+        .arg("--params-out")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
+/// Write `script` to `dir/script.txt`, replay it headless against the stand-in on `port` with
+/// `--report json` and then `extra`; it must succeed. Returns the JSON report.
+fn run_script(dir: &Path, port: u16, script: &str, extra: &[&OsStr]) -> serde_json::Value {
+    let path = dir.join("script.txt");
+    std::fs::write(&path, script).unwrap();
+    let report = [OsStr::new("--report"), OsStr::new("json")];
+    let run = common::headless_tcp(port, &path, report.iter().chain(extra));
+    serde_json::from_slice(&run.stdout).unwrap()
 }
 
 /// The stand-in's table: name -> (value, MAV_PARAM_TYPE).
@@ -56,18 +84,7 @@ fn download_matches(args: &[&str]) -> String {
     let port = common::free_tcp_port();
     let _v = fake(port, dir.path(), args);
     let out = dir.path().join("got.parm");
-    let run = Command::new(common::mavterm())
-        .args([
-            "--link",
-            &format!("tcp:127.0.0.1:{port}"),
-            "--headless",
-            "--duration",
-            "40",
-        ])
-        .arg("--params-out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let run = params_out(port, "40", &out);
     let stderr = String::from_utf8_lossy(&run.stderr).to_string();
     assert!(run.status.success(), "{args:?}: {stderr}");
     let want = table(dir.path());
@@ -147,26 +164,12 @@ fn replay(args: &[&str], script: &str) -> (serde_json::Value, BTreeMap<String, u
     let dir = tempfile::tempdir().unwrap();
     let port = common::free_tcp_port();
     let _v = fake(port, dir.path(), args);
-    let path = dir.path().join("script.txt");
-    std::fs::write(&path, script).unwrap();
-    let run = Command::new(common::mavterm())
-        .args([
-            "--link",
-            &format!("tcp:127.0.0.1:{port}"),
-            "--headless",
-            "--input",
-        ])
-        .arg(&path)
-        .args(["--report", "json", "--screens"])
-        .arg(dir.path())
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+    let report = run_script(
+        dir.path(),
+        port,
+        script,
+        &[OsStr::new("--screens"), dir.path().as_os_str()],
     );
-    let report: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
     let sets = std::fs::read_to_string(dir.path().join("sets.json"))
         .map(|t| serde_json::from_str::<BTreeMap<String, u64>>(&t).unwrap())
         .unwrap_or_default();
@@ -227,18 +230,7 @@ fn params_out_exits_non_zero_with_the_missing_count() {
     let port = common::free_tcp_port();
     let _v = fake(port, dir.path(), &["--caps", "8192", "--loss", "1.0"]);
     let out = dir.path().join("got.parm");
-    let run = Command::new(common::mavterm())
-        .args([
-            "--link",
-            &format!("tcp:127.0.0.1:{port}"),
-            "--headless",
-            "--duration",
-            "15",
-        ])
-        .arg("--params-out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let run = params_out(port, "15", &out);
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(!run.status.success(), "{stderr}");
     assert!(!out.exists());
@@ -259,43 +251,16 @@ fn a_generic_vehicle_s_bytewise_int32_values_read_exactly() {
     assert!(!err.contains("MAVFTP"), "{err}");
 }
 
-/// Written to the generic vehicle: each value arrives exact (the stand-in decodes bytewise, as
-/// the protocol says) and its echo is confirmed.
-#[test]
-fn a_generic_vehicle_s_int32_values_are_written_exactly() {
+/// Replay `script` against a generic (bytewise) stand-in; each `(name, value)` of `want` must
+/// arrive exactly in the stand-in's table and its edit be confirmed with that vehicle value.
+/// Returns the JSON report.
+fn write_generic(script: &str, want: &[(&str, f64)]) -> serde_json::Value {
     let dir = tempfile::tempdir().unwrap();
     let port = common::free_tcp_port();
     let _v = fake(port, dir.path(), &["--autopilot", "generic"]);
-    let script = "3 text \":param set INT_BIG 16777219\\n\"\n\
-                  3.2 text \":param set INT_NEG_BIG -2147483647\\n\"\n\
-                  3.4 text \":param set INT_MAX 2147483646\\n\"\n\
-                  3.6 text \":param set INT_ONE 5\\n\"\n\
-                  3.8 text \":param set INT_MINUS1 -2\\n\"\n\
-                  8 quit\n";
-    let path = dir.path().join("script.txt");
-    std::fs::write(&path, script).unwrap();
-    let run = Command::new(common::mavterm())
-        .args([
-            "--link",
-            &format!("tcp:127.0.0.1:{port}"),
-            "--headless",
-            "--input",
-        ])
-        .arg(&path)
-        .args(["--report", "json"])
-        .output()
-        .unwrap();
-    assert!(run.status.success());
-    let report: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
-    let want = [
-        ("INT_BIG", 16_777_219.0),
-        ("INT_NEG_BIG", -2_147_483_647.0),
-        ("INT_MAX", 2_147_483_646.0),
-        ("INT_ONE", 5.0),
-        ("INT_MINUS1", -2.0),
-    ];
+    let report = run_script(dir.path(), port, script, &[]);
     let held = table(dir.path());
-    for (name, v) in want {
+    for &(name, v) in want {
         assert_eq!(
             held[name].0, v,
             "{name}: the vehicle holds {}",
@@ -305,6 +270,27 @@ fn a_generic_vehicle_s_int32_values_are_written_exactly() {
         assert_eq!(e["state"], "confirmed", "{e}");
         assert_eq!(e["vehicle_value"], v, "{e}");
     }
+    report
+}
+
+/// Written to the generic vehicle: each value arrives exact (the stand-in decodes bytewise, as
+/// the protocol says) and its echo is confirmed.
+#[test]
+fn a_generic_vehicle_s_int32_values_are_written_exactly() {
+    let script = "3 text \":param set INT_BIG 16777219\\n\"\n\
+                  3.2 text \":param set INT_NEG_BIG -2147483647\\n\"\n\
+                  3.4 text \":param set INT_MAX 2147483646\\n\"\n\
+                  3.6 text \":param set INT_ONE 5\\n\"\n\
+                  3.8 text \":param set INT_MINUS1 -2\\n\"\n\
+                  8 quit\n";
+    let want = [
+        ("INT_BIG", 16_777_219.0),
+        ("INT_NEG_BIG", -2_147_483_647.0),
+        ("INT_MAX", 2_147_483_646.0),
+        ("INT_ONE", 5.0),
+        ("INT_MINUS1", -2.0),
+    ];
+    let report = write_generic(script, &want);
     assert_eq!(report["params"][0]["encoding"], "bytewise");
 }
 
@@ -313,70 +299,30 @@ fn a_generic_vehicle_s_int32_values_are_written_exactly() {
 /// the stand-in's own table, and each echo is confirmed.
 #[test]
 fn a_generic_vehicle_takes_minus_one_2_24_plus_1_and_the_int32_limits_exactly() {
-    let dir = tempfile::tempdir().unwrap();
-    let port = common::free_tcp_port();
-    let _v = fake(port, dir.path(), &["--autopilot", "generic"]);
     let script = "3 text \":param set INT_ONE -1\\n\"\n\
                   3.2 text \":param set INT_MINUS1 16777217\\n\"\n\
                   3.4 text \":param set INT_BIG 2147483647\\n\"\n\
                   3.6 text \":param set INT_MAX -2147483648\\n\"\n\
                   8 quit\n";
-    let path = dir.path().join("script.txt");
-    std::fs::write(&path, script).unwrap();
-    let run = Command::new(common::mavterm())
-        .args([
-            "--link",
-            &format!("tcp:127.0.0.1:{port}"),
-            "--headless",
-            "--input",
-        ])
-        .arg(&path)
-        .args(["--report", "json"])
-        .output()
-        .unwrap();
-    assert!(run.status.success());
-    let report: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
     let want = [
         ("INT_ONE", -1.0),
         ("INT_MINUS1", 16_777_217.0),
         ("INT_BIG", 2_147_483_647.0),
         ("INT_MAX", -2_147_483_648.0),
     ];
-    let held = table(dir.path());
-    for (name, v) in want {
-        assert_eq!(
-            held[name].0, v,
-            "{name}: the vehicle holds {}",
-            held[name].0
-        );
-        let e = edit(&report, name);
-        assert_eq!(e["state"], "confirmed", "{e}");
-        assert_eq!(e["vehicle_value"], v, "{e}");
-    }
+    write_generic(script, &want);
 }
 
 /// Run `script` with screens saved to `dir/screens` at 160 columns; returns the report.
 fn replay_screens(dir: &Path, port: u16, script: &str) -> serde_json::Value {
-    let path = dir.join("script.txt");
-    std::fs::write(&path, script).unwrap();
-    let run = Command::new(common::mavterm())
-        .args([
-            "--link",
-            &format!("tcp:127.0.0.1:{port}"),
-            "--headless",
-            "--input",
-        ])
-        .arg(&path)
-        .args(["--report", "json", "--size", "160x30", "--screens"])
-        .arg(dir.join("screens"))
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
-    serde_json::from_slice(&run.stdout).unwrap()
+    let screens = dir.join("screens");
+    let extra = ["--size", "160x30", "--screens"].map(OsStr::new);
+    run_script(
+        dir,
+        port,
+        script,
+        &[extra[0], extra[1], extra[2], screens.as_os_str()],
+    )
 }
 
 /// C-cast (ArduPilot) carries whole numbers exactly only up to 2^24: 2^24+1 is refused before
@@ -416,6 +362,17 @@ fn an_echo_whose_raw_bits_differ_is_not_confirmed() {
     assert_eq!(sets["AP_I16_001"], 2);
 }
 
+/// The stand-in's arguments for a PX4 (bytewise) vehicle whose HEARTBEAT says ArduPilot, with no
+/// MAVFTP parameter file.
+const BYTEWISE_AS_ARDUPILOT: [&str; 6] = [
+    "--autopilot",
+    "px4",
+    "--heartbeat",
+    "ardupilot",
+    "--ftp",
+    "nak",
+];
+
 /// A vehicle announcing ArduPilot whose values come bytewise, with no AUTOPILOT_VERSION to say
 /// so: the first impossible C-cast float is told once as "encoding looks wrong", and `param
 /// encoding bytewise` at the prompt reads every value right.
@@ -423,18 +380,7 @@ fn an_echo_whose_raw_bits_differ_is_not_confirmed() {
 fn encoding_that_looks_wrong_is_told_and_switched_at_the_prompt() {
     let dir = tempfile::tempdir().unwrap();
     let port = common::free_tcp_port();
-    let _v = fake(
-        port,
-        dir.path(),
-        &[
-            "--autopilot",
-            "px4",
-            "--heartbeat",
-            "ardupilot",
-            "--ftp",
-            "nak",
-        ],
-    );
+    let _v = fake(port, dir.path(), &BYTEWISE_AS_ARDUPILOT);
     let r = replay_screens(dir.path(), port, "5 quit\n");
     let suspect = r["params"][0]["encoding_suspect"].as_str().unwrap_or("");
     assert!(suspect.contains("bytewise it would be"), "{r}");
@@ -442,18 +388,7 @@ fn encoding_that_looks_wrong_is_told_and_switched_at_the_prompt() {
     drop(_v);
     // Again, switched at the prompt: every INT32 as the vehicle holds it.
     let port = common::free_tcp_port();
-    let _v = fake(
-        port,
-        dir.path(),
-        &[
-            "--autopilot",
-            "px4",
-            "--heartbeat",
-            "ardupilot",
-            "--ftp",
-            "nak",
-        ],
-    );
+    let _v = fake(port, dir.path(), &BYTEWISE_AS_ARDUPILOT);
     let out = dir.path().join("after.parm");
     let script = format!(
         "5 text \":param encoding bytewise\\n\"\n5.5 text \":param save {}\\n\"\n6.5 quit\n",

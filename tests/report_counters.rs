@@ -1,24 +1,17 @@
 //! The JSON report says what the bounded tables and queues let go: frames dropped, our own frames
 //! echoed back, sources evicted per link, and vehicles evicted.
 
+mod common;
+
 use mavterm::app::links::MAX_SOURCES;
 use mavterm::app::{App, AppConfig, Effect, Event};
 use mavterm::clock::SECOND;
-use mavterm::dialect::{self, MavMessage};
+use mavterm::dialect::MavMessage;
 use mavterm::link::{FrameParser, LinkState, ParserStats};
 use mavterm::proto::vehicles::MAX_COMPONENTS;
-use mavterm::wire::frame::{encode, Header, Version};
 
 fn heartbeat(sysid: u8, compid: u8, seq: u8) -> Vec<u8> {
-    let msg = MavMessage::HEARTBEAT(dialect::HEARTBEAT_DATA {
-        custom_mode: 0,
-        mavtype: dialect::MavType::MAV_TYPE_QUADROTOR,
-        autopilot: dialect::MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
-        base_mode: dialect::MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
-        system_status: dialect::MavState::MAV_STATE_STANDBY,
-        mavlink_version: 3,
-    });
-    encode(Version::V2, Header { sysid, compid, seq }, &msg)
+    common::copter_heartbeat_from(sysid, compid, seq, 0)
 }
 
 fn feed(app: &mut App, now: u64, bytes: &[u8]) -> Vec<Effect> {
@@ -34,15 +27,7 @@ fn feed(app: &mut App, now: u64, bytes: &[u8]) -> Vec<Effect> {
     )
 }
 
-/// The frames the core sent in `fx`.
-fn sent(fx: &[Effect]) -> Vec<Vec<u8>> {
-    fx.iter()
-        .filter_map(|e| match e {
-            Effect::Send { frame, .. } => Some(frame.clone()),
-            _ => None,
-        })
-        .collect()
-}
+use common::sent_frames as sent;
 
 #[test]
 fn report_counts_drops_echoes_and_evictions() {

@@ -7,7 +7,7 @@ mod common;
 
 use common::{command, sim, wait};
 
-use mavterm::app::{App, AppConfig, Effect, Event};
+use mavterm::app::{App, AppConfig, Event};
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::keymap::Key;
 use mavterm::link::{FrameParser, LinkSpec, ParserStats};
@@ -116,6 +116,11 @@ fn key_repeat_double_press_and_typed_ahead_keys_do_not_arm() {
     let arm = commands(&out, 400);
     assert_eq!(arm.len(), 1, "{out:?}");
     assert_eq!(arm[0]["param1"], 1.0);
+    armed_at_1_1(&r, &arm);
+}
+
+/// The one ARM in `arm` went to 1:1, and the simulated vehicle is armed.
+fn armed_at_1_1(r: &VirtualRunner, arm: &[Value]) {
     assert_eq!(
         (
             arm[0]["target_system"].as_u64(),
@@ -123,7 +128,7 @@ fn key_repeat_double_press_and_typed_ahead_keys_do_not_arm() {
         ),
         (Some(1), Some(1))
     );
-    assert!(sim(&r).vehicle(1).unwrap().armed());
+    assert!(sim(r).vehicle(1).unwrap().armed());
 }
 
 #[test]
@@ -289,14 +294,7 @@ impl Bench {
     }
 }
 
-fn sends(fx: &[Effect]) -> Vec<Vec<u8>> {
-    fx.iter()
-        .filter_map(|e| match e {
-            Effect::Send { frame, .. } => Some(frame.clone()),
-            _ => None,
-        })
-        .collect()
-}
+use common::sent_frames as sends;
 
 #[test]
 fn a_question_expires_after_10_s() {
@@ -1113,14 +1111,7 @@ fn enter_confirms_only_on_a_highlighted_yes_and_not_as_the_key_that_asked() {
     wait(&mut r, 2.0);
     let arm = arms(&mut r);
     assert_eq!(arm.len(), 1, "{arm:?}");
-    assert_eq!(
-        (
-            arm[0]["target_system"].as_u64(),
-            arm[0]["target_component"].as_u64()
-        ),
-        (Some(1), Some(1))
-    );
-    assert!(sim(&r).vehicle(1).unwrap().armed());
+    armed_at_1_1(&r, &arm);
 }
 
 #[test]

@@ -870,6 +870,15 @@ fn a_frame_from_the_future_on_a_trusted_link_is_taken_but_moves_no_clock() {
     assert!(ts[0] < spec_ts(SECOND) + 100, "{ts:?}");
 }
 
+/// Set `path`'s modification time to `EPOCH_UNIX`, as if the wall clock wrote it then.
+fn modified_at_epoch(path: &std::path::Path) {
+    let file = std::fs::File::options().write(true).open(path).unwrap();
+    file.set_modified(
+        std::time::SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(EPOCH_UNIX as u64),
+    )
+    .unwrap();
+}
+
 #[test]
 fn a_poisoned_state_file_is_repaired_at_start() {
     use mavterm::signing_store::{load_state, signing_config};
@@ -878,12 +887,7 @@ fn a_poisoned_state_file_is_repaired_at_start() {
     let path = dir.path().join("signing.json");
     // What the probe left: the end of time, written by a clock that read "now".
     std::fs::write(&path, "{\"timestamp\": 281474976710655}").unwrap();
-    let file = std::fs::File::options().write(true).open(&path).unwrap();
-    file.set_modified(
-        std::time::SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(EPOCH_UNIX as u64),
-    )
-    .unwrap();
-    drop(file);
+    modified_at_epoch(&path);
     let cfg = signing_config(PASS, false, Some(path.clone())).unwrap();
     assert_eq!(cfg.saved_timestamp, MAX_TIMESTAMP);
     let (mut a, fx) = app_with_fx(&["udpin:0.0.0.0:14550"], Some(cfg), EPOCH_UNIX);
@@ -929,12 +933,7 @@ fn a_poisoned_state_file_is_repaired_at_start() {
     // kept, and ours start after it, silently.
     let ahead = spec_ts(0) + 80 * 100_000;
     std::fs::write(&path, format!("{{\"timestamp\": {ahead}}}")).unwrap();
-    let file = std::fs::File::options().write(true).open(&path).unwrap();
-    file.set_modified(
-        std::time::SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(EPOCH_UNIX as u64),
-    )
-    .unwrap();
-    drop(file);
+    modified_at_epoch(&path);
     let cfg = signing_config(PASS, false, Some(path.clone())).unwrap();
     let mut b = app_with(&["udpin:0.0.0.0:14550"], Some(cfg), EPOCH_UNIX);
     assert!(!notices(&b).iter().any(|t| t.contains("repaired")));

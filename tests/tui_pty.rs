@@ -161,14 +161,16 @@ enum Step<'a> {
     /// `kill -SIG` the child (its pid from `ready` + `.pid`), as sshd does when the session drops.
     Signal(&'a str),
 }
-fn under_pty_with(child: &str, typing: Typing, env: &[(&str, String)]) -> (bool, String) {
+/// Start this test binary's ignored test `child` under util-linux `script` (a pty of 100x30,
+/// TERM xterm-256color, `env` added), its stdio piped.
+fn spawn_under_script(child: &str, env: &[(&str, String)]) -> std::process::Child {
     let exe = std::env::current_exe().unwrap();
     // The pty has no size until told; 0x0 would draw nothing.
     let cmd = format!(
         "stty cols 100 rows 30; {} --ignored --exact --nocapture {child}",
         exe.display()
     );
-    let mut p = Command::new("script")
+    Command::new("script")
         .args(["-qec", &cmd, "/dev/null"])
         .envs(env.iter().map(|(k, v)| (*k, v.as_str())))
         .env("TERM", "xterm-256color")
@@ -176,7 +178,20 @@ fn under_pty_with(child: &str, typing: Typing, env: &[(&str, String)]) -> (bool,
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
-        .expect("util-linux `script` is needed for the pty tests");
+        .expect("util-linux `script` is needed for the pty tests")
+}
+
+/// Close the child's stdin and wait for it: (success, stdout then stderr).
+fn finish(p: std::process::Child, stdin: std::process::ChildStdin) -> (bool, String) {
+    drop(stdin);
+    let out = p.wait_with_output().unwrap();
+    let text =
+        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    (out.status.success(), text)
+}
+
+fn under_pty_with(child: &str, typing: Typing, env: &[(&str, String)]) -> (bool, String) {
+    let mut p = spawn_under_script(child, env);
     let mut stdin = p.stdin.take().unwrap();
     // Type `input` every half second until the child exits: a slow machine may not be in raw
     // mode yet the first time.
@@ -223,11 +238,7 @@ fn under_pty_with(child: &str, typing: Typing, env: &[(&str, String)]) -> (bool,
         }
         std::thread::sleep(Duration::from_millis(20));
     }
-    drop(stdin);
-    let out = p.wait_with_output().unwrap();
-    let text =
-        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
-    (out.status.success(), text)
+    finish(p, stdin)
 }
 
 #[test]
@@ -556,19 +567,7 @@ fn a_panic_during_a_nudge_sends_the_stop_before_the_process_ends() {
 /// Run `child` under `script`, writing `chunks` 300 ms apart (over again until it exits, a slow
 /// machine may not be in raw mode the first time); returns (success, output).
 fn under_pty_chunks(child: &str, chunks: &[Vec<u8>]) -> (bool, String) {
-    let exe = std::env::current_exe().unwrap();
-    let cmd = format!(
-        "stty cols 100 rows 30; {} --ignored --exact --nocapture {child}",
-        exe.display()
-    );
-    let mut p = Command::new("script")
-        .args(["-qec", &cmd, "/dev/null"])
-        .env("TERM", "xterm-256color")
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("util-linux `script` is needed for the pty tests");
+    let mut p = spawn_under_script(child, &[]);
     let mut stdin = p.stdin.take().unwrap();
     let start = Instant::now();
     let mut next = start + Duration::from_millis(500);
@@ -584,11 +583,7 @@ fn under_pty_chunks(child: &str, chunks: &[Vec<u8>]) -> (bool, String) {
         }
         std::thread::sleep(Duration::from_millis(20));
     }
-    drop(stdin);
-    let out = p.wait_with_output().unwrap();
-    let text =
-        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
-    (out.status.success(), text)
+    finish(p, stdin)
 }
 
 /// Item 7 (issue 30): ~1 kB pasted into the `:` prompt, bracketed as a terminal pastes it, is one

@@ -160,6 +160,11 @@ pub fn sim_server(port: u16, options: &str) -> ChildGuard {
 
 /// A HEARTBEAT frame of an ArduCopter (STANDBY) from `sysid`:1 with `custom_mode`.
 pub fn copter_heartbeat(sysid: u8, seq: u8, custom_mode: u32) -> Vec<u8> {
+    copter_heartbeat_from(sysid, 1, seq, custom_mode)
+}
+
+/// A HEARTBEAT frame of an ArduCopter (STANDBY) from `sysid`:`compid` with `custom_mode`.
+pub fn copter_heartbeat_from(sysid: u8, compid: u8, seq: u8, custom_mode: u32) -> Vec<u8> {
     use mavterm::dialect::{self, MavMessage};
     use mavterm::wire::frame::{encode, Header, Version};
     let msg = MavMessage::HEARTBEAT(dialect::HEARTBEAT_DATA {
@@ -170,15 +175,17 @@ pub fn copter_heartbeat(sysid: u8, seq: u8, custom_mode: u32) -> Vec<u8> {
         system_status: dialect::MavState::MAV_STATE_STANDBY,
         mavlink_version: 3,
     });
-    encode(
-        Version::V2,
-        Header {
-            sysid,
-            compid: 1,
-            seq,
-        },
-        &msg,
-    )
+    encode(Version::V2, Header { sysid, compid, seq }, &msg)
+}
+
+/// Make a FIFO at `path` with `mkfifo`.
+#[cfg(unix)]
+pub fn mkfifo(path: &std::path::Path) {
+    assert!(std::process::Command::new("mkfifo")
+        .arg(path)
+        .status()
+        .unwrap()
+        .success());
 }
 
 /// Run `tests/py/frames.py MODE` on `lines` (one per line in, one per line out).
@@ -308,6 +315,52 @@ pub fn command(r: &mut mavterm::driver::virtual_time::VirtualRunner, line: &str)
 pub fn wait(r: &mut mavterm::driver::virtual_time::VirtualRunner, secs: f64) {
     let t = r.now() + (secs * 1_000_000.0) as u64;
     r.advance_to(t);
+}
+
+/// The frames the core sent in `fx`.
+pub fn sent_frames(fx: &[mavterm::app::Effect]) -> Vec<Vec<u8>> {
+    fx.iter()
+        .filter_map(|e| match e {
+            mavterm::app::Effect::Send { frame, .. } => Some(frame.clone()),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The messages the core sent in `fx`.
+pub fn sent_messages(fx: &[mavterm::app::Effect]) -> Vec<mavterm::dialect::MavMessage> {
+    fx.iter()
+        .filter_map(|e| match e {
+            mavterm::app::Effect::Send { msg, .. } => Some(msg.clone()),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Run the `mavterm` binary headless on `tcp:127.0.0.1:PORT`, replaying `script` (`--input`),
+/// with `extra` arguments after; it must succeed. Returns its output.
+pub fn headless_tcp<S: AsRef<std::ffi::OsStr>>(
+    port: u16,
+    script: &std::path::Path,
+    extra: impl IntoIterator<Item = S>,
+) -> std::process::Output {
+    let out = std::process::Command::new(mavterm())
+        .args([
+            "--link",
+            &format!("tcp:127.0.0.1:{port}"),
+            "--headless",
+            "--input",
+        ])
+        .arg(script)
+        .args(extra)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
 }
 
 /// The simulator behind link 0.
