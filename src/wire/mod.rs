@@ -6,8 +6,10 @@ pub mod frame;
 pub mod mavftp;
 pub mod param_pck;
 pub mod parser;
+pub mod severity;
 pub mod signing;
 pub mod tx;
 
 pub use frame::{Frame, Header, RawBytes, Version};
 pub use parser::{FrameParser, ParserStats};
+pub use severity::Severity;
