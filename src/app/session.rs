@@ -581,7 +581,7 @@ impl Session {
                             let accepted = e.state == State::Done(0);
                             let (c, cmd, p) = (e.spec.target.1, e.spec.command, e.spec.params);
                             if accepted
-                                && cmd == crate::proto::camera::CMD_STORAGE_FORMAT
+                                && cmd == MavCmd::MAV_CMD_STORAGE_FORMAT as u16
                                 && p[2] == 1.0
                             {
                                 self.cameras.forget_images(c);

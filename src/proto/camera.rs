@@ -22,29 +22,23 @@
 //! Requests go out through the vehicle's command queue (one REQUEST_MESSAGE open per target at
 //! a time): the set holds them until [`CameraSet::next_request`] is taken.
 
+// The older camera requests (521, 522, 525) are deliberately kept as the fallback.
+#![allow(deprecated)]
+
 use std::collections::{BTreeMap, VecDeque};
 
 use crate::clock::{Micros, SECOND};
+use crate::dialect::MavCmd;
+use mavlink::MessageData;
+use num_traits::FromPrimitive;
 
-pub const CAMERA_INFORMATION: u32 = 259;
-pub const CAMERA_SETTINGS: u32 = 260;
-pub const STORAGE_INFORMATION: u32 = 261;
-pub const CAMERA_CAPTURE_STATUS: u32 = 262;
-pub const CAMERA_IMAGE_CAPTURED: u32 = 263;
-pub const VIDEO_STREAM_INFORMATION: u32 = 269;
+pub const CAMERA_INFORMATION: u32 = crate::dialect::CAMERA_INFORMATION_DATA::ID;
+pub const CAMERA_SETTINGS: u32 = crate::dialect::CAMERA_SETTINGS_DATA::ID;
+pub const STORAGE_INFORMATION: u32 = crate::dialect::STORAGE_INFORMATION_DATA::ID;
+pub const CAMERA_CAPTURE_STATUS: u32 = crate::dialect::CAMERA_CAPTURE_STATUS_DATA::ID;
+pub const CAMERA_IMAGE_CAPTURED: u32 = crate::dialect::CAMERA_IMAGE_CAPTURED_DATA::ID;
+pub const VIDEO_STREAM_INFORMATION: u32 = crate::dialect::VIDEO_STREAM_INFORMATION_DATA::ID;
 
-pub const CMD_REQUEST_MESSAGE: u16 = 512;
-pub const CMD_REQUEST_CAMERA_INFORMATION: u16 = 521;
-pub const CMD_REQUEST_CAMERA_SETTINGS: u16 = 522;
-pub const CMD_REQUEST_STORAGE_INFORMATION: u16 = 525;
-pub const CMD_STORAGE_FORMAT: u16 = 526;
-pub const CMD_SET_CAMERA_MODE: u16 = 530;
-pub const CMD_SET_CAMERA_ZOOM: u16 = 531;
-pub const CMD_SET_CAMERA_FOCUS: u16 = 532;
-pub const CMD_IMAGE_START_CAPTURE: u16 = 2000;
-pub const CMD_IMAGE_STOP_CAPTURE: u16 = 2001;
-pub const CMD_VIDEO_START_CAPTURE: u16 = 2500;
-pub const CMD_VIDEO_STOP_CAPTURE: u16 = 2501;
 
 /// MAV_TYPE_CAMERA.
 pub const MAV_TYPE_CAMERA: u8 = 30;
@@ -120,41 +114,8 @@ pub fn mode_name(mode: u8) -> &'static str {
     }
 }
 
-/// A payload with the zeros MAVLink 2 cut restored.
-pub(crate) struct P(Vec<u8>);
-
-impl P {
-    pub(crate) fn new(payload: &[u8], len: usize) -> P {
-        let mut v = payload.to_vec();
-        if v.len() < len {
-            v.resize(len, 0);
-        }
-        P(v)
-    }
-    pub(crate) fn u8(&self, o: usize) -> u8 {
-        self.0[o]
-    }
-    pub(crate) fn u16(&self, o: usize) -> u16 {
-        u16::from_le_bytes([self.0[o], self.0[o + 1]])
-    }
-    pub(crate) fn u32(&self, o: usize) -> u32 {
-        u32::from_le_bytes(self.0[o..o + 4].try_into().unwrap_or_default())
-    }
-    pub(crate) fn i32(&self, o: usize) -> i32 {
-        self.u32(o) as i32
-    }
-    pub(crate) fn u64(&self, o: usize) -> u64 {
-        u64::from_le_bytes(self.0[o..o + 8].try_into().unwrap_or_default())
-    }
-    pub(crate) fn f32(&self, o: usize) -> f32 {
-        f32::from_bits(self.u32(o))
-    }
-    pub(crate) fn text(&self, o: usize, n: usize) -> String {
-        let b = &self.0[o..o + n];
-        let end = b.iter().position(|&c| c == 0).unwrap_or(n);
-        String::from_utf8_lossy(&b[..end]).trim().to_string()
-    }
-}
+/// Payloads are read with the one zero-extending reader.
+pub(crate) use crate::wire::payload::Payload as P;
 
 /// CAMERA_INFORMATION.
 #[derive(Debug, Clone, PartialEq)]
@@ -174,7 +135,7 @@ pub struct CameraInfo {
 
 impl CameraInfo {
     pub fn read(payload: &[u8]) -> CameraInfo {
-        let p = P::new(payload, 237);
+        let p = P(payload);
         let fw = p.u32(4);
         CameraInfo {
             firmware: (
@@ -248,7 +209,7 @@ pub struct Image {
 
 impl Image {
     pub fn read(payload: &[u8]) -> Image {
-        let p = P::new(payload, 255);
+        let p = P(payload);
         Image {
             time_utc_us: p.u64(0),
             lat_e7: p.i32(12),
@@ -343,7 +304,7 @@ impl Camera {
 
     fn request(&mut self, id: u32, p2: f64) {
         let r = (
-            CMD_REQUEST_MESSAGE,
+            (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16),
             [id as f64, p2, 0.0, 0.0, 0.0, 0.0, 0.0],
         );
         if !self.pending.contains(&r) {
@@ -392,7 +353,7 @@ impl Camera {
     fn hole_requests(&self) -> usize {
         self.pending
             .iter()
-            .filter(|(cmd, p)| *cmd == CMD_REQUEST_MESSAGE && p[0] == CAMERA_IMAGE_CAPTURED as f64)
+            .filter(|(cmd, p)| *cmd == (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16) && p[0] == CAMERA_IMAGE_CAPTURED as f64)
             .count()
     }
 
@@ -407,7 +368,7 @@ impl Camera {
             self.asked.pop_first();
         }
         self.pending.retain(|(cmd, p)| {
-            !(*cmd == CMD_REQUEST_MESSAGE
+            !(*cmd == (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16)
                 && p[0] == CAMERA_IMAGE_CAPTURED as f64
                 && (p[1] as i32) < w.start)
         });
@@ -544,7 +505,7 @@ impl CameraSet {
                 c.info = Some(info);
             }
             CAMERA_SETTINGS => {
-                let p = P::new(payload, 14);
+                let p = P(payload);
                 c.settings = Some(Settings {
                     mode: p.u8(4),
                     zoom: p.f32(5),
@@ -552,7 +513,7 @@ impl CameraSet {
                 });
             }
             STORAGE_INFORMATION => {
-                let p = P::new(payload, 61);
+                let p = P(payload);
                 c.storage = Some(Storage {
                     total: p.f32(4),
                     used: p.f32(8),
@@ -563,7 +524,7 @@ impl CameraSet {
                 });
             }
             CAMERA_CAPTURE_STATUS => {
-                let p = P::new(payload, 23);
+                let p = P(payload);
                 c.status = Some(CaptureStatus {
                     image_interval: p.f32(4),
                     recording_ms: p.u32(8),
@@ -592,7 +553,7 @@ impl CameraSet {
                 }
             }
             VIDEO_STREAM_INFORMATION => {
-                let p = P::new(payload, 215);
+                let p = P(payload);
                 let s = Stream {
                     framerate: p.f32(0),
                     resolution: (p.u16(10), p.u16(12)),
@@ -624,15 +585,15 @@ impl CameraSet {
         let Some(c) = self.cameras.get_mut(&compid) else {
             return notes;
         };
-        match command {
-            CMD_REQUEST_MESSAGE
+        match MavCmd::from_u16(command) {
+            Some(MavCmd::MAV_CMD_REQUEST_MESSAGE)
                 if params[0] == CAMERA_INFORMATION as f64
                     && c.info.is_none()
                     && c.discovery == Discovery::Asking =>
             {
                 c.discovery = Discovery::FallbackAt(now + FALLBACK_WAIT);
             }
-            CMD_REQUEST_CAMERA_INFORMATION if c.info.is_none() && !accepted => {
+            Some(MavCmd::MAV_CMD_REQUEST_CAMERA_INFORMATION) if c.info.is_none() && !accepted => {
                 c.discovery = Discovery::Failed;
                 notes.push((
                     crate::proto::severity::WARNING,
@@ -641,7 +602,7 @@ impl CameraSet {
                     ),
                 ));
             }
-            CMD_REQUEST_MESSAGE
+            Some(MavCmd::MAV_CMD_REQUEST_MESSAGE)
                 if (params[0] == CAMERA_SETTINGS as f64 && c.settings.is_none())
                     || (params[0] == STORAGE_INFORMATION as f64 && c.storage.is_none()) =>
             {
@@ -652,22 +613,22 @@ impl CameraSet {
                     c.older.push((now + FALLBACK_WAIT, id));
                 }
             }
-            CMD_REQUEST_MESSAGE
+            Some(MavCmd::MAV_CMD_REQUEST_MESSAGE)
                 if params[0] == VIDEO_STREAM_INFORMATION as f64 && c.streams.is_empty() =>
             {
                 // None came (lost, or refused): asked again, a bounded number of times.
                 c.stream_next = (c.stream_asks < STREAM_TRIES).then_some(now + STREAM_RETRY);
             }
-            CMD_SET_CAMERA_MODE | CMD_SET_CAMERA_ZOOM | CMD_SET_CAMERA_FOCUS if accepted => {
+            Some(MavCmd::MAV_CMD_SET_CAMERA_MODE) | Some(MavCmd::MAV_CMD_SET_CAMERA_ZOOM) | Some(MavCmd::MAV_CMD_SET_CAMERA_FOCUS) if accepted => {
                 c.request(CAMERA_SETTINGS, 0.0);
             }
-            CMD_IMAGE_START_CAPTURE
-            | CMD_IMAGE_STOP_CAPTURE
-            | CMD_VIDEO_START_CAPTURE
-            | CMD_VIDEO_STOP_CAPTURE => {
+            Some(MavCmd::MAV_CMD_IMAGE_START_CAPTURE)
+            | Some(MavCmd::MAV_CMD_IMAGE_STOP_CAPTURE)
+            | Some(MavCmd::MAV_CMD_VIDEO_START_CAPTURE)
+            | Some(MavCmd::MAV_CMD_VIDEO_STOP_CAPTURE) => {
                 c.request(CAMERA_CAPTURE_STATUS, 0.0);
             }
-            CMD_STORAGE_FORMAT if accepted => {
+            Some(MavCmd::MAV_CMD_STORAGE_FORMAT) if accepted => {
                 c.request(STORAGE_INFORMATION, 0.0);
                 c.request(CAMERA_CAPTURE_STATUS, 0.0);
             }
@@ -684,7 +645,7 @@ impl CameraSet {
         let Some(c) = self.cameras.get_mut(&compid) else {
             return notes;
         };
-        if command != CMD_REQUEST_MESSAGE || params[0] != CAMERA_IMAGE_CAPTURED as f64 {
+        if command != (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16) || params[0] != CAMERA_IMAGE_CAPTURED as f64 {
             return notes;
         }
         let index = params[1] as i32;
@@ -719,13 +680,13 @@ impl CameraSet {
                 let (missing, cmd, p) = match m {
                     CAMERA_SETTINGS => (
                         c.settings.is_none(),
-                        CMD_REQUEST_CAMERA_SETTINGS,
+                        (MavCmd::MAV_CMD_REQUEST_CAMERA_SETTINGS as u16),
                         [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
                     ),
                     // param1 = storage id (0: all), param2 = 1: request.
                     _ => (
                         c.storage.is_none(),
-                        CMD_REQUEST_STORAGE_INFORMATION,
+                        (MavCmd::MAV_CMD_REQUEST_STORAGE_INFORMATION as u16),
                         [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
                     ),
                 };
@@ -747,7 +708,7 @@ impl CameraSet {
                 if now >= t && c.info.is_none() {
                     c.discovery = Discovery::Legacy;
                     c.pending.push_back((
-                        CMD_REQUEST_CAMERA_INFORMATION,
+                        (MavCmd::MAV_CMD_REQUEST_CAMERA_INFORMATION as u16),
                         [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
                     ));
                 }
@@ -819,7 +780,7 @@ impl CameraSet {
                         "camera {compid} is recording: `camera video stop` first"
                     ));
                 }
-                Ok((CMD_SET_CAMERA_MODE, p(0.0, *m as f64, 0.0, 0.0)))
+                Ok(((MavCmd::MAV_CMD_SET_CAMERA_MODE as u16), p(0.0, *m as f64, 0.0, 0.0)))
             }
             CameraAction::Shoot { count, interval } => {
                 if !has(CAP_CAPTURE_IMAGE) {
@@ -834,11 +795,11 @@ impl CameraSet {
                 }
                 let seq = if *count == 1 { c.next_seq as f64 } else { 0.0 };
                 Ok((
-                    CMD_IMAGE_START_CAPTURE,
+                    (MavCmd::MAV_CMD_IMAGE_START_CAPTURE as u16),
                     p(0.0, *interval, *count as f64, seq),
                 ))
             }
-            CameraAction::StopImages => Ok((CMD_IMAGE_STOP_CAPTURE, p(0.0, 0.0, 0.0, 0.0))),
+            CameraAction::StopImages => Ok(((MavCmd::MAV_CMD_IMAGE_STOP_CAPTURE as u16), p(0.0, 0.0, 0.0, 0.0))),
             CameraAction::VideoStart => {
                 if !has(CAP_CAPTURE_VIDEO) {
                     return Err(lacks("record video", "CAPTURE_VIDEO"));
@@ -860,22 +821,22 @@ impl CameraSet {
                     }
                 }
                 // CAMERA_CAPTURE_STATUS at 1 Hz while recording (param2).
-                Ok((CMD_VIDEO_START_CAPTURE, p(0.0, 1.0, 0.0, 0.0)))
+                Ok(((MavCmd::MAV_CMD_VIDEO_START_CAPTURE as u16), p(0.0, 1.0, 0.0, 0.0)))
             }
-            CameraAction::VideoStop => Ok((CMD_VIDEO_STOP_CAPTURE, p(0.0, 0.0, 0.0, 0.0))),
+            CameraAction::VideoStop => Ok(((MavCmd::MAV_CMD_VIDEO_STOP_CAPTURE as u16), p(0.0, 0.0, 0.0, 0.0))),
             CameraAction::Zoom(z) => {
                 if !has(CAP_ZOOM) {
                     return Err(lacks("zoom", "HAS_BASIC_ZOOM"));
                 }
                 // ZOOM_TYPE_RANGE (2): 0 to 100 % of the range.
-                Ok((CMD_SET_CAMERA_ZOOM, p(2.0, *z, 0.0, 0.0)))
+                Ok(((MavCmd::MAV_CMD_SET_CAMERA_ZOOM as u16), p(2.0, *z, 0.0, 0.0)))
             }
             CameraAction::Focus(f) => {
                 if !has(CAP_FOCUS) {
                     return Err(lacks("focus", "HAS_BASIC_FOCUS"));
                 }
                 // FOCUS_TYPE_RANGE (2): 0 to 100 % of the range.
-                Ok((CMD_SET_CAMERA_FOCUS, p(2.0, *f, 0.0, 0.0)))
+                Ok(((MavCmd::MAV_CMD_SET_CAMERA_FOCUS as u16), p(2.0, *f, 0.0, 0.0)))
             }
             CameraAction::Format => {
                 if c.storage.is_none() {
@@ -888,7 +849,7 @@ impl CameraSet {
                 }
                 let id = c.storage.map_or(1, |s| s.id.max(1));
                 // Storage id (1 = first), format, reset the image log.
-                Ok((CMD_STORAGE_FORMAT, p(id as f64, 1.0, 1.0, 0.0)))
+                Ok(((MavCmd::MAV_CMD_STORAGE_FORMAT as u16), p(id as f64, 1.0, 1.0, 0.0)))
             }
         }
     }

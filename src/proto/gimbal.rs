@@ -33,17 +33,15 @@
 use std::collections::{BTreeMap, VecDeque};
 
 use crate::clock::{Micros, SECOND};
+use crate::dialect::MavCmd;
+use mavlink::MessageData;
 pub use crate::proto::camera::names;
-use crate::proto::camera::P;
+use crate::wire::payload::Payload as P;
 
-pub const GIMBAL_MANAGER_INFORMATION: u32 = 280;
-pub const GIMBAL_MANAGER_STATUS: u32 = 281;
-pub const GIMBAL_DEVICE_ATTITUDE_STATUS: u32 = 285;
+pub const GIMBAL_MANAGER_INFORMATION: u32 = crate::dialect::GIMBAL_MANAGER_INFORMATION_DATA::ID;
+pub const GIMBAL_MANAGER_STATUS: u32 = crate::dialect::GIMBAL_MANAGER_STATUS_DATA::ID;
+pub const GIMBAL_DEVICE_ATTITUDE_STATUS: u32 = crate::dialect::GIMBAL_DEVICE_ATTITUDE_STATUS_DATA::ID;
 
-pub const CMD_SET_MESSAGE_INTERVAL: u16 = 511;
-pub const CMD_REQUEST_MESSAGE: u16 = 512;
-pub const CMD_DO_GIMBAL_MANAGER_PITCHYAW: u16 = 1000;
-pub const CMD_DO_GIMBAL_MANAGER_CONFIGURE: u16 = 1001;
 
 /// MAV_TYPE_GIMBAL.
 pub const MAV_TYPE_GIMBAL: u8 = 26;
@@ -134,7 +132,7 @@ pub struct Info {
 impl Info {
     /// Payload: time_boot_ms u32, cap_flags u32, roll/pitch/yaw min/max f32 (rad), device u8.
     pub fn read(payload: &[u8]) -> (u8, Info) {
-        let p = P::new(payload, 33);
+        let p = P(payload);
         let deg = |o| p.f32(o).to_degrees();
         (
             p.u8(32),
@@ -268,8 +266,8 @@ pub struct GimbalSet {
 /// A request the discovery sends on its own (GIMBAL_MANAGER_INFORMATION asked, the status and
 /// attitude streams asked for).
 pub fn is_discovery(command: u16, params: &[f64; 7]) -> bool {
-    (command == CMD_REQUEST_MESSAGE && params[0] == GIMBAL_MANAGER_INFORMATION as f64)
-        || (command == CMD_SET_MESSAGE_INTERVAL
+    (command == (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16) && params[0] == GIMBAL_MANAGER_INFORMATION as f64)
+        || (command == (MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16)
             && (params[0] == GIMBAL_MANAGER_STATUS as f64
                 || params[0] == GIMBAL_DEVICE_ATTITUDE_STATUS as f64))
 }
@@ -373,7 +371,7 @@ impl GimbalSet {
                 g.info = Some(info);
             }
             GIMBAL_MANAGER_STATUS => {
-                let p = P::new(payload, 13);
+                let p = P(payload);
                 let device = p.u8(8);
                 if device == 0 {
                     return notes;
@@ -389,7 +387,7 @@ impl GimbalSet {
                 });
             }
             GIMBAL_DEVICE_ATTITUDE_STATUS => {
-                let p = P::new(payload, 49);
+                let p = P(payload);
                 let q = [p.f32(4), p.f32(8), p.f32(12), p.f32(16)];
                 let (roll, pitch, yaw) = quaternion_to_euler_deg(q);
                 let att = Attitude {
@@ -430,16 +428,16 @@ impl GimbalSet {
 
     /// A command to component `compid` finished (`accepted` or not).
     pub fn on_finished(&mut self, now: Micros, compid: u8, command: u16, params: &[f64; 7]) {
-        if command == CMD_REQUEST_MESSAGE && params[0] == GIMBAL_MANAGER_INFORMATION as f64 {
+        if command == (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16) && params[0] == GIMBAL_MANAGER_INFORMATION as f64 {
             if let Some(c) = self.candidates.get_mut(&compid) {
                 if !c.found {
                     c.next = (c.tries < INFO_TRIES).then_some(now + INFO_RETRY);
                 }
             }
         }
-        if command == CMD_DO_GIMBAL_MANAGER_CONFIGURE {
+        if command == (MavCmd::MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE as u16) {
             // Who has control now.
-            self.push((compid, CMD_REQUEST_MESSAGE, request(GIMBAL_MANAGER_STATUS)));
+            self.push((compid, (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16), request(GIMBAL_MANAGER_STATUS)));
         }
     }
 
@@ -456,7 +454,7 @@ impl GimbalSet {
                 c.tries += 1;
                 c.next = None;
             }
-            self.push((id, CMD_REQUEST_MESSAGE, request(GIMBAL_MANAGER_INFORMATION)));
+            self.push((id, (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16), request(GIMBAL_MANAGER_INFORMATION)));
         }
         let mut asks = Vec::new();
         for g in self.gimbals.values_mut() {
@@ -467,7 +465,7 @@ impl GimbalSet {
                     g.status_ask.1 = Some(now + STATUS_WAIT);
                     asks.push((
                         g.manager,
-                        CMD_SET_MESSAGE_INTERVAL,
+                        (MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16),
                         interval(GIMBAL_MANAGER_STATUS, STATUS_INTERVAL_US),
                     ));
                 } else {
@@ -481,7 +479,7 @@ impl GimbalSet {
                     g.attitude_ask.1 = Some(now + STATUS_WAIT);
                     asks.push((
                         g.attitude_source(),
-                        CMD_SET_MESSAGE_INTERVAL,
+                        (MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16),
                         interval(GIMBAL_DEVICE_ATTITUDE_STATUS, ATTITUDE_INTERVAL_US),
                     ));
                 } else {
@@ -604,7 +602,7 @@ impl GimbalSet {
         }
         Ok((
             g.manager,
-            CMD_DO_GIMBAL_MANAGER_PITCHYAW,
+            (MavCmd::MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW as u16),
             [
                 pitch,
                 yaw,
@@ -635,7 +633,7 @@ impl GimbalSet {
         };
         Ok((
             g.manager,
-            CMD_DO_GIMBAL_MANAGER_CONFIGURE,
+            (MavCmd::MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE as u16),
             [a, b, -1.0, -1.0, f64::NAN, f64::NAN, g.device as f64],
         ))
     }

@@ -170,32 +170,7 @@ impl Current {
     }
 }
 
-struct Payload<'a>(&'a [u8]);
-
-impl Payload<'_> {
-    fn bytes<const N: usize>(&self, at: usize) -> [u8; N] {
-        let mut b = [0u8; N];
-        for (k, v) in b.iter_mut().enumerate() {
-            *v = self.0.get(at + k).copied().unwrap_or(0);
-        }
-        b
-    }
-    fn u8(&self, at: usize) -> u8 {
-        self.0.get(at).copied().unwrap_or(0)
-    }
-    fn u16(&self, at: usize) -> u16 {
-        u16::from_le_bytes(self.bytes(at))
-    }
-    fn u32(&self, at: usize) -> u32 {
-        u32::from_le_bytes(self.bytes(at))
-    }
-    fn i32(&self, at: usize) -> i32 {
-        i32::from_le_bytes(self.bytes(at))
-    }
-    fn f32(&self, at: usize) -> f32 {
-        f32::from_le_bytes(self.bytes(at))
-    }
-}
+use crate::wire::payload::Payload;
 
 impl MissionMsg {
     /// The mission message in frame `msgid` with `payload`, or `None` for another message.

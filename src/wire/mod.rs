@@ -6,6 +6,7 @@ pub mod frame;
 pub mod mavftp;
 pub mod param_pck;
 pub mod parser;
+pub mod payload;
 pub mod severity;
 pub mod signing;
 pub mod tx;
