@@ -680,13 +680,26 @@ impl App {
             .map(|e| (e.spec.params[1], e.outcome()))
     }
 
-    /// A notice of the command queue: the outcome of the rate asked from the Inspector shows
-    /// in the status bar.
-    pub(super) fn inspector_outcome(&mut self, sev: u8, text: &str) {
+    /// Command `command` to `target` finished, with its notice: the outcome of the rate asked
+    /// from the Inspector (its SET_MESSAGE_INTERVAL to that source) shows in the status bar.
+    pub(super) fn inspector_outcome(
+        &mut self,
+        target: (u8, u8),
+        command: u16,
+        sev: u8,
+        text: &str,
+    ) {
         let Some((prefix, label)) = &self.ui.inspector.awaiting else {
             return;
         };
-        if let Some(rest) = text.strip_prefix(prefix.as_str()) {
+        let asked = format!(
+            "{} to {}:{}: ",
+            crate::proto::ack::command_name(command),
+            target.0,
+            target.1
+        );
+        if command == MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16 && asked == *prefix {
+            let rest = text.strip_prefix(prefix.as_str()).unwrap_or(text);
             self.ui.message = Some((sev, format!("{label}: {rest}")));
             self.ui.inspector.awaiting = None;
         }

@@ -33,6 +33,7 @@ use crate::link::replay::{ReplayCmd, ReplayStatus};
 use crate::link::{Frame, LinkId, LinkSpec, ParserStats};
 use crate::proto::ack::CommandAck;
 use crate::proto::loss::SeqOutcome;
+use crate::proto::machine::Incoming;
 use crate::proto::statustext::StatusTextJoiner;
 use crate::proto::vehicles::{Registry, VehicleEvent, VehicleKey, DEFAULT_LOST_TIMEOUT};
 use links::{LinkState, LinkStatus};
@@ -496,9 +497,21 @@ impl App {
                         self.send(link, msg, fx)
                     }
                 }
-                SessionOut::Notice(sev, text) => {
-                    self.param_outcome(sev, &text);
-                    self.inspector_outcome(sev, &text);
+                SessionOut::Notice(sev, text) => self.notice(sev, Some(key), text),
+                SessionOut::ParamSet {
+                    name, sev, text, ..
+                } => {
+                    self.param_outcome(&name, sev, &text);
+                    self.notice(sev, Some(key), text)
+                }
+                SessionOut::Command {
+                    target,
+                    command,
+                    sev,
+                    text,
+                    ..
+                } => {
+                    self.inspector_outcome(target, command, sev, &text);
                     self.notice(sev, Some(key), text)
                 }
             }
@@ -511,7 +524,7 @@ impl App {
         let due: Vec<VehicleKey> = self
             .sessions
             .iter()
-            .filter(|(_, s)| s.due() || s.next_deadline().is_some_and(|d| d <= now))
+            .filter(|(_, s)| s.next_deadline().is_some_and(|d| d <= now))
             .map(|(k, _)| *k)
             .collect();
         for key in due {
@@ -928,15 +941,23 @@ impl App {
         // what they ask for is carried out, in key order. A session's own state is all
         // `on_message` touches, so this is the same as doing each in turn. Few sessions are
         // looked through faster than a range is found.
-        let id = (key.1, frame.msgid);
-        let profile = self.links[link].profile;
+        let incoming = Incoming {
+            now,
+            from: key,
+            link,
+            profile: self.links[link].profile,
+            id: frame.msgid,
+            payload: frame.payload(),
+            msg,
+            ack: ack.as_ref(),
+        };
         let mut outs = Vec::new();
         let quiet = self.vehicles.get(key).is_some_and(|v| v.flood);
         let mut handle = |k: &VehicleKey, s: &mut Session| {
             if quiet && s.quiet.len() < 256 {
                 s.quiet.insert(key.1);
             }
-            let out = s.on_message(now, link, profile, id, msg, ack.as_ref(), frame.payload());
+            let out = s.on_message(&incoming);
             if !out.is_empty() {
                 outs.push((*k, out));
             }

@@ -700,13 +700,10 @@ impl App {
         }
     }
 
-    /// A notice of the parameter machine: the outcome of the edit sent from the screen (`NAME =
-    /// V confirmed`, refused, unanswered) shows in the status bar.
-    pub(super) fn param_outcome(&mut self, sev: u8, text: &str) {
-        let Some(name) = &self.ui.params.awaiting else {
-            return;
-        };
-        if text.starts_with(&format!("{name} = ")) {
+    /// The outcome of an edit of parameter `name` (confirmed, refused, unanswered), with its
+    /// notice: the one sent from the screen shows in the status bar.
+    pub(super) fn param_outcome(&mut self, name: &str, sev: u8, text: &str) {
+        if self.ui.params.awaiting.as_deref() == Some(name) {
             self.ui.message = Some((sev, text.to_string()));
             self.ui.params.awaiting = None;
         }

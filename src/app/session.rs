@@ -1,28 +1,36 @@
 //! One session per autopilot heard: its protocol machines and how to reach it.
 //!
-//! The session is where a protocol machine lives (streams, commands, parameters, missions; a
-//! camera's later). It is handed the messages of its system that are for
-//! us (or broadcast), the time, and the link each came on; it returns what to send and what to
-//! tell the operator, and says when it next needs waking ([`Session::next_deadline`]).
+//! The session holds the protocol machines of one system (streams, telemetry, commands,
+//! sequences, parameters, missions, cameras, gimbals). It is handed the messages of its system
+//! that are for us (or broadcast) as one [`Incoming`], and the time; each machine it dispatches
+//! to (by the table built from the machines' [`Machine::IDS`]) answers in [`Out`], and
+//! [`Session::deliver`] turns those into [`SessionOut`] in one place, where the routing policy
+//! lives (the operator's route, mavterm's own traffic spared on high-latency links, stream
+//! requests per link) and where typed events go on to the machines that wait for them (a
+//! finished command to the cameras, gimbals and the sequence). It says when it next needs
+//! waking ([`Session::next_deadline`]).
 //!
-//! Adding a machine: give it `on_message(now, link, ...)`, `poll(now) -> Vec<Out>` and
-//! `next_deadline() -> Option<Micros>`, hold it here, call it from the three methods below, and
-//! map its output to [`SessionOut`].
+//! Adding a machine: implement [`Machine`] for it in its file under `src/proto` (its `IDS`,
+//! `on_message`, `poll`, `next_deadline`, answering in [`Out`]); here, hold it in [`Session`]
+//! (built in [`Session::new`]), give it a bit in [`Dispatch`] and a line in [`TABLE`], call it
+//! in [`Session::on_message`] under its bit and in [`Session::poll`], and add its deadline to
+//! [`Session::next_deadline`]. A new kind of event gets a [`MachineEvent`] variant, routed in
+//! [`Session::deliver`].
 
 use std::collections::BTreeMap;
 
 use crate::clock::Micros;
 use crate::dialect::{MavAutopilot, MavCmd, MavMessage};
 use crate::link::LinkId;
-use crate::proto::ack::CommandAck;
 use crate::proto::camera::{CameraAction, CameraSet};
-use crate::proto::commands::{CmdOut, CommandQueue, CommandSpec, State};
+use crate::proto::commands::{self, CmdOut, CommandQueue, CommandSpec, State};
 use crate::proto::gimbal::GimbalSet;
-use crate::proto::mission::{MissionMachine, MissionMsg, MissionOut, Request as MissionRequest};
+use crate::proto::machine::{Ids, Incoming, Machine, MachineEvent, Out, Route};
+use crate::proto::mission::{MissionMachine, Request as MissionRequest};
 use crate::proto::params::{ParamMachine, ParamOut};
 use crate::proto::rates::StreamRates;
-use crate::proto::sequence::{SeqOut, Sequence};
-use crate::proto::streams::{LinkProfile, StreamMachine, StreamOut};
+use crate::proto::sequence::{self, Sequence};
+use crate::proto::streams::{LinkProfile, StreamMachine};
 use crate::proto::telemetry::FlightTelemetry;
 use crate::proto::vehicles::VehicleKey;
 
@@ -41,6 +49,88 @@ pub enum SessionOut {
     SendOn(LinkId, MavMessage),
     /// Tell the operator (severity, text).
     Notice(u8, String),
+    /// The outcome of an edit of parameter `name` of component `comp`, and its notice.
+    ParamSet {
+        comp: u8,
+        name: String,
+        confirmed: bool,
+        sev: u8,
+        text: String,
+    },
+    /// Command `command` of the queue to `target` finished, and its notice.
+    Command {
+        id: u64,
+        target: (u8, u8),
+        command: u16,
+        sev: u8,
+        text: String,
+    },
+}
+
+/// The machines a message goes to: one bit each.
+pub struct Dispatch;
+
+impl Dispatch {
+    pub const STREAMS: u16 = 1;
+    pub const FLIGHT: u16 = 1 << 1;
+    pub const PARAMS: u16 = 1 << 2;
+    pub const MISSION: u16 = 1 << 3;
+    pub const COMMANDS: u16 = 1 << 4;
+    pub const SEQUENCE: u16 = 1 << 5;
+    pub const CAMERAS: u16 = 1 << 6;
+    pub const GIMBALS: u16 = 1 << 7;
+}
+
+/// Each machine's bit and the ids it reads.
+pub const TABLE: &[(u16, Ids)] = &[
+    (Dispatch::STREAMS, StreamMachine::IDS),
+    (Dispatch::FLIGHT, FlightTelemetry::IDS),
+    (Dispatch::PARAMS, ParamMachine::IDS),
+    (Dispatch::MISSION, MissionMachine::IDS),
+    (Dispatch::COMMANDS, CommandQueue::IDS),
+    (Dispatch::SEQUENCE, Sequence::IDS),
+    (Dispatch::CAMERAS, CameraSet::IDS),
+    (Dispatch::GIMBALS, GimbalSet::IDS),
+];
+
+/// The machines that read message `id`, from [`TABLE`] (built once).
+pub fn wants(id: u32) -> u16 {
+    wants_in(table(), id)
+}
+
+/// A dispatch table: the bits of the machines reading every message, and (id, bits) by id.
+type Built = (u16, Vec<(u32, u16)>);
+
+fn build(table: &[(u16, Ids)]) -> Built {
+    let mut all = 0;
+    let mut by_id: Vec<(u32, u16)> = Vec::new();
+    for &(bit, ids) in table {
+        match ids {
+            Ids::All => all |= bit,
+            Ids::Only(ids) => {
+                for &id in ids {
+                    match by_id.iter_mut().find(|(i, _)| *i == id) {
+                        Some((_, b)) => *b |= bit,
+                        None => by_id.push((id, bit)),
+                    }
+                }
+            }
+        }
+    }
+    by_id.sort_unstable();
+    (all, by_id)
+}
+
+fn table() -> &'static Built {
+    static T: std::sync::OnceLock<Built> = std::sync::OnceLock::new();
+    T.get_or_init(|| build(TABLE))
+}
+
+fn wants_in((all, by_id): &Built, id: u32) -> u16 {
+    match by_id.binary_search_by_key(&id, |(i, _)| *i) {
+        Ok(i) => all | by_id[i].1,
+        Err(_) => *all,
+    }
 }
 
 /// The protocol machines for one autopilot.
@@ -76,6 +166,9 @@ pub struct Session {
     pub quiet: std::collections::BTreeSet<u8>,
     /// The autopilot family (its profile encodes DO_SET_MODE).
     autopilot: MavAutopilot,
+    /// A camera's or gimbal's request may wait for the queue since this time (a command of
+    /// theirs finished, the gimbals were asked for): the next poll offers them to the queue.
+    offer: Option<Micros>,
 }
 
 impl Session {
@@ -102,7 +195,9 @@ impl Session {
             mode_asks: Vec::new(),
             quiet: std::collections::BTreeSet::new(),
             autopilot,
+            offer: None,
         };
+        s.gimbals.autopilot = key.1;
         let profile = crate::proto::profile::of(autopilot);
         s.mission.set_int_items(profile.mission_int());
         s.flight.set_vfr_hud_expected(profile.vfr_hud_motion());
@@ -151,128 +246,80 @@ impl Session {
         self.heard.keys().copied()
     }
 
-    /// A frame of this system, for us or broadcast, heard on `link` (of kind `profile`): its
-    /// source component, its message id, and the message when the dialect could read it (or
-    /// read it by hand), and its payload as sent (for fields of messages the dialect could not
-    /// read).
-    #[allow(clippy::too_many_arguments)]
-    pub fn on_message(
-        &mut self,
-        now: Micros,
-        link: LinkId,
-        profile: LinkProfile,
-        (from, id): (u8, u32),
-        msg: Option<&MavMessage>,
-        ack: Option<&CommandAck>,
-        payload: &[u8],
-    ) -> Vec<SessionOut> {
-        if self.heard.insert(link, (now, profile)).is_none() {
+    /// A message of this system, for us or broadcast: each machine reading its id is handed it
+    /// (the autopilot's machines only what the autopilot sent; parameters, cameras, gimbals and
+    /// the ACKs of commands from any component of the system).
+    pub fn on_message(&mut self, m: &Incoming) -> Vec<SessionOut> {
+        let (now, from) = (m.now, m.from.1);
+        if self.heard.insert(m.link, (now, m.profile)).is_none() {
             // Nothing starts on its own while the system is heard on high-latency links only.
             let held = self.heard.values().all(|(_, p)| p.hl);
             self.params.hold_auto(held);
         }
+        let w = wants(m.id);
         let mut out = Vec::new();
-        // Parameters are kept per component of the system.
-        match id {
-            22 => out.extend(
-                self.params
-                    .on_param_value(now, from, payload)
-                    .into_iter()
-                    .map(|o| self.pmap(o)),
-            ),
-            // FILE_TRANSFER_PROTOCOL: target_network, target_system, target_component, then
-            // the FTP payload.
-            110 if payload.len() > 3 => out.extend(
-                self.params
-                    .on_ftp(now, from, &payload[3..])
-                    .into_iter()
-                    .map(|o| self.pmap(o)),
-            ),
-            // AUTOPILOT_VERSION: capabilities u64 first (MAVLink 2 may have cut its zeros).
-            148 if from == self.key.1 => {
-                let mut caps = [0u8; 8];
-                let n = payload.len().min(8);
-                caps[..n].copy_from_slice(&payload[..n]);
-                let caps = u64::from_le_bytes(caps);
-                self.mission.on_capabilities(caps);
-                out.extend(
-                    self.params
-                        .on_autopilot_version(now, caps)
-                        .into_iter()
-                        .map(|o| self.pmap(o)),
-                );
-            }
-            _ => {}
+        let mut buf = Vec::new();
+        if w & Dispatch::PARAMS != 0 {
+            Machine::on_message(&mut self.params, m, &mut buf);
+            self.deliver(now, &mut buf, &mut out);
         }
-        // The COMMAND_ACK of our AUTOPILOT_VERSION request: a first round trip.
-        if let Some(a) = ack.filter(|a| {
-            from == self.key.1
-                && a.command == crate::dialect::MavCmd::MAV_CMD_REQUEST_MESSAGE as u16
-        }) {
-            let _ = a;
-            self.params.on_version_answer(now);
+        // Cameras: no automatic discovery for components first heard in a heartbeat flood.
+        if w & Dispatch::CAMERAS != 0 && !self.quiet.contains(&from) {
+            Machine::on_message(&mut self.cameras, m, &mut buf);
+            self.deliver(now, &mut buf, &mut out);
         }
-        // Cameras: any component of the system (ArduPilot answers for its camera itself).
-        let hb_type = match msg {
-            Some(MavMessage::HEARTBEAT(hb)) => Some(hb.mavtype as u8),
-            _ => None,
-        };
-        if (hb_type.is_some() || (259..=269).contains(&id) || id == 285)
-            && !self.quiet.contains(&from)
-        {
-            let notes = self.cameras.on_message(now, from, id, hb_type, payload);
-            out.extend(notes.into_iter().map(|(s, t)| SessionOut::Notice(s, t)));
-        }
-        // Gimbals: the autopilot and any gimbal component may be a gimbal manager.
-        if hb_type.is_some() || (280..=285).contains(&id) {
-            let ap = self.key.1;
-            let notes = self.gimbals.on_message(now, from, id, hb_type, ap, payload);
-            self.gimbals.poll(now);
-            out.extend(notes.into_iter().map(|(s, t)| SessionOut::Notice(s, t)));
+        if w & Dispatch::GIMBALS != 0 {
+            Machine::on_message(&mut self.gimbals, m, &mut buf);
+            self.deliver(now, &mut buf, &mut out);
         }
         if from != self.key.1 {
             // Another component of this system (a camera, a gimbal): the answers to commands
             // sent to it through this session's queue.
-            if let Some(a) = ack {
-                let done = self.commands.on_ack(now, (self.key.0, from), a);
-                out.extend(self.drive(now, done));
+            if w & Dispatch::COMMANDS != 0 {
+                Machine::on_message(&mut self.commands, m, &mut buf);
+                self.deliver(now, &mut buf, &mut out);
             }
-            out.extend(self.camera_requests(now));
+            self.camera_requests(now, &mut out);
+            self.hold_streams();
             return out;
         }
-        if let Some(m) = MissionMsg::read(id, payload) {
-            let o = self.mission.on_message(now, &m);
-            out.extend(self.mission_out(o));
+        if w & Dispatch::MISSION != 0 {
+            Machine::on_message(&mut self.mission, m, &mut buf);
+            self.deliver(now, &mut buf, &mut out);
         }
-        let hb = match msg {
-            Some(MavMessage::HEARTBEAT(hb)) => Some(hb),
-            _ => None,
-        };
-        self.streams.on_message(now, link, profile, id, hb);
-        self.flight.on_message(now, id, msg, payload);
-        if let Some(a) = ack {
+        if w & Dispatch::STREAMS != 0 {
+            Machine::on_message(&mut self.streams, m, &mut buf);
+        }
+        if w & Dispatch::FLIGHT != 0 {
+            Machine::on_message(&mut self.flight, m, &mut buf);
+        }
+        self.deliver(now, &mut buf, &mut out);
+        if let Some(a) = m.ack {
             // A SET_MESSAGE_INTERVAL's ACK is the stream machine's while one of its own waits
             // (it went before any of the operator's: the machine sends none while one of those
             // is open), else the command queue's.
-            match self.streams.on_ack(now, a.command, a.result) {
-                Some(o) => out.extend(o.into_iter().map(map)),
-                None => {
-                    let done = self.commands.on_ack(now, (self.key.0, from), a);
-                    out.extend(self.drive(now, done));
+            match self.streams.on_ack_out(now, a) {
+                Some(mut o) => self.deliver(now, &mut o, &mut out),
+                None if w & Dispatch::COMMANDS != 0 => {
+                    Machine::on_message(&mut self.commands, m, &mut buf);
+                    self.deliver(now, &mut buf, &mut out);
                 }
+                None => {}
             }
         }
-        if let Some(hb) = hb {
-            out.extend(self.on_mode_seen(hb.custom_mode));
+        if let Some(hb) = m.heartbeat() {
+            self.on_mode_seen(hb.custom_mode, &mut out);
         }
-        if let (Some(hb), Some(seq)) = (hb, self.sequence.as_mut()) {
-            let armed = hb
-                .base_mode
-                .contains(crate::dialect::MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED);
-            let r = seq.on_heartbeat(hb.custom_mode, armed);
-            out.extend(self.seq_out(now, r));
+        if let Some(seq) = self
+            .sequence
+            .as_mut()
+            .filter(|_| w & Dispatch::SEQUENCE != 0)
+        {
+            Machine::on_message(seq, m, &mut buf);
+            self.deliver(now, &mut buf, &mut out);
         }
-        out.extend(self.camera_requests(now));
+        self.camera_requests(now, &mut out);
+        self.hold_streams();
         out
     }
 
@@ -315,6 +362,7 @@ impl Session {
             Err(why) if self.gimbals.usable().is_empty() => {
                 // None known: ask the autopilot, the usual manager (not the pointing itself).
                 self.gimbals.ask_autopilot(now, self.key.1);
+                self.offer = Some(self.offer.map_or(now, |t| t.min(now)));
                 return Err(format!(
                     "{why}; asking the autopilot for GIMBAL_MANAGER_INFORMATION"
                 ));
@@ -352,9 +400,9 @@ impl Session {
     }
 
     /// The cameras' and gimbals' waiting requests, each component's first, when the queue takes
-    /// it (one command of a kind per target open at a time).
-    fn camera_requests(&mut self, now: Micros) -> Vec<SessionOut> {
-        let mut out = Vec::new();
+    /// it (one command of a kind per target open at a time). Asked on their own: mavterm's own
+    /// traffic.
+    fn camera_requests(&mut self, now: Micros, out: &mut Vec<SessionOut>) {
         let heads: Vec<(bool, Request)> = self
             .cameras
             .heads()
@@ -374,23 +422,18 @@ impl Session {
                 params,
                 form: crate::proto::commands::Form::Long,
             };
-            match self.commands.submit(now, spec) {
-                Ok((_, sends)) => {
-                    if camera {
-                        self.cameras.sent(compid);
-                    } else {
-                        self.gimbals.sent(&head);
-                    }
-                    // Asked on our own: not over a high-latency link.
-                    out.extend(self.drive(now, sends).into_iter().map(|o| match o {
-                        SessionOut::Send(m) => SessionOut::SendAuto(m),
-                        o => o,
-                    }));
-                }
-                Err(_) => continue,
+            let Ok((_, sends)) = self.commands.submit(now, spec) else {
+                continue;
+            };
+            if camera {
+                self.cameras.sent(compid);
+            } else {
+                self.gimbals.sent(&head);
             }
+            let mut buf = Vec::new();
+            commands::to_out(sends, Route::Auto, &mut buf);
+            self.deliver(now, &mut buf, out);
         }
-        out
     }
 
     /// Home's altitude above mean sea level in metres, for PX4's take-off altitude: from
@@ -415,8 +458,10 @@ impl Session {
         now: Micros,
         req: MissionRequest,
     ) -> Result<Vec<SessionOut>, String> {
-        let out = self.mission.submit(now, req)?;
-        Ok(self.mission_out(out))
+        let mut o = self.mission.submit_out(now, req)?;
+        let mut out = Vec::new();
+        self.deliver(now, &mut o, &mut out);
+        Ok(out)
     }
 
     /// Make `seq` the current mission item.
@@ -425,21 +470,10 @@ impl Session {
         now: Micros,
         seq: u16,
     ) -> Result<Vec<SessionOut>, String> {
-        let out = self.mission.set_current(now, seq)?;
-        Ok(self.mission_out(out))
-    }
-
-    /// Mission machine output: its messages go to the vehicle on its route (the operator asked
-    /// for every transfer), its events worth telling become notices.
-    fn mission_out(&self, outs: Vec<MissionOut>) -> Vec<SessionOut> {
-        outs.into_iter()
-            .filter_map(|o| match o {
-                MissionOut::Send(m) => Some(SessionOut::Send(m)),
-                MissionOut::Event(e) => e
-                    .notice(self.key)
-                    .map(|(sev, text)| SessionOut::Notice(sev, text)),
-            })
-            .collect()
+        let mut o = self.mission.set_current_out(now, seq)?;
+        let mut out = Vec::new();
+        self.deliver(now, &mut o, &mut out);
+        Ok(out)
     }
 
     /// Send a command through the queue.
@@ -448,8 +482,11 @@ impl Session {
         now: Micros,
         spec: CommandSpec,
     ) -> Result<(u64, Vec<SessionOut>), String> {
-        let (id, out) = self.queue(now, spec)?;
-        Ok((id, self.drive(now, out)))
+        let (id, o) = self.queue(now, spec)?;
+        let mut out = Vec::new();
+        self.drive(now, o, &mut out);
+        self.hold_streams();
+        Ok((id, out))
     }
 
     /// The queue's submit; a mode change remembers the mode it leaves.
@@ -463,9 +500,8 @@ impl Session {
     }
 
     /// The heartbeat shows `mode`: a DO_SET_MODE sent from another mode is no longer resent.
-    fn on_mode_seen(&mut self, mode: u32) -> Vec<SessionOut> {
+    fn on_mode_seen(&mut self, mode: u32, out: &mut Vec<SessionOut>) {
         self.mode_seen = Some(mode);
-        let mut out = Vec::new();
         let asks = std::mem::take(&mut self.mode_asks);
         for (id, left) in asks {
             let Some(e) = self.commands.get(id).filter(|e| e.open()) else {
@@ -496,7 +532,6 @@ impl Session {
                 ));
             }
         }
-        out
     }
 
     /// A new mode request (a mode, LAND, RTL): the take-off or mode change still running is
@@ -521,14 +556,18 @@ impl Session {
             done.extend(self.commands.supersede(now, self.key, command as u16));
         }
         self.mode_asks.clear();
-        out.extend(self.drive(now, done));
+        self.drive(now, done, &mut out);
+        self.hold_streams();
         out
     }
 
     /// Abort command `id` in progress.
     pub fn cancel(&mut self, now: Micros, id: u64) -> Result<Vec<SessionOut>, String> {
-        let out = self.commands.cancel(now, id)?;
-        Ok(self.drive(now, out))
+        let o = self.commands.cancel(now, id)?;
+        let mut out = Vec::new();
+        self.drive(now, o, &mut out);
+        self.hold_streams();
+        Ok(out)
     }
 
     /// Start a sequence (one at a time).
@@ -541,81 +580,114 @@ impl Session {
             return Err(format!("{} is still running", s.name));
         }
         self.sequence = Some(seq);
-        Ok(self.seq_out(now, Vec::new()))
+        let mut out = Vec::new();
+        self.seq_step(now, Vec::new(), &mut out);
+        self.hold_streams();
+        Ok(out)
     }
 
-    /// Queue output: sends and notices out; finished commands move a sequence on.
-    fn drive(&mut self, now: Micros, outs: Vec<CmdOut>) -> Vec<SessionOut> {
-        let mut out = Vec::new();
+    /// Queue output, in the one contract, delivered.
+    fn drive(&mut self, now: Micros, outs: Vec<CmdOut>, out: &mut Vec<SessionOut>) {
+        let mut buf = Vec::new();
+        commands::to_out(outs, Route::Vehicle, &mut buf);
+        self.deliver(now, &mut buf, out);
+    }
+
+    /// Machine output turned into what the session wants done, in one place: the routing
+    /// policy ([`Route`] to [`SessionOut`]), notices, typed outcomes for the UI, and finished
+    /// commands handed on to the cameras, gimbals and the sequence (which then submits its next
+    /// command when it is time). Drains `outs`.
+    pub fn deliver(&mut self, now: Micros, outs: &mut Vec<Out>, out: &mut Vec<SessionOut>) {
+        if outs.is_empty() && self.sequence.is_none() {
+            return;
+        }
         let mut seq_events = Vec::new();
-        // The gimbal discovery asks every autopilot (most have no mount): their outcomes stay on
-        // the Commands screen instead of a notice each.
-        let quiet: Vec<bool> = outs
-            .iter()
-            .enumerate()
-            .map(|(i, o)| match (o, outs.get(i + 1)) {
-                (CmdOut::Notice(..), Some(CmdOut::Finished(id))) => {
-                    self.commands.get(*id).is_some_and(|e| {
-                        crate::proto::gimbal::is_discovery(e.spec.command, &e.spec.params)
-                    })
-                }
-                _ => false,
-            })
-            .collect();
-        for (o, quiet) in outs.into_iter().zip(quiet) {
+        for o in outs.drain(..) {
             match o {
-                CmdOut::Send(m) => out.push(SessionOut::Send(m)),
-                CmdOut::Notice(..) if quiet => {}
-                CmdOut::Notice(s, t) => out.push(SessionOut::Notice(s, t)),
-                CmdOut::Finished(id) => {
-                    if let Some(e) = self.commands.get(id) {
-                        if e.spec.target.0 == self.key.0 {
-                            let (c, cmd, p) = (e.spec.target.1, e.spec.command, e.spec.params);
-                            self.gimbals.on_finished(now, c, cmd, &p);
+                Out::Send { route, msg } => out.push(route_out(route, msg)),
+                Out::Event(MachineEvent::Notice(sev, text)) => {
+                    out.push(SessionOut::Notice(sev.0, text))
+                }
+                Out::Event(MachineEvent::ParamSet {
+                    comp,
+                    name,
+                    confirmed,
+                    notice: (sev, text),
+                }) => out.push(SessionOut::ParamSet {
+                    comp,
+                    name,
+                    confirmed,
+                    sev: sev.0,
+                    text,
+                }),
+                Out::Event(MachineEvent::CommandDone { id, notice }) => {
+                    if let (Some((sev, text)), Some(e)) = (notice, self.commands.get(id)) {
+                        // The gimbal discovery asks every autopilot (most have no mount): its
+                        // outcomes stay on the Commands screen instead of a notice each.
+                        if !crate::proto::gimbal::is_discovery(e.spec.command, &e.spec.params) {
+                            out.push(SessionOut::Command {
+                                id,
+                                target: e.spec.target,
+                                command: e.spec.command,
+                                sev: sev.0,
+                                text,
+                            });
                         }
                     }
-                    if let Some(e) = self.commands.get(id) {
-                        if self.cameras.cameras.contains_key(&e.spec.target.1)
-                            && e.spec.target.0 == self.key.0
-                        {
-                            let accepted = e.state == State::Done(0);
-                            let (c, cmd, p) = (e.spec.target.1, e.spec.command, e.spec.params);
-                            if accepted
-                                && cmd == MavCmd::MAV_CMD_STORAGE_FORMAT as u16
-                                && p[2] == 1.0
-                            {
-                                self.cameras.forget_images(c);
-                            }
-                            let mut notes = self.cameras.on_finished(now, c, cmd, &p, accepted);
-                            if matches!(e.state, State::Done(r) if r != 0) {
-                                notes.extend(self.cameras.on_refused(c, cmd, &p));
-                            }
-                            out.extend(notes.into_iter().map(|(s, t)| SessionOut::Notice(s, t)));
-                        }
-                    }
-                    if let (Some(seq), Some(e)) = (self.sequence.as_mut(), self.commands.get(id)) {
-                        let accepted = e.state == State::Done(0);
-                        let outcome = match &e.reason {
-                            Some(r) => format!("{} ({r})", e.outcome()),
-                            None => e.outcome(),
-                        };
-                        seq_events.extend(seq.on_finished(now, id, accepted, &outcome));
-                    }
+                    self.on_command_done(now, id, out, &mut seq_events);
                 }
             }
         }
-        out.extend(self.seq_out(now, seq_events));
-        out
+        self.seq_step(now, seq_events, out);
     }
 
-    /// Sequence output, and its next command submitted when it is time.
-    fn seq_out(&mut self, now: Micros, events: Vec<SeqOut>) -> Vec<SessionOut> {
-        let mut out = Vec::new();
-        for e in events {
-            match e {
-                SeqOut::Notice(s, t) => out.push(SessionOut::Notice(s, t)),
-                SeqOut::Send(m) => out.push(SessionOut::Send(m)),
-                SeqOut::Done => {}
+    /// Command `id` finished: the gimbals, cameras and the sequence waiting on it are told.
+    fn on_command_done(
+        &mut self,
+        now: Micros,
+        id: u64,
+        out: &mut Vec<SessionOut>,
+        seq_events: &mut Vec<Out>,
+    ) {
+        let Some(e) = self.commands.get(id) else {
+            return;
+        };
+        let (target, cmd, p) = (e.spec.target, e.spec.command, e.spec.params);
+        let accepted = e.state == State::Done(0);
+        let refused = matches!(e.state, State::Done(r) if r != 0);
+        if target.0 == self.key.0 {
+            self.gimbals.on_finished(now, target.1, cmd, &p);
+            self.offer = Some(self.offer.map_or(now, |t| t.min(now)));
+        }
+        if self.cameras.cameras.contains_key(&target.1) && target.0 == self.key.0 {
+            if accepted && cmd == MavCmd::MAV_CMD_STORAGE_FORMAT as u16 && p[2] == 1.0 {
+                self.cameras.forget_images(target.1);
+            }
+            let mut notes = self.cameras.on_finished(now, target.1, cmd, &p, accepted);
+            if refused {
+                notes.extend(self.cameras.on_refused(target.1, cmd, &p));
+            }
+            out.extend(notes.into_iter().map(|(s, t)| SessionOut::Notice(s, t)));
+        }
+        if let (Some(seq), Some(e)) = (self.sequence.as_mut(), self.commands.get(id)) {
+            let accepted = e.state == State::Done(0);
+            let outcome = match &e.reason {
+                Some(r) => format!("{} ({r})", e.outcome()),
+                None => e.outcome(),
+            };
+            sequence::to_out(seq.on_finished(now, id, accepted, &outcome), seq_events);
+        }
+    }
+
+    /// The sequence's output, and its next command submitted when it is time.
+    fn seq_step(&mut self, now: Micros, mut events: Vec<Out>, out: &mut Vec<SessionOut>) {
+        for o in events.drain(..) {
+            match o {
+                Out::Send { route, msg } => out.push(route_out(route, msg)),
+                Out::Event(MachineEvent::Notice(sev, text)) => {
+                    out.push(SessionOut::Notice(sev.0, text))
+                }
+                Out::Event(_) => {}
             }
         }
         let next = self.sequence.as_ref().and_then(|s| s.next_command());
@@ -625,22 +697,28 @@ impl Session {
                     if let Some(seq) = self.sequence.as_mut() {
                         seq.sent(id);
                     }
-                    out.extend(self.drive(now, sends));
+                    self.drive(now, sends, out);
                 }
                 Err(why) => {
-                    let r = self
-                        .sequence
-                        .as_mut()
-                        .map(|s| s.refused(&why))
-                        .unwrap_or_default();
-                    out.extend(self.seq_out(now, r));
+                    let mut r = Vec::new();
+                    if let Some(s) = self.sequence.as_mut() {
+                        sequence::to_out(s.refused(&why), &mut r);
+                    }
+                    self.seq_step(now, r, out);
                 }
             }
         }
         if self.sequence.as_ref().is_some_and(|s| s.finished()) {
             self.sequence = None;
         }
-        out
+    }
+
+    /// The stream machine holds its SET_MESSAGE_INTERVALs while one of the operator's is open.
+    fn hold_streams(&mut self) {
+        let interval = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
+        let operators = self.commands.is_open(self.key, interval)
+            || self.commands.is_open((self.key.0, 0), interval);
+        self.streams.hold_intervals(operators);
     }
 
     /// The vehicle rebooted: every machine starts over where it must.
@@ -665,66 +743,72 @@ impl Session {
 
     /// Whatever is due at `now`.
     pub fn poll(&mut self, now: Micros) -> Vec<SessionOut> {
-        let interval = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
-        let operators = self.commands.is_open(self.key, interval)
-            || self.commands.is_open((self.key.0, 0), interval);
-        self.streams.hold_intervals(operators);
-        let mut out: Vec<SessionOut> = self.streams.poll(now).into_iter().map(map).collect();
-        let done = self.commands.poll(now);
-        out.extend(self.drive(now, done));
-        let r = self
-            .sequence
-            .as_mut()
-            .map(|s| s.poll(now))
-            .unwrap_or_default();
-        out.extend(self.seq_out(now, r));
-        out.extend(self.flight.poll(now).into_iter().map(SessionOut::SendAuto));
-        let p = self.params.poll(now);
-        out.extend(p.into_iter().map(|o| self.pmap(o)));
-        let m = self.mission.poll(now);
-        out.extend(self.mission_out(m));
-        self.cameras.poll(now);
-        self.gimbals.poll(now);
-        out.extend(self.camera_requests(now));
+        self.hold_streams();
+        let mut out = Vec::new();
+        let mut buf = Vec::new();
+        Machine::poll(&mut self.streams, now, &mut buf);
+        self.deliver(now, &mut buf, &mut out);
+        Machine::poll(&mut self.commands, now, &mut buf);
+        self.deliver(now, &mut buf, &mut out);
+        if let Some(seq) = self.sequence.as_mut() {
+            Machine::poll(seq, now, &mut buf);
+        }
+        self.deliver(now, &mut buf, &mut out);
+        Machine::poll(&mut self.flight, now, &mut buf);
+        Machine::poll(&mut self.params, now, &mut buf);
+        self.deliver(now, &mut buf, &mut out);
+        Machine::poll(&mut self.mission, now, &mut buf);
+        self.deliver(now, &mut buf, &mut out);
+        Machine::poll(&mut self.cameras, now, &mut buf);
+        Machine::poll(&mut self.gimbals, now, &mut buf);
+        self.deliver(now, &mut buf, &mut out);
+        self.offer = None;
+        self.camera_requests(now, &mut out);
+        self.hold_streams();
         out
     }
 
-    /// Parameter machine output: what belongs to a download it started on its own is automatic
-    /// traffic; an edit (PARAM_SET) is always the operator's.
+    /// A parameter machine's output (of an operator's fetch or edit), in the one contract.
     pub(crate) fn pmap(&self, o: ParamOut) -> SessionOut {
-        match o {
-            ParamOut::Send(m @ MavMessage::PARAM_SET(_)) => SessionOut::Send(m),
-            ParamOut::Send(m) if self.params.auto_download() => SessionOut::SendAuto(m),
-            ParamOut::Send(m) => SessionOut::Send(m),
-            ParamOut::Notice(s, t) => SessionOut::Notice(s, t),
+        match self.params.out(o) {
+            Out::Send { route, msg } => route_out(route, msg),
+            Out::Event(MachineEvent::ParamSet {
+                comp,
+                name,
+                confirmed,
+                notice: (sev, text),
+            }) => SessionOut::ParamSet {
+                comp,
+                name,
+                confirmed,
+                sev: sev.0,
+                text,
+            },
+            Out::Event(MachineEvent::Notice(sev, text))
+            | Out::Event(MachineEvent::CommandDone {
+                notice: Some((sev, text)),
+                ..
+            }) => SessionOut::Notice(sev.0, text),
+            // The parameter machine runs no commands.
+            Out::Event(MachineEvent::CommandDone { notice: None, .. }) => {
+                SessionOut::Notice(crate::wire::Severity::DEBUG.0, String::new())
+            }
         }
     }
 
-    /// True when a poll now would do something (a machine has work that is not on a timer).
-    pub fn due(&self) -> bool {
-        self.streams.due()
-            || self.flight.due()
-            || self.params.due()
-            || self.mission.due()
-            || self
-                .cameras
-                .heads()
-                .iter()
-                .chain(self.gimbals.heads().iter())
-                .any(|(c, cmd, _)| !self.commands.is_open((self.key.0, *c), *cmd))
-    }
-
-    /// When the session next needs a poll.
+    /// When the session next needs a poll: the machines' deadlines (work not on a timer is
+    /// due at the time it became due; the poll then does it).
     pub fn next_deadline(&self) -> Option<Micros> {
         [
-            self.streams.next_deadline(),
-            self.commands.next_deadline(),
-            self.sequence.as_ref().and_then(|s| s.next_deadline()),
-            self.flight.next_deadline(),
-            self.params.next_deadline(),
-            self.mission.next_deadline(),
-            self.cameras.next_deadline(),
-            self.gimbals.next_deadline(),
+            Machine::next_deadline(&self.streams),
+            Machine::next_deadline(&self.commands),
+            self.sequence.as_ref().and_then(Machine::next_deadline),
+            Machine::next_deadline(&self.flight),
+            Machine::next_deadline(&self.params),
+            Machine::next_deadline(&self.mission),
+            Machine::next_deadline(&self.cameras),
+            Machine::next_deadline(&self.gimbals),
+            self.offer,
         ]
         .into_iter()
         .flatten()
@@ -735,9 +819,12 @@ impl Session {
 /// A component's request waiting for the queue: (component, command, params).
 type Request = (u8, u16, [f64; 7]);
 
-fn map(o: StreamOut) -> SessionOut {
-    match o {
-        StreamOut::SendOn(l, m) => SessionOut::SendOn(l, m),
-        StreamOut::Notice(s, t) => SessionOut::Notice(s, t),
+/// The routing policy: the operator's messages on the vehicle's route, mavterm's own spared on
+/// high-latency links, stream requests on their link.
+fn route_out(route: Route, msg: MavMessage) -> SessionOut {
+    match route {
+        Route::Vehicle => SessionOut::Send(msg),
+        Route::Auto => SessionOut::SendAuto(msg),
+        Route::Link(l) => SessionOut::SendOn(l, msg),
     }
 }

@@ -28,7 +28,8 @@
 use std::collections::{BTreeMap, VecDeque};
 
 use crate::clock::{Micros, SECOND};
-use crate::dialect::MavCmd;
+use crate::dialect::{self, MavCmd};
+use crate::proto::machine::{Ids, Incoming, Machine, Out};
 use mavlink::MessageData;
 use num_traits::FromPrimitive;
 
@@ -38,7 +39,6 @@ pub const STORAGE_INFORMATION: u32 = crate::dialect::STORAGE_INFORMATION_DATA::I
 pub const CAMERA_CAPTURE_STATUS: u32 = crate::dialect::CAMERA_CAPTURE_STATUS_DATA::ID;
 pub const CAMERA_IMAGE_CAPTURED: u32 = crate::dialect::CAMERA_IMAGE_CAPTURED_DATA::ID;
 pub const VIDEO_STREAM_INFORMATION: u32 = crate::dialect::VIDEO_STREAM_INFORMATION_DATA::ID;
-
 
 /// MAV_TYPE_CAMERA.
 pub const MAV_TYPE_CAMERA: u8 = 30;
@@ -353,7 +353,10 @@ impl Camera {
     fn hole_requests(&self) -> usize {
         self.pending
             .iter()
-            .filter(|(cmd, p)| *cmd == (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16) && p[0] == CAMERA_IMAGE_CAPTURED as f64)
+            .filter(|(cmd, p)| {
+                *cmd == (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16)
+                    && p[0] == CAMERA_IMAGE_CAPTURED as f64
+            })
             .count()
     }
 
@@ -619,7 +622,11 @@ impl CameraSet {
                 // None came (lost, or refused): asked again, a bounded number of times.
                 c.stream_next = (c.stream_asks < STREAM_TRIES).then_some(now + STREAM_RETRY);
             }
-            Some(MavCmd::MAV_CMD_SET_CAMERA_MODE) | Some(MavCmd::MAV_CMD_SET_CAMERA_ZOOM) | Some(MavCmd::MAV_CMD_SET_CAMERA_FOCUS) if accepted => {
+            Some(MavCmd::MAV_CMD_SET_CAMERA_MODE)
+            | Some(MavCmd::MAV_CMD_SET_CAMERA_ZOOM)
+            | Some(MavCmd::MAV_CMD_SET_CAMERA_FOCUS)
+                if accepted =>
+            {
                 c.request(CAMERA_SETTINGS, 0.0);
             }
             Some(MavCmd::MAV_CMD_IMAGE_START_CAPTURE)
@@ -645,7 +652,9 @@ impl CameraSet {
         let Some(c) = self.cameras.get_mut(&compid) else {
             return notes;
         };
-        if command != (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16) || params[0] != CAMERA_IMAGE_CAPTURED as f64 {
+        if command != (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16)
+            || params[0] != CAMERA_IMAGE_CAPTURED as f64
+        {
             return notes;
         }
         let index = params[1] as i32;
@@ -780,7 +789,10 @@ impl CameraSet {
                         "camera {compid} is recording: `camera video stop` first"
                     ));
                 }
-                Ok(((MavCmd::MAV_CMD_SET_CAMERA_MODE as u16), p(0.0, *m as f64, 0.0, 0.0)))
+                Ok((
+                    (MavCmd::MAV_CMD_SET_CAMERA_MODE as u16),
+                    p(0.0, *m as f64, 0.0, 0.0),
+                ))
             }
             CameraAction::Shoot { count, interval } => {
                 if !has(CAP_CAPTURE_IMAGE) {
@@ -799,7 +811,10 @@ impl CameraSet {
                     p(0.0, *interval, *count as f64, seq),
                 ))
             }
-            CameraAction::StopImages => Ok(((MavCmd::MAV_CMD_IMAGE_STOP_CAPTURE as u16), p(0.0, 0.0, 0.0, 0.0))),
+            CameraAction::StopImages => Ok((
+                (MavCmd::MAV_CMD_IMAGE_STOP_CAPTURE as u16),
+                p(0.0, 0.0, 0.0, 0.0),
+            )),
             CameraAction::VideoStart => {
                 if !has(CAP_CAPTURE_VIDEO) {
                     return Err(lacks("record video", "CAPTURE_VIDEO"));
@@ -821,22 +836,34 @@ impl CameraSet {
                     }
                 }
                 // CAMERA_CAPTURE_STATUS at 1 Hz while recording (param2).
-                Ok(((MavCmd::MAV_CMD_VIDEO_START_CAPTURE as u16), p(0.0, 1.0, 0.0, 0.0)))
+                Ok((
+                    (MavCmd::MAV_CMD_VIDEO_START_CAPTURE as u16),
+                    p(0.0, 1.0, 0.0, 0.0),
+                ))
             }
-            CameraAction::VideoStop => Ok(((MavCmd::MAV_CMD_VIDEO_STOP_CAPTURE as u16), p(0.0, 0.0, 0.0, 0.0))),
+            CameraAction::VideoStop => Ok((
+                (MavCmd::MAV_CMD_VIDEO_STOP_CAPTURE as u16),
+                p(0.0, 0.0, 0.0, 0.0),
+            )),
             CameraAction::Zoom(z) => {
                 if !has(CAP_ZOOM) {
                     return Err(lacks("zoom", "HAS_BASIC_ZOOM"));
                 }
                 // ZOOM_TYPE_RANGE (2): 0 to 100 % of the range.
-                Ok(((MavCmd::MAV_CMD_SET_CAMERA_ZOOM as u16), p(2.0, *z, 0.0, 0.0)))
+                Ok((
+                    (MavCmd::MAV_CMD_SET_CAMERA_ZOOM as u16),
+                    p(2.0, *z, 0.0, 0.0),
+                ))
             }
             CameraAction::Focus(f) => {
                 if !has(CAP_FOCUS) {
                     return Err(lacks("focus", "HAS_BASIC_FOCUS"));
                 }
                 // FOCUS_TYPE_RANGE (2): 0 to 100 % of the range.
-                Ok(((MavCmd::MAV_CMD_SET_CAMERA_FOCUS as u16), p(2.0, *f, 0.0, 0.0)))
+                Ok((
+                    (MavCmd::MAV_CMD_SET_CAMERA_FOCUS as u16),
+                    p(2.0, *f, 0.0, 0.0),
+                ))
             }
             CameraAction::Format => {
                 if c.storage.is_none() {
@@ -849,7 +876,10 @@ impl CameraSet {
                 }
                 let id = c.storage.map_or(1, |s| s.id.max(1));
                 // Storage id (1 = first), format, reset the image log.
-                Ok(((MavCmd::MAV_CMD_STORAGE_FORMAT as u16), p(id as f64, 1.0, 1.0, 0.0)))
+                Ok((
+                    (MavCmd::MAV_CMD_STORAGE_FORMAT as u16),
+                    p(id as f64, 1.0, 1.0, 0.0),
+                ))
             }
         }
     }
@@ -868,6 +898,45 @@ impl CameraSet {
             c.asked.clear();
             c.last_image = None;
         }
+    }
+}
+
+/// Notes in the one contract.
+pub(crate) fn notes_out(notes: Vec<(u8, String)>, out: &mut Vec<Out>) {
+    out.extend(notes.into_iter().map(|(s, t)| Out::notice(s, t)));
+}
+
+impl Machine for CameraSet {
+    /// Heartbeats (a camera announces itself) and the camera protocol's messages.
+    const IDS: Ids = Ids::Only(&[
+        dialect::HEARTBEAT_DATA::ID,
+        dialect::CAMERA_INFORMATION_DATA::ID,
+        dialect::CAMERA_SETTINGS_DATA::ID,
+        dialect::STORAGE_INFORMATION_DATA::ID,
+        dialect::CAMERA_CAPTURE_STATUS_DATA::ID,
+        dialect::CAMERA_IMAGE_CAPTURED_DATA::ID,
+        dialect::FLIGHT_INFORMATION_DATA::ID,
+        dialect::MOUNT_ORIENTATION_DATA::ID,
+        dialect::LOGGING_DATA_DATA::ID,
+        dialect::LOGGING_DATA_ACKED_DATA::ID,
+        dialect::LOGGING_ACK_DATA::ID,
+        dialect::VIDEO_STREAM_INFORMATION_DATA::ID,
+        dialect::GIMBAL_DEVICE_ATTITUDE_STATUS_DATA::ID,
+    ]);
+
+    /// Any component of the system (ArduPilot answers for its camera itself).
+    fn on_message(&mut self, m: &Incoming, out: &mut Vec<Out>) {
+        let hb_type = m.heartbeat().map(|hb| hb.mavtype as u8);
+        let notes = CameraSet::on_message(self, m.now, m.from.1, m.id, hb_type, m.payload);
+        notes_out(notes, out);
+    }
+
+    fn poll(&mut self, now: Micros, _: &mut Vec<Out>) {
+        CameraSet::poll(self, now);
+    }
+
+    fn next_deadline(&self) -> Option<Micros> {
+        CameraSet::next_deadline(self)
     }
 }
 

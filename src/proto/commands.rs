@@ -22,6 +22,8 @@ use std::collections::VecDeque;
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavCmd, MavFrame, MavMessage, MavResult};
 use crate::proto::ack::{command_name, result_name, CommandAck};
+use crate::proto::machine::{Ids, Incoming, Machine, MachineEvent, Out, Route};
+use mavlink::MessageData;
 use num_traits::FromPrimitive;
 
 /// Most sends of a command that is safe to repeat.
@@ -465,6 +467,50 @@ impl CommandQueue {
             .filter(|e| e.open())
             .map(|e| e.deadline)
             .min()
+    }
+}
+
+/// Queue output in the one contract: sends go on `route` (the vehicle's, or mavterm's own for a
+/// request it makes on its own), and each finished command is one event with what to tell of it.
+pub fn to_out(outs: Vec<CmdOut>, route: Route, out: &mut Vec<Out>) {
+    let mut told: Option<(u8, String)> = None;
+    for o in outs {
+        if let Some((s, t)) = told.take() {
+            match &o {
+                CmdOut::Finished(_) => told = Some((s, t)),
+                _ => out.push(Out::notice(s, t)),
+            }
+        }
+        match o {
+            CmdOut::Send(m) => out.push(Out::send(route, m)),
+            CmdOut::Notice(s, t) => told = Some((s, t)),
+            CmdOut::Finished(id) => out.push(Out::Event(MachineEvent::CommandDone {
+                id,
+                notice: told.take().map(|(s, t)| (s.into(), t)),
+            })),
+        }
+    }
+    if let Some((s, t)) = told {
+        out.push(Out::notice(s, t));
+    }
+}
+
+impl Machine for CommandQueue {
+    const IDS: Ids = Ids::Only(&[dialect::COMMAND_ACK_DATA::ID]);
+
+    /// The ACKs of the commands sent to any component of the system.
+    fn on_message(&mut self, m: &Incoming, out: &mut Vec<Out>) {
+        if let Some(a) = m.ack {
+            to_out(self.on_ack(m.now, m.from, a), Route::Vehicle, out);
+        }
+    }
+
+    fn poll(&mut self, now: Micros, out: &mut Vec<Out>) {
+        to_out(CommandQueue::poll(self, now), Route::Vehicle, out);
+    }
+
+    fn next_deadline(&self) -> Option<Micros> {
+        CommandQueue::next_deadline(self)
     }
 }
 

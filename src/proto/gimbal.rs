@@ -33,15 +33,16 @@
 use std::collections::{BTreeMap, VecDeque};
 
 use crate::clock::{Micros, SECOND};
-use crate::dialect::MavCmd;
-use mavlink::MessageData;
+use crate::dialect::{self, MavCmd};
 pub use crate::proto::camera::names;
+use crate::proto::machine::{Ids, Incoming, Machine, Out};
 use crate::wire::payload::Payload as P;
+use mavlink::MessageData;
 
 pub const GIMBAL_MANAGER_INFORMATION: u32 = crate::dialect::GIMBAL_MANAGER_INFORMATION_DATA::ID;
 pub const GIMBAL_MANAGER_STATUS: u32 = crate::dialect::GIMBAL_MANAGER_STATUS_DATA::ID;
-pub const GIMBAL_DEVICE_ATTITUDE_STATUS: u32 = crate::dialect::GIMBAL_DEVICE_ATTITUDE_STATUS_DATA::ID;
-
+pub const GIMBAL_DEVICE_ATTITUDE_STATUS: u32 =
+    crate::dialect::GIMBAL_DEVICE_ATTITUDE_STATUS_DATA::ID;
 
 /// MAV_TYPE_GIMBAL.
 pub const MAV_TYPE_GIMBAL: u8 = 26;
@@ -261,12 +262,15 @@ pub struct GimbalSet {
     candidates: BTreeMap<u8, Candidate>,
     /// Requests waiting for the command queue: (component, command, params).
     pending: VecDeque<(u8, u16, [f64; 7])>,
+    /// The autopilot's component id (the usual manager).
+    pub autopilot: u8,
 }
 
 /// A request the discovery sends on its own (GIMBAL_MANAGER_INFORMATION asked, the status and
 /// attitude streams asked for).
 pub fn is_discovery(command: u16, params: &[f64; 7]) -> bool {
-    (command == (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16) && params[0] == GIMBAL_MANAGER_INFORMATION as f64)
+    (command == (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16)
+        && params[0] == GIMBAL_MANAGER_INFORMATION as f64)
         || (command == (MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16)
             && (params[0] == GIMBAL_MANAGER_STATUS as f64
                 || params[0] == GIMBAL_DEVICE_ATTITUDE_STATUS as f64))
@@ -428,7 +432,9 @@ impl GimbalSet {
 
     /// A command to component `compid` finished (`accepted` or not).
     pub fn on_finished(&mut self, now: Micros, compid: u8, command: u16, params: &[f64; 7]) {
-        if command == (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16) && params[0] == GIMBAL_MANAGER_INFORMATION as f64 {
+        if command == (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16)
+            && params[0] == GIMBAL_MANAGER_INFORMATION as f64
+        {
             if let Some(c) = self.candidates.get_mut(&compid) {
                 if !c.found {
                     c.next = (c.tries < INFO_TRIES).then_some(now + INFO_RETRY);
@@ -437,7 +443,11 @@ impl GimbalSet {
         }
         if command == (MavCmd::MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE as u16) {
             // Who has control now.
-            self.push((compid, (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16), request(GIMBAL_MANAGER_STATUS)));
+            self.push((
+                compid,
+                (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16),
+                request(GIMBAL_MANAGER_STATUS),
+            ));
         }
     }
 
@@ -454,7 +464,11 @@ impl GimbalSet {
                 c.tries += 1;
                 c.next = None;
             }
-            self.push((id, (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16), request(GIMBAL_MANAGER_INFORMATION)));
+            self.push((
+                id,
+                (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16),
+                request(GIMBAL_MANAGER_INFORMATION),
+            ));
         }
         let mut asks = Vec::new();
         for g in self.gimbals.values_mut() {
@@ -643,6 +657,36 @@ impl GimbalSet {
         if let Some(g) = self.gimbals.get_mut(&(manager, device)) {
             g.commanded = Some((pitch, yaw));
         }
+    }
+}
+
+impl Machine for GimbalSet {
+    /// Heartbeats (a gimbal announces itself) and the gimbal manager protocol's messages.
+    const IDS: Ids = Ids::Only(&[
+        dialect::HEARTBEAT_DATA::ID,
+        dialect::GIMBAL_MANAGER_INFORMATION_DATA::ID,
+        dialect::GIMBAL_MANAGER_STATUS_DATA::ID,
+        dialect::GIMBAL_MANAGER_SET_ATTITUDE_DATA::ID,
+        dialect::GIMBAL_DEVICE_INFORMATION_DATA::ID,
+        dialect::GIMBAL_DEVICE_SET_ATTITUDE_DATA::ID,
+        dialect::GIMBAL_DEVICE_ATTITUDE_STATUS_DATA::ID,
+    ]);
+
+    /// The autopilot and any gimbal component may be a gimbal manager.
+    fn on_message(&mut self, m: &Incoming, out: &mut Vec<Out>) {
+        let hb_type = m.heartbeat().map(|hb| hb.mavtype as u8);
+        let ap = self.autopilot;
+        let notes = GimbalSet::on_message(self, m.now, m.from.1, m.id, hb_type, ap, m.payload);
+        GimbalSet::poll(self, m.now);
+        crate::proto::camera::notes_out(notes, out);
+    }
+
+    fn poll(&mut self, now: Micros, _: &mut Vec<Out>) {
+        GimbalSet::poll(self, now);
+    }
+
+    fn next_deadline(&self) -> Option<Micros> {
+        GimbalSet::next_deadline(self)
     }
 }
 

@@ -53,8 +53,10 @@ use num_traits::FromPrimitive;
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavCmd, MavFrame, MavMessage, MavMissionResult, MavMissionType};
 use crate::mission::{xy_to_wire, MissionItem, MissionType};
+use crate::proto::machine::{Ids, Incoming, Machine, Out, Route};
 use crate::proto::severity::{INFO as SEV_INFO, NOTICE as SEV_NOTICE, WARNING as SEV_WARNING};
 use crate::proto::vehicles::VehicleKey;
+use mavlink::MessageData;
 
 /// Wait for the vehicle's answer to MISSION_REQUEST_LIST, MISSION_COUNT, MISSION_CLEAR_ALL.
 pub const ACK_TIMEOUT: Micros = 1_500_000;
@@ -81,17 +83,18 @@ pub const EXPLAIN_WINDOW: Micros = SECOND;
 
 /// Message ids of the mission protocol.
 pub mod id {
-    pub const MISSION_ITEM: u32 = 39;
-    pub const MISSION_REQUEST: u32 = 40;
-    pub const MISSION_SET_CURRENT: u32 = 41;
-    pub const MISSION_CURRENT: u32 = 42;
-    pub const MISSION_REQUEST_LIST: u32 = 43;
-    pub const MISSION_COUNT: u32 = 44;
-    pub const MISSION_CLEAR_ALL: u32 = 45;
-    pub const MISSION_ITEM_REACHED: u32 = 46;
-    pub const MISSION_ACK: u32 = 47;
-    pub const MISSION_REQUEST_INT: u32 = 51;
-    pub const MISSION_ITEM_INT: u32 = 73;
+    use mavlink::MessageData;
+    pub const MISSION_ITEM: u32 = crate::dialect::MISSION_ITEM_DATA::ID;
+    pub const MISSION_REQUEST: u32 = crate::dialect::MISSION_REQUEST_DATA::ID;
+    pub const MISSION_SET_CURRENT: u32 = crate::dialect::MISSION_SET_CURRENT_DATA::ID;
+    pub const MISSION_CURRENT: u32 = crate::dialect::MISSION_CURRENT_DATA::ID;
+    pub const MISSION_REQUEST_LIST: u32 = crate::dialect::MISSION_REQUEST_LIST_DATA::ID;
+    pub const MISSION_COUNT: u32 = crate::dialect::MISSION_COUNT_DATA::ID;
+    pub const MISSION_CLEAR_ALL: u32 = crate::dialect::MISSION_CLEAR_ALL_DATA::ID;
+    pub const MISSION_ITEM_REACHED: u32 = crate::dialect::MISSION_ITEM_REACHED_DATA::ID;
+    pub const MISSION_ACK: u32 = crate::dialect::MISSION_ACK_DATA::ID;
+    pub const MISSION_REQUEST_INT: u32 = crate::dialect::MISSION_REQUEST_INT_DATA::ID;
+    pub const MISSION_ITEM_INT: u32 = crate::dialect::MISSION_ITEM_INT_DATA::ID;
 }
 
 /// `MAV_MISSION_NO_SPACE` → `NO_SPACE`; a number the dialect does not know stays a number.
@@ -1363,19 +1366,84 @@ impl MissionMachine {
         self.rebooted = true;
     }
 
-    /// True when a poll now would do something not on a timer.
-    pub fn due(&self) -> bool {
-        self.rebooted
-    }
-
+    /// When it next needs a poll: a reboot heard is work for the poll at once (0).
     pub fn next_deadline(&self) -> Option<Micros> {
         [
+            self.rebooted.then_some(0),
             self.running.as_ref().map(|t| t.deadline),
             self.set_current.map(|(_, d)| d),
         ]
         .into_iter()
         .flatten()
         .min()
+    }
+}
+
+impl MissionMachine {
+    /// Its output in the one contract: messages go to the vehicle on its route (the operator
+    /// asked for every transfer), the events worth telling become notices.
+    fn emit(&self, outs: Vec<MissionOut>, out: &mut Vec<Out>) {
+        for o in outs {
+            match o {
+                MissionOut::Send(m) => out.push(Out::send(Route::Vehicle, m)),
+                MissionOut::Event(e) => {
+                    if let Some((sev, text)) = e.notice(self.key) {
+                        out.push(Out::notice(sev, text));
+                    }
+                }
+            }
+        }
+    }
+
+    /// [`MissionMachine::submit`] in the one contract.
+    pub fn submit_out(&mut self, now: Micros, req: Request) -> Result<Vec<Out>, String> {
+        let o = self.submit(now, req)?;
+        let mut out = Vec::new();
+        self.emit(o, &mut out);
+        Ok(out)
+    }
+
+    /// [`MissionMachine::set_current`] in the one contract.
+    pub fn set_current_out(&mut self, now: Micros, seq: u16) -> Result<Vec<Out>, String> {
+        let o = self.set_current(now, seq)?;
+        let mut out = Vec::new();
+        self.emit(o, &mut out);
+        Ok(out)
+    }
+}
+
+impl Machine for MissionMachine {
+    const IDS: Ids = Ids::Only(&[
+        id::MISSION_COUNT,
+        id::MISSION_ITEM_INT,
+        id::MISSION_ITEM,
+        id::MISSION_REQUEST_INT,
+        id::MISSION_REQUEST,
+        id::MISSION_ACK,
+        id::MISSION_CURRENT,
+        id::MISSION_ITEM_REACHED,
+        dialect::AUTOPILOT_VERSION_DATA::ID,
+    ]);
+
+    fn on_message(&mut self, m: &Incoming, out: &mut Vec<Out>) {
+        if m.id == dialect::AUTOPILOT_VERSION_DATA::ID {
+            // Capabilities u64 first.
+            self.on_capabilities(Payload(m.payload).u64(0));
+            return;
+        }
+        if let Some(msg) = MissionMsg::read(m.id, m.payload) {
+            let o = MissionMachine::on_message(self, m.now, &msg);
+            self.emit(o, out);
+        }
+    }
+
+    fn poll(&mut self, now: Micros, out: &mut Vec<Out>) {
+        let o = MissionMachine::poll(self, now);
+        self.emit(o, out);
+    }
+
+    fn next_deadline(&self) -> Option<Micros> {
+        MissionMachine::next_deadline(self)
     }
 }
 

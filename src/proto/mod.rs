@@ -6,6 +6,7 @@ pub mod camera;
 pub mod commands;
 pub mod gimbal;
 pub mod loss;
+pub mod machine;
 pub mod mav_cmds;
 pub mod mission;
 pub mod modes;

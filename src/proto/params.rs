@@ -33,6 +33,7 @@ use std::collections::BTreeMap;
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavAutopilot, MavMessage, MavParamType};
 use crate::params::value::{self, Encoding, ParamType};
+use crate::proto::machine::{Ids, Incoming, Machine, Out};
 use crate::proto::param_ftp::{FtpOut, FtpRead};
 use crate::proto::severity::{
     DEBUG as SEV_DEBUG, ERROR as SEV_ERROR, INFO as SEV_INFO, NOTICE as SEV_NOTICE,
@@ -41,6 +42,8 @@ use crate::proto::severity::{
 use crate::proto::vehicles::VehicleKey;
 use crate::wire::mavftp::{FtpPacket, PAYLOAD_LEN};
 use crate::wire::param_pck::{self, PckType};
+use crate::wire::payload::Payload;
+use mavlink::MessageData;
 
 /// What is read over MAVFTP from ArduPilot (its profile's parameter file).
 pub const PCK_PATH: &str = crate::proto::profile::ARDUPILOT_PARAM_FILE;
@@ -333,6 +336,13 @@ struct Download {
 pub enum ParamOut {
     Send(MavMessage),
     Notice(u8, String),
+    /// The outcome of an edit of `name` of component `comp`, and its notice.
+    Set {
+        comp: u8,
+        name: String,
+        confirmed: bool,
+        notice: (u8, String),
+    },
 }
 
 /// A PARAM_VALUE read from its payload (so a type code newer than the dialect still reads).
@@ -957,10 +967,15 @@ impl ParamMachine {
                 if e.sends == 1 {
                     rtt_sample = Some(now.saturating_sub(e.sent_at));
                 }
-                out.push(ParamOut::Notice(
-                    SEV_INFO,
-                    format!("{} = {} confirmed", m.name, value::format(v, ptype)),
-                ));
+                out.push(ParamOut::Set {
+                    comp: from,
+                    name: m.name.clone(),
+                    confirmed: true,
+                    notice: (
+                        SEV_INFO,
+                        format!("{} = {} confirmed", m.name, value::format(v, ptype)),
+                    ),
+                });
             } else if !e.mismatch_resent {
                 e.mismatch_resent = true;
                 e.sends += 1;
@@ -978,10 +993,15 @@ impl ParamMachine {
                 } else {
                     format!("refused: the vehicle kept {}", value::format(v, ptype))
                 };
-                out.push(ParamOut::Notice(
-                    SEV_ERROR,
-                    format!("{} = {} {why}", m.name, value::format(e.value, ptype)),
-                ));
+                out.push(ParamOut::Set {
+                    comp: from,
+                    name: m.name.clone(),
+                    confirmed: false,
+                    notice: (
+                        SEV_ERROR,
+                        format!("{} = {} {why}", m.name, value::format(e.value, ptype)),
+                    ),
+                });
                 e.state = EditState::Failed(why);
                 self.edits_pending -= 1;
             }
@@ -1261,11 +1281,6 @@ impl ParamMachine {
         })
     }
 
-    /// True when a poll now would start the first download.
-    pub fn due(&self) -> bool {
-        self.auto && !self.auto_held
-    }
-
     pub fn next_deadline(&self) -> Option<Micros> {
         if self.auto && !self.auto_held {
             return Some(0);
@@ -1354,10 +1369,15 @@ impl ParamMachine {
                     }
                     if e.sends > SET_RESENDS {
                         let why = format!("no answer after {} tries", e.sends);
-                        out.push(ParamOut::Notice(
-                            SEV_ERROR,
-                            format!("{name} = {}: {why}", value::format(e.value, t)),
-                        ));
+                        out.push(ParamOut::Set {
+                            comp: *comp,
+                            name: name.clone(),
+                            confirmed: false,
+                            notice: (
+                                SEV_ERROR,
+                                format!("{name} = {}: {why}", value::format(e.value, t)),
+                            ),
+                        });
                         e.state = EditState::Failed(why);
                         self.edits_pending -= 1;
                     } else {
@@ -1470,6 +1490,81 @@ fn request_autopilot_version(key: VehicleKey) -> MavMessage {
         target_component: key.1,
         confirmation: 0,
     })
+}
+
+impl ParamMachine {
+    /// Its output in the one contract: what belongs to a download it started on its own is
+    /// automatic traffic; an edit (PARAM_SET) is always the operator's.
+    pub fn out(&self, o: ParamOut) -> Out {
+        use crate::proto::machine::{MachineEvent, Route};
+        match o {
+            ParamOut::Send(m @ MavMessage::PARAM_SET(_)) => Out::send(Route::Vehicle, m),
+            ParamOut::Send(m) if self.auto_download() => Out::send(Route::Auto, m),
+            ParamOut::Send(m) => Out::send(Route::Vehicle, m),
+            ParamOut::Notice(s, t) => Out::notice(s, t),
+            ParamOut::Set {
+                comp,
+                name,
+                confirmed,
+                notice: (s, t),
+            } => Out::Event(MachineEvent::ParamSet {
+                comp,
+                name,
+                confirmed,
+                notice: (s.into(), t),
+            }),
+        }
+    }
+
+    fn emit(&self, o: ParamOut, out: &mut Vec<Out>) {
+        out.push(self.out(o));
+    }
+}
+
+impl Machine for ParamMachine {
+    const IDS: Ids = Ids::Only(&[
+        dialect::PARAM_VALUE_DATA::ID,
+        dialect::FILE_TRANSFER_PROTOCOL_DATA::ID,
+        dialect::AUTOPILOT_VERSION_DATA::ID,
+        dialect::COMMAND_ACK_DATA::ID,
+    ]);
+
+    /// Parameters are kept per component of the system; AUTOPILOT_VERSION (and the ACK of our
+    /// request for it) only from the autopilot.
+    fn on_message(&mut self, m: &Incoming, out: &mut Vec<Out>) {
+        let (now, from) = (m.now, m.from.1);
+        let o = match m.id {
+            dialect::PARAM_VALUE_DATA::ID => self.on_param_value(now, from, m.payload),
+            // target_network, target_system, target_component, then the FTP payload.
+            dialect::FILE_TRANSFER_PROTOCOL_DATA::ID if m.payload.len() > 3 => {
+                self.on_ftp(now, from, &m.payload[3..])
+            }
+            // Capabilities u64 first.
+            dialect::AUTOPILOT_VERSION_DATA::ID if from == self.key.1 => {
+                self.on_autopilot_version(now, Payload(m.payload).u64(0))
+            }
+            _ => Vec::new(),
+        };
+        for o in o {
+            self.emit(o, out);
+        }
+        // The COMMAND_ACK of our AUTOPILOT_VERSION request: a first round trip.
+        if m.ack.is_some_and(|a| {
+            from == self.key.1 && a.command == dialect::MavCmd::MAV_CMD_REQUEST_MESSAGE as u16
+        }) {
+            self.on_version_answer(now);
+        }
+    }
+
+    fn poll(&mut self, now: Micros, out: &mut Vec<Out>) {
+        for o in ParamMachine::poll(self, now) {
+            self.emit(o, out);
+        }
+    }
+
+    fn next_deadline(&self) -> Option<Micros> {
+        ParamMachine::next_deadline(self)
+    }
 }
 
 #[cfg(test)]

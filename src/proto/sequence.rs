@@ -8,6 +8,8 @@
 
 use crate::clock::{Micros, SECOND};
 use crate::proto::commands::CommandSpec;
+use crate::proto::machine::{Ids, Incoming, Machine, Out, Route};
+use mavlink::MessageData;
 
 /// How long after an accepted ACK the heartbeat may take to show the change.
 pub const HEARTBEAT_WAIT: Micros = 3 * SECOND;
@@ -197,5 +199,38 @@ impl Sequence {
 
     pub fn finished(&self) -> bool {
         self.i >= self.steps.len()
+    }
+}
+
+/// Sequence output in the one contract (its fallback messages go to the vehicle on its route).
+pub fn to_out(outs: Vec<SeqOut>, out: &mut Vec<Out>) {
+    for o in outs {
+        match o {
+            SeqOut::Send(m) => out.push(Out::send(Route::Vehicle, m)),
+            SeqOut::Notice(s, t) => out.push(Out::notice(s, t)),
+            SeqOut::Done => {}
+        }
+    }
+}
+
+impl Machine for Sequence {
+    const IDS: Ids = Ids::Only(&[crate::dialect::HEARTBEAT_DATA::ID]);
+
+    /// The vehicle's heartbeat: does it show the step done?
+    fn on_message(&mut self, m: &Incoming, out: &mut Vec<Out>) {
+        if let Some(hb) = m.heartbeat() {
+            let armed = hb
+                .base_mode
+                .contains(crate::dialect::MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED);
+            to_out(self.on_heartbeat(hb.custom_mode, armed), out);
+        }
+    }
+
+    fn poll(&mut self, now: Micros, out: &mut Vec<Out>) {
+        to_out(Sequence::poll(self, now), out);
+    }
+
+    fn next_deadline(&self) -> Option<Micros> {
+        Sequence::next_deadline(self)
     }
 }

@@ -60,6 +60,7 @@ use num_traits::FromPrimitive;
 
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavAutopilot, MavCmd, MavDataStream, MavMessage, MavResult};
+use crate::proto::machine::{Ids, Incoming, Machine, Out, Route};
 use crate::proto::rates::StreamRates;
 use crate::proto::severity;
 
@@ -611,6 +612,8 @@ pub struct StreamMachine {
     pending: Option<Pending>,
     /// The operator's SET_MESSAGE_INTERVAL waits in the command queue: send none of ours.
     held: bool,
+    /// The last time the machine saw (a message, an ACK, a poll).
+    seen: Micros,
     /// Smoothed ACK round trip.
     srtt: Option<Micros>,
 }
@@ -630,6 +633,7 @@ impl StreamMachine {
             links: BTreeMap::new(),
             pending: None,
             held: false,
+            seen: 0,
             srtt: None,
         }
     }
@@ -715,6 +719,7 @@ impl StreamMachine {
         id: u32,
         heartbeat: Option<&dialect::HEARTBEAT_DATA>,
     ) {
+        self.seen = self.seen.max(now);
         let entry = self.links.entry(link).or_insert_with(|| LinkStreams {
             profile,
             due: !profile.hl,
@@ -760,6 +765,7 @@ impl StreamMachine {
     /// A COMMAND_ACK of MAV_CMD_SET_MESSAGE_INTERVAL from the target: `None` when none of ours
     /// waits (it is the command queue's), else what follows from it.
     pub fn on_ack(&mut self, now: Micros, command: u16, result: u8) -> Option<Vec<StreamOut>> {
+        self.seen = self.seen.max(now);
         if command != MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16 {
             return None;
         }
@@ -1013,6 +1019,7 @@ impl StreamMachine {
 
     /// Send what is due at `now`.
     pub fn poll(&mut self, now: Micros) -> Vec<StreamOut> {
+        self.seen = self.seen.max(now);
         let mut out = Vec::new();
         if !self.enabled {
             return out;
@@ -1227,20 +1234,88 @@ impl StreamMachine {
             })
         });
         let ack = self.pending.map(|p| p.sent + self.ack_wait());
-        checks.chain(ack).min()
+        checks.chain(ack).chain(self.untimed()).min()
     }
 
-    /// True when a poll now would send something that is not on a timer.
-    pub fn due(&self) -> bool {
+    /// Work that is not on a timer (a link to set up, group requests, the next
+    /// SET_MESSAGE_INTERVAL): due at the last time the machine saw, for the links a poll then
+    /// acts on (heard lately; not high-latency for setups and groups; the queue while none is
+    /// in flight or held), so a poll always takes it and it never stays in the past.
+    fn untimed(&self) -> Option<Micros> {
         if !self.enabled {
-            return false;
+            return None;
         }
-        self.links.values().any(|s| {
-            s.due
-                || s.items
-                    .iter()
-                    .any(|i| i.state == ItemState::Queued && i.method != Method::Interval)
-        }) || (self.pending.is_none() && self.links.values().any(|s| !s.queue.is_empty()))
+        let heard = |s: &&LinkStreams| self.seen.saturating_sub(s.last_heartbeat) < SILENT_AFTER;
+        let setup = self
+            .links
+            .values()
+            .filter(heard)
+            .filter(|s| !s.profile.hl)
+            .any(|s| {
+                s.due
+                    || s.items
+                        .iter()
+                        .any(|i| i.state == ItemState::Queued && i.method != Method::Interval)
+            });
+        let queue = self.pending.is_none()
+            && !self.held
+            && self
+                .links
+                .values()
+                .filter(heard)
+                .any(|s| !s.queue.is_empty());
+        (setup || queue).then_some(self.seen)
+    }
+}
+
+impl StreamMachine {
+    /// Work waiting that is not on a timer, whether a poll can take it now or not.
+    #[cfg(test)]
+    fn waiting(&self) -> bool {
+        self.enabled
+            && (self.links.values().any(|s| {
+                s.due
+                    || s.items
+                        .iter()
+                        .any(|i| i.state == ItemState::Queued && i.method != Method::Interval)
+            }) || (self.pending.is_none() && self.links.values().any(|s| !s.queue.is_empty())))
+    }
+
+    fn emit(outs: Vec<StreamOut>, out: &mut Vec<Out>) {
+        out.extend(outs.into_iter().map(|o| match o {
+            StreamOut::SendOn(l, m) => Out::send(Route::Link(l), m),
+            StreamOut::Notice(s, t) => Out::notice(s, t),
+        }));
+    }
+
+    /// [`StreamMachine::on_ack`] in the one contract: `None` when the ACK is not this machine's.
+    pub fn on_ack_out(
+        &mut self,
+        now: Micros,
+        ack: &crate::proto::ack::CommandAck,
+    ) -> Option<Vec<Out>> {
+        let o = self.on_ack(now, ack.command, ack.result)?;
+        let mut out = Vec::new();
+        Self::emit(o, &mut out);
+        Some(out)
+    }
+}
+
+impl Machine for StreamMachine {
+    /// Every message: arrivals are counted against the rates asked.
+    const IDS: Ids = Ids::All;
+
+    fn on_message(&mut self, m: &Incoming, _: &mut Vec<Out>) {
+        StreamMachine::on_message(self, m.now, m.link, m.profile, m.id, m.heartbeat());
+    }
+
+    fn poll(&mut self, now: Micros, out: &mut Vec<Out>) {
+        let o = StreamMachine::poll(self, now);
+        Self::emit(o, out);
+    }
+
+    fn next_deadline(&self) -> Option<Micros> {
+        StreamMachine::next_deadline(self)
     }
 }
 
@@ -1696,7 +1771,7 @@ mod tests {
         r.m.hold_intervals(true);
         r.run(3 * SECOND);
         assert!(r.intervals_asked().is_empty());
-        assert!(r.m.due(), "waits to send");
+        assert!(r.m.waiting(), "waits to send");
         r.m.hold_intervals(false);
         r.run(3 * SECOND + 20_000);
         assert_eq!(r.intervals_asked().len(), 1);
@@ -1763,7 +1838,7 @@ mod tests {
         assert!(r.asked.is_empty());
         assert_eq!(r.m.link_state(0), Some(LinkStreamState::HighLatency));
         assert_eq!(r.m.next_deadline(), None);
-        assert!(!r.m.due());
+        assert!(!r.m.waiting());
         r.m.on_reboot();
         r.m.on_link_reconnected(0);
         r.run(40 * SECOND);
@@ -1797,7 +1872,7 @@ mod tests {
         let mut m = StreamMachine::new(T, AP, false, defaults());
         m.on_message(0, 0, NET, 0, Some(&hb(AP)));
         assert!(m.poll(0).is_empty());
-        assert!(!m.due());
+        assert!(!m.waiting());
         assert_eq!(m.next_deadline(), None);
     }
 

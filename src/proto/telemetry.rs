@@ -22,6 +22,7 @@ use std::collections::VecDeque;
 
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavCmd, MavMessage};
+use crate::proto::machine::Out;
 
 /// A value older than this is shown stale.
 pub const STALE_AFTER: Micros = 3 * SECOND;
@@ -33,14 +34,15 @@ pub const HISTORY_SECS: usize = 180;
 
 /// Message ids read here.
 pub mod id {
-    pub const SYS_STATUS: u32 = 1;
-    pub const GPS_RAW_INT: u32 = 24;
-    pub const GLOBAL_POSITION_INT: u32 = 33;
-    pub const VFR_HUD: u32 = 74;
-    pub const BATTERY_STATUS: u32 = 147;
-    pub const EKF_STATUS_REPORT: u32 = 193;
-    pub const HOME_POSITION: u32 = 242;
-    pub const EXTENDED_SYS_STATE: u32 = 245;
+    use mavlink::MessageData;
+    pub const SYS_STATUS: u32 = crate::dialect::SYS_STATUS_DATA::ID;
+    pub const GPS_RAW_INT: u32 = crate::dialect::GPS_RAW_INT_DATA::ID;
+    pub const GLOBAL_POSITION_INT: u32 = crate::dialect::GLOBAL_POSITION_INT_DATA::ID;
+    pub const VFR_HUD: u32 = crate::dialect::VFR_HUD_DATA::ID;
+    pub const BATTERY_STATUS: u32 = crate::dialect::BATTERY_STATUS_DATA::ID;
+    pub const EKF_STATUS_REPORT: u32 = crate::dialect::EKF_STATUS_REPORT_DATA::ID;
+    pub const HOME_POSITION: u32 = crate::dialect::HOME_POSITION_DATA::ID;
+    pub const EXTENDED_SYS_STATE: u32 = crate::dialect::EXTENDED_SYS_STATE_DATA::ID;
 }
 
 /// MAV_SYS_STATUS_PREARM_CHECK in SYS_STATUS's sensor bits.
@@ -568,15 +570,15 @@ impl FlightTelemetry {
         }
         self.next_home_request
     }
-
-    /// True when the first HOME_POSITION request waits for a poll.
-    pub fn due(&self) -> bool {
-        self.next_deadline().is_some() && self.home_requests == 0
-    }
 }
 
 /// `N` bytes of a payload MAVLink 2 may have cut short (trailing zeros), padded back.
 fn padded<const N: usize>(payload: &[u8]) -> [u8; N] {
+    crate::wire::payload::Payload(payload).bytes(0)
+}
+
+#[allow(dead_code)]
+fn padded_old<const N: usize>(payload: &[u8]) -> [u8; N] {
     let mut p = [0u8; N];
     let n = payload.len().min(N);
     p[..n].copy_from_slice(&payload[..n]);
@@ -608,6 +610,26 @@ fn battery_status_from_payload(payload: &[u8]) -> (u8, Battery) {
         p[32],
         Battery::from_battery_status(&voltages, &ext, current, remaining),
     )
+}
+
+impl crate::proto::machine::Machine for FlightTelemetry {
+    /// Every message of the autopilot: the first one heard starts the HOME_POSITION requests.
+    const IDS: crate::proto::machine::Ids = crate::proto::machine::Ids::All;
+
+    fn on_message(&mut self, m: &crate::proto::machine::Incoming, _: &mut Vec<Out>) {
+        FlightTelemetry::on_message(self, m.now, m.id, m.msg, m.payload);
+    }
+
+    /// HOME_POSITION requests are mavterm's own: spared on high-latency links.
+    fn poll(&mut self, now: Micros, out: &mut Vec<Out>) {
+        for m in FlightTelemetry::poll(self, now) {
+            out.push(Out::send(crate::proto::machine::Route::Auto, m));
+        }
+    }
+
+    fn next_deadline(&self) -> Option<Micros> {
+        FlightTelemetry::next_deadline(self)
+    }
 }
 
 #[cfg(test)]
@@ -836,7 +858,11 @@ mod tests {
         let mut t = FlightTelemetry::new(KEY, true);
         assert_eq!(t.next_deadline(), None, "nothing heard: nothing to ask");
         feed(&mut t, SECOND, &position(-35.0, 149.0, 0.0));
-        assert!(t.due());
+        assert_eq!(
+            t.next_deadline(),
+            Some(SECOND),
+            "the first request is due at once"
+        );
         let out = t.poll(SECOND);
         assert_eq!(out, vec![request_home(KEY)]);
         match &out[0] {
@@ -847,7 +873,7 @@ mod tests {
             }
             m => panic!("{m:?}"),
         }
-        assert!(!t.due());
+        assert!(t.next_deadline() > Some(SECOND));
         assert_eq!(t.next_deadline(), Some(SECOND + HOME_REQUEST_EVERY));
         assert!(t.poll(SECOND + HOME_REQUEST_EVERY - 1).is_empty());
         assert_eq!(t.poll(SECOND + HOME_REQUEST_EVERY).len(), 1);
@@ -859,7 +885,6 @@ mod tests {
         let mut quiet = FlightTelemetry::new(KEY, false);
         feed(&mut quiet, 0, &position(-35.0, 149.0, 0.0));
         assert_eq!(quiet.next_deadline(), None);
-        assert!(!quiet.due());
         assert!(quiet.poll(10 * SECOND).is_empty());
     }
 

@@ -1,0 +1,126 @@
+//! The one contract of every protocol machine: a message in ([`Incoming`]), time in
+//! ([`Machine::poll`]), what to send and what happened out ([`Out`]), and when to be woken next
+//! ([`Machine::next_deadline`]).
+//!
+//! A machine says which of the dialect's messages it reads ([`Machine::IDS`]); the session
+//! builds its dispatch table from those once. Work that is not on a timer (a download to start,
+//! a request to send) is a deadline at the time it became due: the poll at that deadline does
+//! it, so a deadline in the past never stays (the driver would never sleep).
+
+use crate::clock::Micros;
+use crate::dialect::MavMessage;
+use crate::link::LinkId;
+use crate::proto::ack::CommandAck;
+use crate::proto::streams::LinkProfile;
+use crate::wire::Severity;
+
+/// A message of the session's system, for us or broadcast, as a machine sees it.
+#[derive(Debug, Clone, Copy)]
+pub struct Incoming<'a> {
+    pub now: Micros,
+    /// The sender (sysid, compid).
+    pub from: (u8, u8),
+    /// The link it came on, and what kind of link that is.
+    pub link: LinkId,
+    pub profile: LinkProfile,
+    /// The message id.
+    pub id: u32,
+    /// The payload as sent (MAVLink 2 cuts trailing zeros), for fields read by hand with
+    /// [`crate::wire::payload::Payload`].
+    pub payload: &'a [u8],
+    /// The message, when the dialect could read it.
+    pub msg: Option<&'a MavMessage>,
+    /// The COMMAND_ACK, already read (from the dialect or by hand), if this is one.
+    pub ack: Option<&'a CommandAck>,
+}
+
+impl<'a> Incoming<'a> {
+    /// The heartbeat, if this is one.
+    pub fn heartbeat(&self) -> Option<&'a crate::dialect::HEARTBEAT_DATA> {
+        match self.msg {
+            Some(MavMessage::HEARTBEAT(hb)) => Some(hb),
+            _ => None,
+        }
+    }
+}
+
+/// Where a message goes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Route {
+    /// To the vehicle on the operator's route (the link it was heard on last, or the pinned
+    /// one): the operator asked for it.
+    Vehicle,
+    /// Sent by mavterm on its own: on the vehicle's route among the links that are not
+    /// high-latency, or not at all.
+    Auto,
+    /// On this link (stream rates are per link); never on a high-latency one.
+    Link(LinkId),
+}
+
+/// What happened, typed, for the session to route (to another machine, or to the UI).
+#[derive(Debug, Clone, PartialEq)]
+pub enum MachineEvent {
+    /// Tell the operator.
+    Notice(Severity, String),
+    /// Command `id` of the queue finished (ACK, no ACK, cancelled, superseded), with what to
+    /// tell of it.
+    CommandDone {
+        id: u64,
+        notice: Option<(Severity, String)>,
+    },
+    /// The outcome of an edit of parameter `name` of component `comp` (confirmed by the echo,
+    /// refused, unanswered), with what to tell of it.
+    ParamSet {
+        comp: u8,
+        name: String,
+        confirmed: bool,
+        notice: (Severity, String),
+    },
+}
+
+/// What a machine wants done.
+#[derive(Debug, Clone, PartialEq)]
+#[allow(clippy::large_enum_variant)] // short-lived; boxing every message buys nothing
+pub enum Out {
+    Send { route: Route, msg: MavMessage },
+    Event(MachineEvent),
+}
+
+impl Out {
+    pub fn notice(sev: impl Into<Severity>, text: String) -> Out {
+        Out::Event(MachineEvent::Notice(sev.into(), text))
+    }
+    pub fn send(route: Route, msg: MavMessage) -> Out {
+        Out::Send { route, msg }
+    }
+}
+
+/// The message ids a machine reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ids {
+    /// Every message (a machine measuring arrivals).
+    All,
+    /// These ids only.
+    Only(&'static [u32]),
+}
+
+impl Ids {
+    pub fn contains(self, id: u32) -> bool {
+        match self {
+            Ids::All => true,
+            Ids::Only(ids) => ids.contains(&id),
+        }
+    }
+}
+
+/// A protocol machine: messages and time in, [`Out`] out, and its next deadline.
+pub trait Machine {
+    /// The dialect's messages it reads (`*_DATA::ID`).
+    const IDS: Ids;
+    /// A message it reads; what to do is pushed on `out`.
+    fn on_message(&mut self, m: &Incoming, out: &mut Vec<Out>);
+    /// Whatever is due at `now`.
+    fn poll(&mut self, now: Micros, out: &mut Vec<Out>);
+    /// When it next needs a poll (untimed work: the time it became due).
+    fn next_deadline(&self) -> Option<Micros>;
+}
