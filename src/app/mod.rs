@@ -838,70 +838,7 @@ impl App {
         let ack = CommandAck::from_frame(frame).filter(|_| !copy);
         match msg {
             Some(MavMessage::HEARTBEAT(hb)) => {
-                if self.vehicles.full_for(key) {
-                    // A full table makes room: never at the cost of the target or of a vehicle
-                    // with work in flight.
-                    // Work in flight: a busy session, the target of every open command and
-                    // the component whose parameters are downloading.
-                    let mut kept = Vec::new();
-                    for (k, s) in &self.sessions {
-                        if s.busy() {
-                            kept.push(*k);
-                        }
-                        kept.extend(
-                            s.commands
-                                .entries()
-                                .filter(|e| e.open())
-                                .map(|e| e.spec.target),
-                        );
-                        if let Some((comp, ..)) = s.params.downloading() {
-                            kept.push((k.0, comp));
-                        }
-                    }
-                    kept.extend(self.target);
-                    kept.extend(self.nudge.target);
-                    self.vehicles.keep(kept);
-                }
-                let ev = self
-                    .vehicles
-                    .on_heartbeat(link, key, hb, frame.version, now);
-                self.on_vehicle_events(ev, fx);
-                let autopilot = self.vehicles.get(key).is_some_and(|v| v.is_autopilot());
-                // A camera or gimbal alone on its system (no autopilot heard there) gets a
-                // session of its own, so it can be targeted and operated; an autopilot of the
-                // system heard later takes over (the payload is reached through it).
-                let flood = self.vehicles.get(key).is_some_and(|v| v.flood);
-                let alone = !autopilot
-                    && !flood
-                    && self.vehicles.get(key).is_some_and(|v| v.is_payload())
-                    && self
-                        .sessions
-                        .range((key.0, 0)..=(key.0, u8::MAX))
-                        .next()
-                        .is_none();
-                if !self.sessions.contains_key(&key) && (autopilot || alone) {
-                    if autopilot {
-                        self.drop_payload_sessions(key.0);
-                    }
-                    // Found during a heartbeat flood: nothing starts on its own (the operator
-                    // can still ask). Beyond AUTO_FREE autopilots, automatic starts are held to
-                    // AUTO_BUDGET a minute, so a trickle of new ids below the flood threshold
-                    // cannot start unbounded downloads.
-                    let auto = autopilot && !flood && self.auto_budget(now);
-                    let mut s = Session::new(
-                        key,
-                        hb.autopilot,
-                        self.cfg.request_streams && auto,
-                        self.cfg.fetch_params && auto,
-                        self.cfg.streams.clone(),
-                    );
-                    s.mission.gcs = (self.cfg.sysid, self.cfg.compid);
-                    self.sessions.insert(key, s);
-                    if alone && self.target.is_none() && !self.target_held {
-                        self.target = Some(key);
-                        self.target_held = true;
-                    }
-                }
+                self.on_heartbeat_frame(link, key, hb, frame, fx);
             }
             _ if copy => {}
             Some(MavMessage::SYSTEM_TIME(st)) => {
@@ -909,34 +846,130 @@ impl App {
                 self.on_vehicle_events(ev, fx);
             }
             Some(MavMessage::STATUSTEXT(st)) => {
-                let texts = self.statustext.push(
-                    now,
-                    key,
-                    st.severity as u8,
-                    &st.text[..],
-                    st.id,
-                    st.chunk_seq,
-                );
-                for t in texts {
-                    // A vehicle's reason for refusing a command comes as text.
-                    let keys: Vec<VehicleKey> = self
-                        .sessions
-                        .range((t.source.0, 0)..=(t.source.0, u8::MAX))
-                        .map(|(k, _)| *k)
-                        .collect();
-                    for k in keys {
-                        if let Some(s) = self.sessions.get_mut(&k) {
-                            s.on_text(now, &t.text);
-                        }
-                    }
-                    self.notice(t.severity, Some(t.source), t.text);
-                }
+                self.on_statustext_frame(key, st);
             }
             _ => {}
         }
-        if !self.for_us(msg, ack.as_ref()) {
-            return;
+        if self.for_us(msg, ack.as_ref()) {
+            self.to_sessions(link, frame, msg, ack.as_ref(), fx);
         }
+    }
+
+    /// A heartbeat: the vehicle table, room made when it is full, and a session for a new
+    /// autopilot (or a payload alone on its system).
+    fn on_heartbeat_frame(
+        &mut self,
+        link: LinkId,
+        key: VehicleKey,
+        hb: &dialect::HEARTBEAT_DATA,
+        frame: &Frame,
+        fx: &mut Vec<Effect>,
+    ) {
+        let now = self.now;
+        if self.vehicles.full_for(key) {
+            // A full table makes room: never at the cost of the target or of a vehicle
+            // with work in flight.
+            // Work in flight: a busy session, the target of every open command and
+            // the component whose parameters are downloading.
+            let mut kept = Vec::new();
+            for (k, s) in &self.sessions {
+                if s.busy() {
+                    kept.push(*k);
+                }
+                kept.extend(
+                    s.commands
+                        .entries()
+                        .filter(|e| e.open())
+                        .map(|e| e.spec.target),
+                );
+                if let Some((comp, ..)) = s.params.downloading() {
+                    kept.push((k.0, comp));
+                }
+            }
+            kept.extend(self.target);
+            kept.extend(self.nudge.target);
+            self.vehicles.keep(kept);
+        }
+        let ev = self
+            .vehicles
+            .on_heartbeat(link, key, hb, frame.version, now);
+        self.on_vehicle_events(ev, fx);
+        let autopilot = self.vehicles.get(key).is_some_and(|v| v.is_autopilot());
+        // A camera or gimbal alone on its system (no autopilot heard there) gets a
+        // session of its own, so it can be targeted and operated; an autopilot of the
+        // system heard later takes over (the payload is reached through it).
+        let flood = self.vehicles.get(key).is_some_and(|v| v.flood);
+        let alone = !autopilot
+            && !flood
+            && self.vehicles.get(key).is_some_and(|v| v.is_payload())
+            && self
+                .sessions
+                .range((key.0, 0)..=(key.0, u8::MAX))
+                .next()
+                .is_none();
+        if !self.sessions.contains_key(&key) && (autopilot || alone) {
+            if autopilot {
+                self.drop_payload_sessions(key.0);
+            }
+            // Found during a heartbeat flood: nothing starts on its own (the operator
+            // can still ask). Beyond AUTO_FREE autopilots, automatic starts are held to
+            // AUTO_BUDGET a minute, so a trickle of new ids below the flood threshold
+            // cannot start unbounded downloads.
+            let auto = autopilot && !flood && self.auto_budget(now);
+            let mut s = Session::new(
+                key,
+                hb.autopilot,
+                self.cfg.request_streams && auto,
+                self.cfg.fetch_params && auto,
+                self.cfg.streams.clone(),
+            );
+            s.mission.gcs = (self.cfg.sysid, self.cfg.compid);
+            self.sessions.insert(key, s);
+            if alone && self.target.is_none() && !self.target_held {
+                self.target = Some(key);
+                self.target_held = true;
+            }
+        }
+    }
+
+    /// A STATUSTEXT chunk: joined texts are told, and handed to the sessions of their system
+    /// (a refusal's reason).
+    fn on_statustext_frame(&mut self, key: VehicleKey, st: &dialect::STATUSTEXT_DATA) {
+        let now = self.now;
+        let texts = self.statustext.push(
+            now,
+            key,
+            st.severity as u8,
+            &st.text[..],
+            st.id,
+            st.chunk_seq,
+        );
+        for t in texts {
+            // A vehicle's reason for refusing a command comes as text.
+            let keys: Vec<VehicleKey> = self
+                .sessions
+                .range((t.source.0, 0)..=(t.source.0, u8::MAX))
+                .map(|(k, _)| *k)
+                .collect();
+            for k in keys {
+                if let Some(s) = self.sessions.get_mut(&k) {
+                    s.on_text(now, &t.text);
+                }
+            }
+            self.notice(t.severity, Some(t.source), t.text);
+        }
+    }
+
+    /// A message for us (or broadcast) handed to every session of the sender's system.
+    fn to_sessions(
+        &mut self,
+        link: LinkId,
+        frame: &Frame,
+        msg: Option<&MavMessage>,
+        ack: Option<&CommandAck>,
+        fx: &mut Vec<Effect>,
+    ) {
+        let (now, key) = (self.now, (frame.sysid, frame.compid));
         // Every session of the sender's system (almost always one) is handed the message, then
         // what they ask for is carried out, in key order. A session's own state is all
         // `on_message` touches, so this is the same as doing each in turn. Few sessions are
@@ -949,7 +982,7 @@ impl App {
             id: frame.msgid,
             payload: frame.payload(),
             msg,
-            ack: ack.as_ref(),
+            ack,
         };
         let mut outs = Vec::new();
         let quiet = self.vehicles.get(key).is_some_and(|v| v.flood);

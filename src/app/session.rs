@@ -828,3 +828,170 @@ fn route_out(route: Route, msg: MavMessage) -> SessionOut {
         Route::Link(l) => SessionOut::SendOn(l, msg),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::app::{App, AppConfig};
+    use crate::clock::SECOND;
+    use crate::wire::Severity;
+    use mavlink::MessageData;
+
+    /// A machine made up for the test: it reads SYSTEM_TIME, and one second after each it
+    /// tells the time it was sent (untimed work would be a deadline at the time it came).
+    #[derive(Default)]
+    struct Toy {
+        heard: Vec<u32>,
+        at: Option<Micros>,
+    }
+
+    impl Machine for Toy {
+        const IDS: Ids = Ids::Only(&[crate::dialect::SYSTEM_TIME_DATA::ID]);
+
+        fn on_message(&mut self, m: &Incoming, _: &mut Vec<Out>) {
+            self.heard.push(m.id);
+            self.at = Some(m.now + SECOND);
+        }
+
+        fn poll(&mut self, now: Micros, out: &mut Vec<Out>) {
+            if self.at.is_some_and(|t| now >= t) {
+                self.at = None;
+                out.push(Out::notice(Severity::INFO, format!("toy at {now}")));
+                out.push(Out::send(Route::Auto, App::gcs_heartbeat()));
+            }
+        }
+
+        fn next_deadline(&self) -> Option<Micros> {
+            self.at
+        }
+    }
+
+    const TOY: u16 = 1 << 15;
+
+    fn incoming(now: Micros, id: u32) -> Incoming<'static> {
+        Incoming {
+            now,
+            from: (1, 1),
+            link: 0,
+            profile: LinkProfile {
+                hl: false,
+                baud: None,
+            },
+            id,
+            payload: &[],
+            msg: None,
+            ack: None,
+        }
+    }
+
+    #[test]
+    fn a_new_machine_plugs_in_by_its_ids_and_its_deadline() {
+        // Its bit and its ids in the table, next to the session's own machines.
+        let mut table = TABLE.to_vec();
+        table.push((TOY, Toy::IDS));
+        let built = build(&table);
+        let time = crate::dialect::SYSTEM_TIME_DATA::ID;
+        let attitude = crate::dialect::ATTITUDE_DATA::ID;
+        assert_ne!(wants_in(&built, time) & TOY, 0);
+        assert_eq!(wants_in(&built, attitude) & TOY, 0);
+        // The machines reading every message still get both; the session's own table is
+        // untouched by the toy.
+        assert_ne!(wants_in(&built, attitude) & Dispatch::STREAMS, 0);
+        assert_eq!(wants(time) & TOY, 0);
+        assert_eq!(
+            wants(crate::dialect::PARAM_VALUE_DATA::ID) & Dispatch::PARAMS,
+            Dispatch::PARAMS
+        );
+
+        // Driven as the session drives its machines: messages by the table, a poll whenever
+        // the deadline is reached, output through the one conversion.
+        let mut toy = Toy::default();
+        let mut buf = Vec::new();
+        for (now, id) in [(0, attitude), (SECOND / 2, time), (SECOND, attitude)] {
+            if wants_in(&built, id) & TOY != 0 {
+                toy.on_message(&incoming(now, id), &mut buf);
+            }
+        }
+        assert_eq!(toy.heard, vec![time]);
+        assert_eq!(toy.next_deadline(), Some(SECOND + SECOND / 2));
+        toy.poll(SECOND, &mut buf);
+        assert!(buf.is_empty(), "not before its deadline");
+        toy.poll(SECOND + SECOND / 2, &mut buf);
+        assert_eq!(toy.next_deadline(), None, "the poll took the work");
+        let out: Vec<SessionOut> = buf
+            .drain(..)
+            .map(|o| match o {
+                Out::Send { route, msg } => route_out(route, msg),
+                Out::Event(MachineEvent::Notice(s, t)) => SessionOut::Notice(s.0, t),
+                o => panic!("{o:?}"),
+            })
+            .collect();
+        assert_eq!(
+            out,
+            vec![
+                SessionOut::Notice(6, "toy at 1500000".into()),
+                SessionOut::SendAuto(App::gcs_heartbeat()),
+            ]
+        );
+    }
+
+    #[test]
+    fn outcomes_reach_the_screens_as_events_not_as_text() {
+        let mut app = App::new(AppConfig::default());
+        let key = (1, 1);
+        let mut fx = Vec::new();
+        // A parameter edit awaited: a notice worded like its outcome is only a notice.
+        app.ui.params.awaiting = Some("RTL_ALT".into());
+        app.session_out(
+            key,
+            vec![SessionOut::Notice(6, "RTL_ALT = 30 confirmed".into())],
+            &mut fx,
+        );
+        assert_eq!(app.ui.params.awaiting.as_deref(), Some("RTL_ALT"));
+        // The typed outcome settles it, whatever its wording.
+        app.session_out(
+            key,
+            vec![SessionOut::ParamSet {
+                comp: 1,
+                name: "RTL_ALT".into(),
+                confirmed: true,
+                sev: 6,
+                text: "RTL_ALT = 30 confirmed".into(),
+            }],
+            &mut fx,
+        );
+        assert_eq!(app.ui.params.awaiting, None);
+        assert_eq!(app.ui.message, Some((6, "RTL_ALT = 30 confirmed".into())));
+
+        // A rate asked from the Inspector: the finished command, not its text.
+        let smi = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
+        let prefix = "SET_MESSAGE_INTERVAL to 1:1: ".to_string();
+        app.ui.inspector.awaiting = Some((prefix.clone(), "ATTITUDE 10 Hz from 1:1".into()));
+        let text = format!("{prefix}ACCEPTED");
+        app.session_out(key, vec![SessionOut::Notice(6, text.clone())], &mut fx);
+        assert!(app.ui.inspector.awaiting.is_some());
+        // Another source's command is not it.
+        let other = SessionOut::Command {
+            id: 1,
+            target: (1, 2),
+            command: smi,
+            sev: 6,
+            text: "SET_MESSAGE_INTERVAL to 1:2: ACCEPTED".into(),
+        };
+        app.session_out(key, vec![other], &mut fx);
+        assert!(app.ui.inspector.awaiting.is_some());
+        let done = SessionOut::Command {
+            id: 2,
+            target: (1, 1),
+            command: smi,
+            sev: 6,
+            text,
+        };
+        app.session_out(key, vec![done], &mut fx);
+        assert_eq!(app.ui.inspector.awaiting, None);
+        assert_eq!(
+            app.ui.message,
+            Some((6, "ATTITUDE 10 Hz from 1:1: ACCEPTED".into()))
+        );
+    }
+}

@@ -577,14 +577,6 @@ fn padded<const N: usize>(payload: &[u8]) -> [u8; N] {
     crate::wire::payload::Payload(payload).bytes(0)
 }
 
-#[allow(dead_code)]
-fn padded_old<const N: usize>(payload: &[u8]) -> [u8; N] {
-    let mut p = [0u8; N];
-    let n = payload.len().min(N);
-    p[..n].copy_from_slice(&payload[..n]);
-    p
-}
-
 /// GPS_RAW_INT's fix type and satellites from its payload. Wire order: time_usec u64, lat,
 /// lon, alt i32, eph, epv, vel, cog u16, fix_type u8, satellites_visible u8 (bytes 28 and 29).
 fn gps_from_payload(payload: &[u8]) -> Gps {
