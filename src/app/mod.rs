@@ -851,7 +851,7 @@ impl App {
             _ => {}
         }
         if self.for_us(msg, ack.as_ref()) {
-            self.to_sessions(link, frame, msg, ack.as_ref(), fx);
+            self.hand_to_sessions(link, frame, msg, ack.as_ref(), fx);
         }
     }
 
@@ -961,7 +961,7 @@ impl App {
     }
 
     /// A message for us (or broadcast) handed to every session of the sender's system.
-    fn to_sessions(
+    fn hand_to_sessions(
         &mut self,
         link: LinkId,
         frame: &Frame,

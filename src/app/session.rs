@@ -10,12 +10,13 @@
 //! finished command to the cameras, gimbals and the sequence). It says when it next needs
 //! waking ([`Session::next_deadline`]).
 //!
-//! Adding a machine: implement [`Machine`] for it in its file under `src/proto` (its `IDS`,
-//! `on_message`, `poll`, `next_deadline`, answering in [`Out`]); here, hold it in [`Session`]
-//! (built in [`Session::new`]), give it a bit in [`Dispatch`] and a line in [`TABLE`], call it
-//! in [`Session::on_message`] under its bit and in [`Session::poll`], and add its deadline to
-//! [`Session::next_deadline`]. A new kind of event gets a [`MachineEvent`] variant, routed in
-//! [`Session::deliver`].
+//! Adding a machine: its file under `src/proto` (named in `src/proto/mod.rs`) implements
+//! [`Machine`] (its `IDS`, `on_message`, `poll`, `next_deadline`, answering in [`Out`]); here,
+//! a field of [`Session`] (built in [`Session::new`]), a bit in [`Dispatch`] and a line in
+//! [`TABLE`], a call in [`Session::on_message`] under its bit, one in [`Session::poll`], and
+//! its deadline in [`Session::next_deadline`]. A new kind of event is a [`MachineEvent`]
+//! variant, routed in [`Session::deliver`] (and, for the screens, a [`SessionOut`] variant
+//! handled in `App::session_out`).
 
 use std::collections::BTreeMap;
 
