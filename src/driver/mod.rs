@@ -1,6 +1,6 @@
 //! The driver: one way to run the core, for every front end.
 //!
-//! [`Core`] feeds events into [`App::update`] and carries out every [`Effect`] the same way,
+//! [`step`] feeds events into [`App::update`] and carries out every [`Effect`] the same way,
 //! whatever the clock: frames go to a [`Links`] implementation, files are written atomically
 //! (and the outcome is told back to the core), new links are opened. Two runtimes use it:
 //! [`virtual_time::VirtualRunner`] steps in-process links and the core on a virtual clock
