@@ -18,9 +18,9 @@
 
 use std::path::PathBuf;
 
-use super::flight::{Ask, Confirmed, FlightAction};
+use super::confirm::{Ask, Confirmed, FlightAction};
 use super::notices::{SEV_ERROR, SEV_INFO};
-use super::params::FileUse;
+use super::files::FileUse;
 use super::{App, Effect};
 use crate::dialect::{MavAutopilot, MavCmd};
 use crate::mission::{self, plan, upload_warnings, wpl, MissionItem, MissionType};
@@ -51,15 +51,7 @@ pub enum MissionCmd {
     Alt(f64),
 }
 
-/// What a mission confirmation lets go ahead.
-#[derive(Debug, Clone, PartialEq)]
-pub enum MissionAction {
-    Upload(MissionType, Vec<MissionItem>),
-    Clear(MissionType),
-    Start,
-    /// `wp set N` while the vehicle flies its mission.
-    SetCurrent(u16),
-}
+pub use super::confirm::MissionAction;
 
 /// A list read from a file.
 #[derive(Debug, Clone, PartialEq)]

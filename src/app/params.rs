@@ -8,7 +8,8 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use super::flight::{Ask, Confirmed};
+use super::confirm::{Ask, Confirmed};
+pub use super::files::FileUse;
 use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
 use super::{App, Effect};
 use crate::keymap::{Action, Key, KeyCode, Mode};
@@ -30,17 +31,6 @@ pub enum ParamCmd {
     Save(String),
     Load(String),
     Diff(String),
-}
-
-/// Why a file is being read.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum FileUse {
-    /// Compare, then offer to apply the differences.
-    Load,
-    /// Compare only.
-    Diff,
-    /// A mission, fence or rally point file (`wp load`, …): WPL or `.plan`.
-    Mission(crate::mission::MissionType),
 }
 
 /// A file loaded or compared: its values mark the parameters that differ from it.

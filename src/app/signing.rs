@@ -30,7 +30,7 @@
 
 use std::path::PathBuf;
 
-use super::flight::{Ask, Confirmed};
+use super::confirm::{Ask, Confirmed};
 use super::notices::{SEV_ERROR, SEV_NOTICE, SEV_WARNING};
 use super::{App, Effect};
 use crate::clock::{Micros, SECOND};
@@ -196,12 +196,7 @@ pub enum SigningCmd {
     Off,
 }
 
-/// What a confirmed `signing` command does, and on which link.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SigningAction {
-    Setup { link: LinkId },
-    Off { link: LinkId },
-}
+pub use super::confirm::SigningAction;
 
 /// The core's signing state.
 #[derive(Debug, Clone, Default)]
