@@ -5,6 +5,7 @@
 
 pub mod camera;
 mod confirm;
+mod editor;
 pub mod files;
 mod flight;
 pub mod input;
