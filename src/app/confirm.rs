@@ -291,3 +291,171 @@ impl App {
         self.next_question();
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::{AppConfig, Event};
+    use super::*;
+    use crate::dialect::{self, MavMessage};
+    use crate::link::{Frame, ParserStats};
+    use crate::wire::frame::{decode_one, encode, Header, Version};
+
+    const S: Micros = SECOND;
+
+    /// ArduCopter 1:1's HEARTBEAT, disarmed or armed, in STABILIZE.
+    fn heartbeat(armed: bool) -> Frame {
+        let msg = MavMessage::HEARTBEAT(dialect::HEARTBEAT_DATA {
+            mavtype: dialect::MavType::MAV_TYPE_QUADROTOR,
+            autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+            base_mode: dialect::MavModeFlag::from_bits_truncate(if armed { 129 } else { 1 }),
+            system_status: dialect::MavState::MAV_STATE_STANDBY,
+            mavlink_version: 3,
+            custom_mode: 0,
+        });
+        let h = Header {
+            sysid: 1,
+            compid: 1,
+            seq: 0,
+        };
+        decode_one(&encode(Version::V2, h, &msg)).unwrap()
+    }
+
+    fn hear(app: &mut App, now: Micros, armed: bool) -> Vec<Effect> {
+        app.update(
+            now,
+            Event::Frames {
+                link: 0,
+                frames: vec![heartbeat(armed)],
+                stats: ParserStats::default(),
+            },
+        )
+    }
+
+    /// An app that has heard 1:1 (disarmed) at 0 and asks to arm it at `at`.
+    fn asked_to_arm(at: Micros) -> App {
+        let mut app = App::new(AppConfig {
+            links: vec!["x".into()],
+            request_streams: false,
+            fetch_params: false,
+            ..AppConfig::default()
+        });
+        hear(&mut app, 0, false);
+        app.update(at, Event::Tick);
+        let mut fx = Vec::new();
+        assert_eq!(app.flight(FlightAction::Arm, &mut fx), Ok(None));
+        assert!(fx.is_empty(), "nothing leaves before the answer");
+        assert!(app.ui.confirm.is_some());
+        app
+    }
+
+    /// The ARM commands (COMMAND_LONG ARM_DISARM, param1 = 1) among `fx`.
+    fn arms(fx: &[Effect]) -> usize {
+        fx.iter()
+            .filter(|e| {
+                matches!(e, Effect::Send { msg: MavMessage::COMMAND_LONG(c), .. }
+                    if c.command == dialect::MavCmd::MAV_CMD_COMPONENT_ARM_DISARM
+                        && c.param1 == 1.0)
+            })
+            .count()
+    }
+
+    fn key(app: &mut App, now: Micros, k: Key) -> Vec<Effect> {
+        app.update(now, Event::Key(k))
+    }
+
+    #[test]
+    fn only_y_after_the_guard_confirms() {
+        let mut app = asked_to_arm(S);
+        // Too soon after the question: ignored, the question stays.
+        assert_eq!(arms(&key(&mut app, S + 100_000, Key::ch('y'))), 0);
+        assert!(app.ui.confirm.is_some());
+        // Too soon after that key, although long after the question.
+        assert_eq!(arms(&key(&mut app, S + 350_000, Key::ch('y'))), 0);
+        assert!(app.ui.confirm.is_some());
+        assert_eq!(arms(&key(&mut app, S + 700_000, Key::ch('y'))), 1);
+        assert!(app.ui.confirm.is_none());
+        // A key repeat never answers.
+        let mut app = asked_to_arm(S);
+        let fx = app.update(2 * S, Event::KeyRepeat(Key::ch('y')));
+        assert_eq!((arms(&fx), app.ui.confirm.is_some()), (0, true));
+    }
+
+    #[test]
+    fn enter_takes_the_highlight_which_starts_on_no() {
+        let enter = Key {
+            code: KeyCode::Enter,
+            ..Key::ch('x')
+        };
+        let tab = Key {
+            code: KeyCode::Tab,
+            ..Key::ch('x')
+        };
+        let mut app = asked_to_arm(S);
+        assert_eq!(arms(&key(&mut app, 2 * S, enter)), 0);
+        assert!(app.ui.confirm.is_none(), "enter on No cancels");
+        let mut app = asked_to_arm(S);
+        key(&mut app, 2 * S, tab);
+        assert!(app.ui.confirm.as_ref().is_some_and(|c| c.yes));
+        // Hard on the heels of the tab: not an answer.
+        assert_eq!(arms(&key(&mut app, 2 * S + 100_000, enter)), 0);
+        assert_eq!(arms(&key(&mut app, 3 * S, enter)), 1);
+    }
+
+    #[test]
+    fn n_and_other_keys_cancel_at_once() {
+        for k in [Key::ch('n'), Key::ch('q')] {
+            let mut app = asked_to_arm(S);
+            // `n` even inside the guard; any other key once past it.
+            let at = if k == Key::ch('n') { S + 1 } else { 2 * S };
+            assert_eq!(arms(&key(&mut app, at, k)), 0);
+            assert!(app.ui.confirm.is_none());
+            assert_eq!(arms(&key(&mut app, 3 * S, Key::ch('y'))), 0);
+        }
+    }
+
+    #[test]
+    fn a_question_expires_after_10_s_and_when_the_vehicle_is_armed_meanwhile() {
+        let mut app = asked_to_arm(S);
+        // Heard meanwhile: it is the time that ends the question, not the vehicle's loss.
+        for t in 1..=5 {
+            hear(&mut app, 2 * t * S, false);
+        }
+        app.update(S + CONFIRM_EXPIRY, Event::Tick);
+        assert!(app.ui.confirm.is_none());
+        let said = app.ui.message.as_ref().map(|m| m.1.clone()).unwrap_or_default();
+        assert!(said.contains("not answered in 10 s"), "{said}");
+
+        let mut app = asked_to_arm(S);
+        hear(&mut app, 2 * S, true);
+        assert_eq!(arms(&key(&mut app, 3 * S, Key::ch('y'))), 0);
+        assert!(app.ui.confirm.is_none());
+    }
+
+    #[test]
+    fn one_question_at_a_time_and_the_next_gets_a_fresh_guard() {
+        let mut app = asked_to_arm(S);
+        let mut fx = Vec::new();
+        app.flight(FlightAction::Arm, &mut fx).unwrap();
+        assert_eq!(app.ui.confirm_queue.len(), 1);
+        assert_eq!(arms(&key(&mut app, 3 * S, Key::ch('y'))), 1);
+        // The queued question is on screen now, asked at 3 s: a `y` right after is too soon.
+        assert_eq!(app.ui.confirm.as_ref().map(|c| c.asked), Some(3 * S));
+        assert_eq!(arms(&key(&mut app, 3 * S + 100_000, Key::ch('y'))), 0);
+        assert!(app.ui.confirm.is_some());
+    }
+
+    #[test]
+    fn a_question_expires_when_its_vehicle_is_lost_or_the_target_changes() {
+        let mut app = asked_to_arm(S);
+        let lost = app.cfg.lost_timeout + S;
+        assert_eq!(arms(&key(&mut app, lost, Key::ch('y'))), 0);
+        assert!(app.ui.confirm.is_none());
+        let said = app.ui.message.as_ref().map(|m| m.1.clone()).unwrap_or_default();
+        assert!(said.contains("lost"), "{said}");
+
+        let mut app = asked_to_arm(S);
+        app.target = None;
+        assert_eq!(arms(&key(&mut app, 2 * S, Key::ch('y'))), 0);
+        assert!(app.ui.confirm.is_none());
+    }
+}
