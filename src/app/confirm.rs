@@ -422,7 +422,12 @@ mod tests {
         }
         app.update(S + CONFIRM_EXPIRY, Event::Tick);
         assert!(app.ui.confirm.is_none());
-        let said = app.ui.message.as_ref().map(|m| m.1.clone()).unwrap_or_default();
+        let said = app
+            .ui
+            .message
+            .as_ref()
+            .map(|m| m.1.clone())
+            .unwrap_or_default();
         assert!(said.contains("not answered in 10 s"), "{said}");
 
         let mut app = asked_to_arm(S);
@@ -450,7 +455,12 @@ mod tests {
         let lost = app.cfg.lost_timeout + S;
         assert_eq!(arms(&key(&mut app, lost, Key::ch('y'))), 0);
         assert!(app.ui.confirm.is_none());
-        let said = app.ui.message.as_ref().map(|m| m.1.clone()).unwrap_or_default();
+        let said = app
+            .ui
+            .message
+            .as_ref()
+            .map(|m| m.1.clone())
+            .unwrap_or_default();
         assert!(said.contains("lost"), "{said}");
 
         let mut app = asked_to_arm(S);

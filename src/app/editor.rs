@@ -107,9 +107,18 @@ mod tests {
         open(&mut line, &mut mode, "1.5");
         assert_eq!(mode, Mode::Edit);
         typed(&mut line, &mut mode, VALUE, "0");
-        let k = key(&mut line, &mut mode, VALUE, Key::ch('\n'), Some(Action::Submit));
+        let k = key(
+            &mut line,
+            &mut mode,
+            VALUE,
+            Key::ch('\n'),
+            Some(Action::Submit),
+        );
         assert_eq!(k, Edited::Submit(Some("1.50".into())));
-        assert_eq!((line.text.as_str(), line.cursor, mode), ("", 0, Mode::Normal));
+        assert_eq!(
+            (line.text.as_str(), line.cursor, mode),
+            ("", 0, Mode::Normal)
+        );
     }
 
     #[test]
@@ -117,10 +126,22 @@ mod tests {
         let (mut line, mut mode) = (TextLine::default(), Mode::Normal);
         open_empty(&mut line, &mut mode);
         typed(&mut line, &mut mode, FILTER, "ATC");
-        let k = key(&mut line, &mut mode, FILTER, Key::ch('\n'), Some(Action::Submit));
+        let k = key(
+            &mut line,
+            &mut mode,
+            FILTER,
+            Key::ch('\n'),
+            Some(Action::Submit),
+        );
         assert_eq!((k, line.text.as_str()), (Edited::Submit(None), "ATC"));
         open(&mut line, &mut mode, "x");
-        let k = key(&mut line, &mut mode, VALUE, Key::ch('\x1b'), Some(Action::Cancel));
+        let k = key(
+            &mut line,
+            &mut mode,
+            VALUE,
+            Key::ch('\x1b'),
+            Some(Action::Cancel),
+        );
         assert_eq!((k, mode), (Edited::Cancel, Mode::Normal));
     }
 
@@ -128,15 +149,27 @@ mod tests {
     fn up_down_move_only_a_filter_and_tab_completes_only_a_value() {
         let (mut line, mut mode) = (TextLine::default(), Mode::Edit);
         let up = Some(Action::HistoryPrev);
-        assert_eq!(key(&mut line, &mut mode, FILTER, Key::ch('k'), up), Edited::Move(-1));
-        assert_eq!(key(&mut line, &mut mode, VALUE, Key::ch('k'), up), Edited::Typed);
+        assert_eq!(
+            key(&mut line, &mut mode, FILTER, Key::ch('k'), up),
+            Edited::Move(-1)
+        );
+        assert_eq!(
+            key(&mut line, &mut mode, VALUE, Key::ch('k'), up),
+            Edited::Typed
+        );
         let tab = Some(Action::Complete);
-        assert_eq!(key(&mut line, &mut mode, VALUE, Key::ch('\t'), tab), Edited::Complete);
+        assert_eq!(
+            key(&mut line, &mut mode, VALUE, Key::ch('\t'), tab),
+            Edited::Complete
+        );
         let plain = EditKind {
             completes: false,
             ..VALUE
         };
-        assert_eq!(key(&mut line, &mut mode, plain, Key::ch('\t'), tab), Edited::Typed);
+        assert_eq!(
+            key(&mut line, &mut mode, plain, Key::ch('\t'), tab),
+            Edited::Typed
+        );
         // Ctrl or Alt with a letter types nothing.
         let mut ctrl = Key::ch('a');
         ctrl.ctrl = true;

@@ -197,7 +197,6 @@ impl App {
         ))
     }
 
-
     /// Ask for `action` on the target: carried out now, or after a confirmation.
     pub fn flight(
         &mut self,

@@ -539,7 +539,11 @@ impl App {
     pub(super) fn on_inspector_action(&mut self, action: Action) {
         let outcome: Result<Option<String>, String> = match action {
             Action::InspectorFilter => {
-                editor::open(&mut self.ui.edit, &mut self.ui.mode, &self.ui.inspector.filter);
+                editor::open(
+                    &mut self.ui.edit,
+                    &mut self.ui.mode,
+                    &self.ui.inspector.filter,
+                );
                 self.ui.inspector.editing = Some(InspectEdit::Filter);
                 Ok(None)
             }

@@ -18,9 +18,10 @@
 
 use std::path::PathBuf;
 
+pub use super::confirm::MissionAction;
 use super::confirm::{Ask, Confirmed, FlightAction};
-use super::notices::{SEV_ERROR, SEV_INFO};
 use super::files::FileUse;
+use super::notices::{SEV_ERROR, SEV_INFO};
 use super::{App, Effect};
 use crate::dialect::{MavAutopilot, MavCmd};
 use crate::mission::{self, plan, upload_warnings, wpl, MissionItem, MissionType};
@@ -50,8 +51,6 @@ pub enum MissionCmd {
     /// Climb or descend to this altitude above home where the vehicle is.
     Alt(f64),
 }
-
-pub use super::confirm::MissionAction;
 
 /// A list read from a file.
 #[derive(Debug, Clone, PartialEq)]

@@ -30,6 +30,7 @@
 
 use std::path::PathBuf;
 
+pub use super::confirm::SigningAction;
 use super::confirm::{Ask, Confirmed};
 use super::notices::{SEV_ERROR, SEV_NOTICE, SEV_WARNING};
 use super::{App, Effect};
@@ -195,8 +196,6 @@ pub enum SigningCmd {
     Setup,
     Off,
 }
-
-pub use super::confirm::SigningAction;
 
 /// The core's signing state.
 #[derive(Debug, Clone, Default)]
