@@ -22,7 +22,7 @@ use crate::mission::{MissionItem, MissionType};
 use crate::proto::camera::CameraAction;
 use crate::proto::vehicles::VehicleKey;
 
-/// What the operator asked the target to do.
+/// What the operator asked the target to do (carried out by `App::flight`, in `flight`).
 #[derive(Debug, Clone, PartialEq)]
 pub enum FlightAction {
     Arm,
