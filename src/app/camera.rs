@@ -298,14 +298,14 @@ impl App {
             .ok_or_else(|| format!("no camera heard on {}:{}", key.0, key.1))?;
         let action = match cmd {
             CameraCmd::FormatAsk => {
-                self.ask(super::flight::Ask {
+                self.ask(super::confirm::Ask {
                     text: format!(
                         "FORMAT the storage of camera {}:{compid} on {}? Every image and video on \
                          it is erased. y = yes, any other key = no",
                         key.0,
                         self.who_is(key)
                     ),
-                    action: super::flight::Confirmed::Camera(compid, CameraAction::Format),
+                    action: super::confirm::Confirmed::Camera(compid, CameraAction::Format),
                     target: key,
                 });
                 return Ok(None);

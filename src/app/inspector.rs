@@ -14,12 +14,13 @@ use std::hash::{BuildHasherDefault, Hasher};
 
 use mavlink::Message;
 
+use super::editor::{self, EditKind, Edited};
 use super::flight::FlightAction;
 use super::notices::{SEV_ERROR, SEV_INFO};
 use super::{App, Effect};
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{MavCmd, MavMessage};
-use crate::keymap::{Action, Key, KeyCode, Mode};
+use crate::keymap::{Action, Key};
 use crate::wire::frame::{Frame, Version};
 
 /// Message ids kept per source (sysid, compid) at most.
@@ -538,18 +539,20 @@ impl App {
     pub(super) fn on_inspector_action(&mut self, action: Action) {
         let outcome: Result<Option<String>, String> = match action {
             Action::InspectorFilter => {
-                self.ui.edit.set(&self.ui.inspector.filter.clone());
+                editor::open(
+                    &mut self.ui.edit,
+                    &mut self.ui.mode,
+                    &self.ui.inspector.filter,
+                );
                 self.ui.inspector.editing = Some(InspectEdit::Filter);
-                self.ui.mode = Mode::Edit;
                 Ok(None)
             }
             Action::InspectorRate => match self.inspector_selected() {
                 None => Err("no message selected: none heard yet".into()),
                 Some(k) => {
                     self.ui.inspector.sel = Some(k);
-                    self.ui.edit.clear();
+                    editor::open_empty(&mut self.ui.edit, &mut self.ui.mode);
                     self.ui.inspector.editing = Some(InspectEdit::Rate(k));
-                    self.ui.mode = Mode::Edit;
                     Ok(None)
                 }
             },
@@ -573,7 +576,8 @@ impl App {
         };
     }
 
-    /// A key while the filter or a rate is typed on the Inspector.
+    /// A key while the filter or a rate is typed on the Inspector: the shared edit line;
+    /// `enter` sends the rate (checked by [`parse_rate`]).
     pub(super) fn on_inspector_edit_key(
         &mut self,
         key: Key,
@@ -585,16 +589,17 @@ impl App {
             return;
         };
         let filter = editing == InspectEdit::Filter;
-        match action {
-            Some(Action::Submit) => {
-                self.ui.mode = Mode::Normal;
+        let kind = EditKind {
+            filter,
+            completes: false,
+        };
+        match editor::key(&mut self.ui.edit, &mut self.ui.mode, kind, key, action) {
+            Edited::Submit(text) => {
                 self.ui.inspector.editing = None;
                 if filter {
                     self.ui.inspector.sel = self.inspector_selected();
                 }
-                if let InspectEdit::Rate(k) = editing {
-                    let text = std::mem::take(&mut self.ui.edit.text);
-                    self.ui.edit.cursor = 0;
+                if let (InspectEdit::Rate(k), Some(text)) = (editing, text) {
                     let outcome = self.set_message_rate(k, &text, fx);
                     self.ui.message = match outcome {
                         Ok(t) => t.map(|t| (SEV_INFO, t)),
@@ -603,8 +608,7 @@ impl App {
                 }
                 return;
             }
-            Some(Action::Cancel) => {
-                self.ui.mode = Mode::Normal;
+            Edited::Cancel => {
                 self.ui.inspector.editing = None;
                 if filter {
                     // The message found stays selected in the whole list.
@@ -616,16 +620,8 @@ impl App {
                 return;
             }
             // While filtering, up/down move through what the filter leaves.
-            Some(Action::HistoryPrev) if filter => self.move_inspector(-1),
-            Some(Action::HistoryNext) if filter => self.move_inspector(1),
-            Some(a) => {
-                self.ui.edit.edit(a);
-            }
-            None => {
-                if let (KeyCode::Char(c), false, false) = (key.code, key.ctrl, key.alt) {
-                    self.ui.edit.insert(c);
-                }
-            }
+            Edited::Move(step) => self.move_inspector(step),
+            Edited::Complete | Edited::Typed => {}
         }
         if filter && self.ui.inspector.filter != self.ui.edit.text {
             self.ui.inspector.filter = self.ui.edit.text.clone();

@@ -324,13 +324,9 @@ impl App {
         self.target_held = true;
     }
 
-    /// Carry out an action bound in normal mode.
+    /// Carry out an action bound in normal mode: each group of actions has its own handler.
     pub fn on_action(&mut self, action: Action, fx: &mut Vec<Effect>) {
         self.dirty = true;
-        let focus_idx = Pane::ALL
-            .iter()
-            .position(|p| *p == self.ui.focus)
-            .unwrap_or(0);
         match action {
             Action::Quit => {
                 // A nudge in progress ends in a stop before anything else.
@@ -344,87 +340,38 @@ impl App {
                 self.leave_fly(fx);
                 self.suspend = true;
             }
-            Action::FocusNext => self.ui.focus = Pane::ALL[(focus_idx + 1) % Pane::ALL.len()],
-            Action::FocusPrev => {
-                self.ui.focus = Pane::ALL[(focus_idx + Pane::ALL.len() - 1) % Pane::ALL.len()]
-            }
-            Action::Up | Action::Down | Action::PageUp | Action::PageDown => {
-                let step: isize = match action {
-                    Action::Up => -1,
-                    Action::Down => 1,
-                    Action::PageUp => -10,
-                    _ => 10,
-                };
-                self.move_selection(step);
-            }
-            Action::ToggleExpand => {
-                if self.ui.focus == Pane::Links {
-                    if let Some(l) = self.links.get_mut(self.ui.link_sel) {
-                        l.expanded = !l.expanded;
-                    }
-                } else if self.ui.focus == Pane::Vehicles {
-                    // Only an autopilot (or a payload alone on its system) can be the target;
-                    // other gimbals, cameras and ground stations are reached through their
-                    // autopilot, from their own screens.
-                    let v = self.vehicles.iter().nth(self.ui.vehicle_sel);
-                    let sessions = &self.sessions;
-                    if let Some(v) = v
-                        .filter(|v| v.is_autopilot() || sessions.contains_key(&(v.sysid, v.compid)))
-                    {
-                        self.target = Some((v.sysid, v.compid));
-                        self.target_held = true;
-                    }
-                }
-            }
+            Action::FocusNext
+            | Action::FocusPrev
+            | Action::Up
+            | Action::Down
+            | Action::PageUp
+            | Action::PageDown
+            | Action::Top
+            | Action::Bottom
+            | Action::ToggleExpand
+            | Action::NextVehicle
+            | Action::PrevVehicle
+            | Action::Screen(_)
+            | Action::Cancel => self.on_navigation_action(action),
             Action::MsgSeverity
             | Action::MsgSeverityBack
             | Action::MsgVehicle
             | Action::MsgVehicleBack => self.on_message_filter(action),
-            Action::NextVehicle => self.cycle_target(true),
-            Action::PrevVehicle => self.cycle_target(false),
             Action::Help => self.open_help(),
             Action::Prompt => {
                 self.ui.prompt.open();
                 self.ui.mode = Mode::Prompt;
             }
-            Action::Screen(i) => self.show_screen(i as usize),
-            // On the Inspector, esc gives the keys back to the list.
-            Action::Cancel => self.ui.inspector.detail_focus = false,
-            Action::Arm | Action::Disarm | Action::Land | Action::Rtl => {
-                let what = match action {
-                    Action::Arm => FlightAction::Arm,
-                    Action::Disarm => FlightAction::Disarm { force: false },
-                    Action::Land => FlightAction::Land,
-                    _ => FlightAction::Rtl,
-                };
-                self.ui.message = match self.flight(what, fx) {
-                    Ok(t) => t.map(|t| (SEV_INFO, t)),
-                    Err(e) => Some((SEV_ERROR, e)),
-                };
-            }
-            Action::Takeoff => {
-                let line = format!("takeoff {}", self.cfg.takeoff_alt);
-                self.open_prompt_with(&line, false)
-            }
-            Action::Reissue | Action::CancelCommand => {
-                let outcome = if action == Action::Reissue {
-                    self.reissue_selected(fx)
-                } else {
-                    self.cancel_selected(fx)
-                };
-                self.ui.message = match outcome {
-                    Ok(t) => t.map(|t| (SEV_INFO, t)),
-                    Err(e) => Some((SEV_ERROR, e)),
-                };
-            }
-            Action::ModeMenu => self.open_prompt_with("mode ", true),
-            Action::Fly => {
-                self.ui.message = match self.enter_fly() {
-                    Ok(t) => t.map(|t| (SEV_INFO, t)),
-                    Err(e) => Some((SEV_ERROR, e)),
-                };
-            }
             Action::Palette => self.open_palette(),
+            Action::Arm
+            | Action::Disarm
+            | Action::Land
+            | Action::Rtl
+            | Action::Takeoff
+            | Action::ModeMenu
+            | Action::Fly
+            | Action::Reissue
+            | Action::CancelCommand => self.on_flight_action(action, fx),
             Action::ParamFilter
             | Action::ParamEdit
             | Action::ParamFetch
@@ -457,24 +404,7 @@ impl App {
             | Action::ReplayBack
             | Action::ReplayForward
             | Action::ReplaySlower
-            | Action::ReplayFaster => {
-                let step = super::replay::SEEK_STEP * crate::clock::SECOND as i64;
-                let cmd = match action {
-                    Action::ReplayPause => ReplayCmd::TogglePause,
-                    Action::ReplayStep => ReplayCmd::Step(1),
-                    Action::ReplayBack => ReplayCmd::Seek(-step),
-                    Action::ReplayForward => ReplayCmd::Seek(step),
-                    Action::ReplaySlower => ReplayCmd::Slower,
-                    _ => ReplayCmd::Faster,
-                };
-                // What it did shows in the status bar's replay state; only a refusal is told.
-                if let Err(e) = self.replay_control(cmd, fx) {
-                    self.ui.message = Some((SEV_ERROR, e));
-                }
-            }
-            // Far enough to clamp at either end of any list.
-            Action::Top => self.move_selection(-(1 << 30)),
-            Action::Bottom => self.move_selection(1 << 30),
+            | Action::ReplayFaster => self.on_replay_action(action, fx),
             // Text-line actions belong to the prompt and edit modes.
             Action::Submit
             | Action::CursorLeft
@@ -488,6 +418,108 @@ impl App {
             | Action::HistoryPrev
             | Action::HistoryNext
             | Action::Complete => {}
+        }
+    }
+
+    /// Focus, selection, expanding a row, the target, the screen shown.
+    fn on_navigation_action(&mut self, action: Action) {
+        let focus_idx = Pane::ALL
+            .iter()
+            .position(|p| *p == self.ui.focus)
+            .unwrap_or(0);
+        match action {
+            Action::FocusNext => self.ui.focus = Pane::ALL[(focus_idx + 1) % Pane::ALL.len()],
+            Action::FocusPrev => {
+                self.ui.focus = Pane::ALL[(focus_idx + Pane::ALL.len() - 1) % Pane::ALL.len()]
+            }
+            Action::Up | Action::Down | Action::PageUp | Action::PageDown => {
+                let step: isize = match action {
+                    Action::Up => -1,
+                    Action::Down => 1,
+                    Action::PageUp => -10,
+                    _ => 10,
+                };
+                self.move_selection(step);
+            }
+            // Far enough to clamp at either end of any list.
+            Action::Top => self.move_selection(-(1 << 30)),
+            Action::Bottom => self.move_selection(1 << 30),
+            Action::ToggleExpand => {
+                if self.ui.focus == Pane::Links {
+                    if let Some(l) = self.links.get_mut(self.ui.link_sel) {
+                        l.expanded = !l.expanded;
+                    }
+                } else if self.ui.focus == Pane::Vehicles {
+                    // Only an autopilot (or a payload alone on its system) can be the target;
+                    // other gimbals, cameras and ground stations are reached through their
+                    // autopilot, from their own screens.
+                    let v = self.vehicles.iter().nth(self.ui.vehicle_sel);
+                    let sessions = &self.sessions;
+                    if let Some(v) = v
+                        .filter(|v| v.is_autopilot() || sessions.contains_key(&(v.sysid, v.compid)))
+                    {
+                        self.target = Some((v.sysid, v.compid));
+                        self.target_held = true;
+                    }
+                }
+            }
+            Action::NextVehicle => self.cycle_target(true),
+            Action::PrevVehicle => self.cycle_target(false),
+            Action::Screen(i) => self.show_screen(i as usize),
+            // On the Inspector, esc gives the keys back to the list.
+            Action::Cancel => self.ui.inspector.detail_focus = false,
+            _ => {}
+        }
+    }
+
+    /// Flying the target: arm, disarm, land, RTL at once (or after a question), take-off and
+    /// mode through the prompt, Fly mode, and the Commands screen's re-issue and cancel.
+    fn on_flight_action(&mut self, action: Action, fx: &mut Vec<Effect>) {
+        let outcome = match action {
+            Action::Arm | Action::Disarm | Action::Land | Action::Rtl => {
+                let what = match action {
+                    Action::Arm => FlightAction::Arm,
+                    Action::Disarm => FlightAction::Disarm { force: false },
+                    Action::Land => FlightAction::Land,
+                    _ => FlightAction::Rtl,
+                };
+                self.flight(what, fx)
+            }
+            Action::Takeoff => {
+                let line = format!("takeoff {}", self.cfg.takeoff_alt);
+                self.open_prompt_with(&line, false);
+                return;
+            }
+            Action::ModeMenu => {
+                self.open_prompt_with("mode ", true);
+                return;
+            }
+            Action::Fly => self.enter_fly(),
+            Action::Reissue => self.reissue_selected(fx),
+            Action::CancelCommand => self.cancel_selected(fx),
+            _ => return,
+        };
+        self.ui.message = match outcome {
+            Ok(t) => t.map(|t| (SEV_INFO, t)),
+            Err(e) => Some((SEV_ERROR, e)),
+        };
+    }
+
+    /// Pause, step, seek and change the speed of the replay.
+    fn on_replay_action(&mut self, action: Action, fx: &mut Vec<Effect>) {
+        let step = super::replay::SEEK_STEP * crate::clock::SECOND as i64;
+        let cmd = match action {
+            Action::ReplayPause => ReplayCmd::TogglePause,
+            Action::ReplayStep => ReplayCmd::Step(1),
+            Action::ReplayBack => ReplayCmd::Seek(-step),
+            Action::ReplayForward => ReplayCmd::Seek(step),
+            Action::ReplaySlower => ReplayCmd::Slower,
+            Action::ReplayFaster => ReplayCmd::Faster,
+            _ => return,
+        };
+        // What it did shows in the status bar's replay state; only a refusal is told.
+        if let Err(e) = self.replay_control(cmd, fx) {
+            self.ui.message = Some((SEV_ERROR, e));
         }
     }
 

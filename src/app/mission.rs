@@ -18,9 +18,10 @@
 
 use std::path::PathBuf;
 
-use super::flight::{Ask, Confirmed, FlightAction};
+pub use super::confirm::MissionAction;
+use super::confirm::{Ask, Confirmed, FlightAction};
+use super::files::FileUse;
 use super::notices::{SEV_ERROR, SEV_INFO};
-use super::params::FileUse;
 use super::{App, Effect};
 use crate::dialect::{MavAutopilot, MavCmd};
 use crate::mission::{self, plan, upload_warnings, wpl, MissionItem, MissionType};
@@ -49,16 +50,6 @@ pub enum MissionCmd {
     Goto(f64, f64, Option<f64>),
     /// Climb or descend to this altitude above home where the vehicle is.
     Alt(f64),
-}
-
-/// What a mission confirmation lets go ahead.
-#[derive(Debug, Clone, PartialEq)]
-pub enum MissionAction {
-    Upload(MissionType, Vec<MissionItem>),
-    Clear(MissionType),
-    Start,
-    /// `wp set N` while the vehicle flies its mission.
-    SetCurrent(u16),
 }
 
 /// A list read from a file.

@@ -4,6 +4,9 @@
 //! same state and the same effects, in the terminal, in headless replay and in tests.
 
 pub mod camera;
+mod confirm;
+mod editor;
+pub mod files;
 mod flight;
 pub mod input;
 pub mod inspector;
@@ -136,7 +139,7 @@ pub enum Event {
     /// A file the core asked for ([`Effect::ReadFile`]): its bytes, or why not.
     FileRead {
         path: std::path::PathBuf,
-        purpose: params::FileUse,
+        purpose: files::FileUse,
         result: Result<Vec<u8>, String>,
     },
     /// The telemetry log the edge records: started, grown (at most once a second), or stopped.
@@ -172,7 +175,7 @@ pub enum Effect {
     /// Read a file; the bytes come back as [`Event::FileRead`].
     ReadFile {
         path: std::path::PathBuf,
-        purpose: params::FileUse,
+        purpose: files::FileUse,
     },
     /// Open another link, whose id is `link` (the next free one).
     OpenLink {
@@ -233,9 +236,9 @@ pub struct UiState {
     /// Lines scrolled in the key help.
     pub help_scroll: usize,
     /// A dangerous action waiting for `y`.
-    pub confirm: Option<flight::Confirm>,
+    pub confirm: Option<confirm::Confirm>,
     /// Questions that came while one was open (a file that finished loading): asked in turn.
-    pub confirm_queue: std::collections::VecDeque<flight::Confirm>,
+    pub confirm_queue: std::collections::VecDeque<confirm::Confirm>,
     /// Selected row of the Commands screen (0 = newest).
     pub cmd_sel: usize,
     /// The command selected there, by its queue id: rows added meanwhile move it down, they
@@ -602,7 +605,7 @@ impl App {
             },
             Event::FileRead {
                 path,
-                purpose: params::FileUse::Mission(t),
+                purpose: files::FileUse::Mission(t),
                 result,
             } => self.on_mission_file(path, t, result),
             Event::FileRead {

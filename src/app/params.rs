@@ -8,10 +8,12 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use super::flight::{Ask, Confirmed};
+use super::confirm::{Ask, Confirmed};
+use super::editor::{self, EditKind, Edited};
+pub use super::files::FileUse;
 use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
 use super::{App, Effect};
-use crate::keymap::{Action, Key, KeyCode, Mode};
+use crate::keymap::{Action, Key};
 use crate::params::file::{self, Format, Header, ParamFile, Saved};
 use crate::params::meta::{ParamMeta, Variant};
 use crate::params::value;
@@ -30,17 +32,6 @@ pub enum ParamCmd {
     Save(String),
     Load(String),
     Diff(String),
-}
-
-/// Why a file is being read.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum FileUse {
-    /// Compare, then offer to apply the differences.
-    Load,
-    /// Compare only.
-    Diff,
-    /// A mission, fence or rally point file (`wp load`, …): WPL or `.plan`.
-    Mission(crate::mission::MissionType),
 }
 
 /// A file loaded or compared: its values mark the parameters that differ from it.
@@ -559,9 +550,8 @@ impl App {
     pub(super) fn on_param_action(&mut self, action: Action, fx: &mut Vec<Effect>) {
         let outcome: Result<Option<String>, String> = match action {
             Action::ParamFilter => {
-                self.ui.edit.set(&self.ui.params.filter.clone());
+                editor::open(&mut self.ui.edit, &mut self.ui.mode, &self.ui.params.filter);
                 self.ui.params.editing = Some(ParamEdit::Filter);
-                self.ui.mode = Mode::Edit;
                 Ok(None)
             }
             Action::ParamEdit => self.start_param_edit(),
@@ -615,13 +605,15 @@ impl App {
         if self.param_meta(&name).is_some_and(|m| m.read_only) {
             return Err(format!("{name} is read-only"));
         }
-        self.ui.edit.set(&p.text());
+        let text = p.text();
+        editor::open(&mut self.ui.edit, &mut self.ui.mode, &text);
         self.ui.params.editing = Some(ParamEdit::Value(comp, name));
-        self.ui.mode = Mode::Edit;
         Ok(None)
     }
 
-    /// A key while the filter or a value is typed on the Parameters screen.
+    /// A key while the filter or a value is typed on the Parameters screen: the shared edit
+    /// line; `enter` sends the value (checked against its type and metadata), tab completes a
+    /// value's name from the metadata.
     pub(super) fn on_param_edit_key(
         &mut self,
         key: Key,
@@ -633,13 +625,14 @@ impl App {
             return;
         };
         let filter = editing == ParamEdit::Filter;
-        match action {
-            Some(Action::Submit) => {
-                self.ui.mode = Mode::Normal;
+        let kind = EditKind {
+            filter,
+            completes: true,
+        };
+        match editor::key(&mut self.ui.edit, &mut self.ui.mode, kind, key, action) {
+            Edited::Submit(text) => {
                 self.ui.params.editing = None;
-                if let ParamEdit::Value(comp, name) = editing {
-                    let text = std::mem::take(&mut self.ui.edit.text);
-                    self.ui.edit.cursor = 0;
+                if let (ParamEdit::Value(comp, name), Some(text)) = (editing, text) {
                     let outcome = match self.param_target() {
                         Ok((key, _)) => self.set_param(key, comp, &name, &text, fx),
                         Err(e) => Err(e),
@@ -658,8 +651,7 @@ impl App {
                 }
                 return;
             }
-            Some(Action::Cancel) => {
-                self.ui.mode = Mode::Normal;
+            Edited::Cancel => {
                 self.ui.params.editing = None;
                 if filter {
                     // The parameter found stays selected in the whole list.
@@ -672,9 +664,8 @@ impl App {
                 return;
             }
             // While filtering, up/down move through what the filter leaves.
-            Some(Action::HistoryPrev) if filter => self.move_param_sel(-1),
-            Some(Action::HistoryNext) if filter => self.move_param_sel(1),
-            Some(Action::Complete) => {
+            Edited::Move(step) => self.move_param_sel(step),
+            Edited::Complete => {
                 if let ParamEdit::Value(_, name) = &editing {
                     let next = self
                         .param_meta(name)
@@ -685,14 +676,7 @@ impl App {
                     }
                 }
             }
-            Some(a) => {
-                self.ui.edit.edit(a);
-            }
-            None => {
-                if let (KeyCode::Char(c), false, false) = (key.code, key.ctrl, key.alt) {
-                    self.ui.edit.insert(c);
-                }
-            }
+            Edited::Typed => {}
         }
         if filter && self.ui.params.filter != self.ui.edit.text {
             self.ui.params.filter = self.ui.edit.text.clone();

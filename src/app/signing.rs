@@ -30,7 +30,8 @@
 
 use std::path::PathBuf;
 
-use super::flight::{Ask, Confirmed};
+pub use super::confirm::SigningAction;
+use super::confirm::{Ask, Confirmed};
 use super::notices::{SEV_ERROR, SEV_NOTICE, SEV_WARNING};
 use super::{App, Effect};
 use crate::clock::{Micros, SECOND};
@@ -194,13 +195,6 @@ pub enum SigningCmd {
     Status,
     Setup,
     Off,
-}
-
-/// What a confirmed `signing` command does, and on which link.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SigningAction {
-    Setup { link: LinkId },
-    Off { link: LinkId },
 }
 
 /// The core's signing state.

@@ -37,7 +37,7 @@ pub trait Links {
     /// Write a file atomically; the outcome comes back as [`Event::FileWritten`], now or later.
     fn write_file(&mut self, path: PathBuf, contents: Vec<u8>);
     /// Read a file; its bytes come back as [`Event::FileRead`], now or later.
-    fn read_file(&mut self, path: PathBuf, purpose: crate::app::params::FileUse);
+    fn read_file(&mut self, path: PathBuf, purpose: crate::app::files::FileUse);
     /// Pass a replay control to link `link`'s source; what changes comes back as
     /// [`Event::ReplayStatus`], now or later.
     fn replay_control(&mut self, now: Micros, link: LinkId, cmd: ReplayCmd);

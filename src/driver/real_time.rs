@@ -143,7 +143,7 @@ impl Links for RealLinks {
             let _ = done.send(Event::FileWritten { path, error });
         });
     }
-    fn read_file(&mut self, path: PathBuf, purpose: crate::app::params::FileUse) {
+    fn read_file(&mut self, path: PathBuf, purpose: crate::app::files::FileUse) {
         let done = self.done.clone();
         tokio::task::spawn_blocking(move || {
             let result = super::read_bounded(&path);

@@ -129,7 +129,7 @@ impl Links for VLinks {
         self.pending.push(Event::FileWritten { path, error });
     }
 
-    fn read_file(&mut self, path: PathBuf, purpose: crate::app::params::FileUse) {
+    fn read_file(&mut self, path: PathBuf, purpose: crate::app::files::FileUse) {
         let result = super::read_bounded(&path);
         self.pending.push(Event::FileRead {
             path,
