@@ -263,7 +263,7 @@ impl Prompt {
 
 /// The prompt's commands: (name, arguments, what it does), in the order `help` lists them.
 pub const COMMANDS: &[(&str, &str, &str)] = &[
-    ("arm", "", "arm the target (asks first)"),
+    ("arm", "[throttle]", "arm the target (asks first)"),
     (
         "disarm",
         "[force]",
@@ -288,7 +288,7 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
     (
         "wp",
         "SUB …",
-        "mission: load, save FILE (WPL or .plan); upload, download, clear, set N, start",
+        "mission: load, save FILE (WPL or .plan); upload, download (list), clear, set N, start",
     ),
     (
         "fence",
@@ -301,7 +301,11 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
         "rally points: load, save FILE; upload, download, clear",
     ),
     ("rtl", "", "return to launch"),
-    ("mode", "NAME", "change flight mode (tab lists the modes)"),
+    (
+        "mode",
+        "NAME|NUMBER",
+        "change flight mode (tab lists the modes; NUMBER: the autopilot's own)",
+    ),
     (
         "long",
         "CMD [P1..P7]",
@@ -311,7 +315,7 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
     (
         "param",
         "SUB …",
-        "fetch; set NAME VALUE; save, load, diff FILE (.params: QGC's); encoding",
+        "fetch; show NAME|GLOB; set NAME VALUE; save, load, diff FILE (.params: QGC's); encoding; meta fetch",
     ),
     (
         "camera",
@@ -371,7 +375,24 @@ pub enum Command {
     Camera(super::camera::CameraCmd),
     /// Missions, fence, rally points; guided go-to and altitude.
     Mission(super::mission::MissionCmd),
+    /// Change to the flight mode of this number in the target's mode table (`mode 4`).
+    ModeNumber(u32),
+    /// Parameter metadata and lookups: `param show`, `param meta fetch`.
+    ParamMeta(super::param_meta::MetaCmd),
 }
+
+/// Completions of the aliases and the `param` words, offered after the first word.
+pub const MORE_COMPLETIONS: &[&str] = &[
+    "arm throttle",
+    "param fetch",
+    "param show ",
+    "param set ",
+    "param save ",
+    "param load ",
+    "param diff ",
+    "param meta fetch",
+    "wp list",
+];
 
 /// A MAV_CMD by name (`NAV_TAKEOFF`, `mav_cmd_nav_takeoff`, `takeoff` when only one matches
 /// as a whole word) or number.
@@ -474,7 +495,11 @@ pub fn parse_command(line: &str, takeoff_alt: f64) -> Result<Command, String> {
                     "usage: route LINK (its number in the Links pane) or route auto".into()
                 }),
         },
-        "arm" => no_args(Command::Flight(FlightAction::Arm)),
+        // `arm throttle`: MAVProxy's spelling.
+        "arm" => match rest {
+            "" | "throttle" => Ok(Command::Flight(FlightAction::Arm)),
+            _ => Err("usage: arm, or arm throttle".into()),
+        },
         "disarm" => match rest {
             "" => Ok(Command::Flight(FlightAction::Disarm { force: false })),
             "force" => Ok(Command::Flight(FlightAction::Disarm { force: true })),
@@ -496,7 +521,12 @@ pub fn parse_command(line: &str, takeoff_alt: f64) -> Result<Command, String> {
         "land" => no_args(Command::Flight(FlightAction::Land)),
         "rtl" => no_args(Command::Flight(FlightAction::Rtl)),
         "reboot" => no_args(Command::Flight(FlightAction::Reboot)),
-        "param" => super::params::parse(rest).map(Command::Param),
+        "param" => match super::param_meta::parse(rest) {
+            Some(r) => r.map(Command::ParamMeta),
+            None => super::params::parse(rest).map(Command::Param),
+        },
+        // `wp list`: MAVProxy's name for downloading the mission.
+        "wp" if rest == "list" => super::mission::parse(word, "download").map(Command::Mission),
         "wp" | "fence" | "rally" => super::mission::parse(word, rest).map(Command::Mission),
         "goto" => super::mission::parse_goto(rest).map(Command::Mission),
         "alt" => super::mission::parse_alt(rest).map(Command::Mission),
@@ -515,9 +545,13 @@ pub fn parse_command(line: &str, takeoff_alt: f64) -> Result<Command, String> {
         "replay" => super::replay::parse(rest).map(Command::Replay),
         "camera" => super::camera::parse(rest).map(Command::Camera),
         "gimbal" => super::camera::parse_gimbal(rest).map(Command::Camera),
-        "mode" if rest.is_empty() || rest.contains(' ') => {
-            Err("usage: mode NAME, e.g. mode guided (tab lists the modes)".into())
-        }
+        "mode" if rest.is_empty() || rest.contains(' ') => Err(
+            "usage: mode NAME or NUMBER, e.g. mode guided or mode 4 (tab lists the modes)".into(),
+        ),
+        "mode" if rest.bytes().all(|b| b.is_ascii_digit()) => rest
+            .parse::<u32>()
+            .map(Command::ModeNumber)
+            .map_err(|_| format!("no mode number {rest}")),
         "mode" => Ok(Command::Flight(FlightAction::Mode(rest.to_string()))),
         "long" => {
             let mut words = rest.split_whitespace();
@@ -541,6 +575,28 @@ pub fn parse_command(line: &str, takeoff_alt: f64) -> Result<Command, String> {
                 names.join(", ")
             ))
         }
+    }
+}
+
+impl super::App {
+    /// `mode NUMBER`: the mode of that number in the target's mode table, changed to exactly as
+    /// `mode NAME` would.
+    pub(super) fn run_mode_number(
+        &mut self,
+        number: u32,
+        fx: &mut Vec<super::Effect>,
+    ) -> Result<Option<String>, String> {
+        use crate::proto::modes;
+        let key = self.target.ok_or("no target vehicle")?;
+        let v = self.vehicles.get(key).ok_or("no target vehicle")?;
+        let (autopilot, mavtype) = (v.autopilot, v.mavtype);
+        let name = modes::mode_name(autopilot, mavtype, number);
+        if modes::mode_number(autopilot, mavtype, &name) != Some(number) {
+            return Err(format!(
+                "no mode number {number} on this vehicle (tab lists the modes by name)"
+            ));
+        }
+        self.flight(FlightAction::Mode(name.to_ascii_lowercase()), fx)
     }
 }
 
