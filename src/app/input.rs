@@ -712,4 +712,48 @@ mod tests {
         assert_eq!(parse_mav_cmd("511"), Ok(511));
         assert!(parse_mav_cmd("nosuch").is_err());
     }
+
+    #[test]
+    fn mavproxy_aliases_parse_to_the_same_commands() {
+        use super::super::mission::{MissionCmd, MissionOp};
+        use super::super::param_meta::MetaCmd;
+        use crate::mission::MissionType;
+        let parse = |line| parse_command(line, 10.0);
+        assert_eq!(parse("arm throttle"), parse("arm"));
+        assert!(parse("arm now").unwrap_err().contains("arm throttle"));
+        assert_eq!(parse("mode 4"), Ok(Command::ModeNumber(4)));
+        assert_eq!(
+            parse("mode guided"),
+            Ok(Command::Flight(FlightAction::Mode("guided".into())))
+        );
+        assert!(parse("mode 99999999999").is_err());
+        assert_eq!(
+            parse("wp list"),
+            Ok(Command::Mission(MissionCmd::List(
+                MissionType::Mission,
+                MissionOp::Download
+            )))
+        );
+        assert_eq!(parse("wp list"), parse("wp download"));
+        assert!(parse("fence list").is_err(), "MAVProxy's fence list is not ours");
+        assert_eq!(
+            parse("param show BATT_*"),
+            Ok(Command::ParamMeta(MetaCmd::Show("BATT_*".into())))
+        );
+        assert_eq!(
+            parse("param meta fetch"),
+            Ok(Command::ParamMeta(MetaCmd::Fetch))
+        );
+        assert!(matches!(parse("param set RTL_ALT 1500"), Ok(Command::Param(_))));
+        assert_eq!(parse("rtl"), Ok(Command::Flight(FlightAction::Rtl)));
+        assert_eq!(parse("land"), Ok(Command::Flight(FlightAction::Land)));
+        assert_eq!(
+            parse("takeoff 15"),
+            Ok(Command::Flight(FlightAction::Takeoff(15.0)))
+        );
+        assert_eq!(
+            parse("disarm"),
+            Ok(Command::Flight(FlightAction::Disarm { force: false }))
+        );
+    }
 }
