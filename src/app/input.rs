@@ -304,7 +304,7 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
     (
         "mode",
         "NAME|NUMBER",
-        "change flight mode (tab lists the modes; NUMBER: the autopilot's own)",
+        "change flight mode (tab lists the modes)",
     ),
     (
         "long",
@@ -315,7 +315,7 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
     (
         "param",
         "SUB …",
-        "fetch; show NAME|GLOB; set NAME VALUE; save, load, diff FILE (.params: QGC's); encoding; meta fetch",
+        "fetch; show, set NAME; save, load, diff FILE (.params: QGC's); encoding; meta fetch",
     ),
     (
         "camera",
