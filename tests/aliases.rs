@@ -25,6 +25,7 @@ fn runner() -> VirtualRunner {
 
 /// What the operator sent since the last call: commands (the automatic requests for messages,
 /// streams and capabilities left out), SET_MODE, PARAM_SET, MISSION_REQUEST_LIST.
+#[allow(deprecated)] // SET_MODE: kept, so that one sent instead of DO_SET_MODE shows
 fn sent(r: &mut VirtualRunner) -> Vec<MavMessage> {
     let mut out = Vec::new();
     for (_, _, bytes) in r.take_sent() {
@@ -74,7 +75,12 @@ fn longs(out: &[MavMessage], command: u16) -> Vec<([f32; 7], u8, u8)> {
 }
 
 fn custom_mode(r: &VirtualRunner) -> u32 {
-    r.app.vehicles.get((1, 1).into()).unwrap().custom_mode
+    let v = r
+        .app
+        .vehicles
+        .iter()
+        .find(|v| (v.sysid, v.compid) == (1, 1));
+    v.unwrap().custom_mode
 }
 
 #[test]
@@ -268,4 +274,34 @@ fn param_show_and_param_set() {
     assert_eq!(sets[0].param_value, 2000.0);
     assert_eq!((sets[0].target_system, sets[0].target_component), (1, 1));
     assert_eq!(sim_param(&r, "RTL_ALT"), 2000.0);
+}
+
+#[test]
+fn tab_completes_the_aliases_and_parameter_names() {
+    let mut r = with_params();
+    let line = |r: &VirtualRunner| r.app.ui.prompt.line.text.clone();
+    keys(&mut r, &[":"]);
+    common::typed(&mut r, "arm t");
+    keys(&mut r, &["tab"]);
+    assert_eq!(line(&r), "arm throttle ");
+    keys(&mut r, &["ctrl-u"]);
+    common::typed(&mut r, "param sh");
+    keys(&mut r, &["tab"]);
+    assert_eq!(line(&r), "param show ");
+    common::typed(&mut r, "RTL_AL");
+    keys(&mut r, &["tab"]);
+    // RTL_ALT, RTL_ALT_FINAL, …: their common prefix.
+    assert_eq!(line(&r), "param show RTL_ALT");
+    common::typed(&mut r, "_FI");
+    keys(&mut r, &["tab"]);
+    assert_eq!(line(&r), "param show RTL_ALT_FINAL ");
+    keys(&mut r, &["ctrl-u"]);
+    common::typed(&mut r, "param meta");
+    keys(&mut r, &["tab"]);
+    assert_eq!(line(&r), "param meta fetch ");
+    keys(&mut r, &["ctrl-u"]);
+    common::typed(&mut r, "wp l");
+    keys(&mut r, &["tab"]);
+    assert_eq!(line(&r), "wp l", "load and list");
+    keys(&mut r, &["esc"]);
 }

@@ -13,7 +13,6 @@ use mavterm::app::AppConfig;
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::link::LinkSpec;
 
-
 fn fixture() -> Vec<u8> {
     std::fs::read(common::test_path("data/param-meta/ArduCopter.apm.pdef.xml")).unwrap()
 }
@@ -121,7 +120,9 @@ fn fetched_cached_and_shown_then_used_from_the_cache_with_no_server() {
     let m = messages(&r);
     assert!(
         m.iter().any(|t| t
-            == &format!("param meta fetch: 3 parameters described, from {url}/ArduCopter/apm.pdef.xml")),
+            == &format!(
+                "param meta fetch: 3 parameters described, from {url}/ArduCopter/apm.pdef.xml"
+            )),
         "{m:?}"
     );
     let s = rtl_alt_screen(&mut r);
@@ -135,8 +136,9 @@ fn fetched_cached_and_shown_then_used_from_the_cache_with_no_server() {
     assert!(s.contains("RTL Altitude"), "{s}");
     let m = messages(&r);
     assert!(
-        m.iter().any(|t| t.starts_with("parameter metadata: 3 parameters, from ")
-            && t.ends_with("ArduCopter.apm.pdef.xml")),
+        m.iter()
+            .any(|t| t.starts_with("parameter metadata: 3 parameters, from ")
+                && t.ends_with("ArduCopter.apm.pdef.xml")),
         "{m:?}"
     );
 }
@@ -171,7 +173,9 @@ fn a_missing_file_on_the_server_is_its_http_status() {
     let (_, status) = r.app.ui.message.clone().unwrap();
     assert_eq!(
         status,
-        format!("param meta fetch: {url}/elsewhere/ArduCopter/apm.pdef.xml answered HTTP 404 Not Found")
+        format!(
+            "param meta fetch: {url}/elsewhere/ArduCopter/apm.pdef.xml answered HTTP 404 Not Found"
+        )
     );
     assert!(!cache_file(&cache).exists());
 }

@@ -381,15 +381,16 @@ pub enum Command {
     ParamMeta(super::param_meta::MetaCmd),
 }
 
-/// Completions of the aliases and the `param` words, offered after the first word.
+/// Completions of the aliases and the `param` words, offered after the first word (with the
+/// target's parameter names after `param show ` and `param set `).
 pub const MORE_COMPLETIONS: &[&str] = &[
     "arm throttle",
     "param fetch",
-    "param show ",
-    "param set ",
-    "param save ",
-    "param load ",
-    "param diff ",
+    "param show",
+    "param set",
+    "param save",
+    "param load",
+    "param diff",
     "param meta fetch",
     "wp list",
 ];
@@ -579,6 +580,21 @@ pub fn parse_command(line: &str, takeoff_alt: f64) -> Result<Command, String> {
 }
 
 impl super::App {
+    /// [`MORE_COMPLETIONS`], and the target's parameter names once `param show ` or
+    /// `param set ` is typed.
+    pub(super) fn more_completions(&self) -> Vec<String> {
+        let mut out: Vec<String> = MORE_COMPLETIONS.iter().map(|c| c.to_string()).collect();
+        let line = &self.ui.prompt.line.text;
+        for sub in ["param show ", "param set "] {
+            if line.starts_with(sub) {
+                if let Some(set) = self.param_set() {
+                    out.extend(set.params.keys().map(|n| format!("{sub}{n}")));
+                }
+            }
+        }
+        out
+    }
+
     /// `mode NUMBER`: the mode of that number in the target's mode table, changed to exactly as
     /// `mode NAME` would.
     pub(super) fn run_mode_number(
@@ -735,7 +751,10 @@ mod tests {
             )))
         );
         assert_eq!(parse("wp list"), parse("wp download"));
-        assert!(parse("fence list").is_err(), "MAVProxy's fence list is not ours");
+        assert!(
+            parse("fence list").is_err(),
+            "MAVProxy's fence list is not ours"
+        );
         assert_eq!(
             parse("param show BATT_*"),
             Ok(Command::ParamMeta(MetaCmd::Show("BATT_*".into())))
@@ -744,7 +763,10 @@ mod tests {
             parse("param meta fetch"),
             Ok(Command::ParamMeta(MetaCmd::Fetch))
         );
-        assert!(matches!(parse("param set RTL_ALT 1500"), Ok(Command::Param(_))));
+        assert!(matches!(
+            parse("param set RTL_ALT 1500"),
+            Ok(Command::Param(_))
+        ));
         assert_eq!(parse("rtl"), Ok(Command::Flight(FlightAction::Rtl)));
         assert_eq!(parse("land"), Ok(Command::Flight(FlightAction::Land)));
         assert_eq!(

@@ -168,7 +168,7 @@ impl App {
             }
         }
         out.push("disarm force".into());
-        out.extend(super::input::MORE_COMPLETIONS.iter().map(|c| c.to_string()));
+        out.extend(self.more_completions());
         out.push("signing setup".into());
         out.push("signing off".into());
         if !self.replay_links().is_empty() {

@@ -198,7 +198,9 @@ pub enum Effect {
         cache_path: std::path::PathBuf,
     },
     /// Read cached parameter metadata; the bytes come back as [`Event::ParamMeta`].
-    ReadParamMeta { path: std::path::PathBuf },
+    ReadParamMeta {
+        path: std::path::PathBuf,
+    },
     /// Open another link, whose id is `link` (the next free one).
     OpenLink {
         link: LinkId,

@@ -52,6 +52,9 @@ pub struct MetaState {
     /// The vehicle name (`ArduCopter`) of the metadata in use, when it came from here (not
     /// from `--param-meta`).
     pub loaded_for: Option<&'static str>,
+    /// Each vehicle type's metadata read or fetched this run (at most one per type), so a
+    /// target of another type switches to its own.
+    sets: Vec<(&'static str, Arc<MetaSet>)>,
     /// Cache files asked for (each once a run).
     tried: Vec<&'static str>,
     /// A download is under way.
@@ -153,7 +156,8 @@ pub fn metadata_urls(
 
 /// The cache file of a vehicle's metadata in the cache directory.
 pub fn cache_file(dir: &std::path::Path, vehicle: &str) -> PathBuf {
-    dir.join("param-meta").join(format!("{vehicle}.apm.pdef.xml"))
+    dir.join("param-meta")
+        .join(format!("{vehicle}.apm.pdef.xml"))
 }
 
 impl App {
@@ -276,21 +280,25 @@ impl App {
             .and_then(|n| n.to_str())
             .and_then(|n| n.strip_suffix(".apm.pdef.xml"))
             .and_then(|n| {
-                ["ArduCopter", "ArduPlane", "Rover", "ArduSub", "AntennaTracker"]
-                    .into_iter()
-                    .find(|v| *v == n)
+                [
+                    "ArduCopter",
+                    "ArduPlane",
+                    "Rover",
+                    "ArduSub",
+                    "AntennaTracker",
+                ]
+                .into_iter()
+                .find(|v| *v == n)
             });
         let parsed = result.and_then(|bytes| {
-            let text = String::from_utf8_lossy(&bytes);
-            MetaSet::parse(&text)
-                .map(|m| (m, bytes.clone()))
-                .map_err(|e| format!("not parameter metadata: {e}"))
+            let meta = MetaSet::parse(&String::from_utf8_lossy(&bytes))
+                .map_err(|e| format!("not parameter metadata: {e}"))?;
+            Ok((meta, bytes))
         });
         let (severity, text) = match (origin, parsed) {
             (MetaOrigin::Url(url), Ok((meta, bytes))) => {
                 let n = meta.len();
-                self.cfg.param_meta = Some(Arc::new(meta));
-                self.meta.loaded_for = vehicle;
+                self.use_meta(vehicle, meta);
                 fx.push(Effect::WriteFile {
                     path: cache_path,
                     contents: bytes,
@@ -303,8 +311,7 @@ impl App {
             (MetaOrigin::Url(_), Err(e)) => (SEV_ERROR, format!("param meta fetch: {e}")),
             (MetaOrigin::Cache, Ok((meta, _))) => {
                 let n = meta.len();
-                self.cfg.param_meta = Some(Arc::new(meta));
-                self.meta.loaded_for = vehicle;
+                self.use_meta(vehicle, meta);
                 (
                     SEV_INFO,
                     format!(
@@ -326,6 +333,17 @@ impl App {
         self.dirty = true;
     }
 
+    /// Use `meta` from now on, as `vehicle`'s.
+    fn use_meta(&mut self, vehicle: Option<&'static str>, meta: MetaSet) {
+        let meta = Arc::new(meta);
+        self.cfg.param_meta = Some(meta.clone());
+        self.meta.loaded_for = vehicle;
+        if let Some(v) = vehicle {
+            self.meta.sets.retain(|(n, _)| *n != v);
+            self.meta.sets.push((v, meta));
+        }
+    }
+
     /// The target's cached metadata, asked for once when none is in use (or another vehicle
     /// type's cached one is) and `--param-meta` gave none.
     pub(super) fn poll_param_meta(&mut self, fx: &mut Vec<Effect>) {
@@ -344,7 +362,16 @@ impl App {
         let Some((name, _)) = ardupilot_vehicle(v.mavtype) else {
             return;
         };
-        if self.meta.loaded_for == Some(name) || self.meta.tried.contains(&name) {
+        if self.meta.loaded_for == Some(name) {
+            return;
+        }
+        if let Some((_, set)) = self.meta.sets.iter().find(|(n, _)| *n == name) {
+            self.cfg.param_meta = Some(set.clone());
+            self.meta.loaded_for = Some(name);
+            self.dirty = true;
+            return;
+        }
+        if self.meta.tried.contains(&name) {
             return;
         }
         let path = cache_file(dir, name);
@@ -401,7 +428,10 @@ mod tests {
 
     #[test]
     fn param_words_parse() {
-        assert_eq!(parse("show BATT_*"), Some(Ok(MetaCmd::Show("BATT_*".into()))));
+        assert_eq!(
+            parse("show BATT_*"),
+            Some(Ok(MetaCmd::Show("BATT_*".into())))
+        );
         assert_eq!(parse("meta fetch"), Some(Ok(MetaCmd::Fetch)));
         assert!(parse("meta").unwrap().is_err());
         assert!(parse("show").unwrap().is_err());
