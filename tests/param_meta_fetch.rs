@@ -210,3 +210,92 @@ fn the_binary_caches_under_xdg_cache_home() {
         .join("cache/mavterm/param-meta/ArduCopter.apm.pdef.xml");
     assert_eq!(std::fs::read(file).unwrap(), fixture());
 }
+
+/// A HEARTBEAT of `autopilot` (a quadrotor) from 1:1, into a core on link "x"; then
+/// `param meta fetch`: what it says, and whether it asked for a download.
+fn fetch_on(
+    autopilot: mavterm::dialect::MavAutopilot,
+    mavtype: mavterm::dialect::MavType,
+) -> (String, bool) {
+    use mavterm::app::{App, Effect, Event};
+    use mavterm::dialect::{self, MavMessage};
+    use mavterm::link::{FrameParser, ParserStats};
+    use mavterm::wire::frame::{encode, Header, Version};
+    let tmp = tempfile::tempdir().unwrap();
+    let mut app = App::new(AppConfig {
+        links: vec!["x".into()],
+        request_streams: false,
+        fetch_params: false,
+        param_meta_cache: Some(tmp.path().to_path_buf()),
+        ..AppConfig::default()
+    });
+    let hb = MavMessage::HEARTBEAT(dialect::HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype,
+        autopilot,
+        base_mode: dialect::MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+        system_status: dialect::MavState::MAV_STATE_STANDBY,
+        mavlink_version: 3,
+    });
+    let frame = encode(
+        Version::V2,
+        Header {
+            sysid: 1,
+            compid: 1,
+            seq: 0,
+        },
+        &hb,
+    );
+    app.update(
+        0,
+        Event::Frames {
+            link: 0,
+            frames: FrameParser::new().parse_all(&frame),
+            stats: ParserStats::default(),
+        },
+    );
+    let mut fx = Vec::new();
+    for k in std::iter::once(":".to_string())
+        .chain("param meta fetch".chars().map(String::from))
+        .chain(std::iter::once("enter".to_string()))
+    {
+        let key = if k.chars().count() == 1 && k != ":" {
+            mavterm::keymap::Key::ch(k.chars().next().unwrap())
+        } else {
+            k.parse().unwrap()
+        };
+        fx.extend(app.update(1_000_000, Event::Key(key)));
+    }
+    let fetched = fx
+        .iter()
+        .any(|e| matches!(e, Effect::FetchParamMeta { .. }));
+    (app.ui.message.clone().unwrap().1, fetched)
+}
+
+#[test]
+fn px4_and_vehicles_without_published_metadata_are_told_so() {
+    use mavterm::dialect::{MavAutopilot, MavType};
+    let (m, fetched) = fetch_on(MavAutopilot::MAV_AUTOPILOT_PX4, MavType::MAV_TYPE_QUADROTOR);
+    assert!(!fetched);
+    assert!(
+        m.starts_with(
+            "param meta fetch: PX4's metadata (component information) is not supported yet"
+        ),
+        "{m}"
+    );
+    let (m, fetched) = fetch_on(
+        MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        MavType::MAV_TYPE_FLAPPING_WING,
+    );
+    assert!(!fetched);
+    assert!(m.contains("ArduPilot publishes no metadata for a"), "{m}");
+    let (m, fetched) = fetch_on(
+        MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        MavType::MAV_TYPE_FIXED_WING,
+    );
+    assert!(fetched, "{m}");
+    assert_eq!(
+        m,
+        "param meta fetch: downloading https://autotest.ardupilot.org/Parameters/ArduPlane/apm.pdef.xml"
+    );
+}

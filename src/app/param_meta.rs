@@ -106,6 +106,16 @@ pub fn glob_matches(pattern: &str, name: &str) -> bool {
     p[pi..].iter().all(|c| *c == '*')
 }
 
+/// The firmware names [`ardupilot_vehicle`] gives.
+const VEHICLES: [&str; 6] = [
+    "ArduCopter",
+    "ArduPlane",
+    "Rover",
+    "ArduSub",
+    "AntennaTracker",
+    "Blimp",
+];
+
 /// ArduPilot's name of a vehicle type's firmware, as its metadata tree names it
 /// (`Parameters/ArduCopter/`), and as its `versioned/` tree does (`versioned/Copter/`).
 pub fn ardupilot_vehicle(mavtype: MavType) -> Option<(&'static str, &'static str)> {
@@ -126,6 +136,7 @@ pub fn ardupilot_vehicle(mavtype: MavType) -> Option<(&'static str, &'static str
         MAV_TYPE_GROUND_ROVER | MAV_TYPE_SURFACE_BOAT => ("Rover", "Rover"),
         MAV_TYPE_SUBMARINE => ("ArduSub", "Sub"),
         MAV_TYPE_ANTENNA_TRACKER => ("AntennaTracker", "Tracker"),
+        MAV_TYPE_AIRSHIP => ("Blimp", "Blimp"),
         _ => return None,
     })
 }
@@ -279,17 +290,7 @@ impl App {
             .file_name()
             .and_then(|n| n.to_str())
             .and_then(|n| n.strip_suffix(".apm.pdef.xml"))
-            .and_then(|n| {
-                [
-                    "ArduCopter",
-                    "ArduPlane",
-                    "Rover",
-                    "ArduSub",
-                    "AntennaTracker",
-                ]
-                .into_iter()
-                .find(|v| *v == n)
-            });
+            .and_then(|n| VEHICLES.iter().copied().find(|v| *v == n));
         let parsed = result.and_then(|bytes| {
             let meta = MetaSet::parse(&String::from_utf8_lossy(&bytes))
                 .map_err(|e| format!("not parameter metadata: {e}"))?;
