@@ -524,7 +524,13 @@ pub fn parse_command(line: &str, takeoff_alt: f64) -> Result<Command, String> {
         "reboot" => no_args(Command::Flight(FlightAction::Reboot)),
         "param" => match super::param_meta::parse(rest) {
             Some(r) => r.map(Command::ParamMeta),
-            None => super::params::parse(rest).map(Command::Param),
+            None => super::params::parse(rest).map(Command::Param).map_err(|e| {
+                if e == super::params::USAGE {
+                    format!("{e} | param show NAME|GLOB | param meta fetch")
+                } else {
+                    e
+                }
+            }),
         },
         // `wp list`: MAVProxy's name for downloading the mission.
         "wp" if rest == "list" => super::mission::parse(word, "download").map(Command::Mission),

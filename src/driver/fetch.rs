@@ -43,22 +43,21 @@ pub fn http_get(url: &str) -> Result<Vec<u8>, String> {
 }
 
 /// Try `urls` in order; the first that answers is the origin. `cache_path`'s directory is made
-/// for the core's write of the file.
+/// for the core's write of the file (which follows only when the bytes parse).
 pub fn fetch_param_meta(urls: Vec<String>, cache_path: PathBuf) -> Event {
     let mut errors = Vec::new();
     for url in urls {
         match http_get(&url) {
             Ok(bytes) => {
-                let result = match cache_path.parent() {
-                    Some(dir) if !dir.as_os_str().is_empty() => std::fs::create_dir_all(dir)
-                        .map(|()| bytes)
-                        .map_err(|e| format!("cannot make {}: {e}", dir.display())),
-                    _ => Ok(bytes),
-                };
+                // A directory that cannot be made shows as the write's failure; the metadata is
+                // used all the same.
+                if let Some(dir) = cache_path.parent().filter(|d| !d.as_os_str().is_empty()) {
+                    let _ = std::fs::create_dir_all(dir);
+                }
                 return Event::ParamMeta {
                     origin: MetaOrigin::Url(url),
                     cache_path,
-                    result,
+                    result: Ok(bytes),
                 };
             }
             Err(e) => errors.push(e),
