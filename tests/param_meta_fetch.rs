@@ -299,3 +299,39 @@ fn px4_and_vehicles_without_published_metadata_are_told_so() {
         "param meta fetch: downloading https://autotest.ardupilot.org/Parameters/ArduPlane/apm.pdef.xml"
     );
 }
+
+/// A release's own file missing (a release the server has no tree for): the latest is used, and
+/// named as the origin.
+#[test]
+fn a_missing_release_file_falls_back_to_the_latest() {
+    use mavterm::app::param_meta::{metadata_urls, MetaOrigin};
+    use mavterm::app::Event;
+    let tmp = tempfile::tempdir().unwrap();
+    let (url, asked) = serve();
+    // ArduCopter 4.5.7, official (FIRMWARE_VERSION_TYPE_OFFICIAL = 255).
+    let urls = metadata_urls(&url, ("ArduCopter", "Copter"), Some(0x0405_07FF));
+    let cache = tmp.path().join("c/ArduCopter.apm.pdef.xml");
+    match mavterm::driver::fetch::fetch_param_meta(urls, cache.clone()) {
+        Event::ParamMeta {
+            origin,
+            cache_path,
+            result,
+        } => {
+            assert_eq!(
+                origin,
+                MetaOrigin::Url(format!("{url}/ArduCopter/apm.pdef.xml"))
+            );
+            assert_eq!(cache_path, cache);
+            assert_eq!(result.unwrap(), fixture());
+            assert!(cache.parent().unwrap().is_dir(), "made for the write");
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(
+        *asked.lock().unwrap(),
+        [
+            "/versioned/Copter/stable-4.5.7/apm.pdef.xml",
+            "/ArduCopter/apm.pdef.xml"
+        ]
+    );
+}
