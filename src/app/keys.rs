@@ -168,6 +168,7 @@ impl App {
             }
         }
         out.push("disarm force".into());
+        out.extend(self.more_completions());
         out.push("signing setup".into());
         out.push("signing off".into());
         if !self.replay_links().is_empty() {
@@ -250,6 +251,8 @@ impl App {
             Command::Mission(cmd) => self.run_mission(cmd, fx),
             Command::Signing(cmd) => self.run_signing(cmd),
             Command::Camera(cmd) => self.run_camera(cmd, fx),
+            Command::ParamMeta(cmd) => self.run_param_meta(cmd, fx),
+            Command::ModeNumber(n) => self.run_mode_number(n, fx),
             Command::Route(link) => {
                 let key = self.target.ok_or("no target vehicle")?;
                 if let Some(l) = link.filter(|&l| l >= self.links.len()) {

@@ -17,6 +17,7 @@ pub mod mission;
 pub mod notices;
 pub mod nudge;
 pub mod palette;
+pub mod param_meta;
 pub mod params;
 pub mod replay;
 pub mod report;
@@ -67,6 +68,12 @@ pub struct AppConfig {
     pub takeoff_alt: f64,
     /// Parameter metadata (`--param-meta`), shared read-only.
     pub param_meta: Option<std::sync::Arc<crate::params::meta::MetaSet>>,
+    /// Where downloaded parameter metadata is kept (`mavterm` in the user's cache directory);
+    /// `None`: `param meta fetch` is refused and nothing is read from a cache.
+    pub param_meta_cache: Option<std::path::PathBuf>,
+    /// The published metadata's base URL (`MAVTERM_PARAM_META_URL`); `None`:
+    /// [`param_meta::DEFAULT_URL`].
+    pub param_meta_url: Option<String>,
     /// MAVLink 2 signing (`--signing-key`); `None`: we do not sign, and take every frame.
     pub signing: Option<signing::SigningConfig>,
     /// Fly mode's deadman: a nudge stops when no key of it has come for this long
@@ -88,6 +95,8 @@ impl Default for AppConfig {
             streams: crate::proto::rates::StreamRates::default(),
             takeoff_alt: 10.0,
             param_meta: None,
+            param_meta_cache: None,
+            param_meta_url: None,
             signing: None,
             nudge_deadman: nudge::DEADMAN,
         }
@@ -142,6 +151,13 @@ pub enum Event {
         purpose: files::FileUse,
         result: Result<Vec<u8>, String>,
     },
+    /// Parameter metadata the core asked for ([`Effect::FetchParamMeta`],
+    /// [`Effect::ReadParamMeta`]): its bytes, or why not.
+    ParamMeta {
+        origin: param_meta::MetaOrigin,
+        cache_path: std::path::PathBuf,
+        result: Result<Vec<u8>, String>,
+    },
     /// The telemetry log the edge records: started, grown (at most once a second), or stopped.
     Recording(tap::RecordingStatus),
     /// A forwarding output (`--out`, numbered in the order given): its state changed, or its
@@ -176,6 +192,17 @@ pub enum Effect {
     ReadFile {
         path: std::path::PathBuf,
         purpose: files::FileUse,
+    },
+    /// Download parameter metadata: the first of `urls` that answers; the bytes (or why none
+    /// did) come back as [`Event::ParamMeta`]. The edge makes `cache_path`'s directory; the
+    /// core writes the file ([`Effect::WriteFile`]) once the bytes parse.
+    FetchParamMeta {
+        urls: Vec<String>,
+        cache_path: std::path::PathBuf,
+    },
+    /// Read cached parameter metadata; the bytes come back as [`Event::ParamMeta`].
+    ReadParamMeta {
+        path: std::path::PathBuf,
     },
     /// Open another link, whose id is `link` (the next free one).
     OpenLink {
@@ -326,6 +353,8 @@ pub struct App {
     /// A target was chosen (the first autopilot heard, or by the operator): no automatic pick
     /// after that.
     target_held: bool,
+    /// Parameter metadata fetched or read from the cache.
+    pub meta: param_meta::MetaState,
     /// Automatic starts for new autopilots within the last [`AUTO_WINDOW`], beyond [`AUTO_FREE`].
     auto_starts: std::collections::VecDeque<Micros>,
     /// New autopilots whose automatic starts the budget held back.
@@ -367,6 +396,7 @@ impl App {
             last_drawn_sec: 0,
             quit: false,
             target_held: false,
+            meta: param_meta::MetaState::default(),
             auto_starts: std::collections::VecDeque::new(),
             auto_held: 0,
             suspend: false,
@@ -619,6 +649,11 @@ impl App {
                     self.dirty = true;
                 }
             }
+            Event::ParamMeta {
+                origin,
+                cache_path,
+                result,
+            } => self.on_param_meta(origin, cache_path, result, &mut fx),
             Event::Recording(st) => self.on_recording(st),
             Event::Output { out, status } => self.on_output(out, status),
             Event::ReplayStatus { link, status } => self.on_replay_status(link, status),
@@ -626,6 +661,7 @@ impl App {
         self.poll_confirm();
         self.poll_nudge(&mut fx);
         self.poll_sessions(&mut fx);
+        self.poll_param_meta(&mut fx);
         self.follow_selected_command();
         fx
     }

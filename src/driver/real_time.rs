@@ -154,6 +154,20 @@ impl Links for RealLinks {
             });
         });
     }
+    fn fetch_param_meta(&mut self, urls: Vec<String>, cache_path: PathBuf) {
+        let done = self.done.clone();
+        tokio::task::spawn_blocking(move || {
+            let _ = done.send(super::fetch::fetch_param_meta(urls, cache_path));
+        });
+    }
+    fn read_param_meta(&mut self, path: PathBuf) {
+        let done = self.done.clone();
+        tokio::task::spawn_blocking(move || {
+            if let Some(ev) = super::fetch::read_param_meta(path) {
+                let _ = done.send(ev);
+            }
+        });
+    }
     fn heard(&mut self, wall: u64, link: LinkId, frames: &[Frame]) {
         if let Some(r) = self.recorder.as_mut() {
             r.record_frames(wall, frames);

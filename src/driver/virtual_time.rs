@@ -138,6 +138,16 @@ impl Links for VLinks {
         });
     }
 
+    fn fetch_param_meta(&mut self, urls: Vec<String>, cache_path: PathBuf) {
+        // In place: virtual time stands still while the download runs.
+        self.pending
+            .push(super::fetch::fetch_param_meta(urls, cache_path));
+    }
+
+    fn read_param_meta(&mut self, path: PathBuf) {
+        self.pending.extend(super::fetch::read_param_meta(path));
+    }
+
     fn heard(&mut self, wall: u64, _link: LinkId, frames: &[Frame]) {
         if let Some(r) = self.recorder.as_mut() {
             r.record_frames(wall, frames);

@@ -273,7 +273,10 @@ fn detail(
         Some(h) => Line::styled(ellipsize(&h, width), theme.header()),
         None if meta.is_some() => Line::styled(ellipsize(name, width), theme.header()),
         None => Line::styled(
-            ellipsize("no metadata for this parameter (--param-meta FILE)", width),
+            ellipsize(
+                "no metadata: :param meta fetch, or --param-meta FILE",
+                width,
+            ),
             theme.dim(),
         ),
     });
