@@ -6,6 +6,7 @@
 
 use super::{App, Effect};
 use crate::proto::camera::CameraAction;
+use crate::proto::vehicles::VehicleKey;
 
 /// A parsed `camera …` / `gimbal …` line.
 #[derive(Debug, Clone, PartialEq)]
@@ -248,7 +249,7 @@ impl App {
                 .and_then(|s| s.gimbals.pick(sel))
                 .map(|g| g.manager);
             if let Some(m) = manager {
-                self.commandable_at((key.0, m))
+                self.commandable_at(VehicleKey(key.0, m))
                     .map_err(|e| format!("gimbal: {e}"))?;
             }
         }
@@ -319,14 +320,14 @@ impl App {
     /// Send `action` to camera `compid` of `key`, through its session's command queue.
     pub(super) fn camera_act(
         &mut self,
-        key: crate::proto::vehicles::VehicleKey,
+        key: VehicleKey,
         compid: u8,
         action: CameraAction,
         fx: &mut Vec<Effect>,
     ) -> Result<Option<String>, String> {
         // The camera heard and not lost (and the vehicle it is reached through).
         self.commandable_at(key)?;
-        self.commandable_at((key.0, compid))
+        self.commandable_at(VehicleKey(key.0, compid))
             .map_err(|e| format!("camera: {e}"))?;
         let now = self.now;
         let s = self.sessions.get_mut(&key).ok_or("no session")?;

@@ -226,7 +226,7 @@ impl App {
             return Some(key);
         }
         self.sessions
-            .range((key.0, 0)..=(key.0, u8::MAX))
+            .range(VehicleKey(key.0, 0)..=VehicleKey(key.0, u8::MAX))
             .map(|(k, _)| *k)
             .next()
     }
@@ -509,7 +509,7 @@ impl App {
             (v.autopilot, v.mavtype, v.custom_mode, v.armed())
         };
         let profile = crate::proto::profile::of(autopilot);
-        let long = |cmd: MavCmd, p: [f64; 7]| CommandSpec::long(key, cmd, p);
+        let long = |cmd: MavCmd, p: [f64; 7]| CommandSpec::long(key.into(), cmd, p);
         let nan = f64::NAN;
         let single = |spec: CommandSpec| -> Result<(CommandSpec, String), String> {
             let name = spec.name();
@@ -528,7 +528,7 @@ impl App {
             FlightAction::Rtl => Some("RTL".into()),
             FlightAction::Command { command, params } if is_mode_request(*command) => Some(
                 CommandSpec {
-                    target: key,
+                    target: key.into(),
                     command: *command,
                     params: *params,
                     form: crate::proto::commands::form_for(*command),
@@ -566,7 +566,7 @@ impl App {
                 [1.0, 0., 0., 0., 0., 0., 0.],
             ))?,
             FlightAction::Command { command, params } => single(CommandSpec {
-                target: key,
+                target: key.into(),
                 command,
                 params,
                 form: crate::proto::commands::form_for(command),
@@ -654,7 +654,7 @@ impl App {
         // PX4: main mode in param2, sub mode in param3; others: the custom mode in param2.
         let params = crate::proto::profile::of(autopilot).set_mode_params(number);
         Ok(Step {
-            spec: CommandSpec::long(key, MavCmd::MAV_CMD_DO_SET_MODE, params),
+            spec: CommandSpec::long(key.into(), MavCmd::MAV_CMD_DO_SET_MODE, params),
             until: Until::Mode(number),
             label: name.to_ascii_uppercase(),
             fallback: Some(Self::set_mode_message(key, number)),
@@ -722,7 +722,7 @@ impl App {
         self.ui.cmd_sel = 0;
         self.ui.cmd_sel_id = None;
         self.flight_to(
-            e.spec.target,
+            e.spec.target.into(),
             FlightAction::Command {
                 command: e.spec.command,
                 params: e.spec.params,

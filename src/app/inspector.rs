@@ -20,6 +20,7 @@ use super::{App, Effect};
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{MavCmd, MavMessage};
 use crate::keymap::{Action, Key, KeyCode, Mode};
+use crate::proto::vehicles::VehicleKey;
 use crate::wire::frame::{Frame, Version};
 
 /// Message ids kept per source (sysid, compid) at most.
@@ -649,7 +650,7 @@ impl App {
         let command = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
         let params = [msgid as f64, interval, 0., 0., 0., 0., 0.];
         self.flight_to(
-            (sysid, compid),
+            VehicleKey(sysid, compid),
             FlightAction::Command { command, params },
             fx,
         )
@@ -666,7 +667,9 @@ impl App {
     /// The rate last asked of `k`'s source from here (its interval param2) and where the
     /// request stands (`ACCEPTED`, `waiting`…), from the command queue.
     pub fn inspector_requested(&self, k: MsgKey) -> Option<(f64, String)> {
-        let session = self.sessions.get(&self.session_for((k.0, k.1))?)?;
+        let session = self
+            .sessions
+            .get(&self.session_for(VehicleKey(k.0, k.1))?)?;
         let command = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
         session
             .commands

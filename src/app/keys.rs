@@ -274,9 +274,9 @@ impl App {
             .vehicles
             .iter()
             .filter(|v| v.sysid == sysid && compid.is_none_or(|c| c == v.compid))
-            .find(|v| v.is_autopilot() || self.sessions.contains_key(&(v.sysid, v.compid)));
+            .find(|v| v.is_autopilot() || self.sessions.contains_key(&v.key()));
         match found {
-            Some(v) => Ok((v.sysid, v.compid)),
+            Some(v) => Ok(v.key()),
             None => {
                 let heard: Vec<String> = self
                     .targetable()
@@ -304,8 +304,8 @@ impl App {
         // Autopilots, and payloads alone on their system (they have a session of their own).
         self.vehicles
             .iter()
-            .filter(|v| v.is_autopilot() || self.sessions.contains_key(&(v.sysid, v.compid)))
-            .map(|v| (v.sysid, v.compid))
+            .filter(|v| v.is_autopilot() || self.sessions.contains_key(&v.key()))
+            .map(|v| v.key())
             .collect()
     }
 
@@ -368,10 +368,10 @@ impl App {
                     // autopilot, from their own screens.
                     let v = self.vehicles.iter().nth(self.ui.vehicle_sel);
                     let sessions = &self.sessions;
-                    if let Some(v) = v
-                        .filter(|v| v.is_autopilot() || sessions.contains_key(&(v.sysid, v.compid)))
+                    if let Some(v) =
+                        v.filter(|v| v.is_autopilot() || sessions.contains_key(&v.key()))
                     {
-                        self.target = Some((v.sysid, v.compid));
+                        self.target = Some(v.key());
                         self.target_held = true;
                     }
                 }

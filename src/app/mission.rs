@@ -480,7 +480,7 @@ impl App {
                     steps.push(self.mode_step(key, autopilot, mavtype, auto)?);
                 }
                 steps.push(Step {
-                    spec: CommandSpec::long(key, MavCmd::MAV_CMD_MISSION_START, [0.0; 7]),
+                    spec: CommandSpec::long(key.into(), MavCmd::MAV_CMD_MISSION_START, [0.0; 7]),
                     until: Until::Ack,
                     label: "mission start".into(),
                     fallback: None,

@@ -339,7 +339,7 @@ impl App {
             .iter()
             .map(|s| LinkStatus::new(s.clone(), cfg.sysid, cfg.compid))
             .collect();
-        let vehicles = Registry::new((cfg.sysid, cfg.compid), cfg.lost_timeout);
+        let vehicles = Registry::new(VehicleKey(cfg.sysid, cfg.compid), cfg.lost_timeout);
         let signing = signing::SigningState::new(cfg.signing.as_ref());
         let nudge = nudge::Nudge::new(cfg.nudge_deadman);
         let mut app = Self {
@@ -556,7 +556,7 @@ impl App {
         }
     }
 
-    fn notice(&mut self, severity: u8, source: Option<(u8, u8)>, text: String) {
+    fn notice(&mut self, severity: u8, source: Option<VehicleKey>, text: String) {
         let n = Notice {
             t: self.now,
             at: self.shown_instant(),
@@ -689,7 +689,7 @@ impl App {
         let events = self.vehicles.tick(self.now);
         self.on_vehicle_events(events, fx);
         for t in self.statustext.poll(self.now) {
-            self.notice(t.severity, Some(t.source), t.text);
+            self.notice(t.severity, Some(t.source.into()), t.text);
         }
         self.signing_time(fx);
     }
@@ -758,7 +758,7 @@ impl App {
     /// One frame from `link`: counted on the link, then handled once however many links carry it.
     fn on_frame(&mut self, link: LinkId, frame: &Frame, fx: &mut Vec<Effect>) {
         let now = self.now;
-        let key = (frame.sysid, frame.compid);
+        let key = VehicleKey(frame.sysid, frame.compid);
         // An id our dialect does not know has no CRC we could check: counted on the link only
         // (the parser did), never a source, never loss.
         if frame.message.is_none() && crate::wire::parser::msg_limits(frame.msgid).is_none() {
@@ -766,7 +766,9 @@ impl App {
         }
         let crc = frame.crc();
         // Our own frame coming back through a router: not another GCS, not a source.
-        if key == (self.cfg.sysid, self.cfg.compid) && self.links[link].sent_by_us(frame.seq, crc) {
+        if key == VehicleKey(self.cfg.sysid, self.cfg.compid)
+            && self.links[link].sent_by_us(frame.seq, crc)
+        {
             self.links[link].echoes += 1;
             return;
         }
@@ -839,10 +841,10 @@ impl App {
                             s.commands
                                 .entries()
                                 .filter(|e| e.open())
-                                .map(|e| e.spec.target),
+                                .map(|e| VehicleKey::from(e.spec.target)),
                         );
                         if let Some((comp, ..)) = s.params.downloading() {
-                            kept.push((k.0, comp));
+                            kept.push(VehicleKey(k.0, comp));
                         }
                     }
                     kept.extend(self.target);
@@ -863,7 +865,7 @@ impl App {
                     && self.vehicles.get(key).is_some_and(|v| v.is_payload())
                     && self
                         .sessions
-                        .range((key.0, 0)..=(key.0, u8::MAX))
+                        .range(VehicleKey(key.0, 0)..=VehicleKey(key.0, u8::MAX))
                         .next()
                         .is_none();
                 if !self.sessions.contains_key(&key) && (autopilot || alone) {
@@ -898,7 +900,7 @@ impl App {
             Some(MavMessage::STATUSTEXT(st)) => {
                 let texts = self.statustext.push(
                     now,
-                    key,
+                    key.into(),
                     st.severity as u8,
                     &st.text[..],
                     st.id,
@@ -908,7 +910,7 @@ impl App {
                     // A vehicle's reason for refusing a command comes as text.
                     let keys: Vec<VehicleKey> = self
                         .sessions
-                        .range((t.source.0, 0)..=(t.source.0, u8::MAX))
+                        .range(VehicleKey(t.source.0, 0)..=VehicleKey(t.source.0, u8::MAX))
                         .map(|(k, _)| *k)
                         .collect();
                     for k in keys {
@@ -916,7 +918,7 @@ impl App {
                             s.on_text(now, &t.text);
                         }
                     }
-                    self.notice(t.severity, Some(t.source), t.text);
+                    self.notice(t.severity, Some(t.source.into()), t.text);
                 }
             }
             _ => {}
@@ -955,7 +957,10 @@ impl App {
                 }
             }
         } else {
-            for (k, s) in self.sessions.range_mut((key.0, 0)..=(key.0, u8::MAX)) {
+            for (k, s) in self
+                .sessions
+                .range_mut(VehicleKey(key.0, 0)..=VehicleKey(key.0, u8::MAX))
+            {
                 handle(k, s);
             }
         }
@@ -984,7 +989,7 @@ impl App {
     fn drop_payload_sessions(&mut self, sysid: u8) {
         let payloads: Vec<VehicleKey> = self
             .sessions
-            .range((sysid, 0)..=(sysid, u8::MAX))
+            .range(VehicleKey(sysid, 0)..=VehicleKey(sysid, u8::MAX))
             .map(|(k, _)| *k)
             .filter(|k| !self.vehicles.get(*k).is_some_and(|v| v.is_autopilot()))
             .filter(|k| self.target != Some(*k) && self.nudge.target != Some(*k))
@@ -1088,7 +1093,7 @@ impl App {
                     self.notice(SEV_ERROR, Some(key), format!("sysid clash: {detail}"))
                 }
                 VehicleEvent::UsesGcsSysid(key) => {
-                    let text = if key == (self.cfg.sysid, self.cfg.compid) {
+                    let text = if key == VehicleKey(self.cfg.sysid, self.cfg.compid) {
                         format!(
                             "another GCS uses our id {}:{}: replies may go to either",
                             key.0, key.1

@@ -25,7 +25,7 @@ pub struct Notice {
     pub at: chrono::DateTime<chrono::Utc>,
     pub severity: u8,
     /// The sender for STATUSTEXT; `None` for mavterm's own notices.
-    pub source: Option<(u8, u8)>,
+    pub source: Option<crate::proto::vehicles::VehicleKey>,
     pub text: String,
 }
 

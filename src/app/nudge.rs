@@ -602,7 +602,7 @@ mod tests {
     fn a_held_key_streams_at_10_hz_and_the_deadman_stops_it() {
         let mut n = Nudge::new(300_000);
         assert!(n.press(0, Axis::Forward, 1.0).is_none(), "not in Fly mode");
-        n.enter((1, 1), "overview");
+        n.enter(VehicleKey(1, 1), "overview");
         let (_, m) = n.press(0, Axis::Forward, 1.0).unwrap();
         assert_eq!(vel(&m), [2.0, 0.0, -0.0, 0.0]);
         // Its first repeat 500 ms later, then every 30 ms: not more than 10 Hz.
@@ -631,7 +631,7 @@ mod tests {
     #[test]
     fn a_single_press_lasts_until_its_first_repeat_would_have_come() {
         let mut n = Nudge::new(300_000);
-        n.enter((1, 1), "overview");
+        n.enter(VehicleKey(1, 1), "overview");
         n.press(0, Axis::Right, 1.0).unwrap();
         let mut first_stop = None;
         let mut t = 0;
@@ -652,7 +652,7 @@ mod tests {
     /// went and whether it moved, and the time of the last key.
     fn held_for(delay: Micros, gap: Micros, hold: Micros) -> (Vec<(Micros, bool)>, Micros) {
         let mut n = Nudge::default();
-        n.enter((1, 1), "overview");
+        n.enter(VehicleKey(1, 1), "overview");
         let mut keys = vec![0];
         let mut k = delay;
         while k <= hold {
@@ -708,7 +708,7 @@ mod tests {
     #[test]
     fn a_release_stops_at_once_and_leaving_sends_zero() {
         let mut n = Nudge::default();
-        n.enter((1, 1), "overview");
+        n.enter(VehicleKey(1, 1), "overview");
         n.set_speed(2);
         n.press(0, Axis::Right, -1.0).unwrap();
         let (_, m) = n.release(50_000, Axis::Right, -1.0).unwrap();

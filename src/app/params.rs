@@ -229,7 +229,7 @@ impl App {
                 }))
             }
             ParamCmd::Fetch => {
-                self.commandable_at((key.0, comp))?;
+                self.commandable_at(VehicleKey(key.0, comp))?;
                 let now = self.now;
                 let s = self.sessions.get_mut(&key).ok_or("no session")?;
                 let out = s.params.fetch(now, comp);
@@ -360,7 +360,7 @@ impl App {
         }
         let old = p.value;
         let change = vec![(comp, name.clone(), v)];
-        self.commandable_at((key.0, comp))?;
+        self.commandable_at(VehicleKey(key.0, comp))?;
         let mut why = Vec::new();
         if let Some(e) = meta.and_then(|m| m.check_range(v).err()) {
             why.push(e);
@@ -398,7 +398,7 @@ impl App {
     ) -> Result<Option<String>, String> {
         // Every component written to is heard and not lost.
         for (comp, _, _) in &changes {
-            self.commandable_at((key.0, *comp))?;
+            self.commandable_at(VehicleKey(key.0, *comp))?;
         }
         let now = self.now;
         let n = changes.len();

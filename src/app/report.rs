@@ -31,6 +31,7 @@ use serde_json::{json, Value};
 
 use super::links::{loss_pct, LinkState};
 use super::App;
+use crate::proto::vehicles::VehicleKey;
 
 /// A link's or output's state for the report: `up`, `connecting` or `down` with the reason.
 fn state_reason(s: &LinkState) -> (&'static str, Option<String>) {
@@ -73,7 +74,7 @@ impl App {
                 let sources: Vec<Value> = l
                     .sources
                     .iter()
-                    .map(|(&(sysid, compid), s)| {
+                    .map(|(&VehicleKey(sysid, compid), s)| {
                         json!({
                             "sysid": sysid,
                             "compid": compid,

@@ -90,10 +90,10 @@ impl Session {
             key,
             pinned: None,
             heard: BTreeMap::new(),
-            streams: StreamMachine::new(key, autopilot, request_streams, rates),
+            streams: StreamMachine::new(key.into(), autopilot, request_streams, rates),
             commands: CommandQueue::default(),
             sequence: None,
-            flight: FlightTelemetry::new(key, request_streams),
+            flight: FlightTelemetry::new(key.into(), request_streams),
             params: ParamMachine::new(key, autopilot, fetch_params),
             mission: MissionMachine::new(key),
             cameras: CameraSet::default(),
@@ -454,7 +454,8 @@ impl Session {
 
     /// The queue's submit; a mode change remembers the mode it leaves.
     fn queue(&mut self, now: Micros, spec: CommandSpec) -> Result<(u64, Vec<CmdOut>), String> {
-        let mode = spec.command == MavCmd::MAV_CMD_DO_SET_MODE as u16 && spec.target == self.key;
+        let mode =
+            spec.command == MavCmd::MAV_CMD_DO_SET_MODE as u16 && spec.target == self.key.into();
         let (id, out) = self.commands.submit(now, spec)?;
         if mode {
             self.mode_asks.push((id, self.mode_seen));
@@ -518,7 +519,10 @@ impl Session {
             MavCmd::MAV_CMD_NAV_LAND,
             MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH,
         ] {
-            done.extend(self.commands.supersede(now, self.key, command as u16));
+            done.extend(
+                self.commands
+                    .supersede(now, self.key.into(), command as u16),
+            );
         }
         self.mode_asks.clear();
         out.extend(self.drive(now, done));
@@ -666,7 +670,7 @@ impl Session {
     /// Whatever is due at `now`.
     pub fn poll(&mut self, now: Micros) -> Vec<SessionOut> {
         let interval = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
-        let operators = self.commands.is_open(self.key, interval)
+        let operators = self.commands.is_open(self.key.into(), interval)
             || self.commands.is_open((self.key.0, 0), interval);
         self.streams.hold_intervals(operators);
         let mut out: Vec<SessionOut> = self.streams.poll(now).into_iter().map(map).collect();

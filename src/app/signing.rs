@@ -422,7 +422,7 @@ impl App {
     /// A rejected frame: counted on its source, told of once per kind.
     #[cold]
     pub(super) fn signing_rejected(&mut self, link: LinkId, frame: &Frame, c: Checked) {
-        let key = (frame.sysid, frame.compid);
+        let key = VehicleKey(frame.sysid, frame.compid);
         let first = self.links[link].source(key).signing.count(c);
         self.dirty = true;
         if c.is_told(first) {

@@ -1223,7 +1223,7 @@ impl MissionMachine {
                 total: n as u16,
             }));
         }
-        out.push(MissionOut::Send(item_message(self.key, &item)));
+        out.push(MissionOut::Send(item_message(self.key.into(), &item)));
     }
 
     fn on_ack(
@@ -1409,7 +1409,7 @@ mod tests {
     use super::*;
     use crate::mission::{cmd, frame};
 
-    const V: VehicleKey = (1, 1);
+    const V: VehicleKey = VehicleKey(1, 1);
     const US: (u8, u8) = (255, 190);
 
     fn wp(seq: u16, z: f32) -> MissionItem {
@@ -1471,7 +1471,7 @@ mod tests {
     fn payloads_read_like_the_dialect_writes_them() {
         use mavlink::Message;
         let item = wp(3, 20.0);
-        let m = item_message(V, &item);
+        let m = item_message(V.into(), &item);
         let mut buf = [0u8; 255];
         let n = m.ser(mavlink::MavlinkVersion::V2, &mut buf);
         match MissionMsg::read(id::MISSION_ITEM_INT, &buf[..n]).unwrap() {
@@ -1481,7 +1481,7 @@ mod tests {
                 mission_type,
                 legacy,
             } => {
-                assert_eq!((target, mission_type, legacy), (V, 0, false));
+                assert_eq!((target, mission_type, legacy), (V.into(), 0, false));
                 assert_eq!(got, item);
             }
             other => panic!("{other:?}"),

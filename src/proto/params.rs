@@ -1100,7 +1100,7 @@ impl ParamMachine {
 
     /// Ask for missing indices, [`READ_WINDOW`] in flight.
     fn fill(&mut self, now: Micros) -> Vec<ParamOut> {
-        let (sys, _) = self.key;
+        let sys = self.key.0;
         let Some(d) = self.download.as_mut() else {
             return Vec::new();
         };
@@ -1476,7 +1476,7 @@ fn request_autopilot_version(key: VehicleKey) -> MavMessage {
 mod tests {
     use super::*;
 
-    const KEY: VehicleKey = (1, 1);
+    const KEY: VehicleKey = VehicleKey(1, 1);
 
     /// A PARAM_VALUE payload as it goes on the wire (MAVLink 2 trailing zeros cut).
     fn pv(name: &str, raw: f32, t: u8, count: u16, index: u16) -> Vec<u8> {

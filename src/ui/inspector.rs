@@ -20,6 +20,7 @@ use crate::app::inspector::{
 use crate::app::App;
 use crate::clock::SECOND;
 use crate::keymap::{Action, Mode};
+use crate::proto::vehicles::VehicleKey;
 
 /// Widths of the list's columns: source, rate, count, age.
 const SRC_W: usize = 7;
@@ -555,7 +556,7 @@ pub fn rate_prompt(app: &App, k: MsgKey) -> String {
 /// The rate mavterm asked automatically for message `k.2` of autopilot `k.0:k.1`, on the link
 /// its commands go by.
 fn auto_requested(app: &App, k: (u8, u8, u32)) -> Option<f32> {
-    let key = (k.0, k.1);
+    let key = VehicleKey(k.0, k.1);
     let s = app.sessions.get(&key)?;
     let link = app.route(key)?;
     s.streams

@@ -189,7 +189,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let sel = app.ui.vehicle_sel.min(total - 1);
     let first = fmt::scroll_offset(sel, visible, total);
     let rows = vehicles.iter().enumerate().map(|(i, v)| {
-        let key = (v.sysid, v.compid);
+        let key = v.key();
         let is_target = app.target == Some(key);
         let base = if v.lost {
             theme.dim()
