@@ -65,7 +65,7 @@ fn every_capture_decodes_exactly_like_pymavlink() {
         let mut previous: BTreeMap<String, u8> = BTreeMap::new();
         let mut pymavlink_gaps = 0u64;
         for (i, f) in frames.iter().enumerate() {
-            let src = format!("{}:{}", f.sysid, f.compid);
+            let src = VehicleKey(f.sysid, f.compid).to_string();
             trackers
                 .entry(src.clone())
                 .or_default()

@@ -296,7 +296,7 @@ impl App {
         }
         let compid = self
             .selected_camera()
-            .ok_or_else(|| format!("no camera heard on {}:{}", key.0, key.1))?;
+            .ok_or_else(|| format!("no camera heard on {key}"))?;
         let action = match cmd {
             CameraCmd::FormatAsk => {
                 self.ask(super::flight::Ask {

@@ -206,14 +206,14 @@ impl App {
             0 => session.and_then(|s| self.vehicles.get(s)),
             _ => self.vehicles.get(key),
         };
-        let v = heard.ok_or_else(|| format!("{}:{} has not been heard", key.0, key.1))?;
+        let v = heard.ok_or_else(|| format!("{key} has not been heard"))?;
         if v.lost {
-            return Err(format!("{}:{} is lost: not sent", key.0, key.1));
+            return Err(format!("{key} is lost: not sent"));
         }
         if session.is_none() {
             return Err(format!(
-                "{}:{} is not an autopilot, and no autopilot of system {} is heard to reach it by",
-                key.0, key.1, key.0
+                "{key} is not an autopilot, and no autopilot of system {} is heard to reach it by",
+                key.0
             ));
         }
         Ok(key)
@@ -262,14 +262,8 @@ impl App {
     /// `1:1 (ArduPilot Quadrotor)`: how a question names a vehicle.
     pub(super) fn who_is(&self, key: VehicleKey) -> String {
         match self.vehicles.get(key) {
-            Some(v) => format!(
-                "{}:{} ({} {})",
-                key.0,
-                key.1,
-                v.autopilot_name(),
-                v.type_name()
-            ),
-            None => format!("{}:{}", key.0, key.1),
+            Some(v) => format!("{key} ({} {})", v.autopilot_name(), v.type_name()),
+            None => key.to_string(),
         }
     }
 
@@ -422,7 +416,7 @@ impl App {
     ) -> Result<Option<String>, String> {
         let any = matches!(action, FlightAction::Command { .. });
         if !any && !self.sessions.contains_key(&target) {
-            return Err(format!("{}:{} is not an autopilot", target.0, target.1));
+            return Err(format!("{target} is not an autopilot"));
         }
         if let Some(text) = self.question(target, &action) {
             self.ask(Confirm::new(text, Confirmed::Flight(action), target));

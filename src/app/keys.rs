@@ -160,7 +160,7 @@ impl App {
         }
         let mut out = Vec::new();
         for k in self.targetable() {
-            out.push(format!("target {}:{}", k.0, k.1));
+            out.push(format!("target {k}"));
         }
         if let Some(v) = self.target.and_then(|k| self.vehicles.get(k)) {
             for m in crate::proto::modes::mode_names(v.autopilot, v.mavtype) {
@@ -229,7 +229,7 @@ impl App {
                 let key = self.autopilot(sysid, compid)?;
                 self.target = Some(key);
                 self.target_held = true;
-                Ok(Some(format!("target {}:{}", key.0, key.1)))
+                Ok(Some(format!("target {key}")))
             }
             Command::Link(text) => {
                 let spec: LinkSpec = text.parse().map_err(|e| format!("{e}"))?;
@@ -258,11 +258,11 @@ impl App {
                 let s = self
                     .sessions
                     .get_mut(&key)
-                    .ok_or_else(|| format!("{}:{} has no session", key.0, key.1))?;
+                    .ok_or_else(|| format!("{key} has no session"))?;
                 s.pinned = link;
                 Ok(Some(match link {
-                    Some(l) => format!("{}:{} goes by link {l}", key.0, key.1),
-                    None => format!("{}:{} goes by the link heard last", key.0, key.1),
+                    Some(l) => format!("{key} goes by link {l}"),
+                    None => format!("{key} goes by the link heard last"),
                 }))
             }
         }
@@ -278,11 +278,7 @@ impl App {
         match found {
             Some(v) => Ok(v.key()),
             None => {
-                let heard: Vec<String> = self
-                    .targetable()
-                    .iter()
-                    .map(|k| format!("{}:{}", k.0, k.1))
-                    .collect();
+                let heard: Vec<String> = self.targetable().iter().map(|k| k.to_string()).collect();
                 let what = match compid {
                     Some(c) => format!("{sysid}:{c}"),
                     None => format!("{sysid}"),

@@ -209,7 +209,7 @@ impl App {
     fn mission_target(&self) -> Result<VehicleKey, String> {
         let key = self.commandable()?;
         if !self.sessions.contains_key(&key) {
-            return Err(format!("{}:{} is not an autopilot", key.0, key.1));
+            return Err(format!("{key} is not an autopilot"));
         }
         Ok(key)
     }
@@ -321,10 +321,7 @@ impl App {
                 self.mission_request(key, Request::Download(t), fx)?;
                 self.ui.mission.list = t.index();
                 self.ui.mission.shown = Shown::Vehicle;
-                Ok(Some(format!(
-                    "downloading the {name} of {}:{}",
-                    key.0, key.1
-                )))
+                Ok(Some(format!("downloading the {name} of {key}")))
             }
             MissionOp::Upload => {
                 let key = self.mission_target()?;
@@ -371,10 +368,7 @@ impl App {
             MissionOp::Clear => {
                 let key = self.mission_target()?;
                 self.ask(Ask {
-                    text: format!(
-                        "CLEAR the {name} of {}:{}? y = yes, any other key = no",
-                        key.0, key.1
-                    ),
+                    text: format!("CLEAR the {name} of {key}? y = yes, any other key = no"),
                     action: Confirmed::Mission(MissionAction::Clear(t)),
                     target: key,
                 });
@@ -400,9 +394,7 @@ impl App {
                 let key = self.mission_target()?;
                 self.ask(Ask {
                     text: format!(
-                        "START the mission on {}:{} ({}MISSION_START)? y = yes, any other key = no",
-                        key.0,
-                        key.1,
+                        "START the mission on {key} ({}MISSION_START)? y = yes, any other key = no",
                         self.profile(key)
                             .mission_mode()
                             .map_or(String::new(), |m| format!("mode {m}, then "))
@@ -443,12 +435,7 @@ impl App {
                 let n = items.len();
                 self.mission_request(key, Request::Upload(t, items), fx)?;
                 self.ui.mission.list = t.index();
-                Ok(Some(format!(
-                    "uploading {n} {} items to {}:{}",
-                    t.name(),
-                    key.0,
-                    key.1
-                )))
+                Ok(Some(format!("uploading {n} {} items to {key}", t.name())))
             }
             MissionAction::SetCurrent(seq) => {
                 let now = self.now;
@@ -462,12 +449,7 @@ impl App {
             }
             MissionAction::Clear(t) => {
                 self.mission_request(key, Request::Clear(t), fx)?;
-                Ok(Some(format!(
-                    "clearing the {} of {}:{}",
-                    t.name(),
-                    key.0,
-                    key.1
-                )))
+                Ok(Some(format!("clearing the {} of {key}", t.name())))
             }
             MissionAction::Start => {
                 let (autopilot, mavtype) = {
@@ -663,7 +645,7 @@ impl App {
     ) -> Result<(), String> {
         let v = self.vehicles.get(key).ok_or("vehicle gone")?;
         if !v.armed() {
-            return Err(format!("{what} refused: {}:{} is not armed", key.0, key.1));
+            return Err(format!("{what} refused: {key} is not armed"));
         }
         if guided {
             let Some(m) = v.profile().guided_mode() else {
@@ -675,9 +657,7 @@ impl App {
             let g = crate::proto::modes::mode_number(v.autopilot, v.mavtype, m);
             if g != Some(v.custom_mode) {
                 return Err(format!(
-                    "{what} refused: {}:{} is in {}, not {m} (mode {})",
-                    key.0,
-                    key.1,
+                    "{what} refused: {key} is in {}, not {m} (mode {})",
                     crate::proto::modes::mode_name(v.autopilot, v.mavtype, v.custom_mode),
                     m.to_ascii_lowercase()
                 ));

@@ -478,7 +478,7 @@ impl App {
                     None => self.notice(
                         SEV_WARNING,
                         Some(key),
-                        format!("no link to {}:{}: not sent", key.0, key.1),
+                        format!("no link to {key}: not sent"),
                     ),
                 },
                 // Nothing automatic on high-latency links, nor when only those reach the vehicle.
@@ -1042,7 +1042,7 @@ impl App {
                     self.notice(
                         SEV_NOTICE,
                         Some(key),
-                        format!("vehicle {}:{} found ({desc})", key.0, key.1),
+                        format!("vehicle {key} found ({desc})"),
                     );
                     // The first autopilot heard becomes the target; after that only the
                     // operator changes it.
@@ -1066,23 +1066,21 @@ impl App {
                     self.notice(
                         SEV_WARNING,
                         Some(key),
-                        format!("vehicle {}:{} lost (no heartbeat)", key.0, key.1),
+                        format!("vehicle {key} lost (no heartbeat)"),
                     );
                     if self.nudge.target == Some(key) {
                         self.leave_fly(fx);
                         self.notice(SEV_WARNING, Some(key), "Fly mode left: vehicle lost".into());
                     }
                 }
-                VehicleEvent::Back(key) => self.notice(
-                    SEV_NOTICE,
-                    Some(key),
-                    format!("vehicle {}:{} back", key.0, key.1),
-                ),
+                VehicleEvent::Back(key) => {
+                    self.notice(SEV_NOTICE, Some(key), format!("vehicle {key} back"))
+                }
                 VehicleEvent::Rebooted(key, why) => {
                     self.notice(
                         SEV_WARNING,
                         Some(key),
-                        format!("vehicle {}:{} rebooted ({why})", key.0, key.1),
+                        format!("vehicle {key} rebooted ({why})"),
                     );
                     // A rebooted autopilot forgets what it was asked: its machines start over.
                     if let Some(s) = self.sessions.get_mut(&key) {
@@ -1094,15 +1092,9 @@ impl App {
                 }
                 VehicleEvent::UsesGcsSysid(key) => {
                     let text = if key == VehicleKey(self.cfg.sysid, self.cfg.compid) {
-                        format!(
-                            "another GCS uses our id {}:{}: replies may go to either",
-                            key.0, key.1
-                        )
+                        format!("another GCS uses our id {key}: replies may go to either")
                     } else {
-                        format!(
-                            "component {}:{} uses our GCS sysid {}",
-                            key.0, key.1, self.cfg.sysid
-                        )
+                        format!("component {key} uses our GCS sysid {}", self.cfg.sysid)
                     };
                     self.notice(SEV_ERROR, Some(key), text)
                 }

@@ -405,7 +405,7 @@ impl App {
     pub(super) fn enter_fly(&mut self) -> Result<Option<String>, String> {
         let key = self.commandable()?;
         if !self.sessions.contains_key(&key) {
-            return Err(format!("{}:{} is not an autopilot", key.0, key.1));
+            return Err(format!("{key} is not an autopilot"));
         }
         self.nudge.enter(key, self.ui.screen);
         Ok(Some(

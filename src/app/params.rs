@@ -164,7 +164,7 @@ impl App {
     pub fn param_target(&self) -> Result<(VehicleKey, u8), String> {
         let key = self.target.ok_or("no target vehicle")?;
         if !self.sessions.contains_key(&key) {
-            return Err(format!("{}:{} has no session", key.0, key.1));
+            return Err(format!("{key} has no session"));
         }
         Ok((key, self.ui.params.comp.unwrap_or(key.1)))
     }

@@ -491,8 +491,8 @@ impl Session {
                 out.push(SessionOut::Notice(
                     crate::proto::severity::WARNING,
                     format!(
-                        "{}:{} changed mode on its own meanwhile: our DO_SET_MODE is not resent",
-                        self.key.0, self.key.1
+                        "{} changed mode on its own meanwhile: our DO_SET_MODE is not resent",
+                        self.key
                     ),
                 ));
             }

@@ -446,7 +446,7 @@ impl App {
                 self.notice(
                     SEV_NOTICE,
                     Some(key),
-                    format!("{}:{} signs with our key: signing is on", key.0, key.1),
+                    format!("{key} signs with our key: signing is on"),
                 );
                 return;
             }
@@ -462,7 +462,7 @@ impl App {
 
     /// The notice for the first frame of a kind from a source.
     fn tell_signing(&mut self, link: LinkId, key: VehicleKey, c: Checked) {
-        let who = format!("{}:{}", key.0, key.1);
+        let who = key.to_string();
         let fate = if c.accepted {
             "taken: the link is trusted"
         } else {
@@ -529,7 +529,7 @@ impl App {
     pub(super) fn signing_time(&mut self, fx: &mut Vec<Effect>) {
         if let Some(w) = self.signing.watch.filter(|w| self.now >= w.until) {
             self.signing.watch = None;
-            let who = format!("{}:{}", w.vehicle.0, w.vehicle.1);
+            let who = w.vehicle.to_string();
             let secs = WATCH / SECOND;
             match (w.what, w.signed) {
                 (WatchFor::Setup, _) => self.notice(
@@ -623,14 +623,8 @@ impl App {
     /// `1:1 (ArduPilot QUADROTOR)`.
     fn who(&self, key: VehicleKey) -> String {
         match self.vehicles.get(key) {
-            Some(v) => format!(
-                "{}:{} ({} {})",
-                key.0,
-                key.1,
-                v.autopilot_name(),
-                v.type_name()
-            ),
-            None => format!("{}:{}", key.0, key.1),
+            Some(v) => format!("{key} ({} {})", v.autopilot_name(), v.type_name()),
+            None => key.to_string(),
         }
     }
 
@@ -646,9 +640,8 @@ impl App {
             .find(|&l| self.links.get(l).is_some_and(|s| s.secure) && self.link_up(l))
             .ok_or_else(|| {
                 format!(
-                    "{what}: {}:{} is not heard on a link marked ?secure=1 (a USB cable): \
-                     refused, SETUP_SIGNING would carry the key in clear",
-                    target.0, target.1
+                    "{what}: {target} is not heard on a link marked ?secure=1 (a USB cable): \
+                     refused, SETUP_SIGNING would carry the key in clear"
                 )
             })
     }
@@ -664,7 +657,7 @@ impl App {
         if !(self.links.get(link).is_some_and(|l| l.secure) && self.link_up(link)) {
             return Err(format!("link {link} is no longer up: nothing sent"));
         }
-        let who = format!("{}:{}", target.0, target.1);
+        let who = target.to_string();
         let (secret, initial_timestamp, what, text) = match action {
             SigningAction::Setup { .. } => {
                 let key = self.signing.configured.clone().ok_or("no signing key")?;

@@ -395,7 +395,7 @@ pub enum MissionEvent {
 impl MissionEvent {
     /// (severity, text) to show the operator, for the events worth a line in the messages.
     pub fn notice(&self, key: VehicleKey) -> Option<(u8, String)> {
-        let v = format!("{}:{}", key.0, key.1);
+        let v = key.to_string();
         let plural = |n: usize| if n == 1 { "" } else { "s" };
         Some(match self {
             MissionEvent::Queued {

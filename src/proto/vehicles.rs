@@ -445,9 +445,7 @@ impl Registry {
             Some(v) => {
                 if v.mavtype != hb.mavtype || v.autopilot != hb.autopilot {
                     let detail = format!(
-                        "{}:{} heard as {}/{} and as {}/{}{}",
-                        key.0,
-                        key.1,
+                        "{key} heard as {}/{} and as {}/{}{}",
                         v.type_name(),
                         v.autopilot_name(),
                         short_name(&hb.mavtype, "MAV_TYPE_"),

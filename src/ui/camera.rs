@@ -14,6 +14,7 @@ use super::Theme;
 use crate::app::session::Session;
 use crate::app::App;
 use crate::proto::camera::{flag_names, mode_name, Camera, CameraAction, Discovery};
+use crate::proto::vehicles::VehicleKey;
 
 fn mib(v: f32) -> String {
     format!("{v:.0} MiB")
@@ -313,8 +314,8 @@ fn gimbal_lines(app: &App, s: &Session, theme: &Theme, lines: &mut Vec<Line<'sta
         };
         let control = match g.status {
             Some(st) if st.primary == (0, 0) => "nobody".to_string(),
-            Some(st) if st.primary == us => format!("{}:{} (us)", st.primary.0, st.primary.1),
-            Some(st) => format!("{}:{}", st.primary.0, st.primary.1),
+            Some(st) if st.primary == us => format!("{} (us)", VehicleKey::from(st.primary)),
+            Some(st) => VehicleKey::from(st.primary).to_string(),
             None => "?".into(),
         };
         lines.push(Line::raw(format!("  {limits}  control {control}")));

@@ -251,7 +251,7 @@ fn render_list(
         // The source on the first row of each group, and on the first row shown.
         let first = i == offset || rows[i - 1].0 != k.0 || rows[i - 1].1 != k.1;
         let src = if first {
-            format!("{}:{}", k.0, k.1)
+            VehicleKey(k.0, k.1).to_string()
         } else {
             String::new()
         };
@@ -438,7 +438,7 @@ fn render_detail(app: &App, frame: &mut Frame, area: Rect, theme: &Theme, sel: O
     };
     let entry = sel.and_then(|k| Some((k, app.inspector.get(k)?)));
     let title = match entry {
-        Some((k, e)) => format!(" {} #{} from {}:{} ", e.name, k.2, k.0, k.1),
+        Some((k, e)) => format!(" {} #{} from {} ", e.name, k.2, VehicleKey(k.0, k.1)),
         None => " Fields ".to_string(),
     };
     let mut block = Block::default()
@@ -546,9 +546,8 @@ pub fn rate_prompt(app: &App, k: MsgKey) -> String {
         })
         .collect();
     format!(
-        "{name} ({}:{}) Hz, 0 default, -1 off: {}",
-        k.0,
-        k.1,
+        "{name} ({}) Hz, 0 default, -1 off: {}",
+        VehicleKey(k.0, k.1),
         keys.join("  ")
     )
 }

@@ -88,7 +88,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let texts =
         |f: &dyn Fn(&Vehicle) -> String| -> Vec<String> { vehicles.iter().map(|v| f(v)).collect() };
     let (ids, types, autopilots, modes, statuses, link_names, flags) = (
-        texts(&|v| format!("{}:{}", v.sysid, v.compid)),
+        texts(&|v| v.key().to_string()),
         texts(&|v| v.type_name()),
         texts(&|v| v.autopilot_name()),
         texts(&|v| v.mode_name()),
