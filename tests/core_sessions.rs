@@ -264,7 +264,7 @@ fn px4_is_asked_with_set_message_interval_only_one_at_a_time() {
             (147, 1.0)
         ]
     );
-    assert!(!a.notices.iter().any(|n| n.severity <= 4), "all accepted");
+    assert!(!a.notices.iter().any(|n| n.severity.0 <= 4), "all accepted");
 }
 
 #[test]
@@ -384,7 +384,7 @@ fn components_that_are_not_autopilots_are_not_asked() {
     // MAVProxy beside us at 255:230 is listed as a GCS and is no error.
     assert!(a.vehicles.get(VehicleKey(255, 230)).unwrap().is_gcs());
     assert!(
-        !a.notices.iter().any(|n| n.severity <= 3),
+        !a.notices.iter().any(|n| n.severity.0 <= 3),
         "{:?}",
         a.notices.iter().collect::<Vec<_>>()
     );

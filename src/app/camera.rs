@@ -167,7 +167,7 @@ impl App {
                     });
                     if known.is_some() {
                         self.ui.message = Some((
-                            crate::proto::severity::ERROR,
+                            crate::wire::Severity::ERROR,
                             format!(
                                 "camera {what} level unknown (CAMERA_SETTINGS not heard): \
                                  `camera {what} 0-100` sets it (not sent)"
@@ -217,8 +217,8 @@ impl App {
             _ => return,
         };
         self.ui.message = Some(match self.run_camera(cmd, fx) {
-            Ok(t) => (crate::proto::severity::INFO, t.unwrap_or_default()),
-            Err(e) => (crate::proto::severity::ERROR, e),
+            Ok(t) => (crate::wire::Severity::INFO, t.unwrap_or_default()),
+            Err(e) => (crate::wire::Severity::ERROR, e),
         });
     }
 

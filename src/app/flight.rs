@@ -13,7 +13,6 @@
 //! A mode request, LAND or RTL supersedes a mode change still pending and abandons a take-off
 //! in progress (see `Session::supersede_mode`).
 
-use super::notices::{SEV_INFO, SEV_WARNING};
 use super::{App, Effect};
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{MavAutopilot, MavCmd, MavMessage, MavModeFlag};
@@ -22,6 +21,7 @@ use crate::proto::commands::CommandSpec;
 use crate::proto::modes;
 use crate::proto::sequence::{Sequence, Step, Until};
 use crate::proto::vehicles::VehicleKey;
+use crate::wire::Severity;
 
 /// `param2` of COMPONENT_ARM_DISARM that forces a disarm (ArduPilot and PX4).
 pub const FORCE_DISARM: f64 = 21196.0;
@@ -375,8 +375,8 @@ impl App {
         let c = self.ui.confirm.take();
         let target = c.map(|c| c.target);
         let text = format!("question expired ({why}): nothing sent");
-        self.notice(SEV_WARNING, target, text.clone());
-        self.ui.message = Some((SEV_WARNING, text));
+        self.notice(Severity::WARNING, target, text.clone());
+        self.ui.message = Some((Severity::WARNING, text));
         self.next_question();
     }
 
@@ -456,7 +456,7 @@ impl App {
         let no = key == Key::ch('n') || key == Key::ch('N') || key.code == KeyCode::Esc;
         if early && !no {
             self.ui.message = Some((
-                SEV_WARNING,
+                Severity::WARNING,
                 "a key held or typed ahead does not answer: let go, then y or n".into(),
             ));
             return;
@@ -479,12 +479,12 @@ impl App {
                 },
             };
             self.ui.message = match outcome {
-                Ok(Some(t)) => Some((SEV_INFO, t)),
+                Ok(Some(t)) => Some((Severity::INFO, t)),
                 Ok(None) => None,
-                Err(e) => Some((super::notices::SEV_ERROR, e)),
+                Err(e) => Some((Severity::ERROR, e)),
             };
         } else {
-            self.ui.message = Some((SEV_WARNING, "cancelled: nothing sent".into()));
+            self.ui.message = Some((Severity::WARNING, "cancelled: nothing sent".into()));
         }
         self.next_question();
     }

@@ -15,13 +15,13 @@ use std::hash::{BuildHasherDefault, Hasher};
 use mavlink::Message;
 
 use super::flight::FlightAction;
-use super::notices::{SEV_ERROR, SEV_INFO};
 use super::{App, Effect};
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{MavCmd, MavMessage};
 use crate::keymap::{Action, Key, KeyCode, Mode};
 use crate::proto::vehicles::VehicleKey;
 use crate::wire::frame::{Frame, Version};
+use crate::wire::Severity;
 
 /// Message ids kept per source (sysid, compid) at most.
 pub const MAX_PER_SOURCE: usize = 128;
@@ -569,8 +569,8 @@ impl App {
             _ => Ok(None),
         };
         self.ui.message = match outcome {
-            Ok(t) => t.map(|t| (SEV_INFO, t)),
-            Err(e) => Some((SEV_ERROR, e)),
+            Ok(t) => t.map(|t| (Severity::INFO, t)),
+            Err(e) => Some((Severity::ERROR, e)),
         };
     }
 
@@ -598,8 +598,8 @@ impl App {
                     self.ui.edit.cursor = 0;
                     let outcome = self.set_message_rate(k, &text, fx);
                     self.ui.message = match outcome {
-                        Ok(t) => t.map(|t| (SEV_INFO, t)),
-                        Err(e) => Some((SEV_ERROR, e)),
+                        Ok(t) => t.map(|t| (Severity::INFO, t)),
+                        Err(e) => Some((Severity::ERROR, e)),
                     };
                 }
                 return;
@@ -612,7 +612,8 @@ impl App {
                     self.ui.inspector.sel = self.inspector_selected();
                     self.ui.inspector.filter.clear();
                 } else {
-                    self.ui.message = Some((SEV_INFO, "rate not changed: nothing sent".into()));
+                    self.ui.message =
+                        Some((Severity::INFO, "rate not changed: nothing sent".into()));
                 }
                 return;
             }
@@ -685,7 +686,7 @@ impl App {
 
     /// A notice of the command queue: the outcome of the rate asked from the Inspector shows
     /// in the status bar.
-    pub(super) fn inspector_outcome(&mut self, sev: u8, text: &str) {
+    pub(super) fn inspector_outcome(&mut self, sev: Severity, text: &str) {
         let Some((prefix, label)) = &self.ui.inspector.awaiting else {
             return;
         };

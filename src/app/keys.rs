@@ -6,12 +6,12 @@
 
 use super::flight::FlightAction;
 use super::input::{parse_command, Command, COMMANDS};
-use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
 use super::{links::LinkStatus, screen, App, Effect, Pane};
 use crate::keymap::{Action, Key, KeyCode, Mode};
 use crate::link::replay::ReplayCmd;
 use crate::link::LinkSpec;
 use crate::proto::vehicles::VehicleKey;
+use crate::wire::Severity;
 
 impl App {
     /// A key pressed.
@@ -29,7 +29,7 @@ impl App {
         if self.nudge.active() && self.ui.mode == Mode::Normal {
             // The suspend key (Ctrl-Z) leaves Fly mode with its stop, then suspends.
             if self.keymap.lookup(Mode::Normal, self.ui.screen, &key) == Some(Action::Suspend) {
-                self.notice(SEV_INFO, self.nudge.target, "Fly mode left".into());
+                self.notice(Severity::INFO, self.nudge.target, "Fly mode left".into());
                 self.on_action(Action::Suspend, fx);
                 return;
             }
@@ -83,7 +83,7 @@ impl App {
         if list {
             let candidates = self.completions();
             let several = self.ui.prompt.complete(&candidates);
-            self.ui.message = (!several.is_empty()).then(|| (SEV_INFO, several.join("  ")));
+            self.ui.message = (!several.is_empty()).then(|| (Severity::INFO, several.join("  ")));
         }
     }
 
@@ -98,7 +98,10 @@ impl App {
             Some(s) => self.ui.screen = s.name,
             None => {
                 let name = crate::keymap::SCREENS.get(i).copied().unwrap_or("?");
-                self.ui.message = Some((SEV_WARNING, format!("no {name} screen in this build yet")))
+                self.ui.message = Some((
+                    Severity::WARNING,
+                    format!("no {name} screen in this build yet"),
+                ))
             }
         }
     }
@@ -139,7 +142,8 @@ impl App {
             Some(Action::Complete) if prompt => {
                 let candidates = self.completions();
                 let several = self.ui.prompt.complete(&candidates);
-                self.ui.message = (!several.is_empty()).then(|| (SEV_INFO, several.join("  ")));
+                self.ui.message =
+                    (!several.is_empty()).then(|| (Severity::INFO, several.join("  ")));
             }
             Some(_) => {}
             None => {
@@ -204,9 +208,9 @@ impl App {
             Ok(cmd) => self.run_command(cmd, fx),
         };
         self.ui.message = match outcome {
-            Ok(Some(text)) => Some((SEV_INFO, text)),
+            Ok(Some(text)) => Some((Severity::INFO, text)),
             Ok(None) => None,
-            Err(e) => Some((SEV_ERROR, e)),
+            Err(e) => Some((Severity::ERROR, e)),
         };
     }
 
@@ -394,8 +398,8 @@ impl App {
                     _ => FlightAction::Rtl,
                 };
                 self.ui.message = match self.flight(what, fx) {
-                    Ok(t) => t.map(|t| (SEV_INFO, t)),
-                    Err(e) => Some((SEV_ERROR, e)),
+                    Ok(t) => t.map(|t| (Severity::INFO, t)),
+                    Err(e) => Some((Severity::ERROR, e)),
                 };
             }
             Action::Takeoff => {
@@ -409,15 +413,15 @@ impl App {
                     self.cancel_selected(fx)
                 };
                 self.ui.message = match outcome {
-                    Ok(t) => t.map(|t| (SEV_INFO, t)),
-                    Err(e) => Some((SEV_ERROR, e)),
+                    Ok(t) => t.map(|t| (Severity::INFO, t)),
+                    Err(e) => Some((Severity::ERROR, e)),
                 };
             }
             Action::ModeMenu => self.open_prompt_with("mode ", true),
             Action::Fly => {
                 self.ui.message = match self.enter_fly() {
-                    Ok(t) => t.map(|t| (SEV_INFO, t)),
-                    Err(e) => Some((SEV_ERROR, e)),
+                    Ok(t) => t.map(|t| (Severity::INFO, t)),
+                    Err(e) => Some((Severity::ERROR, e)),
                 };
             }
             Action::Palette => self.open_palette(),
@@ -465,7 +469,7 @@ impl App {
                 };
                 // What it did shows in the status bar's replay state; only a refusal is told.
                 if let Err(e) = self.replay_control(cmd, fx) {
-                    self.ui.message = Some((SEV_ERROR, e));
+                    self.ui.message = Some((Severity::ERROR, e));
                 }
             }
             // Far enough to clamp at either end of any list.

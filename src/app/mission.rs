@@ -19,7 +19,6 @@
 use std::path::PathBuf;
 
 use super::flight::{Ask, Confirmed, FlightAction};
-use super::notices::{SEV_ERROR, SEV_INFO};
 use super::params::FileUse;
 use super::{App, Effect};
 use crate::dialect::{MavAutopilot, MavCmd};
@@ -28,6 +27,7 @@ use crate::proto::commands::CommandSpec;
 use crate::proto::mission::Request;
 use crate::proto::sequence::{Sequence, Step, Until};
 use crate::proto::vehicles::VehicleKey;
+use crate::wire::Severity;
 
 /// What a `wp`/`fence`/`rally` command asks.
 #[derive(Debug, Clone, PartialEq)]
@@ -586,13 +586,13 @@ impl App {
         self.ui.mission.sel = 0;
         if errors > 0 {
             self.notice(
-                SEV_ERROR,
+                Severity::ERROR,
                 None,
                 format!("{shown}: {errors} error(s), it will not be uploaded: {first_error}"),
             );
         } else {
             self.notice(
-                SEV_INFO,
+                Severity::INFO,
                 None,
                 format!("loaded {shown}: {} items (not uploaded)", counts.join(", ")),
             );
@@ -729,9 +729,9 @@ impl App {
             _ => Ok(None),
         };
         self.ui.message = match outcome {
-            Ok(Some(t)) => Some((SEV_INFO, t)),
+            Ok(Some(t)) => Some((Severity::INFO, t)),
             Ok(None) => None,
-            Err(e) => Some((SEV_ERROR, e)),
+            Err(e) => Some((Severity::ERROR, e)),
         };
     }
 }

@@ -35,8 +35,9 @@ use crate::proto::ack::CommandAck;
 use crate::proto::loss::SeqOutcome;
 use crate::proto::statustext::StatusTextJoiner;
 use crate::proto::vehicles::{Registry, VehicleEvent, VehicleKey, DEFAULT_LOST_TIMEOUT};
+use crate::wire::Severity;
 use links::{LinkState, LinkStatus};
-use notices::{Notice, Notices, SEV_ERROR, SEV_INFO, SEV_NOTICE, SEV_WARNING};
+use notices::{Notice, Notices};
 use session::{Session, SessionOut};
 
 /// Settings the core starts with.
@@ -229,7 +230,7 @@ pub struct UiState {
     pub edit: input::TextLine,
     /// The outcome of the last command, or completions, shown in the status bar until the
     /// next key: (severity, text).
-    pub message: Option<(u8, String)>,
+    pub message: Option<(Severity, String)>,
     /// Lines scrolled in the key help.
     pub help_scroll: usize,
     /// A dangerous action waiting for `y`.
@@ -476,7 +477,7 @@ impl App {
                 SessionOut::Send(msg) => match self.route(key) {
                     Some(link) => self.send(link, msg, fx),
                     None => self.notice(
-                        SEV_WARNING,
+                        Severity::WARNING,
                         Some(key),
                         format!("no link to {key}: not sent"),
                     ),
@@ -547,7 +548,7 @@ impl App {
             Ok(b) => Some((shown, String::from_utf8_lossy(&b).into_owned())),
             Err(e) => {
                 self.notice(
-                    notices::SEV_ERROR,
+                    Severity::ERROR,
                     None,
                     format!("could not read {shown}: {e}"),
                 );
@@ -556,7 +557,7 @@ impl App {
         }
     }
 
-    fn notice(&mut self, severity: u8, source: Option<VehicleKey>, text: String) {
+    fn notice(&mut self, severity: Severity, source: Option<VehicleKey>, text: String) {
         let n = Notice {
             t: self.now,
             at: self.shown_instant(),
@@ -593,9 +594,9 @@ impl App {
                 self.signing_file_written(error)
             }
             Event::FileWritten { path, error } => match error {
-                None => self.notice(SEV_INFO, None, format!("saved {}", path.display())),
+                None => self.notice(Severity::INFO, None, format!("saved {}", path.display())),
                 Some(e) => self.notice(
-                    SEV_ERROR,
+                    Severity::ERROR,
                     None,
                     format!("could not save {}: {e}", path.display()),
                 ),
@@ -664,7 +665,7 @@ impl App {
         };
         if !whole {
             self.ui.message = Some((
-                SEV_WARNING,
+                Severity::WARNING,
                 format!(
                     "line full: {} characters at most",
                     crate::app::input::MAX_LINE
@@ -717,13 +718,17 @@ impl App {
                         s.on_link_reconnected(link);
                     }
                 }
-                self.notice(SEV_INFO, None, format!("link {spec} up"))
+                self.notice(Severity::INFO, None, format!("link {spec} up"))
             }
             LinkState::Down(reason) => {
                 // A link retried with the same failure is told of once.
                 if l.notified_down.as_ref() != Some(&reason) {
                     l.notified_down = Some(reason.clone());
-                    self.notice(SEV_WARNING, None, format!("link {spec} down: {reason}"))
+                    self.notice(
+                        Severity::WARNING,
+                        None,
+                        format!("link {spec} down: {reason}"),
+                    )
                 }
                 self.dirty = true;
             }
@@ -901,7 +906,7 @@ impl App {
                 let texts = self.statustext.push(
                     now,
                     key.into(),
-                    st.severity as u8,
+                    st.severity.into(),
                     &st.text[..],
                     st.id,
                     st.chunk_seq,
@@ -1040,7 +1045,7 @@ impl App {
                         None => continue,
                     };
                     self.notice(
-                        SEV_NOTICE,
+                        Severity::NOTICE,
                         Some(key),
                         format!("vehicle {key} found ({desc})"),
                     );
@@ -1054,7 +1059,7 @@ impl App {
                 VehicleEvent::Lost(key) | VehicleEvent::Back(key)
                     if self.vehicles.get(key).is_some_and(|v| v.flood) => {}
                 VehicleEvent::Flood(n) => self.notice(
-                    SEV_ERROR,
+                    Severity::ERROR,
                     None,
                     format!(
                         "heartbeat flood: {n} new ids within {} s; new vehicles are listed \
@@ -1064,21 +1069,25 @@ impl App {
                 ),
                 VehicleEvent::Lost(key) => {
                     self.notice(
-                        SEV_WARNING,
+                        Severity::WARNING,
                         Some(key),
                         format!("vehicle {key} lost (no heartbeat)"),
                     );
                     if self.nudge.target == Some(key) {
                         self.leave_fly(fx);
-                        self.notice(SEV_WARNING, Some(key), "Fly mode left: vehicle lost".into());
+                        self.notice(
+                            Severity::WARNING,
+                            Some(key),
+                            "Fly mode left: vehicle lost".into(),
+                        );
                     }
                 }
                 VehicleEvent::Back(key) => {
-                    self.notice(SEV_NOTICE, Some(key), format!("vehicle {key} back"))
+                    self.notice(Severity::NOTICE, Some(key), format!("vehicle {key} back"))
                 }
                 VehicleEvent::Rebooted(key, why) => {
                     self.notice(
-                        SEV_WARNING,
+                        Severity::WARNING,
                         Some(key),
                         format!("vehicle {key} rebooted ({why})"),
                     );
@@ -1088,7 +1097,7 @@ impl App {
                     }
                 }
                 VehicleEvent::Conflict(key, detail) => {
-                    self.notice(SEV_ERROR, Some(key), format!("sysid clash: {detail}"))
+                    self.notice(Severity::ERROR, Some(key), format!("sysid clash: {detail}"))
                 }
                 VehicleEvent::UsesGcsSysid(key) => {
                     let text = if key == VehicleKey(self.cfg.sysid, self.cfg.compid) {
@@ -1096,7 +1105,7 @@ impl App {
                     } else {
                         format!("component {key} uses our GCS sysid {}", self.cfg.sysid)
                     };
-                    self.notice(SEV_ERROR, Some(key), text)
+                    self.notice(Severity::ERROR, Some(key), text)
                 }
                 VehicleEvent::Evicted(key) => {
                     self.sessions.remove(&key);

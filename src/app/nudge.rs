@@ -24,9 +24,9 @@ use crate::dialect::{
 use crate::keymap::{Key, KeyCode};
 use crate::proto::vehicles::VehicleKey;
 
-use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
 use super::session::SessionOut;
 use super::{App, Effect};
+use crate::wire::Severity;
 
 /// Velocity targets per second while a key is held.
 pub const RATE_HZ: u64 = 10;
@@ -482,8 +482,8 @@ impl App {
                         | Action::Takeoff),
                     ) => {
                         self.leave_fly(fx);
-                        self.notice(SEV_INFO, Some(target), "Fly mode left".into());
-                        self.ui.message = Some((SEV_INFO, "Fly mode left".into()));
+                        self.notice(Severity::INFO, Some(target), "Fly mode left".into());
+                        self.ui.message = Some((Severity::INFO, "Fly mode left".into()));
                         self.on_action(a, fx);
                         return;
                     }
@@ -492,9 +492,13 @@ impl App {
             }
         };
         self.ui.message = match outcome {
-            Ok(Some(t)) => Some((SEV_INFO, t)),
-            Ok(None) => self.ui.message.take().filter(|(s, _)| *s != SEV_ERROR),
-            Err(e) => Some((SEV_ERROR, e)),
+            Ok(Some(t)) => Some((Severity::INFO, t)),
+            Ok(None) => self
+                .ui
+                .message
+                .take()
+                .filter(|(s, _)| *s != Severity::ERROR),
+            Err(e) => Some((Severity::ERROR, e)),
         };
     }
 
@@ -545,7 +549,11 @@ impl App {
         if let Some(key) = self.nudge.target {
             if let Some(why) = self.fly_ends(key) {
                 self.leave_fly(fx);
-                self.notice(SEV_WARNING, Some(key), format!("Fly mode left: {why}"));
+                self.notice(
+                    Severity::WARNING,
+                    Some(key),
+                    format!("Fly mode left: {why}"),
+                );
                 self.dirty = true;
             }
         }

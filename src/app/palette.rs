@@ -13,11 +13,11 @@ use nucleo_matcher::{Config, Matcher, Utf32Str};
 
 use super::flight::FlightAction;
 use super::input::{parse_param, TextLine};
-use super::notices::SEV_INFO;
 use super::{App, Effect};
 use crate::keymap::{Action, Key, KeyCode, Mode};
 use crate::proto::mav_cmds;
 use crate::proto::vehicles::VehicleKey;
+use crate::wire::Severity;
 
 /// Fields of the form: param1..param7, then the target.
 pub const FIELDS: usize = 8;
@@ -298,7 +298,7 @@ impl App {
         match outcome {
             Ok(text) => {
                 self.close_palette();
-                self.ui.message = text.map(|t| (SEV_INFO, t));
+                self.ui.message = text.map(|t| (Severity::INFO, t));
             }
             Err(e) => {
                 if let Some(p) = self.ui.palette.as_mut() {

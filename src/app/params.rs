@@ -9,7 +9,6 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use super::flight::{Ask, Confirmed};
-use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
 use super::{App, Effect};
 use crate::keymap::{Action, Key, KeyCode, Mode};
 use crate::params::file::{self, Format, Header, ParamFile, Saved};
@@ -17,6 +16,7 @@ use crate::params::meta::{ParamMeta, Variant};
 use crate::params::value;
 use crate::proto::params::ParamSet;
 use crate::proto::vehicles::VehicleKey;
+use crate::wire::Severity;
 
 /// A `param` command.
 #[derive(Debug, Clone, PartialEq)]
@@ -438,12 +438,12 @@ impl App {
         };
         let parsed = file::parse(&text);
         let Ok((key, comp)) = self.param_target() else {
-            self.notice(SEV_ERROR, None, format!("{shown}: no target vehicle"));
+            self.notice(Severity::ERROR, None, format!("{shown}: no target vehicle"));
             return;
         };
         let Some(set) = self.param_set() else {
             self.notice(
-                SEV_ERROR,
+                Severity::ERROR,
                 None,
                 format!("{shown}: no parameters of {}:{comp} yet", key.0),
             );
@@ -458,7 +458,7 @@ impl App {
             .map(|p| (p.name.clone(), p.value))
             .collect();
         for e in parsed.errors.iter().take(20) {
-            self.notice(SEV_WARNING, None, format!("{shown}: {e}"));
+            self.notice(Severity::WARNING, None, format!("{shown}: {e}"));
         }
         let summary = format!(
             "{shown}: {} changed, {} only on the vehicle, {} only in the file{}",
@@ -471,7 +471,7 @@ impl App {
                 n => format!(", {n} bad lines"),
             }
         );
-        self.notice(SEV_INFO, None, summary.clone());
+        self.notice(Severity::INFO, None, summary.clone());
         let changes: Vec<(u8, String, f64)> = diff
             .changed
             .iter()
@@ -485,7 +485,7 @@ impl App {
             diff,
             values,
         });
-        self.ui.message = Some((SEV_INFO, summary));
+        self.ui.message = Some((Severity::INFO, summary));
         if purpose == FileUse::Diff {
             return;
         }
@@ -508,10 +508,10 @@ impl App {
             }
         }
         for text in bad {
-            self.notice(SEV_WARNING, None, text);
+            self.notice(Severity::WARNING, None, text);
         }
         if ok.is_empty() {
-            self.ui.message = Some((SEV_INFO, format!("{shown}: nothing to change")));
+            self.ui.message = Some((Severity::INFO, format!("{shown}: nothing to change")));
             return;
         }
         let mut list: Vec<String> = ok
@@ -588,8 +588,8 @@ impl App {
             _ => Ok(None),
         };
         self.ui.message = match outcome {
-            Ok(t) => t.map(|t| (SEV_INFO, t)),
-            Err(e) => Some((SEV_ERROR, e)),
+            Ok(t) => t.map(|t| (Severity::INFO, t)),
+            Err(e) => Some((Severity::ERROR, e)),
         };
     }
 
@@ -652,8 +652,8 @@ impl App {
                         self.ui.params.awaiting = Some(name);
                     }
                     self.ui.message = match outcome {
-                        Ok(t) => t.map(|t| (SEV_INFO, t)),
-                        Err(e) => Some((SEV_ERROR, e)),
+                        Ok(t) => t.map(|t| (Severity::INFO, t)),
+                        Err(e) => Some((Severity::ERROR, e)),
                     };
                 }
                 return;
@@ -667,7 +667,7 @@ impl App {
                     self.ui.params.filter.clear();
                     self.reselect(keep);
                 } else {
-                    self.ui.message = Some((SEV_INFO, "edit cancelled: nothing sent".into()));
+                    self.ui.message = Some((Severity::INFO, "edit cancelled: nothing sent".into()));
                 }
                 return;
             }
@@ -702,7 +702,7 @@ impl App {
 
     /// A notice of the parameter machine: the outcome of the edit sent from the screen (`NAME =
     /// V confirmed`, refused, unanswered) shows in the status bar.
-    pub(super) fn param_outcome(&mut self, sev: u8, text: &str) {
+    pub(super) fn param_outcome(&mut self, sev: Severity, text: &str) {
         let Some(name) = &self.ui.params.awaiting else {
             return;
         };

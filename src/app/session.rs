@@ -40,7 +40,7 @@ pub enum SessionOut {
     /// Send on this link (stream rates are per link).
     SendOn(LinkId, MavMessage),
     /// Tell the operator (severity, text).
-    Notice(u8, String),
+    Notice(crate::wire::Severity, String),
 }
 
 /// The protocol machines for one autopilot.
@@ -489,7 +489,7 @@ impl Session {
             self.commands.hold_resends(id);
             if !ours {
                 out.push(SessionOut::Notice(
-                    crate::proto::severity::WARNING,
+                    crate::wire::Severity::WARNING,
                     format!(
                         "{} changed mode on its own meanwhile: our DO_SET_MODE is not resent",
                         self.key
@@ -507,7 +507,7 @@ impl Session {
         let mut out = Vec::new();
         if let Some(seq) = self.sequence.take().filter(|s| !s.finished()) {
             out.push(SessionOut::Notice(
-                crate::proto::severity::WARNING,
+                crate::wire::Severity::WARNING,
                 format!("{}: abandoned for {by}", seq.name),
             ));
         }

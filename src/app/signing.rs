@@ -31,7 +31,6 @@
 use std::path::PathBuf;
 
 use super::flight::{Ask, Confirmed};
-use super::notices::{SEV_ERROR, SEV_NOTICE, SEV_WARNING};
 use super::{App, Effect};
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavMessage};
@@ -39,6 +38,7 @@ use crate::link::{Frame, LinkId};
 use crate::proto::vehicles::VehicleKey;
 use crate::wire::signing::{self as codec, Clock, SecretKey, Verdict};
 use crate::wire::tx::Sign;
+use crate::wire::Severity;
 
 /// RADIO_STATUS: SiK radios send it unsigned.
 pub const MSG_RADIO_STATUS: u32 = 109;
@@ -407,7 +407,7 @@ impl App {
         };
         let reference = wall.max(self.signing.saved_at.unwrap_or(0));
         self.notice(
-            SEV_WARNING,
+            Severity::WARNING,
             None,
             format!(
                 "{file} held {}, {} ahead of the clock: repaired, we sign from the system \
@@ -444,7 +444,7 @@ impl App {
             if w.what == WatchFor::Setup && c.kind == SigKind::Signed {
                 self.signing.watch = None;
                 self.notice(
-                    SEV_NOTICE,
+                    Severity::NOTICE,
                     Some(key),
                     format!("{key} signs with our key: signing is on"),
                 );
@@ -471,7 +471,7 @@ impl App {
         let (sev, text) = match c.kind {
             SigKind::Signed => return,
             SigKind::Unsigned => (
-                SEV_WARNING,
+                Severity::WARNING,
                 format!(
                     "{who} sends unsigned frames on link {link}: {fate} (we sign; `signing \
                      setup` gives it our key over a ?secure=1 link)"
@@ -480,28 +480,28 @@ impl App {
             // A recording or our own sim is not commanded.
             SigKind::Unchecked if !self.links[link].secure && self.links[link].trusted => return,
             SigKind::Unchecked => (
-                SEV_WARNING,
+                Severity::WARNING,
                 format!(
                     "{who} signs but we have no key: it ignores our commands (start with \
                      --signing-key)"
                 ),
             ),
             SigKind::BadSignature => (
-                SEV_ERROR,
+                Severity::ERROR,
                 format!(
                     "{who}: frames with a bad signature on link {link} (another key, or changed \
                      on the way): {fate}"
                 ),
             ),
             SigKind::Replayed => (
-                SEV_ERROR,
+                Severity::ERROR,
                 format!(
                     "{who}: replayed frames on link {link} (signing timestamps not newer than \
                      before): {fate}"
                 ),
             ),
             SigKind::TooOld => (
-                SEV_ERROR,
+                Severity::ERROR,
                 format!(
                     "{who}: signed frames over a minute behind our clock on link {link} (an old \
                      recording played back?): {fate}"
@@ -510,7 +510,7 @@ impl App {
             SigKind::Future => {
                 let Some(f) = c.future else { return };
                 (
-                    SEV_ERROR,
+                    Severity::ERROR,
                     format!(
                         "{who}: signed frames from the future, {} ahead of our clock (dated {}), \
                          on link {link} (its link id {}): {fate}, our clock kept. Ours wrong? set \
@@ -533,7 +533,7 @@ impl App {
             let secs = WATCH / SECOND;
             match (w.what, w.signed) {
                 (WatchFor::Setup, _) => self.notice(
-                    SEV_WARNING,
+                    Severity::WARNING,
                     Some(w.vehicle),
                     format!(
                         "{who} sent no frame signed with our key in {secs} s since SETUP_SIGNING: \
@@ -541,12 +541,12 @@ impl App {
                     ),
                 ),
                 (WatchFor::Off, true) => self.notice(
-                    SEV_WARNING,
+                    Severity::WARNING,
                     Some(w.vehicle),
                     format!("{who} still signs {secs} s after `signing off`: it kept its key"),
                 ),
                 (WatchFor::Off, false) => self.notice(
-                    SEV_NOTICE,
+                    Severity::NOTICE,
                     Some(w.vehicle),
                     format!("{who} no longer signs: signing is off"),
                 ),
@@ -567,7 +567,7 @@ impl App {
         if let Some(e) = error {
             if !std::mem::replace(&mut self.signing.save_failure_told, true) {
                 self.notice(
-                    SEV_WARNING,
+                    Severity::WARNING,
                     None,
                     format!(
                         "could not keep the signing timestamp: {e} (signing goes on; after a \
@@ -699,7 +699,7 @@ impl App {
             until: self.now + WATCH,
             signed: what == WatchFor::Off,
         });
-        self.notice(SEV_NOTICE, Some(target), text.clone());
+        self.notice(Severity::NOTICE, Some(target), text.clone());
         Ok(Some(text))
     }
 
