@@ -41,9 +41,10 @@ use crate::wire::tx::Sign;
 use crate::wire::Severity;
 
 /// RADIO_STATUS: SiK radios send it unsigned.
-pub const MSG_RADIO_STATUS: u32 = 109;
+pub const MSG_RADIO_STATUS: u32 = <dialect::RADIO_STATUS_DATA as mavlink::MessageData>::ID;
 /// RADIO (ardupilotmega): the older form, accepted unsigned as ArduPilot and MAVProxy do.
-pub const MSG_RADIO: u32 = 166;
+#[allow(deprecated)] // superseded by RADIO_STATUS, still sent by older radios
+pub const MSG_RADIO: u32 = <dialect::RADIO_DATA as mavlink::MessageData>::ID;
 /// How long after `signing setup`/`signing off` the vehicle's frames are watched for the change.
 pub const WATCH: Micros = 5 * SECOND;
 /// How far ahead of our clock the state file is written (30 s, in timestamp units), renewed when

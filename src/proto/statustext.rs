@@ -148,7 +148,14 @@ mod tests {
     #[test]
     fn single_text_with_id_zero() {
         let mut j = StatusTextJoiner::default();
-        let t = j.push(0, (1, 1), Severity(6), &chunk("PreArm: Need Position Estimate"), 0, 0);
+        let t = j.push(
+            0,
+            (1, 1),
+            Severity(6),
+            &chunk("PreArm: Need Position Estimate"),
+            0,
+            0,
+        );
         assert_eq!(t[0].text, "PreArm: Need Position Estimate");
     }
 
@@ -157,9 +164,15 @@ mod tests {
         let a = "A".repeat(50);
         let b = "B".repeat(50);
         let mut j = StatusTextJoiner::default();
-        assert!(j.push(0, (1, 1), Severity(4), a.as_bytes(), 7, 0).is_empty());
-        assert!(j.push(1, (1, 1), Severity(4), b.as_bytes(), 7, 1).is_empty());
-        let t = j.push(2, (1, 1), Severity(4), &chunk("end"), 7, 2).remove(0);
+        assert!(j
+            .push(0, (1, 1), Severity(4), a.as_bytes(), 7, 0)
+            .is_empty());
+        assert!(j
+            .push(1, (1, 1), Severity(4), b.as_bytes(), 7, 1)
+            .is_empty());
+        let t = j
+            .push(2, (1, 1), Severity(4), &chunk("end"), 7, 2)
+            .remove(0);
         assert_eq!(t.text, format!("{a}{b}end"));
         assert_eq!(t.severity, Severity(4));
         assert_eq!(j.next_deadline(), None);
@@ -170,7 +183,9 @@ mod tests {
         let a = "A".repeat(50);
         let mut j = StatusTextJoiner::default();
         j.push(0, (1, 1), Severity(4), a.as_bytes(), 3, 0);
-        let t = j.push(10, (1, 1), Severity(4), &chunk("end"), 3, 2).remove(0);
+        let t = j
+            .push(10, (1, 1), Severity(4), &chunk("end"), 3, 2)
+            .remove(0);
         assert_eq!(t.text, format!("{a}…end"));
         j.push(0, (1, 1), Severity(4), a.as_bytes(), 4, 0);
         assert!(j.poll(CHUNK_TIMEOUT - 1).is_empty());
@@ -185,7 +200,9 @@ mod tests {
         let mut j = StatusTextJoiner::default();
         let mut shown = 0;
         for id in 1..=1000u16 {
-            shown += j.push(id as u64, (1, 1), Severity(4), a.as_bytes(), id, 0).len();
+            shown += j
+                .push(id as u64, (1, 1), Severity(4), a.as_bytes(), id, 0)
+                .len();
         }
         assert!(j.pending.len() <= MAX_PENDING);
         // Nothing is lost: every text pushed out early was shown.
