@@ -187,7 +187,7 @@ fn action_command(action: &FlightAction) -> Option<(u16, [f64; 7])> {
 }
 
 /// MAV_LANDED_STATE_ON_GROUND.
-const LANDED_ON_GROUND: u8 = 1;
+const LANDED_ON_GROUND: u8 = crate::dialect::MavLandedState::MAV_LANDED_STATE_ON_GROUND as u8;
 /// Above this height over home an armed vehicle without EXTENDED_SYS_STATE counts as flying.
 const FLYING_ABOVE_M: f64 = 1.0;
 

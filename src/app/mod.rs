@@ -1124,7 +1124,7 @@ impl App {
 fn heartbeat_fallback(frame: &Frame) -> Option<MavMessage> {
     use dialect::{MavAutopilot, MavModeFlag, MavState, MavType};
     use num_traits::FromPrimitive;
-    if frame.msgid != 0 {
+    if frame.msgid != <dialect::HEARTBEAT_DATA as mavlink::MessageData>::ID {
         return None;
     }
     let mut p = [0u8; 9];

@@ -323,7 +323,9 @@ pub fn link_id(link: LinkId) -> u8 {
 
 /// Unsigned messages taken even with a key (SiK radios cannot sign).
 fn unsigned_allowed(msgid: u32, heartbeat_too: bool) -> bool {
-    msgid == MSG_RADIO_STATUS || msgid == MSG_RADIO || (heartbeat_too && msgid == 0)
+    msgid == MSG_RADIO_STATUS
+        || msgid == MSG_RADIO
+        || (heartbeat_too && msgid == <dialect::HEARTBEAT_DATA as mavlink::MessageData>::ID)
 }
 
 impl App {

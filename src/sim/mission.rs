@@ -197,7 +197,13 @@ pub(super) enum Incoming {
 /// (`AP_Mission::convert_MISSION_ITEM_to_MISSION_ITEM_INT`).
 fn xy_not_location(command: u16) -> bool {
     // DO_DIGICAM_CONFIGURE, DO_DIGICAM_CONTROL, NAV_ATTITUDE_TIME, DO_GIMBAL_MANAGER_PITCHYAW.
-    matches!(command, 202 | 203 | 42703 | 1000)
+    matches!(
+        command,
+        cmd::DO_DIGICAM_CONFIGURE
+            | cmd::DO_DIGICAM_CONTROL
+            | cmd::NAV_ATTITUDE_TIME
+            | cmd::DO_GIMBAL_MANAGER_PITCHYAW
+    )
 }
 
 fn check_lat(lat_e7: i32) -> bool {
