@@ -34,19 +34,8 @@ pub const HEARTBEAT_COPY_WINDOW: Micros = 100_000;
 /// One type for every address: a component heard by heartbeat, the target of a command or a
 /// mission transfer, the source of a message, the ground station itself. MAVLink addresses them
 /// all alike, so a separate "component key" would only convert back and forth.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct VehicleKey(pub u8, pub u8);
-
-impl VehicleKey {
-    /// The system id.
-    pub fn sysid(self) -> u8 {
-        self.0
-    }
-    /// The component id.
-    pub fn compid(self) -> u8 {
-        self.1
-    }
-}
 
 impl std::fmt::Display for VehicleKey {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -586,6 +575,14 @@ impl Registry {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_key_shows_as_sysid_colon_compid_and_orders_by_sysid_first() {
+        assert_eq!(VehicleKey(1, 1).to_string(), "1:1");
+        assert_eq!(format!("target {}", VehicleKey(255, 190)), "target 255:190");
+        assert_eq!(VehicleKey::from((7, 100)), VehicleKey(7, 100));
+        assert!(VehicleKey(1, 200) < VehicleKey(2, 0));
+    }
 
     fn hb(mavtype: MavType, autopilot: MavAutopilot, armed: bool, mode: u32) -> HEARTBEAT_DATA {
         let mut base_mode = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
