@@ -301,9 +301,9 @@ impl App {
             CameraCmd::FormatAsk => {
                 self.ask(super::flight::Ask {
                     text: format!(
-                        "FORMAT the storage of camera {}:{compid} on {}? Every image and video on \
+                        "FORMAT the storage of camera {} on {}? Every image and video on \
                          it is erased. y = yes, any other key = no",
-                        key.0,
+                        VehicleKey(key.0, compid),
                         self.who_is(key)
                     ),
                     action: super::flight::Confirmed::Camera(compid, CameraAction::Format),
@@ -334,8 +334,8 @@ impl App {
         let (_, out) = s.camera_action(now, compid, &action)?;
         self.session_out(key, out, fx);
         Ok(Some(format!(
-            "camera {}:{compid} {}: sent",
-            key.0,
+            "camera {} {}: sent",
+            VehicleKey(key.0, compid),
             action.describe()
         )))
     }

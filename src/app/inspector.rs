@@ -650,17 +650,11 @@ impl App {
         let interval = parse_rate(text).map_err(|e| format!("{name}: {e}"))?;
         let command = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
         let params = [msgid as f64, interval, 0., 0., 0., 0., 0.];
-        self.flight_to(
-            VehicleKey(sysid, compid),
-            FlightAction::Command { command, params },
-            fx,
-        )
-        .map_err(|e| format!("{name}: {e}"))?;
-        let label = format!("{name} {} from {sysid}:{compid}", interval_text(interval));
-        let prefix = format!(
-            "{} to {sysid}:{compid}: ",
-            crate::proto::ack::command_name(command)
-        );
+        let source = VehicleKey(sysid, compid);
+        self.flight_to(source, FlightAction::Command { command, params }, fx)
+            .map_err(|e| format!("{name}: {e}"))?;
+        let label = format!("{name} {} from {source}", interval_text(interval));
+        let prefix = format!("{} to {source}: ", crate::proto::ack::command_name(command));
         self.ui.inspector.awaiting = Some((prefix, label.clone()));
         Ok(Some(format!("{label}: sent")))
     }

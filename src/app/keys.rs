@@ -284,7 +284,7 @@ impl App {
             None => {
                 let heard: Vec<String> = self.targetable().iter().map(|k| k.to_string()).collect();
                 let what = match compid {
-                    Some(c) => format!("{sysid}:{c}"),
+                    Some(c) => VehicleKey(sysid, c).to_string(),
                     None => format!("{sysid}"),
                 };
                 Err(if heard.is_empty() {

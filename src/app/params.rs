@@ -220,11 +220,11 @@ impl App {
                 let c = c.unwrap_or(key.1);
                 let have = self.sessions[&key].params.sets.contains_key(&c);
                 Ok(Some(if have {
-                    format!("parameters of {}:{c}", key.0)
+                    format!("parameters of {}", VehicleKey(key.0, c))
                 } else {
                     format!(
-                        "parameters of {}:{c}: none yet (param fetch asks for them)",
-                        key.0
+                        "parameters of {}: none yet (param fetch asks for them)",
+                        VehicleKey(key.0, c)
                     )
                 }))
             }
@@ -235,7 +235,10 @@ impl App {
                 let out = s.params.fetch(now, comp);
                 let out = out.into_iter().map(|o| s.pmap(o)).collect();
                 self.session_out(key, out, fx);
-                Ok(Some(format!("fetching the parameters of {}:{comp}", key.0)))
+                Ok(Some(format!(
+                    "fetching the parameters of {}",
+                    VehicleKey(key.0, comp)
+                )))
             }
             ParamCmd::Set(name, text) => self.set_param(key, comp, &name, &text, fx),
             ParamCmd::Encoding(choice) => {
@@ -256,7 +259,7 @@ impl App {
                     .get(&key)
                     .and_then(|s| s.params.sets.get(&comp))
                     .filter(|s| !s.params.is_empty())
-                    .ok_or_else(|| format!("no parameters of {}:{comp} yet", key.0))?;
+                    .ok_or_else(|| format!("no parameters of {} yet", VehicleKey(key.0, comp)))?;
                 let format = file::format_for_path(std::path::Path::new(&path));
                 let params: Vec<Saved> = match format {
                     Format::Parm => saved(comp, set).collect(),
@@ -329,13 +332,16 @@ impl App {
             .sessions
             .get(&key)
             .and_then(|s| s.params.sets.get(&comp))
-            .ok_or_else(|| format!("no parameters of {}:{comp} yet", key.0))?;
+            .ok_or_else(|| format!("no parameters of {} yet", VehicleKey(key.0, comp)))?;
         let name = if set.params.contains_key(name) {
             name.to_string()
         } else {
             let up = name.to_ascii_uppercase();
             if !set.params.contains_key(&up) {
-                return Err(format!("no parameter {name} on {}:{comp}", key.0));
+                return Err(format!(
+                    "no parameter {name} on {}",
+                    VehicleKey(key.0, comp)
+                ));
             }
             up
         };
@@ -376,10 +382,10 @@ impl App {
         if !why.is_empty() {
             self.ask(Ask {
                 text: format!(
-                    "{name} = {}: {}. Send to {}:{comp} anyway? y = yes, any other key = no",
+                    "{name} = {}: {}. Send to {} anyway? y = yes, any other key = no",
                     value::fmt_plain(v),
                     why.join("; "),
-                    key.0,
+                    VehicleKey(key.0, comp),
                 ),
                 action: Confirmed::Params(change),
                 target: key,
@@ -445,7 +451,7 @@ impl App {
             self.notice(
                 Severity::ERROR,
                 None,
-                format!("{shown}: no parameters of {}:{comp} yet", key.0),
+                format!("{shown}: no parameters of {} yet", VehicleKey(key.0, comp)),
             );
             return;
         };
@@ -534,10 +540,10 @@ impl App {
         };
         self.ask(Ask {
             text: format!(
-                "{warn}Apply {} change{} from {shown} to {}:{comp}? {} (y/n)",
+                "{warn}Apply {} change{} from {shown} to {}? {} (y/n)",
                 ok.len(),
                 if ok.len() == 1 { "" } else { "s" },
-                key.0,
+                VehicleKey(key.0, comp),
                 list.join(", ")
             ),
             action: Confirmed::Params(ok),
@@ -607,7 +613,7 @@ impl App {
         let (key, comp) = self.param_target()?;
         let name = self
             .param_selected()
-            .ok_or_else(|| format!("no parameters of {}:{comp} to edit", key.0))?;
+            .ok_or_else(|| format!("no parameters of {} to edit", VehicleKey(key.0, comp)))?;
         let p = self
             .param_set()
             .and_then(|s| s.params.get(&name))

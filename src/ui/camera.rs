@@ -239,9 +239,9 @@ fn action_lines(s: &Session, c: &Camera, theme: &Theme, lines: &mut Vec<Line<'st
 
 /// The border's title: the selected camera and the keys for it.
 fn title(app: &App, s: &Session, sel: Option<u8>) -> String {
-    let sys = s.key.0;
     match sel {
         Some(id) => {
+            let cam = VehicleKey(s.key.0, id);
             let n = s.cameras.cameras.len();
             let i = s.cameras.cameras.keys().position(|&c| c == id).unwrap_or(0) + 1;
             let keys = |a| {
@@ -253,7 +253,7 @@ fn title(app: &App, s: &Session, sel: Option<u8>) -> String {
             };
             use crate::keymap::Action as A;
             format!(
-                " Camera {sys}:{id} ({i} of {n})  {} shoot  {} video  {} mode  {}/{} zoom  {}/{} focus ",
+                " Camera {cam} ({i} of {n})  {} shoot  {} video  {} mode  {}/{} zoom  {}/{} focus ",
                 keys(A::CameraShoot),
                 keys(A::CameraVideo),
                 keys(A::CameraMode),
