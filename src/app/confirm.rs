@@ -12,7 +12,6 @@
 //! The actions a question lets go ahead ([`Confirmed`]) are defined here, so the modules that ask
 //! (flight, mission, params, signing, camera) depend on this one and not on each other.
 
-use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
 use super::{App, Effect};
 use crate::clock::{Micros, SECOND};
 use crate::dialect::MavAutopilot;
@@ -21,6 +20,7 @@ use crate::link::LinkId;
 use crate::mission::{MissionItem, MissionType};
 use crate::proto::camera::CameraAction;
 use crate::proto::vehicles::VehicleKey;
+use crate::wire::Severity;
 
 /// What the operator asked the target to do (carried out by `App::flight`, in `flight`).
 #[derive(Debug, Clone, PartialEq)]
@@ -218,8 +218,8 @@ impl App {
         let c = self.ui.confirm.take();
         let target = c.map(|c| c.target);
         let text = format!("question expired ({why}): nothing sent");
-        self.notice(SEV_WARNING, target, text.clone());
-        self.ui.message = Some((SEV_WARNING, text));
+        self.notice(Severity::WARNING, target, text.clone());
+        self.ui.message = Some((Severity::WARNING, text));
         self.next_question();
     }
 
@@ -258,7 +258,7 @@ impl App {
         let no = key == Key::ch('n') || key == Key::ch('N') || key.code == KeyCode::Esc;
         if early && !no {
             self.ui.message = Some((
-                SEV_WARNING,
+                Severity::WARNING,
                 "a key held or typed ahead does not answer: let go, then y or n".into(),
             ));
             return;
@@ -281,12 +281,12 @@ impl App {
                 },
             };
             self.ui.message = match outcome {
-                Ok(Some(t)) => Some((SEV_INFO, t)),
+                Ok(Some(t)) => Some((Severity::INFO, t)),
                 Ok(None) => None,
-                Err(e) => Some((SEV_ERROR, e)),
+                Err(e) => Some((Severity::ERROR, e)),
             };
         } else {
-            self.ui.message = Some((SEV_WARNING, "cancelled: nothing sent".into()));
+            self.ui.message = Some((Severity::WARNING, "cancelled: nothing sent".into()));
         }
         self.next_question();
     }

@@ -81,7 +81,7 @@ fn action_command(action: &FlightAction) -> Option<(u16, [f64; 7])> {
 }
 
 /// MAV_LANDED_STATE_ON_GROUND.
-const LANDED_ON_GROUND: u8 = 1;
+const LANDED_ON_GROUND: u8 = crate::dialect::MavLandedState::MAV_LANDED_STATE_ON_GROUND as u8;
 /// Above this height over home an armed vehicle without EXTENDED_SYS_STATE counts as flying.
 const FLYING_ABOVE_M: f64 = 1.0;
 
@@ -100,14 +100,14 @@ impl App {
             0 => session.and_then(|s| self.vehicles.get(s)),
             _ => self.vehicles.get(key),
         };
-        let v = heard.ok_or_else(|| format!("{}:{} has not been heard", key.0, key.1))?;
+        let v = heard.ok_or_else(|| format!("{key} has not been heard"))?;
         if v.lost {
-            return Err(format!("{}:{} is lost: not sent", key.0, key.1));
+            return Err(format!("{key} is lost: not sent"));
         }
         if session.is_none() {
             return Err(format!(
-                "{}:{} is not an autopilot, and no autopilot of system {} is heard to reach it by",
-                key.0, key.1, key.0
+                "{key} is not an autopilot, and no autopilot of system {} is heard to reach it by",
+                key.0
             ));
         }
         Ok(key)
@@ -120,7 +120,7 @@ impl App {
             return Some(key);
         }
         self.sessions
-            .range((key.0, 0)..=(key.0, u8::MAX))
+            .range(VehicleKey(key.0, 0)..=VehicleKey(key.0, u8::MAX))
             .map(|(k, _)| *k)
             .next()
     }
@@ -156,14 +156,8 @@ impl App {
     /// `1:1 (ArduPilot Quadrotor)`: how a question names a vehicle.
     pub(super) fn who_is(&self, key: VehicleKey) -> String {
         match self.vehicles.get(key) {
-            Some(v) => format!(
-                "{}:{} ({} {})",
-                key.0,
-                key.1,
-                v.autopilot_name(),
-                v.type_name()
-            ),
-            None => format!("{}:{}", key.0, key.1),
+            Some(v) => format!("{key} ({} {})", v.autopilot_name(), v.type_name()),
+            None => key.to_string(),
         }
     }
 
@@ -228,7 +222,7 @@ impl App {
     ) -> Result<Option<String>, String> {
         let any = matches!(action, FlightAction::Command { .. });
         if !any && !self.sessions.contains_key(&target) {
-            return Err(format!("{}:{} is not an autopilot", target.0, target.1));
+            return Err(format!("{target} is not an autopilot"));
         }
         if let Some(text) = self.question(target, &action) {
             self.ask(Confirm::new(text, Confirmed::Flight(action), target));
@@ -251,7 +245,7 @@ impl App {
             (v.autopilot, v.mavtype, v.custom_mode, v.armed())
         };
         let profile = crate::proto::profile::of(autopilot);
-        let long = |cmd: MavCmd, p: [f64; 7]| CommandSpec::long(key, cmd, p);
+        let long = |cmd: MavCmd, p: [f64; 7]| CommandSpec::long(key.into(), cmd, p);
         let nan = f64::NAN;
         let single = |spec: CommandSpec| -> Result<(CommandSpec, String), String> {
             let name = spec.name();
@@ -270,7 +264,7 @@ impl App {
             FlightAction::Rtl => Some("RTL".into()),
             FlightAction::Command { command, params } if is_mode_request(*command) => Some(
                 CommandSpec {
-                    target: key,
+                    target: key.into(),
                     command: *command,
                     params: *params,
                     form: crate::proto::commands::form_for(*command),
@@ -308,7 +302,7 @@ impl App {
                 [1.0, 0., 0., 0., 0., 0., 0.],
             ))?,
             FlightAction::Command { command, params } => single(CommandSpec {
-                target: key,
+                target: key.into(),
                 command,
                 params,
                 form: crate::proto::commands::form_for(command),
@@ -396,7 +390,7 @@ impl App {
         // PX4: main mode in param2, sub mode in param3; others: the custom mode in param2.
         let params = crate::proto::profile::of(autopilot).set_mode_params(number);
         Ok(Step {
-            spec: CommandSpec::long(key, MavCmd::MAV_CMD_DO_SET_MODE, params),
+            spec: CommandSpec::long(key.into(), MavCmd::MAV_CMD_DO_SET_MODE, params),
             until: Until::Mode(number),
             label: name.to_ascii_uppercase(),
             fallback: Some(Self::set_mode_message(key, number)),
@@ -464,7 +458,7 @@ impl App {
         self.ui.cmd_sel = 0;
         self.ui.cmd_sel_id = None;
         self.flight_to(
-            e.spec.target,
+            e.spec.target.into(),
             FlightAction::Command {
                 command: e.spec.command,
                 params: e.spec.params,

@@ -16,12 +16,13 @@ use mavlink::Message;
 
 use super::editor::{self, EditKind, Edited};
 use super::flight::FlightAction;
-use super::notices::{SEV_ERROR, SEV_INFO};
 use super::{App, Effect};
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{MavCmd, MavMessage};
 use crate::keymap::{Action, Key};
+use crate::proto::vehicles::VehicleKey;
 use crate::wire::frame::{Frame, Version};
+use crate::wire::Severity;
 
 /// Message ids kept per source (sysid, compid) at most.
 pub const MAX_PER_SOURCE: usize = 128;
@@ -571,8 +572,8 @@ impl App {
             _ => Ok(None),
         };
         self.ui.message = match outcome {
-            Ok(t) => t.map(|t| (SEV_INFO, t)),
-            Err(e) => Some((SEV_ERROR, e)),
+            Ok(t) => t.map(|t| (Severity::INFO, t)),
+            Err(e) => Some((Severity::ERROR, e)),
         };
     }
 
@@ -602,8 +603,8 @@ impl App {
                 if let (InspectEdit::Rate(k), Some(text)) = (editing, text) {
                     let outcome = self.set_message_rate(k, &text, fx);
                     self.ui.message = match outcome {
-                        Ok(t) => t.map(|t| (SEV_INFO, t)),
-                        Err(e) => Some((SEV_ERROR, e)),
+                        Ok(t) => t.map(|t| (Severity::INFO, t)),
+                        Err(e) => Some((Severity::ERROR, e)),
                     };
                 }
                 return;
@@ -615,7 +616,8 @@ impl App {
                     self.ui.inspector.sel = self.inspector_selected();
                     self.ui.inspector.filter.clear();
                 } else {
-                    self.ui.message = Some((SEV_INFO, "rate not changed: nothing sent".into()));
+                    self.ui.message =
+                        Some((Severity::INFO, "rate not changed: nothing sent".into()));
                 }
                 return;
             }
@@ -644,17 +646,11 @@ impl App {
         let interval = parse_rate(text).map_err(|e| format!("{name}: {e}"))?;
         let command = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
         let params = [msgid as f64, interval, 0., 0., 0., 0., 0.];
-        self.flight_to(
-            (sysid, compid),
-            FlightAction::Command { command, params },
-            fx,
-        )
-        .map_err(|e| format!("{name}: {e}"))?;
-        let label = format!("{name} {} from {sysid}:{compid}", interval_text(interval));
-        let prefix = format!(
-            "{} to {sysid}:{compid}: ",
-            crate::proto::ack::command_name(command)
-        );
+        let source = VehicleKey(sysid, compid);
+        self.flight_to(source, FlightAction::Command { command, params }, fx)
+            .map_err(|e| format!("{name}: {e}"))?;
+        let label = format!("{name} {} from {source}", interval_text(interval));
+        let prefix = format!("{} to {source}: ", crate::proto::ack::command_name(command));
         self.ui.inspector.awaiting = Some((prefix, label.clone()));
         Ok(Some(format!("{label}: sent")))
     }
@@ -662,7 +658,9 @@ impl App {
     /// The rate last asked of `k`'s source from here (its interval param2) and where the
     /// request stands (`ACCEPTED`, `waiting`…), from the command queue.
     pub fn inspector_requested(&self, k: MsgKey) -> Option<(f64, String)> {
-        let session = self.sessions.get(&self.session_for((k.0, k.1))?)?;
+        let session = self
+            .sessions
+            .get(&self.session_for(VehicleKey(k.0, k.1))?)?;
         let command = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
         session
             .commands
@@ -678,7 +676,7 @@ impl App {
 
     /// A notice of the command queue: the outcome of the rate asked from the Inspector shows
     /// in the status bar.
-    pub(super) fn inspector_outcome(&mut self, sev: u8, text: &str) {
+    pub(super) fn inspector_outcome(&mut self, sev: Severity, text: &str) {
         let Some((prefix, label)) = &self.ui.inspector.awaiting else {
             return;
         };

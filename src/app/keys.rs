@@ -6,12 +6,12 @@
 
 use super::flight::FlightAction;
 use super::input::{parse_command, Command, COMMANDS};
-use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
 use super::{links::LinkStatus, screen, App, Effect, Pane};
 use crate::keymap::{Action, Key, KeyCode, Mode};
 use crate::link::replay::ReplayCmd;
 use crate::link::LinkSpec;
 use crate::proto::vehicles::VehicleKey;
+use crate::wire::Severity;
 
 impl App {
     /// A key pressed.
@@ -29,7 +29,7 @@ impl App {
         if self.nudge.active() && self.ui.mode == Mode::Normal {
             // The suspend key (Ctrl-Z) leaves Fly mode with its stop, then suspends.
             if self.keymap.lookup(Mode::Normal, self.ui.screen, &key) == Some(Action::Suspend) {
-                self.notice(SEV_INFO, self.nudge.target, "Fly mode left".into());
+                self.notice(Severity::INFO, self.nudge.target, "Fly mode left".into());
                 self.on_action(Action::Suspend, fx);
                 return;
             }
@@ -83,7 +83,7 @@ impl App {
         if list {
             let candidates = self.completions();
             let several = self.ui.prompt.complete(&candidates);
-            self.ui.message = (!several.is_empty()).then(|| (SEV_INFO, several.join("  ")));
+            self.ui.message = (!several.is_empty()).then(|| (Severity::INFO, several.join("  ")));
         }
     }
 
@@ -98,7 +98,10 @@ impl App {
             Some(s) => self.ui.screen = s.name,
             None => {
                 let name = crate::keymap::SCREENS.get(i).copied().unwrap_or("?");
-                self.ui.message = Some((SEV_WARNING, format!("no {name} screen in this build yet")))
+                self.ui.message = Some((
+                    Severity::WARNING,
+                    format!("no {name} screen in this build yet"),
+                ))
             }
         }
     }
@@ -139,7 +142,8 @@ impl App {
             Some(Action::Complete) if prompt => {
                 let candidates = self.completions();
                 let several = self.ui.prompt.complete(&candidates);
-                self.ui.message = (!several.is_empty()).then(|| (SEV_INFO, several.join("  ")));
+                self.ui.message =
+                    (!several.is_empty()).then(|| (Severity::INFO, several.join("  ")));
             }
             Some(_) => {}
             None => {
@@ -160,7 +164,7 @@ impl App {
         }
         let mut out = Vec::new();
         for k in self.targetable() {
-            out.push(format!("target {}:{}", k.0, k.1));
+            out.push(format!("target {k}"));
         }
         if let Some(v) = self.target.and_then(|k| self.vehicles.get(k)) {
             for m in crate::proto::modes::mode_names(v.autopilot, v.mavtype) {
@@ -205,9 +209,9 @@ impl App {
             Ok(cmd) => self.run_command(cmd, fx),
         };
         self.ui.message = match outcome {
-            Ok(Some(text)) => Some((SEV_INFO, text)),
+            Ok(Some(text)) => Some((Severity::INFO, text)),
             Ok(None) => None,
-            Err(e) => Some((SEV_ERROR, e)),
+            Err(e) => Some((Severity::ERROR, e)),
         };
     }
 
@@ -230,7 +234,7 @@ impl App {
                 let key = self.autopilot(sysid, compid)?;
                 self.target = Some(key);
                 self.target_held = true;
-                Ok(Some(format!("target {}:{}", key.0, key.1)))
+                Ok(Some(format!("target {key}")))
             }
             Command::Link(text) => {
                 let spec: LinkSpec = text.parse().map_err(|e| format!("{e}"))?;
@@ -261,11 +265,11 @@ impl App {
                 let s = self
                     .sessions
                     .get_mut(&key)
-                    .ok_or_else(|| format!("{}:{} has no session", key.0, key.1))?;
+                    .ok_or_else(|| format!("{key} has no session"))?;
                 s.pinned = link;
                 Ok(Some(match link {
-                    Some(l) => format!("{}:{} goes by link {l}", key.0, key.1),
-                    None => format!("{}:{} goes by the link heard last", key.0, key.1),
+                    Some(l) => format!("{key} goes by link {l}"),
+                    None => format!("{key} goes by the link heard last"),
                 }))
             }
         }
@@ -277,17 +281,13 @@ impl App {
             .vehicles
             .iter()
             .filter(|v| v.sysid == sysid && compid.is_none_or(|c| c == v.compid))
-            .find(|v| v.is_autopilot() || self.sessions.contains_key(&(v.sysid, v.compid)));
+            .find(|v| v.is_autopilot() || self.sessions.contains_key(&v.key()));
         match found {
-            Some(v) => Ok((v.sysid, v.compid)),
+            Some(v) => Ok(v.key()),
             None => {
-                let heard: Vec<String> = self
-                    .targetable()
-                    .iter()
-                    .map(|k| format!("{}:{}", k.0, k.1))
-                    .collect();
+                let heard: Vec<String> = self.targetable().iter().map(|k| k.to_string()).collect();
                 let what = match compid {
-                    Some(c) => format!("{sysid}:{c}"),
+                    Some(c) => VehicleKey(sysid, c).to_string(),
                     None => format!("{sysid}"),
                 };
                 Err(if heard.is_empty() {
@@ -307,8 +307,8 @@ impl App {
         // Autopilots, and payloads alone on their system (they have a session of their own).
         self.vehicles
             .iter()
-            .filter(|v| v.is_autopilot() || self.sessions.contains_key(&(v.sysid, v.compid)))
-            .map(|v| (v.sysid, v.compid))
+            .filter(|v| v.is_autopilot() || self.sessions.contains_key(&v.key()))
+            .map(|v| v.key())
             .collect()
     }
 
@@ -458,10 +458,10 @@ impl App {
                     // autopilot, from their own screens.
                     let v = self.vehicles.iter().nth(self.ui.vehicle_sel);
                     let sessions = &self.sessions;
-                    if let Some(v) = v
-                        .filter(|v| v.is_autopilot() || sessions.contains_key(&(v.sysid, v.compid)))
+                    if let Some(v) =
+                        v.filter(|v| v.is_autopilot() || sessions.contains_key(&v.key()))
                     {
-                        self.target = Some((v.sysid, v.compid));
+                        self.target = Some(v.key());
                         self.target_held = true;
                     }
                 }
@@ -503,8 +503,8 @@ impl App {
             _ => return,
         };
         self.ui.message = match outcome {
-            Ok(t) => t.map(|t| (SEV_INFO, t)),
-            Err(e) => Some((SEV_ERROR, e)),
+            Ok(t) => t.map(|t| (Severity::INFO, t)),
+            Err(e) => Some((Severity::ERROR, e)),
         };
     }
 
@@ -522,7 +522,7 @@ impl App {
         };
         // What it did shows in the status bar's replay state; only a refusal is told.
         if let Err(e) = self.replay_control(cmd, fx) {
-            self.ui.message = Some((SEV_ERROR, e));
+            self.ui.message = Some((Severity::ERROR, e));
         }
     }
 

@@ -39,8 +39,9 @@ use crate::proto::ack::CommandAck;
 use crate::proto::loss::SeqOutcome;
 use crate::proto::statustext::StatusTextJoiner;
 use crate::proto::vehicles::{Registry, VehicleEvent, VehicleKey, DEFAULT_LOST_TIMEOUT};
+use crate::wire::Severity;
 use links::{LinkState, LinkStatus};
-use notices::{Notice, Notices, SEV_ERROR, SEV_INFO, SEV_NOTICE, SEV_WARNING};
+use notices::{Notice, Notices};
 use session::{Session, SessionOut};
 
 /// Settings the core starts with.
@@ -259,7 +260,7 @@ pub struct UiState {
     pub edit: input::TextLine,
     /// The outcome of the last command, or completions, shown in the status bar until the
     /// next key: (severity, text).
-    pub message: Option<(u8, String)>,
+    pub message: Option<(Severity, String)>,
     /// Lines scrolled in the key help.
     pub help_scroll: usize,
     /// A dangerous action waiting for `y`.
@@ -371,7 +372,7 @@ impl App {
             .iter()
             .map(|s| LinkStatus::new(s.clone(), cfg.sysid, cfg.compid))
             .collect();
-        let vehicles = Registry::new((cfg.sysid, cfg.compid), cfg.lost_timeout);
+        let vehicles = Registry::new(VehicleKey(cfg.sysid, cfg.compid), cfg.lost_timeout);
         let signing = signing::SigningState::new(cfg.signing.as_ref());
         let nudge = nudge::Nudge::new(cfg.nudge_deadman);
         let mut app = Self {
@@ -509,9 +510,9 @@ impl App {
                 SessionOut::Send(msg) => match self.route(key) {
                     Some(link) => self.send(link, msg, fx),
                     None => self.notice(
-                        SEV_WARNING,
+                        Severity::WARNING,
                         Some(key),
-                        format!("no link to {}:{}: not sent", key.0, key.1),
+                        format!("no link to {key}: not sent"),
                     ),
                 },
                 // Nothing automatic on high-latency links, nor when only those reach the vehicle.
@@ -580,7 +581,7 @@ impl App {
             Ok(b) => Some((shown, String::from_utf8_lossy(&b).into_owned())),
             Err(e) => {
                 self.notice(
-                    notices::SEV_ERROR,
+                    Severity::ERROR,
                     None,
                     format!("could not read {shown}: {e}"),
                 );
@@ -589,7 +590,7 @@ impl App {
         }
     }
 
-    fn notice(&mut self, severity: u8, source: Option<(u8, u8)>, text: String) {
+    fn notice(&mut self, severity: Severity, source: Option<VehicleKey>, text: String) {
         let n = Notice {
             t: self.now,
             at: self.shown_instant(),
@@ -626,9 +627,9 @@ impl App {
                 self.signing_file_written(error)
             }
             Event::FileWritten { path, error } => match error {
-                None => self.notice(SEV_INFO, None, format!("saved {}", path.display())),
+                None => self.notice(Severity::INFO, None, format!("saved {}", path.display())),
                 Some(e) => self.notice(
-                    SEV_ERROR,
+                    Severity::ERROR,
                     None,
                     format!("could not save {}: {e}", path.display()),
                 ),
@@ -703,7 +704,7 @@ impl App {
         };
         if !whole {
             self.ui.message = Some((
-                SEV_WARNING,
+                Severity::WARNING,
                 format!(
                     "line full: {} characters at most",
                     crate::app::input::MAX_LINE
@@ -728,7 +729,7 @@ impl App {
         let events = self.vehicles.tick(self.now);
         self.on_vehicle_events(events, fx);
         for t in self.statustext.poll(self.now) {
-            self.notice(t.severity, Some(t.source), t.text);
+            self.notice(t.severity, Some(t.source.into()), t.text);
         }
         self.signing_time(fx);
     }
@@ -756,13 +757,17 @@ impl App {
                         s.on_link_reconnected(link);
                     }
                 }
-                self.notice(SEV_INFO, None, format!("link {spec} up"))
+                self.notice(Severity::INFO, None, format!("link {spec} up"))
             }
             LinkState::Down(reason) => {
                 // A link retried with the same failure is told of once.
                 if l.notified_down.as_ref() != Some(&reason) {
                     l.notified_down = Some(reason.clone());
-                    self.notice(SEV_WARNING, None, format!("link {spec} down: {reason}"))
+                    self.notice(
+                        Severity::WARNING,
+                        None,
+                        format!("link {spec} down: {reason}"),
+                    )
                 }
                 self.dirty = true;
             }
@@ -797,7 +802,7 @@ impl App {
     /// One frame from `link`: counted on the link, then handled once however many links carry it.
     fn on_frame(&mut self, link: LinkId, frame: &Frame, fx: &mut Vec<Effect>) {
         let now = self.now;
-        let key = (frame.sysid, frame.compid);
+        let key = VehicleKey(frame.sysid, frame.compid);
         // An id our dialect does not know has no CRC we could check: counted on the link only
         // (the parser did), never a source, never loss.
         if frame.message.is_none() && crate::wire::parser::msg_limits(frame.msgid).is_none() {
@@ -805,7 +810,9 @@ impl App {
         }
         let crc = frame.crc();
         // Our own frame coming back through a router: not another GCS, not a source.
-        if key == (self.cfg.sysid, self.cfg.compid) && self.links[link].sent_by_us(frame.seq, crc) {
+        if key == VehicleKey(self.cfg.sysid, self.cfg.compid)
+            && self.links[link].sent_by_us(frame.seq, crc)
+        {
             self.links[link].echoes += 1;
             return;
         }
@@ -878,10 +885,10 @@ impl App {
                             s.commands
                                 .entries()
                                 .filter(|e| e.open())
-                                .map(|e| e.spec.target),
+                                .map(|e| VehicleKey::from(e.spec.target)),
                         );
                         if let Some((comp, ..)) = s.params.downloading() {
-                            kept.push((k.0, comp));
+                            kept.push(VehicleKey(k.0, comp));
                         }
                     }
                     kept.extend(self.target);
@@ -902,7 +909,7 @@ impl App {
                     && self.vehicles.get(key).is_some_and(|v| v.is_payload())
                     && self
                         .sessions
-                        .range((key.0, 0)..=(key.0, u8::MAX))
+                        .range(VehicleKey(key.0, 0)..=VehicleKey(key.0, u8::MAX))
                         .next()
                         .is_none();
                 if !self.sessions.contains_key(&key) && (autopilot || alone) {
@@ -937,8 +944,8 @@ impl App {
             Some(MavMessage::STATUSTEXT(st)) => {
                 let texts = self.statustext.push(
                     now,
-                    key,
-                    st.severity as u8,
+                    key.into(),
+                    st.severity.into(),
                     &st.text[..],
                     st.id,
                     st.chunk_seq,
@@ -947,7 +954,7 @@ impl App {
                     // A vehicle's reason for refusing a command comes as text.
                     let keys: Vec<VehicleKey> = self
                         .sessions
-                        .range((t.source.0, 0)..=(t.source.0, u8::MAX))
+                        .range(VehicleKey(t.source.0, 0)..=VehicleKey(t.source.0, u8::MAX))
                         .map(|(k, _)| *k)
                         .collect();
                     for k in keys {
@@ -955,7 +962,7 @@ impl App {
                             s.on_text(now, &t.text);
                         }
                     }
-                    self.notice(t.severity, Some(t.source), t.text);
+                    self.notice(t.severity, Some(t.source.into()), t.text);
                 }
             }
             _ => {}
@@ -994,7 +1001,10 @@ impl App {
                 }
             }
         } else {
-            for (k, s) in self.sessions.range_mut((key.0, 0)..=(key.0, u8::MAX)) {
+            for (k, s) in self
+                .sessions
+                .range_mut(VehicleKey(key.0, 0)..=VehicleKey(key.0, u8::MAX))
+            {
                 handle(k, s);
             }
         }
@@ -1023,7 +1033,7 @@ impl App {
     fn drop_payload_sessions(&mut self, sysid: u8) {
         let payloads: Vec<VehicleKey> = self
             .sessions
-            .range((sysid, 0)..=(sysid, u8::MAX))
+            .range(VehicleKey(sysid, 0)..=VehicleKey(sysid, u8::MAX))
             .map(|(k, _)| *k)
             .filter(|k| !self.vehicles.get(*k).is_some_and(|v| v.is_autopilot()))
             .filter(|k| self.target != Some(*k) && self.nudge.target != Some(*k))
@@ -1074,9 +1084,9 @@ impl App {
                         None => continue,
                     };
                     self.notice(
-                        SEV_NOTICE,
+                        Severity::NOTICE,
                         Some(key),
-                        format!("vehicle {}:{} found ({desc})", key.0, key.1),
+                        format!("vehicle {key} found ({desc})"),
                     );
                     // The first autopilot heard becomes the target; after that only the
                     // operator changes it.
@@ -1088,7 +1098,7 @@ impl App {
                 VehicleEvent::Lost(key) | VehicleEvent::Back(key)
                     if self.vehicles.get(key).is_some_and(|v| v.flood) => {}
                 VehicleEvent::Flood(n) => self.notice(
-                    SEV_ERROR,
+                    Severity::ERROR,
                     None,
                     format!(
                         "heartbeat flood: {n} new ids within {} s; new vehicles are listed \
@@ -1098,25 +1108,27 @@ impl App {
                 ),
                 VehicleEvent::Lost(key) => {
                     self.notice(
-                        SEV_WARNING,
+                        Severity::WARNING,
                         Some(key),
-                        format!("vehicle {}:{} lost (no heartbeat)", key.0, key.1),
+                        format!("vehicle {key} lost (no heartbeat)"),
                     );
                     if self.nudge.target == Some(key) {
                         self.leave_fly(fx);
-                        self.notice(SEV_WARNING, Some(key), "Fly mode left: vehicle lost".into());
+                        self.notice(
+                            Severity::WARNING,
+                            Some(key),
+                            "Fly mode left: vehicle lost".into(),
+                        );
                     }
                 }
-                VehicleEvent::Back(key) => self.notice(
-                    SEV_NOTICE,
-                    Some(key),
-                    format!("vehicle {}:{} back", key.0, key.1),
-                ),
+                VehicleEvent::Back(key) => {
+                    self.notice(Severity::NOTICE, Some(key), format!("vehicle {key} back"))
+                }
                 VehicleEvent::Rebooted(key, why) => {
                     self.notice(
-                        SEV_WARNING,
+                        Severity::WARNING,
                         Some(key),
-                        format!("vehicle {}:{} rebooted ({why})", key.0, key.1),
+                        format!("vehicle {key} rebooted ({why})"),
                     );
                     // A rebooted autopilot forgets what it was asked: its machines start over.
                     if let Some(s) = self.sessions.get_mut(&key) {
@@ -1124,21 +1136,15 @@ impl App {
                     }
                 }
                 VehicleEvent::Conflict(key, detail) => {
-                    self.notice(SEV_ERROR, Some(key), format!("sysid clash: {detail}"))
+                    self.notice(Severity::ERROR, Some(key), format!("sysid clash: {detail}"))
                 }
                 VehicleEvent::UsesGcsSysid(key) => {
-                    let text = if key == (self.cfg.sysid, self.cfg.compid) {
-                        format!(
-                            "another GCS uses our id {}:{}: replies may go to either",
-                            key.0, key.1
-                        )
+                    let text = if key == VehicleKey(self.cfg.sysid, self.cfg.compid) {
+                        format!("another GCS uses our id {key}: replies may go to either")
                     } else {
-                        format!(
-                            "component {}:{} uses our GCS sysid {}",
-                            key.0, key.1, self.cfg.sysid
-                        )
+                        format!("component {key} uses our GCS sysid {}", self.cfg.sysid)
                     };
-                    self.notice(SEV_ERROR, Some(key), text)
+                    self.notice(Severity::ERROR, Some(key), text)
                 }
                 VehicleEvent::Evicted(key) => {
                     self.sessions.remove(&key);
@@ -1157,7 +1163,7 @@ impl App {
 fn heartbeat_fallback(frame: &Frame) -> Option<MavMessage> {
     use dialect::{MavAutopilot, MavModeFlag, MavState, MavType};
     use num_traits::FromPrimitive;
-    if frame.msgid != 0 {
+    if frame.msgid != <dialect::HEARTBEAT_DATA as mavlink::MessageData>::ID {
         return None;
     }
     let mut p = [0u8; 9];

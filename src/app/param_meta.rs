@@ -13,10 +13,11 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use super::notices::{SEV_ERROR, SEV_INFO};
 use super::{App, Effect};
 use crate::dialect::{MavAutopilot, MavMessage, MavType};
 use crate::params::meta::MetaSet;
+use crate::proto::vehicles::VehicleKey;
+use crate::wire::Severity;
 
 /// ArduPilot's published metadata, one tree per vehicle type (and a `versioned/` tree per
 /// release).
@@ -261,9 +262,9 @@ impl App {
         if hits.is_empty() {
             return Err(format!("no parameter matches `{pattern}`"));
         }
-        let source = Some((key.0, comp));
+        let source = Some(VehicleKey(key.0, comp));
         for h in hits.iter().take(SHOW_MAX) {
-            self.notice(SEV_INFO, source, h.clone());
+            self.notice(Severity::INFO, source, h.clone());
         }
         Ok(Some(match hits.len() {
             1 => hits[0].clone(),
@@ -305,16 +306,16 @@ impl App {
                     contents: bytes,
                 });
                 (
-                    SEV_INFO,
+                    Severity::INFO,
                     format!("param meta fetch: {n} parameters described, from {url}"),
                 )
             }
-            (MetaOrigin::Url(_), Err(e)) => (SEV_ERROR, format!("param meta fetch: {e}")),
+            (MetaOrigin::Url(_), Err(e)) => (Severity::ERROR, format!("param meta fetch: {e}")),
             (MetaOrigin::Cache, Ok((meta, _))) => {
                 let n = meta.len();
                 self.use_meta(vehicle, meta);
                 (
-                    SEV_INFO,
+                    Severity::INFO,
                     format!(
                         "parameter metadata: {n} parameters, from {}",
                         cache_path.display()
@@ -322,7 +323,7 @@ impl App {
                 )
             }
             (MetaOrigin::Cache, Err(e)) => (
-                SEV_ERROR,
+                Severity::ERROR,
                 format!(
                     "parameter metadata {}: {e} (param meta fetch downloads it again)",
                     cache_path.display()

@@ -11,7 +11,6 @@ use std::path::PathBuf;
 use super::confirm::{Ask, Confirmed};
 use super::editor::{self, EditKind, Edited};
 pub use super::files::FileUse;
-use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
 use super::{App, Effect};
 use crate::keymap::{Action, Key};
 use crate::params::file::{self, Format, Header, ParamFile, Saved};
@@ -19,6 +18,7 @@ use crate::params::meta::{ParamMeta, Variant};
 use crate::params::value;
 use crate::proto::params::ParamSet;
 use crate::proto::vehicles::VehicleKey;
+use crate::wire::Severity;
 
 /// A `param` command.
 #[derive(Debug, Clone, PartialEq)]
@@ -155,7 +155,7 @@ impl App {
     pub fn param_target(&self) -> Result<(VehicleKey, u8), String> {
         let key = self.target.ok_or("no target vehicle")?;
         if !self.sessions.contains_key(&key) {
-            return Err(format!("{}:{} has no session", key.0, key.1));
+            return Err(format!("{key} has no session"));
         }
         Ok((key, self.ui.params.comp.unwrap_or(key.1)))
     }
@@ -211,22 +211,25 @@ impl App {
                 let c = c.unwrap_or(key.1);
                 let have = self.sessions[&key].params.sets.contains_key(&c);
                 Ok(Some(if have {
-                    format!("parameters of {}:{c}", key.0)
+                    format!("parameters of {}", VehicleKey(key.0, c))
                 } else {
                     format!(
-                        "parameters of {}:{c}: none yet (param fetch asks for them)",
-                        key.0
+                        "parameters of {}: none yet (param fetch asks for them)",
+                        VehicleKey(key.0, c)
                     )
                 }))
             }
             ParamCmd::Fetch => {
-                self.commandable_at((key.0, comp))?;
+                self.commandable_at(VehicleKey(key.0, comp))?;
                 let now = self.now;
                 let s = self.sessions.get_mut(&key).ok_or("no session")?;
                 let out = s.params.fetch(now, comp);
                 let out = out.into_iter().map(|o| s.pmap(o)).collect();
                 self.session_out(key, out, fx);
-                Ok(Some(format!("fetching the parameters of {}:{comp}", key.0)))
+                Ok(Some(format!(
+                    "fetching the parameters of {}",
+                    VehicleKey(key.0, comp)
+                )))
             }
             ParamCmd::Set(name, text) => self.set_param(key, comp, &name, &text, fx),
             ParamCmd::Encoding(choice) => {
@@ -247,7 +250,7 @@ impl App {
                     .get(&key)
                     .and_then(|s| s.params.sets.get(&comp))
                     .filter(|s| !s.params.is_empty())
-                    .ok_or_else(|| format!("no parameters of {}:{comp} yet", key.0))?;
+                    .ok_or_else(|| format!("no parameters of {} yet", VehicleKey(key.0, comp)))?;
                 let format = file::format_for_path(std::path::Path::new(&path));
                 let params: Vec<Saved> = match format {
                     Format::Parm => saved(comp, set).collect(),
@@ -320,13 +323,16 @@ impl App {
             .sessions
             .get(&key)
             .and_then(|s| s.params.sets.get(&comp))
-            .ok_or_else(|| format!("no parameters of {}:{comp} yet", key.0))?;
+            .ok_or_else(|| format!("no parameters of {} yet", VehicleKey(key.0, comp)))?;
         let name = if set.params.contains_key(name) {
             name.to_string()
         } else {
             let up = name.to_ascii_uppercase();
             if !set.params.contains_key(&up) {
-                return Err(format!("no parameter {name} on {}:{comp}", key.0));
+                return Err(format!(
+                    "no parameter {name} on {}",
+                    VehicleKey(key.0, comp)
+                ));
             }
             up
         };
@@ -351,7 +357,7 @@ impl App {
         }
         let old = p.value;
         let change = vec![(comp, name.clone(), v)];
-        self.commandable_at((key.0, comp))?;
+        self.commandable_at(VehicleKey(key.0, comp))?;
         let mut why = Vec::new();
         if let Some(e) = meta.and_then(|m| m.check_range(v).err()) {
             why.push(e);
@@ -367,10 +373,10 @@ impl App {
         if !why.is_empty() {
             self.ask(Ask {
                 text: format!(
-                    "{name} = {}: {}. Send to {}:{comp} anyway? y = yes, any other key = no",
+                    "{name} = {}: {}. Send to {} anyway? y = yes, any other key = no",
                     value::fmt_plain(v),
                     why.join("; "),
-                    key.0,
+                    VehicleKey(key.0, comp),
                 ),
                 action: Confirmed::Params(change),
                 target: key,
@@ -389,7 +395,7 @@ impl App {
     ) -> Result<Option<String>, String> {
         // Every component written to is heard and not lost.
         for (comp, _, _) in &changes {
-            self.commandable_at((key.0, *comp))?;
+            self.commandable_at(VehicleKey(key.0, *comp))?;
         }
         let now = self.now;
         let n = changes.len();
@@ -429,14 +435,14 @@ impl App {
         };
         let parsed = file::parse(&text);
         let Ok((key, comp)) = self.param_target() else {
-            self.notice(SEV_ERROR, None, format!("{shown}: no target vehicle"));
+            self.notice(Severity::ERROR, None, format!("{shown}: no target vehicle"));
             return;
         };
         let Some(set) = self.param_set() else {
             self.notice(
-                SEV_ERROR,
+                Severity::ERROR,
                 None,
-                format!("{shown}: no parameters of {}:{comp} yet", key.0),
+                format!("{shown}: no parameters of {} yet", VehicleKey(key.0, comp)),
             );
             return;
         };
@@ -449,7 +455,7 @@ impl App {
             .map(|p| (p.name.clone(), p.value))
             .collect();
         for e in parsed.errors.iter().take(20) {
-            self.notice(SEV_WARNING, None, format!("{shown}: {e}"));
+            self.notice(Severity::WARNING, None, format!("{shown}: {e}"));
         }
         let summary = format!(
             "{shown}: {} changed, {} only on the vehicle, {} only in the file{}",
@@ -462,7 +468,7 @@ impl App {
                 n => format!(", {n} bad lines"),
             }
         );
-        self.notice(SEV_INFO, None, summary.clone());
+        self.notice(Severity::INFO, None, summary.clone());
         let changes: Vec<(u8, String, f64)> = diff
             .changed
             .iter()
@@ -476,7 +482,7 @@ impl App {
             diff,
             values,
         });
-        self.ui.message = Some((SEV_INFO, summary));
+        self.ui.message = Some((Severity::INFO, summary));
         if purpose == FileUse::Diff {
             return;
         }
@@ -499,10 +505,10 @@ impl App {
             }
         }
         for text in bad {
-            self.notice(SEV_WARNING, None, text);
+            self.notice(Severity::WARNING, None, text);
         }
         if ok.is_empty() {
-            self.ui.message = Some((SEV_INFO, format!("{shown}: nothing to change")));
+            self.ui.message = Some((Severity::INFO, format!("{shown}: nothing to change")));
             return;
         }
         let mut list: Vec<String> = ok
@@ -525,10 +531,10 @@ impl App {
         };
         self.ask(Ask {
             text: format!(
-                "{warn}Apply {} change{} from {shown} to {}:{comp}? {} (y/n)",
+                "{warn}Apply {} change{} from {shown} to {}? {} (y/n)",
                 ok.len(),
                 if ok.len() == 1 { "" } else { "s" },
-                key.0,
+                VehicleKey(key.0, comp),
                 list.join(", ")
             ),
             action: Confirmed::Params(ok),
@@ -578,8 +584,8 @@ impl App {
             _ => Ok(None),
         };
         self.ui.message = match outcome {
-            Ok(t) => t.map(|t| (SEV_INFO, t)),
-            Err(e) => Some((SEV_ERROR, e)),
+            Ok(t) => t.map(|t| (Severity::INFO, t)),
+            Err(e) => Some((Severity::ERROR, e)),
         };
     }
 
@@ -597,7 +603,7 @@ impl App {
         let (key, comp) = self.param_target()?;
         let name = self
             .param_selected()
-            .ok_or_else(|| format!("no parameters of {}:{comp} to edit", key.0))?;
+            .ok_or_else(|| format!("no parameters of {} to edit", VehicleKey(key.0, comp)))?;
         let p = self
             .param_set()
             .and_then(|s| s.params.get(&name))
@@ -645,8 +651,8 @@ impl App {
                         self.ui.params.awaiting = Some(name);
                     }
                     self.ui.message = match outcome {
-                        Ok(t) => t.map(|t| (SEV_INFO, t)),
-                        Err(e) => Some((SEV_ERROR, e)),
+                        Ok(t) => t.map(|t| (Severity::INFO, t)),
+                        Err(e) => Some((Severity::ERROR, e)),
                     };
                 }
                 return;
@@ -659,7 +665,7 @@ impl App {
                     self.ui.params.filter.clear();
                     self.reselect(keep);
                 } else {
-                    self.ui.message = Some((SEV_INFO, "edit cancelled: nothing sent".into()));
+                    self.ui.message = Some((Severity::INFO, "edit cancelled: nothing sent".into()));
                 }
                 return;
             }
@@ -686,7 +692,7 @@ impl App {
 
     /// A notice of the parameter machine: the outcome of the edit sent from the screen (`NAME =
     /// V confirmed`, refused, unanswered) shows in the status bar.
-    pub(super) fn param_outcome(&mut self, sev: u8, text: &str) {
+    pub(super) fn param_outcome(&mut self, sev: Severity, text: &str) {
         let Some(name) = &self.ui.params.awaiting else {
             return;
         };

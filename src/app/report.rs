@@ -375,7 +375,7 @@ fn link_report(l: &LinkStatus, now: Micros) -> LinkReport<'_> {
         sources: l
             .sources
             .iter()
-            .map(|(&(sysid, compid), s)| SourceReport {
+            .map(|(&VehicleKey(sysid, compid), s)| SourceReport {
                 sysid,
                 compid,
                 received: s.seq.received,

@@ -40,7 +40,7 @@ pub enum SessionOut {
     /// Send on this link (stream rates are per link).
     SendOn(LinkId, MavMessage),
     /// Tell the operator (severity, text).
-    Notice(u8, String),
+    Notice(crate::wire::Severity, String),
 }
 
 /// The protocol machines for one autopilot.
@@ -90,10 +90,10 @@ impl Session {
             key,
             pinned: None,
             heard: BTreeMap::new(),
-            streams: StreamMachine::new(key, autopilot, request_streams, rates),
+            streams: StreamMachine::new(key.into(), autopilot, request_streams, rates),
             commands: CommandQueue::default(),
             sequence: None,
-            flight: FlightTelemetry::new(key, request_streams),
+            flight: FlightTelemetry::new(key.into(), request_streams),
             params: ParamMachine::new(key, autopilot, fetch_params),
             mission: MissionMachine::new(key),
             cameras: CameraSet::default(),
@@ -454,7 +454,8 @@ impl Session {
 
     /// The queue's submit; a mode change remembers the mode it leaves.
     fn queue(&mut self, now: Micros, spec: CommandSpec) -> Result<(u64, Vec<CmdOut>), String> {
-        let mode = spec.command == MavCmd::MAV_CMD_DO_SET_MODE as u16 && spec.target == self.key;
+        let mode =
+            spec.command == MavCmd::MAV_CMD_DO_SET_MODE as u16 && spec.target == self.key.into();
         let (id, out) = self.commands.submit(now, spec)?;
         if mode {
             self.mode_asks.push((id, self.mode_seen));
@@ -488,10 +489,10 @@ impl Session {
             self.commands.hold_resends(id);
             if !ours {
                 out.push(SessionOut::Notice(
-                    crate::proto::severity::WARNING,
+                    crate::wire::Severity::WARNING,
                     format!(
-                        "{}:{} changed mode on its own meanwhile: our DO_SET_MODE is not resent",
-                        self.key.0, self.key.1
+                        "{} changed mode on its own meanwhile: our DO_SET_MODE is not resent",
+                        self.key
                     ),
                 ));
             }
@@ -506,7 +507,7 @@ impl Session {
         let mut out = Vec::new();
         if let Some(seq) = self.sequence.take().filter(|s| !s.finished()) {
             out.push(SessionOut::Notice(
-                crate::proto::severity::WARNING,
+                crate::wire::Severity::WARNING,
                 format!("{}: abandoned for {by}", seq.name),
             ));
         }
@@ -518,7 +519,10 @@ impl Session {
             MavCmd::MAV_CMD_NAV_LAND,
             MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH,
         ] {
-            done.extend(self.commands.supersede(now, self.key, command as u16));
+            done.extend(
+                self.commands
+                    .supersede(now, self.key.into(), command as u16),
+            );
         }
         self.mode_asks.clear();
         out.extend(self.drive(now, done));
@@ -666,7 +670,7 @@ impl Session {
     /// Whatever is due at `now`.
     pub fn poll(&mut self, now: Micros) -> Vec<SessionOut> {
         let interval = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
-        let operators = self.commands.is_open(self.key, interval)
+        let operators = self.commands.is_open(self.key.into(), interval)
             || self.commands.is_open((self.key.0, 0), interval);
         self.streams.hold_intervals(operators);
         let mut out: Vec<SessionOut> = self.streams.poll(now).into_iter().map(map).collect();

@@ -204,7 +204,7 @@ impl Entry {
 pub enum CmdOut {
     Send(MavMessage),
     /// Tell the operator (severity, text).
-    Notice(u8, String),
+    Notice(crate::wire::Severity, String),
     /// Command `id` finished (ACK, no ACK, cancelled): sequences waiting on it go on.
     Finished(u64),
 }
@@ -331,9 +331,9 @@ impl CommandQueue {
         }
         let reason = e.reason.clone();
         let sev = if ok {
-            crate::proto::severity::INFO
+            crate::wire::Severity::INFO
         } else {
-            crate::proto::severity::WARNING
+            crate::wire::Severity::WARNING
         };
         vec![
             CmdOut::Notice(
@@ -383,7 +383,7 @@ impl CommandQueue {
                 e.state = State::NoAck;
                 e.changed = now;
                 out.push(CmdOut::Notice(
-                    crate::proto::severity::WARNING,
+                    crate::wire::Severity::WARNING,
                     format!("{name} to {s}:{c}: no progress report, given up"),
                 ));
                 out.push(CmdOut::Finished(e.id));
@@ -405,7 +405,7 @@ impl CommandQueue {
                     "no ACK (not resent: re-issue it if still wanted)".to_string()
                 };
                 out.push(CmdOut::Notice(
-                    crate::proto::severity::WARNING,
+                    crate::wire::Severity::WARNING,
                     format!("{name} to {s}:{c}: {why}"),
                 ));
                 out.push(CmdOut::Finished(e.id));

@@ -34,13 +34,10 @@ use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavAutopilot, MavMessage, MavParamType};
 use crate::params::value::{self, Encoding, ParamType};
 use crate::proto::param_ftp::{FtpOut, FtpRead};
-use crate::proto::severity::{
-    DEBUG as SEV_DEBUG, ERROR as SEV_ERROR, INFO as SEV_INFO, NOTICE as SEV_NOTICE,
-    WARNING as SEV_WARNING,
-};
 use crate::proto::vehicles::VehicleKey;
 use crate::wire::mavftp::{FtpPacket, PAYLOAD_LEN};
 use crate::wire::param_pck::{self, PckType};
+use crate::wire::Severity;
 
 /// What is read over MAVFTP from ArduPilot (its profile's parameter file).
 pub const PCK_PATH: &str = crate::proto::profile::ARDUPILOT_PARAM_FILE;
@@ -332,7 +329,7 @@ struct Download {
 #[allow(clippy::large_enum_variant)]
 pub enum ParamOut {
     Send(MavMessage),
-    Notice(u8, String),
+    Notice(Severity, String),
 }
 
 /// A PARAM_VALUE read from its payload (so a type code newer than the dialect still reads).
@@ -720,7 +717,7 @@ impl ParamMachine {
         });
         let comp = d.comp;
         out.push(ParamOut::Notice(
-            SEV_INFO,
+            Severity::INFO,
             format!("parameters: {why}; using the parameter protocol"),
         ));
         out.push(self.list_request(comp));
@@ -852,7 +849,7 @@ impl ParamMachine {
         };
         let Some(ptype) = ParamType::from_code(m.type_code) else {
             return vec![ParamOut::Notice(
-                SEV_WARNING,
+                Severity::WARNING,
                 format!("{}: unknown parameter type {}", m.name, m.type_code),
             )];
         };
@@ -871,7 +868,7 @@ impl ParamMachine {
                     other.name()
                 );
                 out.push(ParamOut::Notice(
-                    SEV_WARNING,
+                    Severity::WARNING,
                     format!(
                         "parameters of {}:{from}: the encoding looks wrong ({text}): `param encoding {}` switches",
                         self.key.0,
@@ -892,7 +889,7 @@ impl ParamMachine {
             set.resize(m.count);
             if before.is_some_and(|b| b != m.count) {
                 out.push(ParamOut::Notice(
-                    SEV_NOTICE,
+                    Severity::NOTICE,
                     format!(
                         "{}:{} now has {} parameters (was {})",
                         self.key.0,
@@ -916,7 +913,7 @@ impl ParamMachine {
             }
             if set.refused <= MAX_REFUSED_TOLD {
                 out.push(ParamOut::Notice(
-                    SEV_WARNING,
+                    Severity::WARNING,
                     format!(
                         "{}:{from} parameter name refused (not 1-16 printable ASCII without \
                          spaces, # or ,): {}{}",
@@ -958,7 +955,7 @@ impl ParamMachine {
                     rtt_sample = Some(now.saturating_sub(e.sent_at));
                 }
                 out.push(ParamOut::Notice(
-                    SEV_INFO,
+                    Severity::INFO,
                     format!("{} = {} confirmed", m.name, value::format(v, ptype)),
                 ));
             } else if !e.mismatch_resent {
@@ -979,7 +976,7 @@ impl ParamMachine {
                     format!("refused: the vehicle kept {}", value::format(v, ptype))
                 };
                 out.push(ParamOut::Notice(
-                    SEV_ERROR,
+                    Severity::ERROR,
                     format!("{} = {} {why}", m.name, value::format(e.value, ptype)),
                 ));
                 e.state = EditState::Failed(why);
@@ -992,7 +989,7 @@ impl ParamMachine {
             // STAT_ statistics, which change all flight long, are left out).
             if let Some(b) = before.filter(|b| !value::same(*b, v, ptype)) {
                 out.push(ParamOut::Notice(
-                    SEV_DEBUG,
+                    Severity::DEBUG,
                     format!(
                         "{} changed to {} (was {})",
                         m.name,
@@ -1095,12 +1092,12 @@ impl ParamMachine {
             d.stats.method.name()
         );
         self.last = Some(d.stats);
-        vec![ParamOut::Notice(SEV_INFO, text)]
+        vec![ParamOut::Notice(Severity::INFO, text)]
     }
 
     /// Ask for missing indices, [`READ_WINDOW`] in flight.
     fn fill(&mut self, now: Micros) -> Vec<ParamOut> {
-        let (sys, _) = self.key;
+        let sys = self.key.0;
         let Some(d) = self.download.as_mut() else {
             return Vec::new();
         };
@@ -1157,7 +1154,7 @@ impl ParamMachine {
             d.stats.finished = Some(now);
             self.last = Some(d.stats);
             out.push(ParamOut::Notice(
-                SEV_ERROR,
+                Severity::ERROR,
                 format!(
                     "parameters of {}:{comp}: {} of {count} never came ({} asked {READ_TRIES} times)",
                     sys,
@@ -1355,7 +1352,7 @@ impl ParamMachine {
                     if e.sends > SET_RESENDS {
                         let why = format!("no answer after {} tries", e.sends);
                         out.push(ParamOut::Notice(
-                            SEV_ERROR,
+                            Severity::ERROR,
                             format!("{name} = {}: {why}", value::format(e.value, t)),
                         ));
                         e.state = EditState::Failed(why);
@@ -1394,7 +1391,7 @@ impl ParamMachine {
                             stats.finished = Some(now);
                             self.last = Some(stats);
                             out.push(ParamOut::Notice(
-                                SEV_ERROR,
+                                Severity::ERROR,
                                 format!(
                                     "parameters of {}:{comp}: no answer to PARAM_REQUEST_LIST",
                                     self.key.0
@@ -1476,7 +1473,7 @@ fn request_autopilot_version(key: VehicleKey) -> MavMessage {
 mod tests {
     use super::*;
 
-    const KEY: VehicleKey = (1, 1);
+    const KEY: VehicleKey = VehicleKey(1, 1);
 
     /// A PARAM_VALUE payload as it goes on the wire (MAVLink 2 trailing zeros cut).
     fn pv(name: &str, raw: f32, t: u8, count: u16, index: u16) -> Vec<u8> {

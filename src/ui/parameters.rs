@@ -91,9 +91,9 @@ fn header(app: &App, shown: usize, theme: &Theme, width: usize) -> Vec<(String, 
         return parts;
     };
     let who = if comp == key.1 {
-        format!(" Parameters {}:{} ", key.0, key.1)
+        format!(" Parameters {key} ")
     } else {
-        format!(" Parameters {}:{} component {comp} ", key.0, key.1)
+        format!(" Parameters {key} component {comp} ")
     };
     parts.push((who, theme.focus_border()));
     let session = app.sessions.get(&key);
