@@ -45,6 +45,10 @@ fn init_logging(path: Option<&std::path::Path>) -> Result<()> {
 fn app_config(cli: &Cli, file: &FileConfig, wall_clock: bool) -> Result<AppConfig> {
     Ok(AppConfig {
         param_meta: load_param_meta(cli)?,
+        param_meta_cache: mavterm::paths::cache_dir(),
+        param_meta_url: std::env::var("MAVTERM_PARAM_META_URL")
+            .ok()
+            .filter(|u| !u.trim().is_empty()),
         signing: load_signing(cli, file, wall_clock)?,
         zone: cli.display_zone(file, chrono::Utc::now()),
         ..cli.app_config(file)

@@ -45,3 +45,16 @@ pub fn expand_home(path: &str) -> PathBuf {
 pub fn logs_dir() -> Option<PathBuf> {
     Some(data_dir()?.join("logs"))
 }
+
+/// mavterm's cache directory: `mavterm` in the user's XDG cache directory (`$XDG_CACHE_HOME`,
+/// else `~/.cache`; on Windows the local AppData folder), for downloads that can be made again
+/// (parameter metadata). `None` when there is no home directory.
+pub fn cache_dir() -> Option<PathBuf> {
+    use etcetera::BaseStrategy;
+    Some(
+        etcetera::choose_base_strategy()
+            .ok()?
+            .cache_dir()
+            .join("mavterm"),
+    )
+}

@@ -10,6 +10,7 @@ use mavterm::app::AppConfig;
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::link::LinkSpec;
 use mavterm::proto::commands::State;
+use mavterm::proto::vehicles::VehicleKey;
 
 const SECOND: u64 = 1_000_000;
 
@@ -22,7 +23,7 @@ fn runner(query: &str) -> VirtualRunner {
 
 /// Commands sent to 1:100 with this command id, and what became of them.
 fn sent(r: &VirtualRunner, command: u16) -> Vec<(State, [f64; 7])> {
-    r.app.sessions[&(1, 1)]
+    r.app.sessions[&VehicleKey(1, 1)]
         .commands
         .entries()
         .filter(|e| e.spec.target == (1, 100) && e.spec.command == command)
@@ -33,7 +34,7 @@ fn sent(r: &VirtualRunner, command: u16) -> Vec<(State, [f64; 7])> {
 #[test]
 fn discover_switch_shoot_three_record_video() {
     let mut r = runner("camera=1");
-    let s = &r.app.sessions[&(1, 1)];
+    let s = &r.app.sessions[&VehicleKey(1, 1)];
     let cam = &s.cameras.cameras[&100];
     let info = cam.info.as_ref().expect("CAMERA_INFORMATION read");
     assert_eq!(
@@ -91,7 +92,7 @@ fn discover_switch_shoot_three_record_video() {
     assert_eq!(starts[0].0, State::Done(0));
     // IMAGE_START_CAPTURE: id 0 (all), interval 1 s, 3 images, sequence 0 (not a single shot).
     assert_eq!(starts[0].1, [0.0, 1.0, 3.0, 0.0, 0.0, 0.0, 0.0]);
-    let cam = &r.app.sessions[&(1, 1)].cameras.cameras[&100];
+    let cam = &r.app.sessions[&VehicleKey(1, 1)].cameras.cameras[&100];
     assert_eq!(
         cam.images.keys().copied().collect::<Vec<_>>(),
         vec![0, 1, 2]
@@ -117,7 +118,7 @@ fn discover_switch_shoot_three_record_video() {
     assert!(!sim(&r).camera(1).unwrap().recording());
     assert_eq!(sent(&r, 2500)[0].0, State::Done(0));
     assert_eq!(sent(&r, 2501)[0].0, State::Done(0));
-    let cam = &r.app.sessions[&(1, 1)].cameras.cameras[&100];
+    let cam = &r.app.sessions[&VehicleKey(1, 1)].cameras.cameras[&100];
     assert_eq!(cam.status.unwrap().video_status, 0);
     // The card filled: three images of 8 MiB and about 5 s of video at 12 MiB/s.
     let free = cam.status.unwrap().available_mib;
@@ -161,7 +162,7 @@ fn the_camera_refuses_a_capture_in_the_wrong_mode() {
     // The gimbal keys point the gimbal through the autopilot (its gimbal manager).
     common::keys(&mut r, &["alt-down"]);
     wait(&mut r, 1.0);
-    let gimbal: Vec<_> = r.app.sessions[&(1, 1)]
+    let gimbal: Vec<_> = r.app.sessions[&VehicleKey(1, 1)]
         .commands
         .entries()
         .filter(|e| e.spec.command == 1000)
@@ -181,7 +182,7 @@ fn a_lost_image_captured_is_asked_for_again() {
         .collect();
     assert_eq!(again.len(), 1, "{again:?}");
     assert_eq!(again[0].1[1], 1.0, "param2 = the missing index");
-    let cam = &r.app.sessions[&(1, 1)].cameras.cameras[&100];
+    let cam = &r.app.sessions[&VehicleKey(1, 1)].cameras.cameras[&100];
     assert_eq!(
         cam.images.keys().copied().collect::<Vec<_>>(),
         vec![0, 1, 2]

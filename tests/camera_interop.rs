@@ -7,6 +7,7 @@ mod common;
 use mavterm::app::{App, AppConfig, Effect, Event};
 use mavterm::keymap::Key;
 use mavterm::link::{FrameParser, ParserStats};
+use mavterm::proto::vehicles::VehicleKey;
 use serde_json::{json, Value};
 
 struct Gcs {
@@ -158,7 +159,7 @@ fn a_pymavlink_camera_is_discovered_and_operated() {
     );
     let sent = g.hear(100, &[ack(512), settings]);
     assert_eq!(sent[0]["param1"], 261.0, "{sent:?}");
-    let cams = &g.app.sessions[&(1, 1)].cameras.cameras;
+    let cams = &g.app.sessions[&VehicleKey(1, 1)].cameras.cameras;
     let info = cams[&100].info.as_ref().unwrap();
     assert_eq!(
         (info.vendor.as_str(), info.model.as_str()),
@@ -192,7 +193,7 @@ fn a_pymavlink_camera_is_discovered_and_operated() {
         asked.is_empty() || asked[0].0 == 262.0 || asked[0] == (263.0, 1.0),
         "{asked:?}"
     );
-    let cam = &g.app.sessions[&(1, 1)].cameras.cameras[&100];
+    let cam = &g.app.sessions[&VehicleKey(1, 1)].cameras.cameras[&100];
     assert_eq!(cam.images[&2].result, -1);
     assert_eq!(cam.missing(), vec![1]);
     // Answer the open requests until the hole's request goes out.
@@ -210,7 +211,7 @@ fn a_pymavlink_camera_is_discovered_and_operated() {
         "REQUEST_MESSAGE 263 with param2 = the missing index"
     );
     g.hear(100, &[image(1, 1)]);
-    let cam = &g.app.sessions[&(1, 1)].cameras.cameras[&100];
+    let cam = &g.app.sessions[&VehicleKey(1, 1)].cameras.cameras[&100];
     assert!(cam.missing().is_empty());
     assert_eq!(
         cam.images.keys().copied().collect::<Vec<_>>(),
@@ -358,7 +359,7 @@ fn a_pymavlink_gimbal_manager_is_discovered_shown_and_pointed() {
                "secondary_control_sysid": 0, "secondary_control_compid": 0}),
     );
     g.hear(1, &[ack(512), info, status]);
-    let gim = &g.app.sessions[&(1, 1)].gimbals.gimbals[&(1, 1)];
+    let gim = &g.app.sessions[&VehicleKey(1, 1)].gimbals.gimbals[&(1, 1)];
     let a = gim.attitude.unwrap();
     assert!((a.pitch + 35.0).abs() < 0.01 && (a.yaw - 20.0).abs() < 0.01 && a.roll.abs() < 0.01);
     assert_eq!(gim.info.unwrap().cap_flags, caps as u32);

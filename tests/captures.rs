@@ -12,6 +12,7 @@ use mavterm::link::tlog::read_tlog;
 use mavterm::link::{Frame, FrameParser, LinkSpec};
 use mavterm::proto::loss::SeqTracker;
 use mavterm::proto::modes::mode_name;
+use mavterm::proto::vehicles::VehicleKey;
 use serde_json::Value;
 
 fn data(name: &str) -> String {
@@ -64,7 +65,7 @@ fn every_capture_decodes_exactly_like_pymavlink() {
         let mut previous: BTreeMap<String, u8> = BTreeMap::new();
         let mut pymavlink_gaps = 0u64;
         for (i, f) in frames.iter().enumerate() {
-            let src = format!("{}:{}", f.sysid, f.compid);
+            let src = VehicleKey(f.sysid, f.compid).to_string();
             trackers
                 .entry(src.clone())
                 .or_default()
@@ -223,7 +224,7 @@ fn headless_report_on_flight_capture() {
         .app
         .notices
         .iter()
-        .filter(|n| n.source == Some((1, 1)) && !ours(&n.text))
+        .filter(|n| n.source == Some(VehicleKey(1, 1)) && !ours(&n.text))
         .count();
     assert_eq!(texts, 41);
     // Lost 5 s after the last heartbeat.

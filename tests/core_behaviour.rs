@@ -8,6 +8,7 @@ use mavterm::app::{App, AppConfig, Effect, Event};
 use mavterm::clock::SECOND;
 use mavterm::keymap::{Key, Keymap};
 use mavterm::link::{FrameParser, ParserStats};
+use mavterm::proto::vehicles::VehicleKey;
 use mavterm::wire::frame::frame_crc;
 
 fn app() -> App {
@@ -40,12 +41,12 @@ fn a_sender_with_a_constant_sequence_is_still_heard() {
         feed(&mut a, i * SECOND, &heartbeat(0, if i < 5 { 0 } else { 4 }));
     }
     a.update(10 * SECOND, Event::Tick);
-    let v = a.vehicles.get((1, 1)).unwrap();
+    let v = a.vehicles.get(VehicleKey(1, 1)).unwrap();
     assert!(!v.lost);
     assert_eq!(v.heartbeats, 10);
     assert_eq!(v.mode_name(), "GUIDED");
     // The sequence statistics still say what happened.
-    assert_eq!(a.links[0].sources[&(1, 1)].seq.duplicates, 9);
+    assert_eq!(a.links[0].sources[&VehicleKey(1, 1)].seq.duplicates, 9);
 }
 
 #[test]
@@ -55,7 +56,7 @@ fn a_true_duplicate_is_not_read_twice() {
     let mut both = f.clone();
     both.extend(&f);
     feed(&mut a, 0, &both);
-    assert_eq!(a.vehicles.get((1, 1)).unwrap().heartbeats, 1);
+    assert_eq!(a.vehicles.get(VehicleKey(1, 1)).unwrap().heartbeats, 1);
 }
 
 #[test]
@@ -67,8 +68,8 @@ fn heartbeat_with_enum_values_newer_than_our_dialect_still_lists_the_component()
     f[n - 2..].copy_from_slice(&crc.to_le_bytes());
     let mut a = app();
     feed(&mut a, 0, &f);
-    assert_eq!(a.links[0].sources[&(1, 1)].seq.received, 1);
-    let v = a.vehicles.get((1, 1)).expect("listed");
+    assert_eq!(a.links[0].sources[&VehicleKey(1, 1)].seq.received, 1);
+    let v = a.vehicles.get(VehicleKey(1, 1)).expect("listed");
     assert_eq!(v.type_name(), "GENERIC");
     assert_eq!(v.autopilot_name(), "ARDUPILOTMEGA");
 }

@@ -14,6 +14,7 @@ use mavterm::app::{App, AppConfig, Effect, Event};
 use mavterm::clock::{Micros, SECOND};
 use mavterm::link::{FrameParser, LinkId, ParserStats};
 use mavterm::proto::rates::StreamRates;
+use mavterm::proto::vehicles::VehicleKey;
 use serde_json::{json, Value};
 
 /// MAV_AUTOPILOT values (common.xml).
@@ -215,7 +216,7 @@ fn ardupilot_is_asked_for_each_group_at_its_rate_on_every_link_it_is_heard_on() 
         }
     }
     // One vehicle, heard on both links; its heartbeats are not counted twice.
-    let v = a.vehicles.get((1, 1)).unwrap();
+    let v = a.vehicles.get(VehicleKey(1, 1)).unwrap();
     assert_eq!(v.links.iter().copied().collect::<Vec<_>>(), vec![0, 1]);
     assert_eq!(a.sessions.len(), 1);
 }
@@ -263,7 +264,7 @@ fn px4_is_asked_with_set_message_interval_only_one_at_a_time() {
             (147, 1.0)
         ]
     );
-    assert!(!a.notices.iter().any(|n| n.severity <= 4), "all accepted");
+    assert!(!a.notices.iter().any(|n| n.severity.0 <= 4), "all accepted");
 }
 
 #[test]
@@ -279,18 +280,22 @@ fn the_operators_set_message_interval_and_ours_keep_their_own_acks() {
         MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
         [33.0, 200_000.0, 0.0, 0.0, 0.0, 0.0, 0.0],
     );
-    let s = a.sessions.get_mut(&(7, 1)).unwrap();
+    let s = a.sessions.get_mut(&VehicleKey(7, 1)).unwrap();
     let (id, out) = s.submit(1_000, spec).unwrap();
     assert_eq!(out.len(), 1);
     // ... the first ACK is ours (sent first) and the next one goes out only after the
     // operator's is answered.
     let fx = feed(&mut a, 50_000, 0, &interval_ack(7, 1, 0));
     assert!(decoded(&fx).is_empty(), "held while the operator's waits");
-    let s = &a.sessions[&(7, 1)];
+    let s = &a.sessions[&VehicleKey(7, 1)];
     assert_eq!(s.commands.get(id).unwrap().state, State::Waiting);
     let fx = feed(&mut a, 60_000, 0, &interval_ack(7, 2, 0));
     assert_eq!(
-        a.sessions[&(7, 1)].commands.get(id).unwrap().state,
+        a.sessions[&VehicleKey(7, 1)]
+            .commands
+            .get(id)
+            .unwrap()
+            .state,
         State::Done(0)
     );
     let reqs = decoded(&fx);
@@ -373,13 +378,13 @@ fn components_that_are_not_autopilots_are_not_asked() {
     assert!(!sent.iter().any(|(_, v)| home_request(v)));
     assert_eq!(
         a.sessions.keys().copied().collect::<Vec<_>>(),
-        vec![(1, 154)]
+        vec![VehicleKey(1, 154)]
     );
-    assert_eq!(a.target, Some((1, 154)));
+    assert_eq!(a.target, Some(VehicleKey(1, 154)));
     // MAVProxy beside us at 255:230 is listed as a GCS and is no error.
-    assert!(a.vehicles.get((255, 230)).unwrap().is_gcs());
+    assert!(a.vehicles.get(VehicleKey(255, 230)).unwrap().is_gcs());
     assert!(
-        !a.notices.iter().any(|n| n.severity <= 3),
+        !a.notices.iter().any(|n| n.severity.0 <= 3),
         "{:?}",
         a.notices.iter().collect::<Vec<_>>()
     );
@@ -414,7 +419,7 @@ fn streams_are_asked_again_until_telemetry_comes_then_left_alone() {
     // Telemetry arrives: no more requests.
     let fx = fly(&mut a, 4 * SECOND, 60 * SECOND, &mut seq, true);
     assert_eq!(count_stream_requests(&fx), 0);
-    let s = &a.sessions[&(1, 1)].streams;
+    let s = &a.sessions[&VehicleKey(1, 1)].streams;
     let measured = s.measured(a.now, 0, 30).unwrap();
     assert!((measured - 10.0).abs() < 0.5, "{measured}");
 }
@@ -491,10 +496,10 @@ fn routing_follows_the_most_recent_link_and_switches_when_one_goes_down() {
         );
     }
     feed(&mut a, SECOND, 0, &heartbeat(1, 0, ARDUPILOT));
-    assert_eq!(a.route((1, 1)), Some(0));
+    assert_eq!(a.route(VehicleKey(1, 1)), Some(0));
     // Heard later on link 1 (another radio): commands go there.
     feed(&mut a, 2 * SECOND, 1, &heartbeat(1, 1, ARDUPILOT));
-    assert_eq!(a.route((1, 1)), Some(1));
+    assert_eq!(a.route(VehicleKey(1, 1)), Some(1));
     // Link 1 goes down: back to link 0, though 1 was heard last.
     a.update(
         3 * SECOND,
@@ -503,10 +508,10 @@ fn routing_follows_the_most_recent_link_and_switches_when_one_goes_down() {
             state: LinkState::Down("gone".into()),
         },
     );
-    assert_eq!(a.route((1, 1)), Some(0));
+    assert_eq!(a.route(VehicleKey(1, 1)), Some(0));
     // The operator pins link 1: used as soon as it is up again.
-    a.sessions.get_mut(&(1, 1)).unwrap().pinned = Some(1);
-    assert_eq!(a.route((1, 1)), Some(0));
+    a.sessions.get_mut(&VehicleKey(1, 1)).unwrap().pinned = Some(1);
+    assert_eq!(a.route(VehicleKey(1, 1)), Some(0));
     a.update(
         4 * SECOND,
         Event::LinkState {
@@ -514,7 +519,7 @@ fn routing_follows_the_most_recent_link_and_switches_when_one_goes_down() {
             state: LinkState::Up,
         },
     );
-    assert_eq!(a.route((1, 1)), Some(1));
+    assert_eq!(a.route(VehicleKey(1, 1)), Some(1));
 }
 
 #[test]
@@ -533,7 +538,7 @@ fn a_statustext_over_two_links_is_shown_once_and_chunks_are_joined() {
         .count();
     assert_eq!(shown, 1);
     assert_eq!(
-        a.links[1].sources[&(1, 1)].frames,
+        a.links[1].sources[&VehicleKey(1, 1)].frames,
         1,
         "counted on link 1 too"
     );
@@ -585,7 +590,7 @@ fn acknowledgements_with_newer_enum_values_are_kept_and_only_ours_are_read() {
         "target_system": 255, "target_component": 190}}),
     );
     feed(&mut a, 3000, 0, &odd);
-    assert_eq!(a.links[0].sources[&(7, 1)].seq.received, 4);
+    assert_eq!(a.links[0].sources[&VehicleKey(7, 1)].seq.received, 4);
 }
 
 #[test]
@@ -604,7 +609,7 @@ fn our_echo_is_ignored_but_another_gcs_at_our_id_is_shown() {
         "system_status": 4, "mavlink_version": 3}}),
     );
     feed(&mut a, 2000, 0, &qgc);
-    assert!(a.vehicles.get((255, 190)).unwrap().is_gcs());
+    assert!(a.vehicles.get(VehicleKey(255, 190)).unwrap().is_gcs());
     assert!(a
         .notices
         .iter()
@@ -625,9 +630,9 @@ fn frames_of_unknown_ids_make_no_source_and_no_loss() {
     bytes.extend(unknown(9, 0));
     bytes.extend(heartbeat(1, 1, ARDUPILOT));
     feed(&mut a, SECOND, 0, &bytes);
-    let src = &a.links[0].sources[&(1, 1)];
+    let src = &a.links[0].sources[&VehicleKey(1, 1)];
     assert_eq!((src.seq.received, src.seq.lost), (2, 0));
-    assert!(!a.links[0].sources.contains_key(&(9, 9)));
+    assert!(!a.links[0].sources.contains_key(&VehicleKey(9, 9)));
 }
 
 #[test]
@@ -658,7 +663,7 @@ fn a_link_that_reconnects_counts_afresh_and_asks_for_streams_again() {
     let mut fx = up(&mut a, 5 * SECOND + 200_000);
     seq = seq.wrapping_add(40);
     fx.extend(fly(&mut a, 6 * SECOND, 8 * SECOND, &mut seq, true));
-    assert_eq!(a.links[0].sources[&(1, 1)].seq.lost, 0);
+    assert_eq!(a.links[0].sources[&VehicleKey(1, 1)].seq.lost, 0);
     assert_eq!(
         count_stream_requests(&fx),
         1,

@@ -10,6 +10,7 @@ use mavterm::app::{App, AppConfig, Effect, Event};
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::keymap::Key;
 use mavterm::link::{FrameParser, LinkSpec, ParserStats};
+use mavterm::proto::vehicles::VehicleKey;
 use serde_json::json;
 
 const SECOND: u64 = 1_000_000;
@@ -29,7 +30,7 @@ fn assert_flying_at_10m(r: &VirtualRunner) {
     assert_eq!(v.custom_mode(), 4, "GUIDED");
     let alt = v.relative_alt_m();
     assert!((alt - 10.0).abs() <= 0.5, "altitude {alt}");
-    let ours = r.app.vehicles.get((1, 1)).unwrap();
+    let ours = r.app.vehicles.get(VehicleKey(1, 1)).unwrap();
     assert!(ours.armed());
     assert_eq!(ours.mode_name(), "GUIDED");
     let s = common::screen(r, 80, 24);
@@ -101,7 +102,10 @@ fn without_the_confirmation_key_nothing_is_sent() {
     common::keys(&mut r, &["n"]);
     wait(&mut r, 3.0);
     assert!(!sim(&r).vehicle(1).unwrap().armed());
-    assert_eq!(r.app.sessions[&(1, 1)].commands.entries().len(), 0);
+    assert_eq!(
+        r.app.sessions[&VehicleKey(1, 1)].commands.entries().len(),
+        0
+    );
     assert!(common::screen(&r, 80, 24).contains("cancelled: nothing sent"));
     // The key that asked never answers: `A` again, however late, cancels.
     common::keys(&mut r, &["A"]);
@@ -110,7 +114,10 @@ fn without_the_confirmation_key_nothing_is_sent() {
     wait(&mut r, 2.0);
     assert!(!sim(&r).vehicle(1).unwrap().armed());
     assert!(r.app.ui.confirm.is_none());
-    assert_eq!(r.app.sessions[&(1, 1)].commands.entries().len(), 0);
+    assert_eq!(
+        r.app.sessions[&VehicleKey(1, 1)].commands.entries().len(),
+        0
+    );
 }
 
 #[test]
@@ -129,7 +136,7 @@ fn a_refused_arm_shows_the_vehicles_reason_and_the_sequence_stops() {
         .unwrap_or_else(|| panic!("{texts:?}"));
     assert!(stop.contains("(arm)") && stop.contains("FAILED"), "{stop}");
     // The vehicle's reason is shown with the refusal.
-    let arm = r.app.sessions[&(1, 1)]
+    let arm = r.app.sessions[&VehicleKey(1, 1)]
         .commands
         .entries()
         .find(|e| e.spec.name() == "COMPONENT_ARM_DISARM")
@@ -139,7 +146,7 @@ fn a_refused_arm_shows_the_vehicles_reason_and_the_sequence_stops() {
         "{arm:?}"
     );
     // No take-off was sent after the refusal.
-    let sent: Vec<String> = r.app.sessions[&(1, 1)]
+    let sent: Vec<String> = r.app.sessions[&VehicleKey(1, 1)]
         .commands
         .entries()
         .map(|e| e.spec.name())
@@ -157,7 +164,10 @@ fn a_second_arm_while_the_first_is_pending_is_refused_locally() {
     common::yes(&mut r);
     let (_, msg) = r.app.ui.message.clone().unwrap();
     assert!(msg.contains("still waiting"), "{msg}");
-    assert_eq!(r.app.sessions[&(1, 1)].commands.entries().len(), 1);
+    assert_eq!(
+        r.app.sessions[&VehicleKey(1, 1)].commands.entries().len(),
+        1
+    );
 }
 
 #[test]
@@ -286,7 +296,7 @@ fn a_request_dropped_twice_is_resent_and_the_third_is_acked_and_shown_once() {
     let mut r = runner("drop_cmd=511:2");
     command(&mut r, "long SET_MESSAGE_INTERVAL 33 200000");
     wait(&mut r, 20.0);
-    let e = r.app.sessions[&(1, 1)]
+    let e = r.app.sessions[&VehicleKey(1, 1)]
         .commands
         .entries()
         .find(|e| e.spec.name() == "SET_MESSAGE_INTERVAL")
@@ -311,7 +321,7 @@ fn an_arm_whose_ack_is_lost_is_not_resent_and_is_reissued_with_one_key() {
     command(&mut r, "arm");
     common::yes(&mut r);
     wait(&mut r, 15.0);
-    let s = &r.app.sessions[&(1, 1)];
+    let s = &r.app.sessions[&VehicleKey(1, 1)];
     let arm: Vec<_> = s.commands.entries().collect();
     assert_eq!(arm.len(), 1);
     assert_eq!(arm[0].sends, 1, "never resent on its own");
@@ -336,7 +346,7 @@ fn a_vehicle_that_never_answers_shows_a_timeout() {
     let mut r = runner("drop_cmd=176:100");
     command(&mut r, "mode loiter");
     wait(&mut r, 30.0);
-    let e = r.app.sessions[&(1, 1)]
+    let e = r.app.sessions[&VehicleKey(1, 1)]
         .commands
         .entries()
         .next()

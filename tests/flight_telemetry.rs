@@ -11,6 +11,7 @@ use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::link::tlog::read_tlog;
 use mavterm::link::{FrameParser, LinkSpec};
 use mavterm::proto::telemetry::{FlightTelemetry, STALE_AFTER};
+use mavterm::proto::vehicles::VehicleKey;
 use mavterm::ui::{self, buffer_to_text, Theme};
 use serde_json::{json, Value};
 
@@ -25,7 +26,7 @@ fn replay() -> VirtualRunner {
 }
 
 fn flight(r: &VirtualRunner) -> &FlightTelemetry {
-    &r.app.sessions[&(1, 1)].flight
+    &r.app.sessions[&VehicleKey(1, 1)].flight
 }
 
 fn screen(app: &App, w: u16, h: u16) -> String {
@@ -149,7 +150,12 @@ fn capture_highest_relative_altitude_is_expected_jsons() {
     // GLOBAL_POSITION_INT comes at 10 Hz: steps of 10 ms see every one.
     for step in 0..8_300u64 {
         r.advance_to(step * 10_000);
-        if let Some(p) = r.app.sessions.get(&(1, 1)).and_then(|s| s.flight.position) {
+        if let Some(p) = r
+            .app
+            .sessions
+            .get(&VehicleKey(1, 1))
+            .and_then(|s| s.flight.position)
+        {
             highest = highest.max(p.value.relative_alt_m());
         }
     }
@@ -390,7 +396,7 @@ fn home_is_asked_for_every_few_seconds_until_it_comes() {
             "approach_x": 0.0, "approach_y": 0.0, "approach_z": 0.0}),
     );
     c.feed(12 * SECOND, &home);
-    let f = &c.app.sessions[&(1, 1)].flight;
+    let f = &c.app.sessions[&VehicleKey(1, 1)].flight;
     assert_eq!(f.home.unwrap().value.lat_e7, -353632621);
     // Known now: not asked again.
     for s in 13..40u64 {
@@ -412,7 +418,7 @@ fn a_gps_fix_type_newer_than_our_dialect_shows_as_a_number() {
     );
     assert!(FrameParser::new().parse_all(&gps)[0].message.is_none());
     c.feed(100_000, &gps);
-    let g = c.app.sessions[&(1, 1)].flight.gps.unwrap().value;
+    let g = c.app.sessions[&VehicleKey(1, 1)].flight.gps.unwrap().value;
     assert_eq!((g.fix_type, g.satellites), (200, Some(13)));
     let text = screen(&c.app, 80, 24);
     assert!(text.contains("GPS fix 200 13 sats"), "{text}");
@@ -456,7 +462,7 @@ fn speed_climb_and_heading_come_from_global_position_int_without_vfr_hud() {
                 "alt": 594000, "relative_alt": 10000, "vx": vx, "vy": vy, "vz": vz, "hdg": hdg}),
         )
     };
-    assert!(c.app.sessions[&(1, 1)].flight.motion.is_none());
+    assert!(c.app.sessions[&VehicleKey(1, 1)].flight.motion.is_none());
     c.feed(100_000, &gpi(1, 300, 400, -150, 9000));
     let text = screen(&c.app, 100, 24);
     let lines = flight_lines(&text);

@@ -14,6 +14,7 @@ use mavterm::driver::record::TlogTarget;
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::link::LinkSpec;
 use mavterm::proto::commands::State;
+use mavterm::proto::vehicles::VehicleKey;
 
 const SECOND: u64 = 1_000_000;
 /// MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, MAV_CMD_REQUEST_MESSAGE, MAV_CMD_SET_CAMERA_ZOOM (common).
@@ -35,7 +36,7 @@ fn runner(query: &str, tlog: Option<&std::path::Path>) -> VirtualRunner {
 
 /// Commands of the target session to (1, `compid`) with this command id, and their fate.
 fn sent(r: &VirtualRunner, compid: u8, command: u16) -> Vec<(State, [f64; 7])> {
-    r.app.sessions[&(1, 1)]
+    r.app.sessions[&VehicleKey(1, 1)]
         .commands
         .entries()
         .filter(|e| e.spec.target == (1, compid) && e.spec.command == command)
@@ -66,7 +67,7 @@ fn the_mount_is_discovered_shown_and_pointed_from_the_keys() {
     let dir = tempfile::tempdir().unwrap();
     let tlog = dir.path().join("gimbal.tlog");
     let mut r = runner("camera=1&gimbal=1", Some(&tlog));
-    let s = &r.app.sessions[&(1, 1)];
+    let s = &r.app.sessions[&VehicleKey(1, 1)];
     // ArduPilot's AP_Mount: manager on the autopilot (1), device id instance + 1 = 1, and the
     // MNT1_ default limits (pitch -90..20°, yaw -180..180°).
     let g = &s.gimbals.gimbals[&(1, 1)];
@@ -241,7 +242,7 @@ fn a_gimbal_without_a_camera_has_the_screen_to_itself() {
     // Taking control: MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE with our ids; the status says so.
     command(&mut r, "gimbal control");
     wait(&mut r, 1.0);
-    let g = &r.app.sessions[&(1, 1)].gimbals.gimbals[&(1, 1)];
+    let g = &r.app.sessions[&VehicleKey(1, 1)].gimbals.gimbals[&(1, 1)];
     assert_eq!(g.status.map(|s| s.primary), Some((255, 190)));
     let screen = common::screen(&r, 80, 24);
     assert!(screen.contains("control 255:190 (us)"), "{screen}");

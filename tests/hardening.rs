@@ -7,6 +7,7 @@ use mavterm::app::{App, AppConfig, Effect, Event};
 use mavterm::clock::{Micros, SECOND};
 use mavterm::dialect::{self, MavMessage};
 use mavterm::link::{FrameParser, LinkState, ParserStats};
+use mavterm::proto::vehicles::VehicleKey;
 use mavterm::wire::frame::{encode, Header, Version};
 
 fn heartbeat(sysid: u8, compid: u8, seq: u8) -> Vec<u8> {
@@ -35,7 +36,7 @@ use common::sent_messages as sent;
 fn a_heartbeat_flood_keeps_the_target_and_the_real_vehicle() {
     let mut a = two_links();
     feed(&mut a, 0, 0, &heartbeat(1, 1, 0));
-    assert_eq!(a.target, Some((1, 1)));
+    assert_eq!(a.target, Some(VehicleKey(1, 1)));
     let mut list_requests = Vec::new();
     let mut t: Micros = 0;
     let mut seq = 0u8;
@@ -61,9 +62,9 @@ fn a_heartbeat_flood_keeps_the_target_and_the_real_vehicle() {
                         list_requests.push(s);
                     }
                 }
-                assert_eq!(a.target, Some((1, 1)), "target moved at {t} µs");
+                assert_eq!(a.target, Some(VehicleKey(1, 1)), "target moved at {t} µs");
                 assert!(
-                    a.vehicles.get((1, 1)).is_some(),
+                    a.vehicles.get(VehicleKey(1, 1)).is_some(),
                     "real vehicle evicted at {t}"
                 );
             }
@@ -171,7 +172,7 @@ fn hostile_parameter_names_are_refused_and_never_reach_a_file() {
         );
     }
     a.update(3 * SECOND, Event::Tick);
-    let set = a.sessions[&(1, 1)].params.autopilot().unwrap();
+    let set = a.sessions[&VehicleKey(1, 1)].params.autopilot().unwrap();
     let kept: Vec<&String> = set.params.keys().collect();
     assert_eq!(kept, ["RTL_ALT", "WPNAV_SPEED"]);
     assert_eq!(set.refused, 6);
@@ -723,16 +724,16 @@ fn the_target_stays_on_a_payload_when_an_autopilot_appears_on_its_sysid() {
             dialect::MavAutopilot::MAV_AUTOPILOT_INVALID,
         ),
     );
-    assert_eq!(a.target, Some((5, 100)));
+    assert_eq!(a.target, Some(VehicleKey(5, 100)));
     feed(&mut a, SECOND, 1, &heartbeat(5, 1, 0));
-    assert_eq!(a.target, Some((5, 100)), "the target moved");
+    assert_eq!(a.target, Some(VehicleKey(5, 100)), "the target moved");
     assert!(
-        a.sessions.contains_key(&(5, 100)),
+        a.sessions.contains_key(&VehicleKey(5, 100)),
         "the target's session was dropped"
     );
     // Later vehicles take no target either.
     feed(&mut a, 2 * SECOND, 1, &heartbeat(6, 1, 0));
-    assert_eq!(a.target, Some((5, 100)));
+    assert_eq!(a.target, Some(VehicleKey(5, 100)));
 }
 
 /// Item 1 (round two): new autopilots arriving below the flood threshold (one every 2 s, 40 of
@@ -771,8 +772,8 @@ fn a_busy_non_target_vehicle_survives_a_flood() {
     feed(&mut a, 0, 0, &heartbeat(1, 1, 0));
     feed(&mut a, 0, 0, &heartbeat(2, 1, 0));
     a.update(0, Event::Tick);
-    assert_eq!(a.target, Some((1, 1)));
-    assert!(a.sessions[&(2, 1)].params.downloading().is_some());
+    assert_eq!(a.target, Some(VehicleKey(1, 1)));
+    assert!(a.sessions[&VehicleKey(2, 1)].params.downloading().is_some());
     let mut t: Micros = 0;
     let mut batch = Vec::new();
     for sysid in 100..=110u8 {
@@ -784,11 +785,11 @@ fn a_busy_non_target_vehicle_survives_a_flood() {
         batch.clear();
         a.update(t, Event::Tick);
         assert!(
-            a.vehicles.get((2, 1)).is_some(),
+            a.vehicles.get(VehicleKey(2, 1)).is_some(),
             "busy vehicle evicted at {t}"
         );
     }
-    assert_eq!(a.target, Some((1, 1)));
+    assert_eq!(a.target, Some(VehicleKey(1, 1)));
 }
 
 /// Item 6 (round two): a FIFO given as `--input`, `--keymap` or `--config` is refused at once,

@@ -12,6 +12,7 @@ use mavterm::dialect::{self, MavMessage};
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::keymap::{Key, Mode};
 use mavterm::link::{FrameParser, LinkSpec, ParserStats};
+use mavterm::proto::vehicles::VehicleKey;
 use mavterm::sim::Sim;
 use mavterm::ui::{buffer_to_text, render_to_buffer, Theme};
 use mavterm::wire::frame::{crc_extra, encode, frame_crc, Header, Version};
@@ -260,7 +261,7 @@ fn a_rate_asked_from_the_inspector_is_honoured_and_measured() {
             .message_interval(GLOBAL_POSITION_INT),
         Some(100_000)
     );
-    let entry = r.app.sessions[&(1, 1)]
+    let entry = r.app.sessions[&VehicleKey(1, 1)]
         .commands
         .entries()
         .last()
@@ -311,17 +312,23 @@ fn a_rate_asked_from_the_inspector_is_honoured_and_measured() {
     assert!(row.contains("0.0 Hz"), "{row}");
     assert!(s.contains("asked off: ACCEPTED"), "{s}");
     // Something that is not a rate is refused, nothing sent.
-    let sent = r.app.sessions[&(1, 1)].commands.entries().len();
+    let sent = r.app.sessions[&VehicleKey(1, 1)].commands.entries().len();
     set_rate(&mut r, "fast");
     assert!(
         last_line(&screen(&r)).contains("a rate in Hz"),
         "{}",
         screen(&r)
     );
-    assert_eq!(r.app.sessions[&(1, 1)].commands.entries().len(), sent);
+    assert_eq!(
+        r.app.sessions[&VehicleKey(1, 1)].commands.entries().len(),
+        sent
+    );
     // esc leaves the rate alone.
     common::keys(&mut r, &["r", "5", "esc"]);
-    assert_eq!(r.app.sessions[&(1, 1)].commands.entries().len(), sent);
+    assert_eq!(
+        r.app.sessions[&VehicleKey(1, 1)].commands.entries().len(),
+        sent
+    );
 }
 
 /// EXTENDED_SYS_STATE from 1:1 with `landed_state`.

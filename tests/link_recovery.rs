@@ -13,6 +13,7 @@ use mavterm::app::links::LinkState;
 use mavterm::app::{App, AppConfig};
 use mavterm::driver::real_time::{NoFrontend, RealTime};
 use mavterm::link::LinkSpec;
+use mavterm::proto::vehicles::VehicleKey;
 use tokio::io::AsyncWriteExt;
 use tokio::net::TcpListener;
 
@@ -97,7 +98,7 @@ async fn tcp_peer_goes_away_and_comes_back() {
         })
         .await
     );
-    let src = &rt.app.links[0].sources[&(1, 1)];
+    let src = &rt.app.links[0].sources[&VehicleKey(1, 1)];
     assert_eq!((src.seq.received, src.seq.lost), (10, 0));
     // The operator was told.
     let texts: Vec<&str> = rt.app.notices.iter().map(|n| n.text.as_str()).collect();
@@ -195,7 +196,7 @@ async fn udpin_replies_to_every_peer_heard() {
     while rt.app.vehicles.len() < 2 {
         assert!(rt.now() < end, "{} vehicles heard", rt.app.vehicles.len());
         for (s, sysid) in [(&a, 1), (&b, 2)] {
-            if rt.app.vehicles.get((sysid, 1)).is_none() {
+            if rt.app.vehicles.get(VehicleKey(sysid, 1)).is_none() {
                 s.send_to(&common::copter_heartbeat(sysid, 0, 0), ("127.0.0.1", port))
                     .await
                     .unwrap();

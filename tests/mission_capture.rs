@@ -16,6 +16,7 @@ use mavterm::link::tlog::read_tlog;
 use mavterm::link::{Frame, FrameParser, ParserStats};
 use mavterm::mission::{upload_warnings, MissionItem, MissionType};
 use mavterm::proto::mission::{MissionEvent, MissionMachine, MissionMsg, MissionOut, Request};
+use mavterm::proto::vehicles::VehicleKey;
 use serde_json::{json, Value};
 
 fn data(name: &str) -> String {
@@ -101,7 +102,7 @@ fn the_real_arducopter_mission_session_replays_through_the_machine() {
     let start = gcs.iter().find(|(_, f)| f.msgid == 44).unwrap().0 - t0;
 
     let mut r = Replay {
-        m: MissionMachine::new((1, 1)),
+        m: MissionMachine::new(VehicleKey(1, 1)),
         sent: Vec::new(),
         events: Vec::new(),
     };
@@ -166,7 +167,7 @@ fn the_real_arducopter_mission_session_replays_through_the_machine() {
             retry_in: Some(3 * SECOND)
         }
     );
-    let (_, text) = refused.notice((1, 1)).unwrap();
+    let (_, text) = refused.notice(VehicleKey(1, 1)).unwrap();
     assert_eq!(
         text,
         "mission upload refused by 1:1: NO_SPACE, trying again in 3 s"

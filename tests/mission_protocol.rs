@@ -14,10 +14,11 @@ use mavterm::proto::mission::{
     MissionEvent, MissionMachine, MissionMsg, MissionOut, Request, ACK_TIMEOUT, ITEM_TIMEOUT,
     NO_SPACE_WAIT, VEHICLE_WAIT,
 };
+use mavterm::proto::vehicles::VehicleKey;
 use mavterm::wire::frame::{encode, Header, Version};
 use serde_json::{json, Value};
 
-const V: (u8, u8) = (1, 1);
+const V: VehicleKey = VehicleKey(1, 1);
 
 fn from_vehicle(msg: &str, fields: Value) -> Value {
     json!({"sysid": 1, "compid": 1, "msg": msg, "fields": fields})
@@ -554,7 +555,7 @@ fn the_session_routes_the_vehicles_mission_messages_and_its_timeouts() {
     // Ours: item 0 asked for, on the link, addressed to the vehicle.
     let sent = mission_sends(&feed(&mut app, 20_000, &vehicle_frame(2, &count(250, 191))));
     assert!(matches!(&sent[..], [MavMessage::MISSION_REQUEST_INT(r)]
-        if r.seq == 0 && (r.target_system, r.target_component) == V
+        if r.seq == 0 && VehicleKey(r.target_system, r.target_component) == V
             && r.mission_type == MavMissionType::MAV_MISSION_TYPE_RALLY));
     // The core wakes for the item timeout and asks again.
     let due = app.next_deadline();

@@ -9,6 +9,7 @@ use mavterm::app::AppConfig;
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::link::LinkSpec;
 use mavterm::mission::{wpl, MissionType};
+use mavterm::proto::vehicles::VehicleKey;
 
 const SECOND: u64 = 1_000_000;
 
@@ -34,7 +35,7 @@ fn settle(r: &mut VirtualRunner, limit: u64) {
     while r.now() < end {
         let t = r.now() + SECOND / 2;
         r.advance_to(t);
-        let s = &r.app.sessions[&(1, 1)];
+        let s = &r.app.sessions[&VehicleKey(1, 1)];
         if !s.mission.busy() && s.mission.queued().count() == 0 {
             return;
         }
@@ -127,7 +128,7 @@ fn round_trip(query: &str) {
         }
         command(&mut r, &format!("{word} download"));
         settle(&mut r, 120);
-        let k = r.app.sessions[&(1, 1)].mission.known(*t).unwrap();
+        let k = r.app.sessions[&VehicleKey(1, 1)].mission.known(*t).unwrap();
         assert!(k.downloaded);
         assert_eq!(k.items.len(), want.items.len(), "{word}");
         for (got, file) in k.items.iter().zip(&want.items) {
@@ -143,7 +144,7 @@ fn round_trip(query: &str) {
         let saved = dir.path().join(format!("{word}-saved.waypoints"));
         command(&mut r, &format!("{word} save {}", saved.display()));
         let back = std::fs::read_to_string(&saved).unwrap();
-        let k = r.app.sessions[&(1, 1)].mission.known(*t).unwrap();
+        let k = r.app.sessions[&VehicleKey(1, 1)].mission.known(*t).unwrap();
         assert!(
             wpl::parse(&back, *t).items == k.items,
             "{word} saved: {back}"
@@ -193,7 +194,7 @@ fn a_mixed_frame_file_asks_first_and_no_sends_nothing() {
         "{fx:?}"
     );
     settle(&mut r, 5);
-    let s = &r.app.sessions[&(1, 1)];
+    let s = &r.app.sessions[&VehicleKey(1, 1)];
     assert!(s.mission.known(MissionType::Mission).is_none());
     assert!(r.app.ui.message.as_ref().unwrap().1.contains("cancelled"));
 }

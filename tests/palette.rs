@@ -9,6 +9,7 @@ use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::keymap::{Key, Mode};
 use mavterm::link::{FrameParser, LinkSpec, ParserStats};
 use mavterm::proto::commands::State;
+use mavterm::proto::vehicles::VehicleKey;
 use mavterm::sim::Sim;
 use mavterm::ui::{buffer_to_text, render_to_buffer, Theme};
 use mavterm::wire::{frame, Header, Version};
@@ -106,12 +107,19 @@ fn arm_from_the_palette_asks_first_then_arms_the_sim() {
     assert_eq!(r.app.ui.mode, Mode::Normal);
     let c = r.app.ui.confirm.as_ref().expect("a confirmation");
     assert!(c.text.contains("COMPONENT_ARM_DISARM") && c.text.contains("1:1"));
-    assert_eq!(r.app.sessions[&(1, 1)].commands.entries().len(), 0);
+    assert_eq!(
+        r.app.sessions[&VehicleKey(1, 1)].commands.entries().len(),
+        0
+    );
     wait(&mut r, 0.5); // a `y` sooner than 0.3 s after the question does not count
     keys(&mut r, &["y"]);
     wait(&mut r, 2.0);
     assert!(sim(&r).vehicle(1).unwrap().armed());
-    let e = r.app.sessions[&(1, 1)].commands.entries().next().unwrap();
+    let e = r.app.sessions[&VehicleKey(1, 1)]
+        .commands
+        .entries()
+        .next()
+        .unwrap();
     assert_eq!((e.spec.target, e.spec.command), ((1, 1), 400));
     assert_eq!(e.spec.params, [1.0, 0., 0., 0., 0., 0., 0.]);
     assert_eq!(e.state, State::Done(0));
@@ -157,7 +165,10 @@ fn a_wrong_field_or_target_keeps_the_palette_open_and_sends_nothing() {
         keys(&mut r, &["enter"]);
         assert!(error(&r).contains(why), "{target}: {}", error(&r));
     }
-    assert_eq!(r.app.sessions[&(1, 1)].commands.entries().len(), 0);
+    assert_eq!(
+        r.app.sessions[&VehicleKey(1, 1)].commands.entries().len(),
+        0
+    );
     // Esc: back to the list, then closed.
     keys(&mut r, &["esc"]);
     let p = r.app.ui.palette.as_ref().unwrap();
@@ -178,7 +189,11 @@ fn a_wrong_field_or_target_keeps_the_palette_open_and_sends_nothing() {
     assert!(r.app.ui.palette.is_none() && r.app.ui.confirm.is_none());
     let (_, msg) = r.app.ui.message.clone().unwrap();
     assert_eq!(msg, "NAV_LAND: sent");
-    let e = r.app.sessions[&(1, 1)].commands.entries().next().unwrap();
+    let e = r.app.sessions[&VehicleKey(1, 1)]
+        .commands
+        .entries()
+        .next()
+        .unwrap();
     assert_eq!(e.spec.command, 21);
     assert!(e.spec.params[3].is_nan());
 }
@@ -242,7 +257,7 @@ fn a_camera_is_reached_through_its_vehicle_and_its_ack_is_matched() {
             ),
         ),
     );
-    assert_eq!(a.target, Some((1, 1)));
+    assert_eq!(a.target, Some(VehicleKey(1, 1)));
     let key = |a: &mut App, k: &str| a.update(1000, Event::Key(k.parse::<Key>().unwrap()));
     key(&mut a, "ctrl-p");
     for c in "image start".chars() {
@@ -289,7 +304,7 @@ fn a_camera_is_reached_through_its_vehicle_and_its_ack_is_matched() {
     });
     a.update(200_000, frames_from((1, 100), 1, &ack));
     // (The camera's heartbeat also started its discovery: a REQUEST_MESSAGE of its own.)
-    let e = a.sessions[&(1, 1)]
+    let e = a.sessions[&VehicleKey(1, 1)]
         .commands
         .entries()
         .find(|e| e.spec.command == MavCmd::MAV_CMD_IMAGE_START_CAPTURE as u16)
@@ -324,5 +339,8 @@ fn the_takeoff_form_shows_units_and_the_command_long_to_be_sent() {
     insta::assert_snapshot!("palette_takeoff_form_80x24", s);
     keys(&mut r, &["esc", "esc"]);
     assert!(r.app.ui.palette.is_none());
-    assert_eq!(r.app.sessions[&(1, 1)].commands.entries().len(), 0);
+    assert_eq!(
+        r.app.sessions[&VehicleKey(1, 1)].commands.entries().len(),
+        0
+    );
 }

@@ -9,6 +9,7 @@ use std::collections::BTreeMap;
 use mavterm::app::AppConfig;
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::link::LinkSpec;
+use mavterm::proto::vehicles::VehicleKey;
 use mavterm::sim::Sim;
 
 const SECOND: u64 = 1_000_000;
@@ -18,7 +19,7 @@ fn downloaded() -> VirtualRunner {
     let mut r = VirtualRunner::from_specs(&[spec], AppConfig::default()).unwrap();
     for i in 1..120 {
         r.advance_to(i * SECOND / 2);
-        if r.app.sessions[&(1, 1)]
+        if r.app.sessions[&VehicleKey(1, 1)]
             .params
             .autopilot()
             .is_some_and(|p| p.complete())

@@ -13,6 +13,7 @@ use mavterm::keymap::Mode;
 use mavterm::link::LinkSpec;
 use mavterm::params::meta::MetaSet;
 use mavterm::proto::params::EditState;
+use mavterm::proto::vehicles::VehicleKey;
 use mavterm::sim::Sim;
 
 const SECOND: u64 = 1_000_000;
@@ -41,7 +42,7 @@ fn wait(r: &mut VirtualRunner, secs: f64) {
 fn downloaded(mut r: VirtualRunner) -> VirtualRunner {
     for _ in 0..120 {
         wait(&mut r, 0.5);
-        let done = r.app.sessions.get(&(1, 1)).is_some_and(|s| {
+        let done = r.app.sessions.get(&VehicleKey(1, 1)).is_some_and(|s| {
             s.params.downloading().is_none() && s.params.autopilot().is_some_and(|p| p.complete())
         });
         if done {
@@ -324,7 +325,7 @@ fn progress_shows_while_a_slow_download_runs() {
     let mut r = runner_with("?baud=57600", None);
     wait(&mut r, 3.0);
     common::keys(&mut r, &["2"]);
-    let (comp, got, count, method) = r.app.sessions[&(1, 1)]
+    let (comp, got, count, method) = r.app.sessions[&VehicleKey(1, 1)]
         .params
         .downloading()
         .expect("still downloading");
@@ -394,5 +395,8 @@ fn a_files_differences_are_marked_and_can_be_shown_alone() {
     // `f` downloads again.
     common::keys(&mut r, &["f"]);
     assert!(screen(&r).contains("fetching the parameters of 1:1"));
-    assert!(r.app.sessions[&(1, 1)].params.downloading().is_some());
+    assert!(r.app.sessions[&VehicleKey(1, 1)]
+        .params
+        .downloading()
+        .is_some());
 }

@@ -7,6 +7,7 @@ use mavterm::clock::SECOND;
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::link::LinkSpec;
 use mavterm::params::value::ParamType;
+use mavterm::proto::vehicles::VehicleKey;
 use mavterm::sim::Sim;
 
 fn download(query: &str) -> (VirtualRunner, String) {
@@ -34,7 +35,10 @@ fn check(query: &str, method: &str) {
     eprintln!("{query}: {line}");
     let sim = r.source(0).unwrap().as_any().downcast_ref::<Sim>().unwrap();
     let table = sim.vehicles()[0].params();
-    let set = r.app.sessions[&(1, 1)].params.autopilot().unwrap();
+    let set = r.app.sessions[&VehicleKey(1, 1)]
+        .params
+        .autopilot()
+        .unwrap();
     assert!(set.complete(), "{query}: {line}");
     assert_eq!(set.params.len(), table.len(), "{query}");
     for p in table.iter() {

@@ -8,6 +8,7 @@ use mavterm::app::AppConfig;
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::keymap::Mode;
 use mavterm::link::LinkSpec;
+use mavterm::proto::vehicles::VehicleKey;
 
 fn runner(query: &str) -> VirtualRunner {
     let spec: LinkSpec = format!("sim://?{query}").parse().unwrap();
@@ -44,11 +45,11 @@ fn keys_type_in_the_prompt_and_esc_leaves_it() {
 #[test]
 fn target_command_and_its_errors_show_on_the_status_line() {
     let mut r = runner("vehicles=2");
-    assert_eq!(r.app.target, Some((1, 1)));
+    assert_eq!(r.app.target, Some(VehicleKey(1, 1)));
     common::keys(&mut r, &[":"]);
     common::typed(&mut r, "target 2");
     common::keys(&mut r, &["enter"]);
-    assert_eq!(r.app.target, Some((2, 1)));
+    assert_eq!(r.app.target, Some(VehicleKey(2, 1)));
     assert!(
         status_line(&r).ends_with("target 2:1"),
         "{}",
@@ -57,7 +58,7 @@ fn target_command_and_its_errors_show_on_the_status_line() {
     common::keys(&mut r, &[":"]);
     common::typed(&mut r, "target 9");
     common::keys(&mut r, &["enter"]);
-    assert_eq!(r.app.target, Some((2, 1)));
+    assert_eq!(r.app.target, Some(VehicleKey(2, 1)));
     let s = status_line(&r);
     assert!(s.contains("no autopilot 9 heard"), "{s}");
     common::keys(&mut r, &[":"]);
@@ -83,7 +84,7 @@ fn history_and_completion() {
     assert!(s.contains(":target "), "{s}");
     common::typed(&mut r, "2");
     common::keys(&mut r, &["tab", "enter"]);
-    assert_eq!(r.app.target, Some((2, 1)));
+    assert_eq!(r.app.target, Some(VehicleKey(2, 1)));
     common::keys(&mut r, &[":", "up"]);
     assert_eq!(r.app.ui.prompt.line.text, "target 2:1");
     common::keys(&mut r, &["esc"]);
@@ -99,11 +100,17 @@ fn link_command_opens_a_link_at_run_time() {
     let t = r.now() + 3_000_000;
     r.advance_to(t);
     assert!(
-        r.app.vehicles.get((5, 1)).is_some(),
+        r.app.vehicles.get(VehicleKey(5, 1)).is_some(),
         "the new link's vehicle"
     );
-    assert_eq!(r.app.vehicles.get((5, 1)).unwrap().links.len(), 1);
-    assert!(r.app.vehicles.get((5, 1)).unwrap().links.contains(&1));
+    assert_eq!(r.app.vehicles.get(VehicleKey(5, 1)).unwrap().links.len(), 1);
+    assert!(r
+        .app
+        .vehicles
+        .get(VehicleKey(5, 1))
+        .unwrap()
+        .links
+        .contains(&1));
     // A bad spec is refused with the parser's reason, nothing opened.
     common::keys(&mut r, &[":"]);
     common::typed(&mut r, "link udpin:::14550");
@@ -123,8 +130,8 @@ fn route_pins_the_target_to_a_link() {
     common::keys(&mut r, &[":"]);
     common::typed(&mut r, "route 0");
     common::keys(&mut r, &["enter"]);
-    assert_eq!(r.app.sessions[&(1, 1)].pinned, Some(0));
-    assert_eq!(r.app.route((1, 1)), Some(0));
+    assert_eq!(r.app.sessions[&VehicleKey(1, 1)].pinned, Some(0));
+    assert_eq!(r.app.route(VehicleKey(1, 1)), Some(0));
 }
 
 #[test]

@@ -10,6 +10,7 @@ use mavterm::app::AppConfig;
 use mavterm::headless::replay::{run_script_on_specs, ReplayOptions};
 use mavterm::headless::script::Script;
 use mavterm::link::LinkSpec;
+use mavterm::proto::vehicles::VehicleKey;
 
 const SIM: &str = "sim://?vehicles=2&loss=0.05&dup=0.01&reorder=0.02&corrupt=0.002&seed=7";
 
@@ -179,7 +180,7 @@ fn a_vehicle_that_falls_silent_is_shown_lost() {
     )
     .unwrap();
     assert!(outcome.completed);
-    assert!(app.vehicles.get((1, 1)).unwrap().lost);
+    assert!(app.vehicles.get(VehicleKey(1, 1)).unwrap().lost);
     let text = String::from_utf8(out).unwrap();
     let lost = text.split("=== snapshot lost").nth(1).unwrap();
     assert!(lost.contains("vehicle 1:1 lost"), "{lost}");

@@ -11,6 +11,7 @@ use mavterm::app::{App, AppConfig, Event};
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::keymap::Key;
 use mavterm::link::{FrameParser, LinkSpec, ParserStats};
+use mavterm::proto::vehicles::VehicleKey;
 use serde_json::{json, Value};
 
 const SECOND: u64 = 1_000_000;
@@ -344,9 +345,9 @@ fn a_question_expires_when_the_target_or_the_vehicles_state_changes() {
     let (mut b, ix) = Bench::new(&[(1, &[(0, false)]), (2, &[(0, false)])]);
     b.feed(0.0, ix[0][0]);
     b.feed(0.0, ix[1][0]);
-    assert_eq!(b.app.target, Some((1, 1)));
+    assert_eq!(b.app.target, Some(VehicleKey(1, 1)));
     b.keys(1.0, &["A"]);
-    b.app.target = Some((2, 1));
+    b.app.target = Some(VehicleKey(2, 1));
     let mut out = b.tick_to(1.2);
     assert!(b.app.ui.confirm.is_none(), "expired on the retarget");
     out.extend(b.keys(1.5, &["y"]));
@@ -370,7 +371,7 @@ fn a_question_expires_when_the_target_or_the_vehicles_state_changes() {
 fn a_queued_file_load_does_not_steal_a_y() {
     let mut r = runner("");
     for i in 0..60 {
-        if r.app.sessions[&(1, 1)]
+        if r.app.sessions[&VehicleKey(1, 1)]
             .params
             .autopilot()
             .is_some_and(|p| p.complete())
@@ -453,7 +454,7 @@ fn mode_land_goes_out_at_once_during_a_takeoff_and_abandons_it() {
     assert_eq!(set_mode(&out, 4.0), 1, "GUIDED first: {out:?}");
     assert_eq!(commands(&out, 400).len(), 1, "then the arm: {out:?}");
     assert!(
-        r.app.sessions[&(1, 1)].sequence.is_some(),
+        r.app.sessions[&VehicleKey(1, 1)].sequence.is_some(),
         "waiting for the arm"
     );
     command(&mut r, "mode land");
@@ -507,7 +508,7 @@ fn takeoff_waiting_for_the_arm(r: &mut VirtualRunner) {
         }
     }
     assert_eq!(commands(&out, 400).len(), 1, "the arm: {out:?}");
-    assert!(r.app.sessions[&(1, 1)].sequence.is_some());
+    assert!(r.app.sessions[&VehicleKey(1, 1)].sequence.is_some());
 }
 
 #[test]
@@ -528,7 +529,7 @@ fn a_long_or_palette_land_during_a_takeoff_goes_out_and_abandons_it() {
         };
         assert_eq!(commands(&out, number).len(), 1, "{way} at once: {out:?}");
         assert!(
-            r.app.sessions[&(1, 1)]
+            r.app.sessions[&VehicleKey(1, 1)]
                 .sequence
                 .as_ref()
                 .is_none_or(|s| s.finished()),
@@ -544,11 +545,11 @@ fn a_long_or_palette_land_during_a_takeoff_goes_out_and_abandons_it() {
     b.feed(0.0, ix[0][0]);
     b.command(0.5, "takeoff 10");
     b.keys(1.0, &["y"]);
-    assert!(b.app.sessions[&(1, 1)].sequence.is_some());
+    assert!(b.app.sessions[&VehicleKey(1, 1)].sequence.is_some());
     let out = operator_frames(&from_palette(&mut b, 1.2, 21, "NAV_LAND", [0.0, 0.0]));
     assert_eq!(commands(&out, 21).len(), 1, "palette: {out:?}");
     assert!(
-        b.app.sessions[&(1, 1)]
+        b.app.sessions[&VehicleKey(1, 1)]
             .sequence
             .as_ref()
             .is_none_or(|s| s.finished()),
@@ -574,7 +575,7 @@ fn a_mode_name_that_does_not_resolve_cancels_nothing() {
     let mut r = runner("drop_cmd=400:1");
     takeoff_waiting_for_the_arm(&mut r);
     command(&mut r, "mode lnad");
-    assert!(r.app.sessions[&(1, 1)]
+    assert!(r.app.sessions[&VehicleKey(1, 1)]
         .sequence
         .as_ref()
         .is_some_and(|s| !s.finished()));
@@ -961,7 +962,7 @@ fn a_lost_camera_gets_nothing() {
     for (s, &i) in ix[0].iter().enumerate().take(8).skip(1) {
         later.extend(b.feed(s as f64, i));
     }
-    assert!(b.app.vehicles.get((1, 100)).unwrap().lost);
+    assert!(b.app.vehicles.get(VehicleKey(1, 100)).unwrap().lost);
     later.extend(b.command(8.0, "camera shoot"));
     later.extend(b.command(8.1, "camera video start"));
     let later = operator_frames(&later);

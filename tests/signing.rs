@@ -17,6 +17,7 @@ use mavterm::app::signing::SigningConfig;
 use mavterm::app::{App, AppConfig, Effect, Event};
 use mavterm::clock::{Micros, SECOND};
 use mavterm::keymap::Key;
+use mavterm::proto::vehicles::VehicleKey;
 use mavterm::wire::signing::SecretKey;
 use mavterm::wire::FrameParser;
 
@@ -256,9 +257,9 @@ fn frames_pymavlink_signs_are_taken() {
     for (i, f) in frames.iter().enumerate() {
         feed(&mut a, 100_000 * (i as u64 + 1), 0, f);
     }
-    let v = a.vehicles.get((1, 1)).expect("vehicle heard");
+    let v = a.vehicles.get(VehicleKey(1, 1)).expect("vehicle heard");
     assert_eq!(v.custom_mode, 4);
-    assert_eq!(a.target, Some((1, 1)));
+    assert_eq!(a.target, Some(VehicleKey(1, 1)));
     let c = counts(&a, 0, (1, 1));
     assert_eq!(c["signed"], 3, "{c}");
     assert_eq!(c["rejected"], 0, "{c}");
@@ -290,7 +291,7 @@ fn tampered_wrong_key_replayed_and_stale_frames_are_rejected_and_counted() {
     let stale = sign(&key, 9, t0 - 2 * 6_000_000, &[copter_hb(1, 4, 6)]);
     feed(&mut a, 600_000, 0, &stale[0]);
     assert_eq!(
-        a.vehicles.get((1, 1)).unwrap().custom_mode,
+        a.vehicles.get(VehicleKey(1, 1)).unwrap().custom_mode,
         4,
         "no rejected frame was read"
     );
@@ -321,7 +322,7 @@ fn tampered_wrong_key_replayed_and_stale_frames_are_rejected_and_counted() {
     // A good frame after all that is still taken.
     let next = sign(&key, 0, t0 + 300, &[copter_hb(1, 5, 5)]);
     feed(&mut a, 700_000, 0, &next[0]);
-    assert_eq!(a.vehicles.get((1, 1)).unwrap().custom_mode, 5);
+    assert_eq!(a.vehicles.get(VehicleKey(1, 1)).unwrap().custom_mode, 5);
 }
 
 #[test]
@@ -352,7 +353,7 @@ fn unsigned_frames_are_rejected_with_a_key_but_radio_status() {
         feed(&mut a, (i as u64 + 1) * 100_000, 0, f);
     }
     assert!(
-        a.vehicles.get((1, 1)).is_none(),
+        a.vehicles.get(VehicleKey(1, 1)).is_none(),
         "unsigned heartbeats rejected"
     );
     let c = counts(&a, 0, (1, 1));
@@ -375,7 +376,7 @@ fn unsigned_frames_are_rejected_with_a_key_but_radio_status() {
     );
     // On the ?secure=1 link (a USB cable) unsigned frames are taken, and counted.
     feed(&mut a, SECOND, 1, &unsigned[0]);
-    assert!(a.vehicles.get((1, 1)).is_some());
+    assert!(a.vehicles.get(VehicleKey(1, 1)).is_some());
     let c = counts(&a, 1, (1, 1));
     assert_eq!(
         (c["unsigned"].as_u64(), c["rejected"].as_u64()),
@@ -388,7 +389,10 @@ fn unsigned_frames_are_rejected_with_a_key_but_radio_status() {
     for (i, f) in unsigned.iter().enumerate() {
         feed(&mut a, (i as u64 + 1) * 100_000, 0, f);
     }
-    assert!(a.vehicles.get((1, 1)).is_some(), "heartbeat taken");
+    assert!(
+        a.vehicles.get(VehicleKey(1, 1)).is_some(),
+        "heartbeat taken"
+    );
     let c = counts(&a, 0, (1, 1));
     // Heartbeat (v2 and v1) taken, SYS_STATUS rejected.
     assert_eq!(
@@ -406,7 +410,9 @@ fn without_a_key_everything_is_taken_and_a_signing_vehicle_is_warned_of() {
     feed(&mut a, 100_000, 0, &signed[0]);
     feed(&mut a, 200_000, 0, &signed[1]);
     feed(&mut a, 300_000, 0, &common::copter_heartbeat(2, 0, 0));
-    assert!(a.vehicles.get((1, 1)).is_some() && a.vehicles.get((2, 1)).is_some());
+    assert!(
+        a.vehicles.get(VehicleKey(1, 1)).is_some() && a.vehicles.get(VehicleKey(2, 1)).is_some()
+    );
     let c = counts(&a, 0, (1, 1));
     assert_eq!(
         (c["unchecked"].as_u64(), c["rejected"].as_u64()),
@@ -554,7 +560,7 @@ fn signing_setup_and_off_go_only_confirmed_and_only_on_a_secure_link() {
     let mut a = app(&links, Some(PASS), false);
     let radio = sign(&key, 0, spec_ts(0), &[copter_hb(1, 0, 0)]);
     feed(&mut a, 100_000, 0, &radio[0]);
-    assert_eq!(a.target, Some((1, 1)));
+    assert_eq!(a.target, Some(VehicleKey(1, 1)));
     let fx = command(&mut a, 200_000, "signing setup");
     assert!(setup_signing(&fx).is_empty() && a.ui.confirm.is_none());
     let msg = a.ui.message.clone().unwrap().1;
@@ -798,7 +804,10 @@ fn a_frame_dated_the_end_of_time_is_refused_and_the_link_goes_on() {
     assert_eq!(c["future"], 2, "{c}");
     assert_eq!(c["signed"], 5, "{c}");
     assert_eq!(c["rejected"], 2, "{c}");
-    let v = a.vehicles.get((1, 1)).expect("the vehicle is heard");
+    let v = a
+        .vehicles
+        .get(VehicleKey(1, 1))
+        .expect("the vehicle is heard");
     assert_eq!(v.custom_mode, 4, "the end-of-time frame (mode 6) not read");
     // Named once, with its stream and its date (2^48-1 x 10 µs after 2015-01-01 is
     // 2104-03-13 02:56:07 UTC).
@@ -845,7 +854,7 @@ fn a_frame_dated_the_end_of_time_is_refused_and_the_link_goes_on() {
     // A new stream of a vehicle whose clock is right is still taken.
     let other = sign(&key, 2, spec_ts(41 * SECOND), &[copter_hb(1, 9, 5)]);
     feed(&mut a, 41 * SECOND, 0, &other[0]);
-    assert_eq!(a.vehicles.get((1, 1)).unwrap().custom_mode, 5);
+    assert_eq!(a.vehicles.get(VehicleKey(1, 1)).unwrap().custom_mode, 5);
 }
 
 #[test]
@@ -854,7 +863,11 @@ fn a_frame_from_the_future_on_a_trusted_link_is_taken_but_moves_no_clock() {
     let mut a = app(&["serial:/dev/ttyACM0?secure=1"], Some(PASS), false);
     let end = sign(&key, 0, MAX_TIMESTAMP, &[copter_hb(1, 0, 6)]);
     feed(&mut a, 100_000, 0, &end[0]);
-    assert_eq!(a.vehicles.get((1, 1)).unwrap().custom_mode, 6, "taken");
+    assert_eq!(
+        a.vehicles.get(VehicleKey(1, 1)).unwrap().custom_mode,
+        6,
+        "taken"
+    );
     let c = counts(&a, 0, (1, 1));
     assert_eq!(
         (c["future"].as_u64(), c["rejected"].as_u64()),
@@ -927,7 +940,7 @@ fn a_poisoned_state_file_is_repaired_at_start() {
     // A signed vehicle at the wall clock is taken.
     let hb = sign(&key, 0, spec_ts(2 * SECOND), &[copter_hb(1, 0, 4)]);
     feed(&mut a, 2 * SECOND, 0, &hb[0]);
-    assert!(a.vehicles.get((1, 1)).is_some());
+    assert!(a.vehicles.get(VehicleKey(1, 1)).is_some());
 
     // Within the limit of the clock that wrote it (a reservation after a crash, 80 s ahead):
     // kept, and ours start after it, silently.
@@ -953,7 +966,7 @@ fn a_vehicle_an_hour_ahead_is_refused_until_signing_setup_gives_it_our_clock() {
     for (i, f) in ahead.iter().enumerate() {
         feed(&mut a, 100_000 * (i as u64 + 1), 0, f);
     }
-    assert!(a.vehicles.get((1, 1)).is_none());
+    assert!(a.vehicles.get(VehicleKey(1, 1)).is_none());
     let c = counts(&a, 0, (1, 1));
     assert_eq!(
         (c["future"].as_u64(), c["rejected"].as_u64()),
@@ -974,7 +987,7 @@ fn a_vehicle_an_hour_ahead_is_refused_until_signing_setup_gives_it_our_clock() {
         &[copter_hb(1, 3, 4)],
     );
     feed(&mut a, 400_000, 0, &near[0]);
-    assert!(a.vehicles.get((1, 1)).is_some());
+    assert!(a.vehicles.get(VehicleKey(1, 1)).is_some());
     assert!(a.signing.clock.last() >= spec_ts(400_000) + 50 * 100_000);
     assert!(a.signing.clock.last() <= spec_ts(400_000) + FUTURE_MARGIN);
 
@@ -996,5 +1009,5 @@ fn a_vehicle_an_hour_ahead_is_refused_until_signing_setup_gives_it_our_clock() {
     // Its frames from that clock on are taken on the radio link too (a new stream: link id 2).
     let after = sign(&key, 2, initial + 1000, &[copter_hb(1, 5, 5)]);
     feed(&mut a, 1_100_000, 0, &after[0]);
-    assert_eq!(a.vehicles.get((1, 1)).unwrap().custom_mode, 5);
+    assert_eq!(a.vehicles.get(VehicleKey(1, 1)).unwrap().custom_mode, 5);
 }

@@ -5,6 +5,7 @@
 use mavterm::app::AppConfig;
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::link::LinkSpec;
+use mavterm::proto::vehicles::VehicleKey;
 use mavterm::sim::Sim;
 
 fn run(query: &str, secs: u64) -> VirtualRunner {
@@ -25,7 +26,7 @@ fn dropped_frames_equal_reported_loss() {
         let truth = sim(&r).truth();
         for sysid in [1u8, 2] {
             let t = truth.get(sysid);
-            let src = &r.app.links[0].sources[&(sysid, 1)];
+            let src = &r.app.links[0].sources[&VehicleKey(sysid, 1)];
             // Frames dropped before the first that arrived, or after the last, leave no gap to
             // see: count them from the sequence numbers at the ends.
             let head = src.seq.first_seq().unwrap() as u64;
@@ -49,7 +50,7 @@ fn dropped_frames_equal_reported_loss() {
 fn duplicated_frames_equal_reported_duplicates() {
     let r = run("dup=0.05&seed=5", 60);
     let t = sim(&r).truth().get(1);
-    let src = &r.app.links[0].sources[&(1, 1)];
+    let src = &r.app.links[0].sources[&VehicleKey(1, 1)];
     assert!(t.duplicated > 20, "{t:?}");
     assert_eq!(src.seq.duplicates, t.duplicated);
     assert_eq!(src.seq.lost, 0);
@@ -61,7 +62,7 @@ fn corrupted_frames_are_rejected_and_counted() {
         let r = run(&format!("corrupt=0.01&seed={seed}"), 60);
         let t = sim(&r).truth().get(1);
         let link = &r.app.links[0];
-        let src = &link.sources[&(1, 1)];
+        let src = &link.sources[&VehicleKey(1, 1)];
         assert!(t.corrupted > 5, "{t:?}");
         // A flipped bit fails the CRC (or cuts the frame short): the frame is rejected,
         // counted by the parser, and its sequence number shows up as lost.

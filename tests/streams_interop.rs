@@ -15,6 +15,7 @@ use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::link::LinkSpec;
 use mavterm::proto::rates::StreamRates;
 use mavterm::proto::streams::{ItemState, LinkStreamState, Method};
+use mavterm::proto::vehicles::VehicleKey;
 use serde_json::Value;
 
 /// QGroundControl's ArduPilot rates, mavterm's defaults: (group, Hz).
@@ -323,7 +324,7 @@ fn sim_streams_arrive_at_the_rates_asked() {
     let spec: LinkSpec = "sim://".parse().unwrap();
     let mut r = VirtualRunner::from_specs(&[spec], AppConfig::default()).unwrap();
     r.advance_to(40 * SECOND);
-    let s = &r.app.sessions[&(1, 1)].streams;
+    let s = &r.app.sessions[&VehicleKey(1, 1)].streams;
     assert_eq!(s.link_state(0), Some(LinkStreamState::Flowing));
     assert_eq!(s.requests_sent(0), 7, "asked once, every group");
     let report = s.report(r.now(), 0);
@@ -361,7 +362,7 @@ fn sim_streams_at_configured_rates_and_extra_messages() {
     };
     let mut r = VirtualRunner::from_specs(&[spec], cfg).unwrap();
     r.advance_to(40 * SECOND);
-    let s = &r.app.sessions[&(1, 1)].streams;
+    let s = &r.app.sessions[&VehicleKey(1, 1)].streams;
     assert_eq!(s.link_state(0), Some(LinkStreamState::Flowing));
     let mut asked: Vec<(u32, f32)> = s.requested(0).collect();
     asked.sort_by_key(|x| x.0);

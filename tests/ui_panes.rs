@@ -5,6 +5,7 @@ use ui_fixture as common;
 
 use mavterm::app::{App, Pane};
 use mavterm::keymap::Mode;
+use mavterm::proto::vehicles::VehicleKey;
 use mavterm::ui::{self, buffer_to_text, Theme};
 use ratatui::backend::TestBackend;
 use ratatui::layout::Rect;
@@ -273,9 +274,9 @@ fn big_numbers() -> common::Drive {
     for s in 17..20 {
         l.rate.add(s * mavterm::clock::SECOND, 24_874, 12_345_678);
     }
-    let s = &mut l.sources.get_mut(&(1, 1)).unwrap().seq;
+    let s = &mut l.sources.get_mut(&VehicleKey(1, 1)).unwrap().seq;
     (s.received, s.lost, s.duplicates, s.reordered) = (1_234_567, 24_874, 12_345, 99_999);
-    let s = &mut l.sources.get_mut(&(1, 154)).unwrap().seq;
+    let s = &mut l.sources.get_mut(&VehicleKey(1, 154)).unwrap().seq;
     (s.received, s.lost, s.duplicates, s.reordered) = (98_765, 100_000, 0, 0);
     d
 }

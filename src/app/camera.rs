@@ -6,6 +6,7 @@
 
 use super::{App, Effect};
 use crate::proto::camera::CameraAction;
+use crate::proto::vehicles::VehicleKey;
 
 /// A parsed `camera …` / `gimbal …` line.
 #[derive(Debug, Clone, PartialEq)]
@@ -166,7 +167,7 @@ impl App {
                     });
                     if known.is_some() {
                         self.ui.message = Some((
-                            crate::proto::severity::ERROR,
+                            crate::wire::Severity::ERROR,
                             format!(
                                 "camera {what} level unknown (CAMERA_SETTINGS not heard): \
                                  `camera {what} 0-100` sets it (not sent)"
@@ -216,8 +217,8 @@ impl App {
             _ => return,
         };
         self.ui.message = Some(match self.run_camera(cmd, fx) {
-            Ok(t) => (crate::proto::severity::INFO, t.unwrap_or_default()),
-            Err(e) => (crate::proto::severity::ERROR, e),
+            Ok(t) => (crate::wire::Severity::INFO, t.unwrap_or_default()),
+            Err(e) => (crate::wire::Severity::ERROR, e),
         });
     }
 
@@ -248,7 +249,7 @@ impl App {
                 .and_then(|s| s.gimbals.pick(sel))
                 .map(|g| g.manager);
             if let Some(m) = manager {
-                self.commandable_at((key.0, m))
+                self.commandable_at(VehicleKey(key.0, m))
                     .map_err(|e| format!("gimbal: {e}"))?;
             }
         }
@@ -295,17 +296,17 @@ impl App {
         }
         let compid = self
             .selected_camera()
-            .ok_or_else(|| format!("no camera heard on {}:{}", key.0, key.1))?;
+            .ok_or_else(|| format!("no camera heard on {key}"))?;
         let action = match cmd {
             CameraCmd::FormatAsk => {
-                self.ask(super::flight::Ask {
+                self.ask(super::confirm::Ask {
                     text: format!(
-                        "FORMAT the storage of camera {}:{compid} on {}? Every image and video on \
+                        "FORMAT the storage of camera {} on {}? Every image and video on \
                          it is erased. y = yes, any other key = no",
-                        key.0,
+                        VehicleKey(key.0, compid),
                         self.who_is(key)
                     ),
-                    action: super::flight::Confirmed::Camera(compid, CameraAction::Format),
+                    action: super::confirm::Confirmed::Camera(compid, CameraAction::Format),
                     target: key,
                 });
                 return Ok(None);
@@ -319,22 +320,22 @@ impl App {
     /// Send `action` to camera `compid` of `key`, through its session's command queue.
     pub(super) fn camera_act(
         &mut self,
-        key: crate::proto::vehicles::VehicleKey,
+        key: VehicleKey,
         compid: u8,
         action: CameraAction,
         fx: &mut Vec<Effect>,
     ) -> Result<Option<String>, String> {
         // The camera heard and not lost (and the vehicle it is reached through).
         self.commandable_at(key)?;
-        self.commandable_at((key.0, compid))
+        self.commandable_at(VehicleKey(key.0, compid))
             .map_err(|e| format!("camera: {e}"))?;
         let now = self.now;
         let s = self.sessions.get_mut(&key).ok_or("no session")?;
         let (_, out) = s.camera_action(now, compid, &action)?;
         self.session_out(key, out, fx);
         Ok(Some(format!(
-            "camera {}:{compid} {}: sent",
-            key.0,
+            "camera {} {}: sent",
+            VehicleKey(key.0, compid),
             action.describe()
         )))
     }

@@ -3,21 +3,15 @@
 //!
 //! Every action goes to a heard, not-lost autopilot through its session's command queue.
 //! Dangerous ones ([`danger`]: one list for every entry point) first ask a question that names
-//! the action and the vehicle. Only `y`, or `enter` on a highlighted *Yes* (the highlight starts
-//! on *No*; left, right and tab move it), answers it, and only [`CONFIRM_GUARD`] after it
-//! appeared and after the key before it (key repeats and keys typed ahead never do); `n`, esc,
-//! `enter` on *No* or any other key cancels and nothing is sent. A question expires ([`CONFIRM_EXPIRY`], the vehicle lost, the
-//! target or the vehicle's armed state, mode or mission changed); one is asked at a time, the
-//! others wait their turn; the checks are made again before anything confirmed leaves.
+//! the action and the vehicle (see `confirm`: what answers it, when it expires).
 //!
 //! A mode request, LAND or RTL supersedes a mode change still pending and abandons a take-off
 //! in progress (see `Session::supersede_mode`).
 
-use super::notices::{SEV_INFO, SEV_WARNING};
+pub use super::confirm::FlightAction;
+use super::confirm::{Confirm, Confirmed};
 use super::{App, Effect};
-use crate::clock::{Micros, SECOND};
 use crate::dialect::{MavAutopilot, MavCmd, MavMessage, MavModeFlag};
-use crate::keymap::Key;
 use crate::proto::commands::CommandSpec;
 use crate::proto::modes;
 use crate::proto::sequence::{Sequence, Step, Until};
@@ -25,106 +19,6 @@ use crate::proto::vehicles::VehicleKey;
 
 /// `param2` of COMPONENT_ARM_DISARM that forces a disarm (ArduPilot and PX4).
 pub const FORCE_DISARM: f64 = 21196.0;
-
-/// What the operator asked the target to do.
-#[derive(Debug, Clone, PartialEq)]
-pub enum FlightAction {
-    Arm,
-    Disarm {
-        force: bool,
-    },
-    /// Take off to this many metres above home.
-    Takeoff(f64),
-    Land,
-    Rtl,
-    Mode(String),
-    Reboot,
-    /// Any command (the palette's and `long`'s); the target is filled in when sent.
-    Command {
-        command: u16,
-        params: [f64; 7],
-    },
-}
-
-/// A key this soon after the question (or after the key before it) does not answer it: key
-/// repeats and keys typed ahead never confirm.
-pub const CONFIRM_GUARD: Micros = 300_000;
-/// A question not answered in this long expires and sends nothing.
-pub const CONFIRM_EXPIRY: Micros = 10 * SECOND;
-
-/// A question waiting for `y`.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Confirm {
-    pub text: String,
-    pub action: Confirmed,
-    pub target: VehicleKey,
-    /// When it was put on screen.
-    pub asked: Micros,
-    /// The last key that came while it was open (or the one that asked).
-    pub last_key: Micros,
-    /// The choice highlighted in the box: *Yes* (true) or *No* (false, where it starts);
-    /// left/right/tab move it, `enter` takes it.
-    pub yes: bool,
-    /// What it was asked in: it expires when that changes.
-    context: Context,
-}
-
-impl Confirm {
-    /// A question about `action` on `target`; [`App::ask`] puts it on screen.
-    pub fn new(text: String, action: Confirmed, target: VehicleKey) -> Self {
-        Self {
-            text,
-            action,
-            target,
-            asked: 0,
-            last_key: 0,
-            yes: false,
-            context: Context::default(),
-        }
-    }
-}
-
-/// A question as its asker words it: what, and to whom.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Ask {
-    pub text: String,
-    pub action: Confirmed,
-    pub target: VehicleKey,
-}
-
-impl From<Ask> for Confirm {
-    fn from(a: Ask) -> Self {
-        Confirm::new(a.text, a.action, a.target)
-    }
-}
-
-/// The state a question was asked in: the app's target, and the vehicle's identity, armed state,
-/// mode and mission.
-#[derive(Debug, Clone, Default, PartialEq)]
-struct Context {
-    app_target: Option<VehicleKey>,
-    identity: Option<(MavAutopilot, crate::dialect::MavType)>,
-    armed: Option<bool>,
-    mode: Option<u32>,
-    mission: Option<MissionMark>,
-}
-
-/// The vehicle's plan id, and the mission we know it holds: (plan id, items, when learnt).
-type MissionMark = (u32, Option<(u32, usize, Micros)>);
-
-/// What a confirmation lets go ahead.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Confirmed {
-    Flight(FlightAction),
-    /// Parameter writes: (component, name, value).
-    Params(Vec<(u8, String, f64)>),
-    /// `signing setup` or `signing off`.
-    Signing(super::signing::SigningAction),
-    /// A camera action that destroys something (storage format): the camera's component id.
-    Camera(u8, crate::proto::camera::CameraAction),
-    /// A mission upload with warnings, a clear, a mission start.
-    Mission(super::mission::MissionAction),
-}
 
 /// What a command means when it needs a confirmation, whatever sends it (keys, the prompt, the
 /// palette, the Commands screen's re-issue, the Mission, Parameters and Camera screens): `None`
@@ -187,7 +81,7 @@ fn action_command(action: &FlightAction) -> Option<(u16, [f64; 7])> {
 }
 
 /// MAV_LANDED_STATE_ON_GROUND.
-const LANDED_ON_GROUND: u8 = 1;
+const LANDED_ON_GROUND: u8 = crate::dialect::MavLandedState::MAV_LANDED_STATE_ON_GROUND as u8;
 /// Above this height over home an armed vehicle without EXTENDED_SYS_STATE counts as flying.
 const FLYING_ABOVE_M: f64 = 1.0;
 
@@ -206,14 +100,14 @@ impl App {
             0 => session.and_then(|s| self.vehicles.get(s)),
             _ => self.vehicles.get(key),
         };
-        let v = heard.ok_or_else(|| format!("{}:{} has not been heard", key.0, key.1))?;
+        let v = heard.ok_or_else(|| format!("{key} has not been heard"))?;
         if v.lost {
-            return Err(format!("{}:{} is lost: not sent", key.0, key.1));
+            return Err(format!("{key} is lost: not sent"));
         }
         if session.is_none() {
             return Err(format!(
-                "{}:{} is not an autopilot, and no autopilot of system {} is heard to reach it by",
-                key.0, key.1, key.0
+                "{key} is not an autopilot, and no autopilot of system {} is heard to reach it by",
+                key.0
             ));
         }
         Ok(key)
@@ -226,7 +120,7 @@ impl App {
             return Some(key);
         }
         self.sessions
-            .range((key.0, 0)..=(key.0, u8::MAX))
+            .range(VehicleKey(key.0, 0)..=VehicleKey(key.0, u8::MAX))
             .map(|(k, _)| *k)
             .next()
     }
@@ -262,14 +156,8 @@ impl App {
     /// `1:1 (ArduPilot Quadrotor)`: how a question names a vehicle.
     pub(super) fn who_is(&self, key: VehicleKey) -> String {
         match self.vehicles.get(key) {
-            Some(v) => format!(
-                "{}:{} ({} {})",
-                key.0,
-                key.1,
-                v.autopilot_name(),
-                v.type_name()
-            ),
-            None => format!("{}:{}", key.0, key.1),
+            Some(v) => format!("{key} ({} {})", v.autopilot_name(), v.type_name()),
+            None => key.to_string(),
         }
     }
 
@@ -303,94 +191,6 @@ impl App {
         ))
     }
 
-    /// Put `c` on screen, or queue it behind the question already there (one at a time).
-    pub(super) fn ask(&mut self, c: impl Into<Confirm>) {
-        let mut c = c.into();
-        if self.ui.confirm.is_some() {
-            self.ui.confirm_queue.push_back(c);
-            return;
-        }
-        c.asked = self.now;
-        c.last_key = self.now;
-        c.context = self.confirm_context(c.target);
-        self.ui.confirm = Some(c);
-        self.dirty = true;
-    }
-
-    /// The next queued question, once the one on screen is gone.
-    fn next_question(&mut self) {
-        if self.ui.confirm.is_none() {
-            if let Some(c) = self.ui.confirm_queue.pop_front() {
-                self.ask(c);
-            }
-        }
-    }
-
-    fn confirm_context(&self, target: VehicleKey) -> Context {
-        let via = self.session_for(target);
-        let v = via.and_then(|k| self.vehicles.get(k));
-        let mission = via.and_then(|k| self.sessions.get(&k)).map(|s| {
-            let t = crate::mission::MissionType::Mission;
-            let known = s
-                .mission
-                .known(t)
-                .map(|k| (k.opaque_id, k.items.len(), k.at));
-            (s.mission.vehicle_id(t), known)
-        });
-        Context {
-            app_target: self.target,
-            identity: v.map(|v| (v.autopilot, v.mavtype)),
-            armed: v.map(|v| v.armed()),
-            mode: v.map(|v| v.custom_mode),
-            mission,
-        }
-    }
-
-    /// Why the question on screen no longer holds, if it does not.
-    fn expired(&self, c: &Confirm) -> Option<String> {
-        if self.now >= c.asked + CONFIRM_EXPIRY {
-            return Some("not answered in 10 s".into());
-        }
-        if self.target != c.context.app_target {
-            return Some("the target changed".into());
-        }
-        if let Err(e) = self.commandable_at(c.target) {
-            return Some(e);
-        }
-        let now = self.confirm_context(c.target);
-        if now.identity != c.context.identity {
-            return Some("another vehicle answers at that id".into());
-        }
-        if now.armed != c.context.armed {
-            return Some("the vehicle was armed or disarmed meanwhile".into());
-        }
-        if now.mode != c.context.mode {
-            return Some("the vehicle's mode changed meanwhile".into());
-        }
-        if now.mission != c.context.mission {
-            return Some("the mission on the vehicle changed meanwhile".into());
-        }
-        None
-    }
-
-    /// A question that no longer holds goes, saying so; nothing is sent.
-    pub(super) fn poll_confirm(&mut self) {
-        let Some(why) = self.ui.confirm.as_ref().and_then(|c| self.expired(c)) else {
-            return;
-        };
-        let c = self.ui.confirm.take();
-        let target = c.map(|c| c.target);
-        let text = format!("question expired ({why}): nothing sent");
-        self.notice(SEV_WARNING, target, text.clone());
-        self.ui.message = Some((SEV_WARNING, text));
-        self.next_question();
-    }
-
-    /// When the question on screen expires on its own.
-    pub(super) fn confirm_deadline(&self) -> Option<Micros> {
-        self.ui.confirm.as_ref().map(|c| c.asked + CONFIRM_EXPIRY)
-    }
-
     /// Ask for `action` on the target: carried out now, or after a confirmation.
     pub fn flight(
         &mut self,
@@ -422,7 +222,7 @@ impl App {
     ) -> Result<Option<String>, String> {
         let any = matches!(action, FlightAction::Command { .. });
         if !any && !self.sessions.contains_key(&target) {
-            return Err(format!("{}:{} is not an autopilot", target.0, target.1));
+            return Err(format!("{target} is not an autopilot"));
         }
         if let Some(text) = self.question(target, &action) {
             self.ask(Confirm::new(text, Confirmed::Flight(action), target));
@@ -431,72 +231,8 @@ impl App {
         self.carry_out(target, action, fx)
     }
 
-    /// A key while a confirmation is asked: only `y`, or `enter` on a highlighted *Yes*, goes
-    /// ahead, and only pressed at least [`CONFIRM_GUARD`] after the question appeared and after
-    /// the key before it (a key repeat — `repeat`, or a key that comes in a repeat's rhythm —
-    /// and a key typed ahead are ignored, but `n` and esc always cancel). Left, right, tab and
-    /// backtab move the highlight between *No* (where it starts) and *Yes* and send nothing;
-    /// `enter` on *No* and any other key cancel. The checks are made again before anything
-    /// leaves.
-    pub(super) fn on_confirm_key(&mut self, key: Key, repeat: bool, fx: &mut Vec<Effect>) {
-        let now = self.now;
-        let Some(c) = self.ui.confirm.as_mut() else {
-            return;
-        };
-        let early = repeat || now < c.asked + CONFIRM_GUARD || now < c.last_key + CONFIRM_GUARD;
-        c.last_key = now;
-        use crate::keymap::KeyCode;
-        let plain = !key.ctrl && !key.alt;
-        // Moving the highlight sends nothing, early or not; it is a key like any other for the
-        // guard, so an `enter` hard on its heels does not answer.
-        if plain
-            && matches!(
-                key.code,
-                KeyCode::Left | KeyCode::Right | KeyCode::Tab | KeyCode::BackTab
-            )
-        {
-            c.yes = !c.yes;
-            return;
-        }
-        // `n` and esc say no at once: a no never sends anything.
-        let no = key == Key::ch('n') || key == Key::ch('N') || key.code == KeyCode::Esc;
-        if early && !no {
-            self.ui.message = Some((
-                SEV_WARNING,
-                "a key held or typed ahead does not answer: let go, then y or n".into(),
-            ));
-            return;
-        }
-        let Some(c) = self.ui.confirm.take() else {
-            return;
-        };
-        let yes = key == Key::ch('y')
-            || key == Key::ch('Y')
-            || (plain && key.code == KeyCode::Enter && c.yes);
-        if yes {
-            let outcome = match self.expired(&c) {
-                Some(why) => Err(format!("question expired ({why}): nothing sent")),
-                None => match c.action {
-                    Confirmed::Flight(a) => self.carry_out(c.target, a, fx),
-                    Confirmed::Params(p) => self.write_params(c.target, p, fx),
-                    Confirmed::Signing(a) => self.carry_out_signing(c.target, a, fx),
-                    Confirmed::Mission(a) => self.carry_out_mission(c.target, a, fx),
-                    Confirmed::Camera(compid, a) => self.camera_act(c.target, compid, a, fx),
-                },
-            };
-            self.ui.message = match outcome {
-                Ok(Some(t)) => Some((SEV_INFO, t)),
-                Ok(None) => None,
-                Err(e) => Some((super::notices::SEV_ERROR, e)),
-            };
-        } else {
-            self.ui.message = Some((SEV_WARNING, "cancelled: nothing sent".into()));
-        }
-        self.next_question();
-    }
-
     /// Send what `action` means for this vehicle.
-    fn carry_out(
+    pub(super) fn carry_out(
         &mut self,
         key: VehicleKey,
         action: FlightAction,
@@ -509,7 +245,7 @@ impl App {
             (v.autopilot, v.mavtype, v.custom_mode, v.armed())
         };
         let profile = crate::proto::profile::of(autopilot);
-        let long = |cmd: MavCmd, p: [f64; 7]| CommandSpec::long(key, cmd, p);
+        let long = |cmd: MavCmd, p: [f64; 7]| CommandSpec::long(key.into(), cmd, p);
         let nan = f64::NAN;
         let single = |spec: CommandSpec| -> Result<(CommandSpec, String), String> {
             let name = spec.name();
@@ -528,7 +264,7 @@ impl App {
             FlightAction::Rtl => Some("RTL".into()),
             FlightAction::Command { command, params } if is_mode_request(*command) => Some(
                 CommandSpec {
-                    target: key,
+                    target: key.into(),
                     command: *command,
                     params: *params,
                     form: crate::proto::commands::form_for(*command),
@@ -566,7 +302,7 @@ impl App {
                 [1.0, 0., 0., 0., 0., 0., 0.],
             ))?,
             FlightAction::Command { command, params } => single(CommandSpec {
-                target: key,
+                target: key.into(),
                 command,
                 params,
                 form: crate::proto::commands::form_for(command),
@@ -654,7 +390,7 @@ impl App {
         // PX4: main mode in param2, sub mode in param3; others: the custom mode in param2.
         let params = crate::proto::profile::of(autopilot).set_mode_params(number);
         Ok(Step {
-            spec: CommandSpec::long(key, MavCmd::MAV_CMD_DO_SET_MODE, params),
+            spec: CommandSpec::long(key.into(), MavCmd::MAV_CMD_DO_SET_MODE, params),
             until: Until::Mode(number),
             label: name.to_ascii_uppercase(),
             fallback: Some(Self::set_mode_message(key, number)),
@@ -722,7 +458,7 @@ impl App {
         self.ui.cmd_sel = 0;
         self.ui.cmd_sel_id = None;
         self.flight_to(
-            e.spec.target,
+            e.spec.target.into(),
             FlightAction::Command {
                 command: e.spec.command,
                 params: e.spec.params,

@@ -263,7 +263,7 @@ impl Prompt {
 
 /// The prompt's commands: (name, arguments, what it does), in the order `help` lists them.
 pub const COMMANDS: &[(&str, &str, &str)] = &[
-    ("arm", "", "arm the target (asks first)"),
+    ("arm", "[throttle]", "arm the target (asks first)"),
     (
         "disarm",
         "[force]",
@@ -288,7 +288,7 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
     (
         "wp",
         "SUB …",
-        "mission: load, save FILE (WPL or .plan); upload, download, clear, set N, start",
+        "mission: load, save FILE (WPL or .plan); upload, download (list), clear, set N, start",
     ),
     (
         "fence",
@@ -301,7 +301,11 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
         "rally points: load, save FILE; upload, download, clear",
     ),
     ("rtl", "", "return to launch"),
-    ("mode", "NAME", "change flight mode (tab lists the modes)"),
+    (
+        "mode",
+        "NAME|NUMBER",
+        "change flight mode (tab lists the modes)",
+    ),
     (
         "long",
         "CMD [P1..P7]",
@@ -311,7 +315,7 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
     (
         "param",
         "SUB …",
-        "fetch; set NAME VALUE; save, load, diff FILE (.params: QGC's); encoding",
+        "fetch; show, set NAME; save, load, diff FILE (.params: QGC's); encoding; meta fetch",
     ),
     (
         "camera",
@@ -371,7 +375,25 @@ pub enum Command {
     Camera(super::camera::CameraCmd),
     /// Missions, fence, rally points; guided go-to and altitude.
     Mission(super::mission::MissionCmd),
+    /// Change to the flight mode of this number in the target's mode table (`mode 4`).
+    ModeNumber(u32),
+    /// Parameter metadata and lookups: `param show`, `param meta fetch`.
+    ParamMeta(super::param_meta::MetaCmd),
 }
+
+/// Completions of the aliases and the `param` words, offered after the first word (with the
+/// target's parameter names after `param show ` and `param set `).
+pub const MORE_COMPLETIONS: &[&str] = &[
+    "arm throttle",
+    "param fetch",
+    "param show",
+    "param set",
+    "param save",
+    "param load",
+    "param diff",
+    "param meta fetch",
+    "wp list",
+];
 
 /// A MAV_CMD by name (`NAV_TAKEOFF`, `mav_cmd_nav_takeoff`, `takeoff` when only one matches
 /// as a whole word) or number.
@@ -474,7 +496,11 @@ pub fn parse_command(line: &str, takeoff_alt: f64) -> Result<Command, String> {
                     "usage: route LINK (its number in the Links pane) or route auto".into()
                 }),
         },
-        "arm" => no_args(Command::Flight(FlightAction::Arm)),
+        // `arm throttle`: MAVProxy's spelling.
+        "arm" => match rest {
+            "" | "throttle" => Ok(Command::Flight(FlightAction::Arm)),
+            _ => Err("usage: arm, or arm throttle".into()),
+        },
         "disarm" => match rest {
             "" => Ok(Command::Flight(FlightAction::Disarm { force: false })),
             "force" => Ok(Command::Flight(FlightAction::Disarm { force: true })),
@@ -496,7 +522,18 @@ pub fn parse_command(line: &str, takeoff_alt: f64) -> Result<Command, String> {
         "land" => no_args(Command::Flight(FlightAction::Land)),
         "rtl" => no_args(Command::Flight(FlightAction::Rtl)),
         "reboot" => no_args(Command::Flight(FlightAction::Reboot)),
-        "param" => super::params::parse(rest).map(Command::Param),
+        "param" => match super::param_meta::parse(rest) {
+            Some(r) => r.map(Command::ParamMeta),
+            None => super::params::parse(rest).map(Command::Param).map_err(|e| {
+                if e == super::params::USAGE {
+                    format!("{e} | param show NAME|GLOB | param meta fetch")
+                } else {
+                    e
+                }
+            }),
+        },
+        // `wp list`: MAVProxy's name for downloading the mission.
+        "wp" if rest == "list" => super::mission::parse(word, "download").map(Command::Mission),
         "wp" | "fence" | "rally" => super::mission::parse(word, rest).map(Command::Mission),
         "goto" => super::mission::parse_goto(rest).map(Command::Mission),
         "alt" => super::mission::parse_alt(rest).map(Command::Mission),
@@ -515,9 +552,13 @@ pub fn parse_command(line: &str, takeoff_alt: f64) -> Result<Command, String> {
         "replay" => super::replay::parse(rest).map(Command::Replay),
         "camera" => super::camera::parse(rest).map(Command::Camera),
         "gimbal" => super::camera::parse_gimbal(rest).map(Command::Camera),
-        "mode" if rest.is_empty() || rest.contains(' ') => {
-            Err("usage: mode NAME, e.g. mode guided (tab lists the modes)".into())
-        }
+        "mode" if rest.is_empty() || rest.contains(' ') => Err(
+            "usage: mode NAME or NUMBER, e.g. mode guided or mode 4 (tab lists the modes)".into(),
+        ),
+        "mode" if rest.bytes().all(|b| b.is_ascii_digit()) => rest
+            .parse::<u32>()
+            .map(Command::ModeNumber)
+            .map_err(|_| format!("no mode number {rest}")),
         "mode" => Ok(Command::Flight(FlightAction::Mode(rest.to_string()))),
         "long" => {
             let mut words = rest.split_whitespace();
@@ -541,6 +582,43 @@ pub fn parse_command(line: &str, takeoff_alt: f64) -> Result<Command, String> {
                 names.join(", ")
             ))
         }
+    }
+}
+
+impl super::App {
+    /// [`MORE_COMPLETIONS`], and the target's parameter names once `param show ` or
+    /// `param set ` is typed.
+    pub(super) fn more_completions(&self) -> Vec<String> {
+        let mut out: Vec<String> = MORE_COMPLETIONS.iter().map(|c| c.to_string()).collect();
+        let line = &self.ui.prompt.line.text;
+        for sub in ["param show ", "param set "] {
+            if line.starts_with(sub) {
+                if let Some(set) = self.param_set() {
+                    out.extend(set.params.keys().map(|n| format!("{sub}{n}")));
+                }
+            }
+        }
+        out
+    }
+
+    /// `mode NUMBER`: the mode of that number in the target's mode table, changed to exactly as
+    /// `mode NAME` would.
+    pub(super) fn run_mode_number(
+        &mut self,
+        number: u32,
+        fx: &mut Vec<super::Effect>,
+    ) -> Result<Option<String>, String> {
+        use crate::proto::modes;
+        let key = self.target.ok_or("no target vehicle")?;
+        let v = self.vehicles.get(key).ok_or("no target vehicle")?;
+        let (autopilot, mavtype) = (v.autopilot, v.mavtype);
+        let name = modes::mode_name(autopilot, mavtype, number);
+        if modes::mode_number(autopilot, mavtype, &name) != Some(number) {
+            return Err(format!(
+                "no mode number {number} on this vehicle (tab lists the modes by name)"
+            ));
+        }
+        self.flight(FlightAction::Mode(name.to_ascii_lowercase()), fx)
     }
 }
 
@@ -655,5 +733,55 @@ mod tests {
         assert_eq!(parse_mav_cmd("mav_cmd_component_arm_disarm"), Ok(400));
         assert_eq!(parse_mav_cmd("511"), Ok(511));
         assert!(parse_mav_cmd("nosuch").is_err());
+    }
+
+    #[test]
+    fn mavproxy_aliases_parse_to_the_same_commands() {
+        use super::super::mission::{MissionCmd, MissionOp};
+        use super::super::param_meta::MetaCmd;
+        use crate::mission::MissionType;
+        let parse = |line| parse_command(line, 10.0);
+        assert_eq!(parse("arm throttle"), parse("arm"));
+        assert!(parse("arm now").unwrap_err().contains("arm throttle"));
+        assert_eq!(parse("mode 4"), Ok(Command::ModeNumber(4)));
+        assert_eq!(
+            parse("mode guided"),
+            Ok(Command::Flight(FlightAction::Mode("guided".into())))
+        );
+        assert!(parse("mode 99999999999").is_err());
+        assert_eq!(
+            parse("wp list"),
+            Ok(Command::Mission(MissionCmd::List(
+                MissionType::Mission,
+                MissionOp::Download
+            )))
+        );
+        assert_eq!(parse("wp list"), parse("wp download"));
+        assert!(
+            parse("fence list").is_err(),
+            "MAVProxy's fence list is not ours"
+        );
+        assert_eq!(
+            parse("param show BATT_*"),
+            Ok(Command::ParamMeta(MetaCmd::Show("BATT_*".into())))
+        );
+        assert_eq!(
+            parse("param meta fetch"),
+            Ok(Command::ParamMeta(MetaCmd::Fetch))
+        );
+        assert!(matches!(
+            parse("param set RTL_ALT 1500"),
+            Ok(Command::Param(_))
+        ));
+        assert_eq!(parse("rtl"), Ok(Command::Flight(FlightAction::Rtl)));
+        assert_eq!(parse("land"), Ok(Command::Flight(FlightAction::Land)));
+        assert_eq!(
+            parse("takeoff 15"),
+            Ok(Command::Flight(FlightAction::Takeoff(15.0)))
+        );
+        assert_eq!(
+            parse("disarm"),
+            Ok(Command::Flight(FlightAction::Disarm { force: false }))
+        );
     }
 }

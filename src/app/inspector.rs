@@ -14,13 +14,15 @@ use std::hash::{BuildHasherDefault, Hasher};
 
 use mavlink::Message;
 
+use super::editor::{self, EditKind, Edited};
 use super::flight::FlightAction;
-use super::notices::{SEV_ERROR, SEV_INFO};
 use super::{App, Effect};
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{MavCmd, MavMessage};
-use crate::keymap::{Action, Key, KeyCode, Mode};
+use crate::keymap::{Action, Key};
+use crate::proto::vehicles::VehicleKey;
 use crate::wire::frame::{Frame, Version};
+use crate::wire::Severity;
 
 /// Message ids kept per source (sysid, compid) at most.
 pub const MAX_PER_SOURCE: usize = 128;
@@ -538,18 +540,20 @@ impl App {
     pub(super) fn on_inspector_action(&mut self, action: Action) {
         let outcome: Result<Option<String>, String> = match action {
             Action::InspectorFilter => {
-                self.ui.edit.set(&self.ui.inspector.filter.clone());
+                editor::open(
+                    &mut self.ui.edit,
+                    &mut self.ui.mode,
+                    &self.ui.inspector.filter,
+                );
                 self.ui.inspector.editing = Some(InspectEdit::Filter);
-                self.ui.mode = Mode::Edit;
                 Ok(None)
             }
             Action::InspectorRate => match self.inspector_selected() {
                 None => Err("no message selected: none heard yet".into()),
                 Some(k) => {
                     self.ui.inspector.sel = Some(k);
-                    self.ui.edit.clear();
+                    editor::open_empty(&mut self.ui.edit, &mut self.ui.mode);
                     self.ui.inspector.editing = Some(InspectEdit::Rate(k));
-                    self.ui.mode = Mode::Edit;
                     Ok(None)
                 }
             },
@@ -568,12 +572,13 @@ impl App {
             _ => Ok(None),
         };
         self.ui.message = match outcome {
-            Ok(t) => t.map(|t| (SEV_INFO, t)),
-            Err(e) => Some((SEV_ERROR, e)),
+            Ok(t) => t.map(|t| (Severity::INFO, t)),
+            Err(e) => Some((Severity::ERROR, e)),
         };
     }
 
-    /// A key while the filter or a rate is typed on the Inspector.
+    /// A key while the filter or a rate is typed on the Inspector: the shared edit line;
+    /// `enter` sends the rate (checked by [`parse_rate`]).
     pub(super) fn on_inspector_edit_key(
         &mut self,
         key: Key,
@@ -585,47 +590,40 @@ impl App {
             return;
         };
         let filter = editing == InspectEdit::Filter;
-        match action {
-            Some(Action::Submit) => {
-                self.ui.mode = Mode::Normal;
+        let kind = EditKind {
+            filter,
+            completes: false,
+        };
+        match editor::key(&mut self.ui.edit, &mut self.ui.mode, kind, key, action) {
+            Edited::Submit(text) => {
                 self.ui.inspector.editing = None;
                 if filter {
                     self.ui.inspector.sel = self.inspector_selected();
                 }
-                if let InspectEdit::Rate(k) = editing {
-                    let text = std::mem::take(&mut self.ui.edit.text);
-                    self.ui.edit.cursor = 0;
+                if let (InspectEdit::Rate(k), Some(text)) = (editing, text) {
                     let outcome = self.set_message_rate(k, &text, fx);
                     self.ui.message = match outcome {
-                        Ok(t) => t.map(|t| (SEV_INFO, t)),
-                        Err(e) => Some((SEV_ERROR, e)),
+                        Ok(t) => t.map(|t| (Severity::INFO, t)),
+                        Err(e) => Some((Severity::ERROR, e)),
                     };
                 }
                 return;
             }
-            Some(Action::Cancel) => {
-                self.ui.mode = Mode::Normal;
+            Edited::Cancel => {
                 self.ui.inspector.editing = None;
                 if filter {
                     // The message found stays selected in the whole list.
                     self.ui.inspector.sel = self.inspector_selected();
                     self.ui.inspector.filter.clear();
                 } else {
-                    self.ui.message = Some((SEV_INFO, "rate not changed: nothing sent".into()));
+                    self.ui.message =
+                        Some((Severity::INFO, "rate not changed: nothing sent".into()));
                 }
                 return;
             }
             // While filtering, up/down move through what the filter leaves.
-            Some(Action::HistoryPrev) if filter => self.move_inspector(-1),
-            Some(Action::HistoryNext) if filter => self.move_inspector(1),
-            Some(a) => {
-                self.ui.edit.edit(a);
-            }
-            None => {
-                if let (KeyCode::Char(c), false, false) = (key.code, key.ctrl, key.alt) {
-                    self.ui.edit.insert(c);
-                }
-            }
+            Edited::Move(step) => self.move_inspector(step),
+            Edited::Complete | Edited::Typed => {}
         }
         if filter && self.ui.inspector.filter != self.ui.edit.text {
             self.ui.inspector.filter = self.ui.edit.text.clone();
@@ -648,17 +646,11 @@ impl App {
         let interval = parse_rate(text).map_err(|e| format!("{name}: {e}"))?;
         let command = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
         let params = [msgid as f64, interval, 0., 0., 0., 0., 0.];
-        self.flight_to(
-            (sysid, compid),
-            FlightAction::Command { command, params },
-            fx,
-        )
-        .map_err(|e| format!("{name}: {e}"))?;
-        let label = format!("{name} {} from {sysid}:{compid}", interval_text(interval));
-        let prefix = format!(
-            "{} to {sysid}:{compid}: ",
-            crate::proto::ack::command_name(command)
-        );
+        let source = VehicleKey(sysid, compid);
+        self.flight_to(source, FlightAction::Command { command, params }, fx)
+            .map_err(|e| format!("{name}: {e}"))?;
+        let label = format!("{name} {} from {source}", interval_text(interval));
+        let prefix = format!("{} to {source}: ", crate::proto::ack::command_name(command));
         self.ui.inspector.awaiting = Some((prefix, label.clone()));
         Ok(Some(format!("{label}: sent")))
     }
@@ -666,7 +658,9 @@ impl App {
     /// The rate last asked of `k`'s source from here (its interval param2) and where the
     /// request stands (`ACCEPTED`, `waiting`…), from the command queue.
     pub fn inspector_requested(&self, k: MsgKey) -> Option<(f64, String)> {
-        let session = self.sessions.get(&self.session_for((k.0, k.1))?)?;
+        let session = self
+            .sessions
+            .get(&self.session_for(VehicleKey(k.0, k.1))?)?;
         let command = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
         session
             .commands
@@ -686,7 +680,7 @@ impl App {
         &mut self,
         target: (u8, u8),
         command: u16,
-        sev: u8,
+        sev: Severity,
         text: &str,
     ) {
         let Some((prefix, label)) = &self.ui.inspector.awaiting else {

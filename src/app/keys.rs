@@ -6,12 +6,12 @@
 
 use super::flight::FlightAction;
 use super::input::{parse_command, Command, COMMANDS};
-use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
 use super::{links::LinkStatus, screen, App, Effect, Pane};
 use crate::keymap::{Action, Key, KeyCode, Mode};
 use crate::link::replay::ReplayCmd;
 use crate::link::LinkSpec;
 use crate::proto::vehicles::VehicleKey;
+use crate::wire::Severity;
 
 impl App {
     /// A key pressed.
@@ -29,7 +29,7 @@ impl App {
         if self.nudge.active() && self.ui.mode == Mode::Normal {
             // The suspend key (Ctrl-Z) leaves Fly mode with its stop, then suspends.
             if self.keymap.lookup(Mode::Normal, self.ui.screen, &key) == Some(Action::Suspend) {
-                self.notice(SEV_INFO, self.nudge.target, "Fly mode left".into());
+                self.notice(Severity::INFO, self.nudge.target, "Fly mode left".into());
                 self.on_action(Action::Suspend, fx);
                 return;
             }
@@ -83,7 +83,7 @@ impl App {
         if list {
             let candidates = self.completions();
             let several = self.ui.prompt.complete(&candidates);
-            self.ui.message = (!several.is_empty()).then(|| (SEV_INFO, several.join("  ")));
+            self.ui.message = (!several.is_empty()).then(|| (Severity::INFO, several.join("  ")));
         }
     }
 
@@ -98,7 +98,10 @@ impl App {
             Some(s) => self.ui.screen = s.name,
             None => {
                 let name = crate::keymap::SCREENS.get(i).copied().unwrap_or("?");
-                self.ui.message = Some((SEV_WARNING, format!("no {name} screen in this build yet")))
+                self.ui.message = Some((
+                    Severity::WARNING,
+                    format!("no {name} screen in this build yet"),
+                ))
             }
         }
     }
@@ -139,7 +142,8 @@ impl App {
             Some(Action::Complete) if prompt => {
                 let candidates = self.completions();
                 let several = self.ui.prompt.complete(&candidates);
-                self.ui.message = (!several.is_empty()).then(|| (SEV_INFO, several.join("  ")));
+                self.ui.message =
+                    (!several.is_empty()).then(|| (Severity::INFO, several.join("  ")));
             }
             Some(_) => {}
             None => {
@@ -160,7 +164,7 @@ impl App {
         }
         let mut out = Vec::new();
         for k in self.targetable() {
-            out.push(format!("target {}:{}", k.0, k.1));
+            out.push(format!("target {k}"));
         }
         if let Some(v) = self.target.and_then(|k| self.vehicles.get(k)) {
             for m in crate::proto::modes::mode_names(v.autopilot, v.mavtype) {
@@ -168,6 +172,7 @@ impl App {
             }
         }
         out.push("disarm force".into());
+        out.extend(self.more_completions());
         out.push("signing setup".into());
         out.push("signing off".into());
         if !self.replay_links().is_empty() {
@@ -204,9 +209,9 @@ impl App {
             Ok(cmd) => self.run_command(cmd, fx),
         };
         self.ui.message = match outcome {
-            Ok(Some(text)) => Some((SEV_INFO, text)),
+            Ok(Some(text)) => Some((Severity::INFO, text)),
             Ok(None) => None,
-            Err(e) => Some((SEV_ERROR, e)),
+            Err(e) => Some((Severity::ERROR, e)),
         };
     }
 
@@ -229,7 +234,7 @@ impl App {
                 let key = self.autopilot(sysid, compid)?;
                 self.target = Some(key);
                 self.target_held = true;
-                Ok(Some(format!("target {}:{}", key.0, key.1)))
+                Ok(Some(format!("target {key}")))
             }
             Command::Link(text) => {
                 let spec: LinkSpec = text.parse().map_err(|e| format!("{e}"))?;
@@ -250,6 +255,8 @@ impl App {
             Command::Mission(cmd) => self.run_mission(cmd, fx),
             Command::Signing(cmd) => self.run_signing(cmd),
             Command::Camera(cmd) => self.run_camera(cmd, fx),
+            Command::ParamMeta(cmd) => self.run_param_meta(cmd, fx),
+            Command::ModeNumber(n) => self.run_mode_number(n, fx),
             Command::Route(link) => {
                 let key = self.target.ok_or("no target vehicle")?;
                 if let Some(l) = link.filter(|&l| l >= self.links.len()) {
@@ -258,11 +265,11 @@ impl App {
                 let s = self
                     .sessions
                     .get_mut(&key)
-                    .ok_or_else(|| format!("{}:{} has no session", key.0, key.1))?;
+                    .ok_or_else(|| format!("{key} has no session"))?;
                 s.pinned = link;
                 Ok(Some(match link {
-                    Some(l) => format!("{}:{} goes by link {l}", key.0, key.1),
-                    None => format!("{}:{} goes by the link heard last", key.0, key.1),
+                    Some(l) => format!("{key} goes by link {l}"),
+                    None => format!("{key} goes by the link heard last"),
                 }))
             }
         }
@@ -274,17 +281,13 @@ impl App {
             .vehicles
             .iter()
             .filter(|v| v.sysid == sysid && compid.is_none_or(|c| c == v.compid))
-            .find(|v| v.is_autopilot() || self.sessions.contains_key(&(v.sysid, v.compid)));
+            .find(|v| v.is_autopilot() || self.sessions.contains_key(&v.key()));
         match found {
-            Some(v) => Ok((v.sysid, v.compid)),
+            Some(v) => Ok(v.key()),
             None => {
-                let heard: Vec<String> = self
-                    .targetable()
-                    .iter()
-                    .map(|k| format!("{}:{}", k.0, k.1))
-                    .collect();
+                let heard: Vec<String> = self.targetable().iter().map(|k| k.to_string()).collect();
                 let what = match compid {
-                    Some(c) => format!("{sysid}:{c}"),
+                    Some(c) => VehicleKey(sysid, c).to_string(),
                     None => format!("{sysid}"),
                 };
                 Err(if heard.is_empty() {
@@ -304,8 +307,8 @@ impl App {
         // Autopilots, and payloads alone on their system (they have a session of their own).
         self.vehicles
             .iter()
-            .filter(|v| v.is_autopilot() || self.sessions.contains_key(&(v.sysid, v.compid)))
-            .map(|v| (v.sysid, v.compid))
+            .filter(|v| v.is_autopilot() || self.sessions.contains_key(&v.key()))
+            .map(|v| v.key())
             .collect()
     }
 
@@ -324,13 +327,9 @@ impl App {
         self.target_held = true;
     }
 
-    /// Carry out an action bound in normal mode.
+    /// Carry out an action bound in normal mode: each group of actions has its own handler.
     pub fn on_action(&mut self, action: Action, fx: &mut Vec<Effect>) {
         self.dirty = true;
-        let focus_idx = Pane::ALL
-            .iter()
-            .position(|p| *p == self.ui.focus)
-            .unwrap_or(0);
         match action {
             Action::Quit => {
                 // A nudge in progress ends in a stop before anything else.
@@ -344,87 +343,38 @@ impl App {
                 self.leave_fly(fx);
                 self.suspend = true;
             }
-            Action::FocusNext => self.ui.focus = Pane::ALL[(focus_idx + 1) % Pane::ALL.len()],
-            Action::FocusPrev => {
-                self.ui.focus = Pane::ALL[(focus_idx + Pane::ALL.len() - 1) % Pane::ALL.len()]
-            }
-            Action::Up | Action::Down | Action::PageUp | Action::PageDown => {
-                let step: isize = match action {
-                    Action::Up => -1,
-                    Action::Down => 1,
-                    Action::PageUp => -10,
-                    _ => 10,
-                };
-                self.move_selection(step);
-            }
-            Action::ToggleExpand => {
-                if self.ui.focus == Pane::Links {
-                    if let Some(l) = self.links.get_mut(self.ui.link_sel) {
-                        l.expanded = !l.expanded;
-                    }
-                } else if self.ui.focus == Pane::Vehicles {
-                    // Only an autopilot (or a payload alone on its system) can be the target;
-                    // other gimbals, cameras and ground stations are reached through their
-                    // autopilot, from their own screens.
-                    let v = self.vehicles.iter().nth(self.ui.vehicle_sel);
-                    let sessions = &self.sessions;
-                    if let Some(v) = v
-                        .filter(|v| v.is_autopilot() || sessions.contains_key(&(v.sysid, v.compid)))
-                    {
-                        self.target = Some((v.sysid, v.compid));
-                        self.target_held = true;
-                    }
-                }
-            }
+            Action::FocusNext
+            | Action::FocusPrev
+            | Action::Up
+            | Action::Down
+            | Action::PageUp
+            | Action::PageDown
+            | Action::Top
+            | Action::Bottom
+            | Action::ToggleExpand
+            | Action::NextVehicle
+            | Action::PrevVehicle
+            | Action::Screen(_)
+            | Action::Cancel => self.on_navigation_action(action),
             Action::MsgSeverity
             | Action::MsgSeverityBack
             | Action::MsgVehicle
             | Action::MsgVehicleBack => self.on_message_filter(action),
-            Action::NextVehicle => self.cycle_target(true),
-            Action::PrevVehicle => self.cycle_target(false),
             Action::Help => self.open_help(),
             Action::Prompt => {
                 self.ui.prompt.open();
                 self.ui.mode = Mode::Prompt;
             }
-            Action::Screen(i) => self.show_screen(i as usize),
-            // On the Inspector, esc gives the keys back to the list.
-            Action::Cancel => self.ui.inspector.detail_focus = false,
-            Action::Arm | Action::Disarm | Action::Land | Action::Rtl => {
-                let what = match action {
-                    Action::Arm => FlightAction::Arm,
-                    Action::Disarm => FlightAction::Disarm { force: false },
-                    Action::Land => FlightAction::Land,
-                    _ => FlightAction::Rtl,
-                };
-                self.ui.message = match self.flight(what, fx) {
-                    Ok(t) => t.map(|t| (SEV_INFO, t)),
-                    Err(e) => Some((SEV_ERROR, e)),
-                };
-            }
-            Action::Takeoff => {
-                let line = format!("takeoff {}", self.cfg.takeoff_alt);
-                self.open_prompt_with(&line, false)
-            }
-            Action::Reissue | Action::CancelCommand => {
-                let outcome = if action == Action::Reissue {
-                    self.reissue_selected(fx)
-                } else {
-                    self.cancel_selected(fx)
-                };
-                self.ui.message = match outcome {
-                    Ok(t) => t.map(|t| (SEV_INFO, t)),
-                    Err(e) => Some((SEV_ERROR, e)),
-                };
-            }
-            Action::ModeMenu => self.open_prompt_with("mode ", true),
-            Action::Fly => {
-                self.ui.message = match self.enter_fly() {
-                    Ok(t) => t.map(|t| (SEV_INFO, t)),
-                    Err(e) => Some((SEV_ERROR, e)),
-                };
-            }
             Action::Palette => self.open_palette(),
+            Action::Arm
+            | Action::Disarm
+            | Action::Land
+            | Action::Rtl
+            | Action::Takeoff
+            | Action::ModeMenu
+            | Action::Fly
+            | Action::Reissue
+            | Action::CancelCommand => self.on_flight_action(action, fx),
             Action::ParamFilter
             | Action::ParamEdit
             | Action::ParamFetch
@@ -457,24 +407,7 @@ impl App {
             | Action::ReplayBack
             | Action::ReplayForward
             | Action::ReplaySlower
-            | Action::ReplayFaster => {
-                let step = super::replay::SEEK_STEP * crate::clock::SECOND as i64;
-                let cmd = match action {
-                    Action::ReplayPause => ReplayCmd::TogglePause,
-                    Action::ReplayStep => ReplayCmd::Step(1),
-                    Action::ReplayBack => ReplayCmd::Seek(-step),
-                    Action::ReplayForward => ReplayCmd::Seek(step),
-                    Action::ReplaySlower => ReplayCmd::Slower,
-                    _ => ReplayCmd::Faster,
-                };
-                // What it did shows in the status bar's replay state; only a refusal is told.
-                if let Err(e) = self.replay_control(cmd, fx) {
-                    self.ui.message = Some((SEV_ERROR, e));
-                }
-            }
-            // Far enough to clamp at either end of any list.
-            Action::Top => self.move_selection(-(1 << 30)),
-            Action::Bottom => self.move_selection(1 << 30),
+            | Action::ReplayFaster => self.on_replay_action(action, fx),
             // Text-line actions belong to the prompt and edit modes.
             Action::Submit
             | Action::CursorLeft
@@ -488,6 +421,108 @@ impl App {
             | Action::HistoryPrev
             | Action::HistoryNext
             | Action::Complete => {}
+        }
+    }
+
+    /// Focus, selection, expanding a row, the target, the screen shown.
+    fn on_navigation_action(&mut self, action: Action) {
+        let focus_idx = Pane::ALL
+            .iter()
+            .position(|p| *p == self.ui.focus)
+            .unwrap_or(0);
+        match action {
+            Action::FocusNext => self.ui.focus = Pane::ALL[(focus_idx + 1) % Pane::ALL.len()],
+            Action::FocusPrev => {
+                self.ui.focus = Pane::ALL[(focus_idx + Pane::ALL.len() - 1) % Pane::ALL.len()]
+            }
+            Action::Up | Action::Down | Action::PageUp | Action::PageDown => {
+                let step: isize = match action {
+                    Action::Up => -1,
+                    Action::Down => 1,
+                    Action::PageUp => -10,
+                    _ => 10,
+                };
+                self.move_selection(step);
+            }
+            // Far enough to clamp at either end of any list.
+            Action::Top => self.move_selection(-(1 << 30)),
+            Action::Bottom => self.move_selection(1 << 30),
+            Action::ToggleExpand => {
+                if self.ui.focus == Pane::Links {
+                    if let Some(l) = self.links.get_mut(self.ui.link_sel) {
+                        l.expanded = !l.expanded;
+                    }
+                } else if self.ui.focus == Pane::Vehicles {
+                    // Only an autopilot (or a payload alone on its system) can be the target;
+                    // other gimbals, cameras and ground stations are reached through their
+                    // autopilot, from their own screens.
+                    let v = self.vehicles.iter().nth(self.ui.vehicle_sel);
+                    let sessions = &self.sessions;
+                    if let Some(v) =
+                        v.filter(|v| v.is_autopilot() || sessions.contains_key(&v.key()))
+                    {
+                        self.target = Some(v.key());
+                        self.target_held = true;
+                    }
+                }
+            }
+            Action::NextVehicle => self.cycle_target(true),
+            Action::PrevVehicle => self.cycle_target(false),
+            Action::Screen(i) => self.show_screen(i as usize),
+            // On the Inspector, esc gives the keys back to the list.
+            Action::Cancel => self.ui.inspector.detail_focus = false,
+            _ => {}
+        }
+    }
+
+    /// Flying the target: arm, disarm, land, RTL at once (or after a question), take-off and
+    /// mode through the prompt, Fly mode, and the Commands screen's re-issue and cancel.
+    fn on_flight_action(&mut self, action: Action, fx: &mut Vec<Effect>) {
+        let outcome = match action {
+            Action::Arm | Action::Disarm | Action::Land | Action::Rtl => {
+                let what = match action {
+                    Action::Arm => FlightAction::Arm,
+                    Action::Disarm => FlightAction::Disarm { force: false },
+                    Action::Land => FlightAction::Land,
+                    _ => FlightAction::Rtl,
+                };
+                self.flight(what, fx)
+            }
+            Action::Takeoff => {
+                let line = format!("takeoff {}", self.cfg.takeoff_alt);
+                self.open_prompt_with(&line, false);
+                return;
+            }
+            Action::ModeMenu => {
+                self.open_prompt_with("mode ", true);
+                return;
+            }
+            Action::Fly => self.enter_fly(),
+            Action::Reissue => self.reissue_selected(fx),
+            Action::CancelCommand => self.cancel_selected(fx),
+            _ => return,
+        };
+        self.ui.message = match outcome {
+            Ok(t) => t.map(|t| (Severity::INFO, t)),
+            Err(e) => Some((Severity::ERROR, e)),
+        };
+    }
+
+    /// Pause, step, seek and change the speed of the replay.
+    fn on_replay_action(&mut self, action: Action, fx: &mut Vec<Effect>) {
+        let step = super::replay::SEEK_STEP * crate::clock::SECOND as i64;
+        let cmd = match action {
+            Action::ReplayPause => ReplayCmd::TogglePause,
+            Action::ReplayStep => ReplayCmd::Step(1),
+            Action::ReplayBack => ReplayCmd::Seek(-step),
+            Action::ReplayForward => ReplayCmd::Seek(step),
+            Action::ReplaySlower => ReplayCmd::Slower,
+            Action::ReplayFaster => ReplayCmd::Faster,
+            _ => return,
+        };
+        // What it did shows in the status bar's replay state; only a refusal is told.
+        if let Err(e) = self.replay_control(cmd, fx) {
+            self.ui.message = Some((Severity::ERROR, e));
         }
     }
 

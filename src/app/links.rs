@@ -11,6 +11,7 @@ use crate::link::ParserStats;
 use crate::proto::loss::SeqTracker;
 use crate::proto::streams::LinkProfile;
 use crate::proto::telemetry::History;
+use crate::proto::vehicles::VehicleKey;
 use crate::wire::tx::LinkTx;
 
 /// How soon a repeated frame must follow the original to be a duplicate (radios and routers
@@ -182,7 +183,7 @@ pub struct LinkStatus {
     /// Sources evicted to keep the table within [`MAX_SOURCES`].
     pub evicted_sources: u64,
     pub parser: ParserStats,
-    pub sources: BTreeMap<(u8, u8), SourceStats>,
+    pub sources: BTreeMap<VehicleKey, SourceStats>,
     pub rate: RateMeter,
     /// Per-source rows shown in the links pane.
     pub expanded: bool,
@@ -278,7 +279,7 @@ impl LinkStatus {
 
     /// The per-source statistics for `key`, made if new; a full table first evicts the source
     /// heard least recently.
-    pub fn source(&mut self, key: (u8, u8)) -> &mut SourceStats {
+    pub fn source(&mut self, key: VehicleKey) -> &mut SourceStats {
         use std::collections::btree_map::Entry;
         if self.sources.len() >= MAX_SOURCES && !self.sources.contains_key(&key) {
             self.evict_source();
@@ -375,7 +376,7 @@ mod tests {
                 if i == 1 {
                     seq = seq.wrapping_add(skip);
                 }
-                l.source((1, 1))
+                l.source(VehicleKey(1, 1))
                     .seq
                     .record(seq, sec * SECOND + i as u64 * 1000);
                 seq = seq.wrapping_add(1);

@@ -6,14 +6,21 @@
 //! that passes the filter adds one, so the lines in view stay put while messages come. `end`, or
 //! scrolling down to the bottom, follows again. Changing a filter follows again too.
 
-use super::notices::{Notice, SEVERITY_NAMES};
+use super::notices::Notice;
 use super::{App, Pane};
 use crate::keymap::Action;
 use crate::proto::vehicles::VehicleKey;
+use crate::wire::Severity;
 
-/// The severity filter's steps, from showing everything to errors and worse: the highest
-/// severity number shown (RFC-5424: 7 = DEBUG … 0 = EMERGENCY).
-pub const SEVERITY_STEPS: [u8; 5] = [7, 6, 5, 4, 3];
+/// The severity filter's steps, from showing everything to errors and worse: the least serious
+/// severity shown.
+pub const SEVERITY_STEPS: [Severity; 5] = [
+    Severity::DEBUG,
+    Severity::INFO,
+    Severity::NOTICE,
+    Severity::WARNING,
+    Severity::ERROR,
+];
 
 /// Whose messages are shown.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -30,15 +37,15 @@ pub enum VehicleFilter {
 /// What the Messages pane shows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct MsgFilter {
-    /// The highest severity number shown (7 = all).
-    pub max_severity: u8,
+    /// The least serious severity shown (DEBUG = all).
+    pub max_severity: Severity,
     pub vehicle: VehicleFilter,
 }
 
 impl Default for MsgFilter {
     fn default() -> Self {
         MsgFilter {
-            max_severity: 7,
+            max_severity: Severity::DEBUG,
             vehicle: VehicleFilter::All,
         }
     }
@@ -66,12 +73,8 @@ impl MsgFilter {
     /// `WARN+ sys 1`, `target 1`: the active filters, for the pane's title; empty for none.
     pub fn label(&self, target: Option<VehicleKey>) -> String {
         let mut parts = Vec::new();
-        if self.max_severity < 7 {
-            let name = SEVERITY_NAMES
-                .get(self.max_severity as usize)
-                .copied()
-                .unwrap_or("?");
-            parts.push(format!("{name}+"));
+        if self.max_severity < Severity::DEBUG {
+            parts.push(format!("{}+", self.max_severity.name()));
         }
         match self.vehicle {
             VehicleFilter::All => {}
@@ -123,7 +126,7 @@ impl App {
     pub(super) fn on_message_filter(&mut self, action: Action) {
         if self.ui.focus != Pane::Messages {
             self.ui.message = Some((
-                super::notices::SEV_INFO,
+                Severity::INFO,
                 "message filters: focus the Messages pane first".into(),
             ));
             return;

@@ -18,9 +18,9 @@
 
 use std::path::PathBuf;
 
-use super::flight::{Ask, Confirmed, FlightAction};
-use super::notices::{SEV_ERROR, SEV_INFO};
-use super::params::FileUse;
+pub use super::confirm::MissionAction;
+use super::confirm::{Ask, Confirmed, FlightAction};
+use super::files::FileUse;
 use super::{App, Effect};
 use crate::dialect::{MavAutopilot, MavCmd};
 use crate::mission::{self, plan, upload_warnings, wpl, MissionItem, MissionType};
@@ -28,6 +28,7 @@ use crate::proto::commands::CommandSpec;
 use crate::proto::mission::Request;
 use crate::proto::sequence::{Sequence, Step, Until};
 use crate::proto::vehicles::VehicleKey;
+use crate::wire::Severity;
 
 /// What a `wp`/`fence`/`rally` command asks.
 #[derive(Debug, Clone, PartialEq)]
@@ -49,16 +50,6 @@ pub enum MissionCmd {
     Goto(f64, f64, Option<f64>),
     /// Climb or descend to this altitude above home where the vehicle is.
     Alt(f64),
-}
-
-/// What a mission confirmation lets go ahead.
-#[derive(Debug, Clone, PartialEq)]
-pub enum MissionAction {
-    Upload(MissionType, Vec<MissionItem>),
-    Clear(MissionType),
-    Start,
-    /// `wp set N` while the vehicle flies its mission.
-    SetCurrent(u16),
 }
 
 /// A list read from a file.
@@ -209,7 +200,7 @@ impl App {
     fn mission_target(&self) -> Result<VehicleKey, String> {
         let key = self.commandable()?;
         if !self.sessions.contains_key(&key) {
-            return Err(format!("{}:{} is not an autopilot", key.0, key.1));
+            return Err(format!("{key} is not an autopilot"));
         }
         Ok(key)
     }
@@ -321,10 +312,7 @@ impl App {
                 self.mission_request(key, Request::Download(t), fx)?;
                 self.ui.mission.list = t.index();
                 self.ui.mission.shown = Shown::Vehicle;
-                Ok(Some(format!(
-                    "downloading the {name} of {}:{}",
-                    key.0, key.1
-                )))
+                Ok(Some(format!("downloading the {name} of {key}")))
             }
             MissionOp::Upload => {
                 let key = self.mission_target()?;
@@ -371,10 +359,7 @@ impl App {
             MissionOp::Clear => {
                 let key = self.mission_target()?;
                 self.ask(Ask {
-                    text: format!(
-                        "CLEAR the {name} of {}:{}? y = yes, any other key = no",
-                        key.0, key.1
-                    ),
+                    text: format!("CLEAR the {name} of {key}? y = yes, any other key = no"),
                     action: Confirmed::Mission(MissionAction::Clear(t)),
                     target: key,
                 });
@@ -400,9 +385,7 @@ impl App {
                 let key = self.mission_target()?;
                 self.ask(Ask {
                     text: format!(
-                        "START the mission on {}:{} ({}MISSION_START)? y = yes, any other key = no",
-                        key.0,
-                        key.1,
+                        "START the mission on {key} ({}MISSION_START)? y = yes, any other key = no",
                         self.profile(key)
                             .mission_mode()
                             .map_or(String::new(), |m| format!("mode {m}, then "))
@@ -443,12 +426,7 @@ impl App {
                 let n = items.len();
                 self.mission_request(key, Request::Upload(t, items), fx)?;
                 self.ui.mission.list = t.index();
-                Ok(Some(format!(
-                    "uploading {n} {} items to {}:{}",
-                    t.name(),
-                    key.0,
-                    key.1
-                )))
+                Ok(Some(format!("uploading {n} {} items to {key}", t.name())))
             }
             MissionAction::SetCurrent(seq) => {
                 let now = self.now;
@@ -462,12 +440,7 @@ impl App {
             }
             MissionAction::Clear(t) => {
                 self.mission_request(key, Request::Clear(t), fx)?;
-                Ok(Some(format!(
-                    "clearing the {} of {}:{}",
-                    t.name(),
-                    key.0,
-                    key.1
-                )))
+                Ok(Some(format!("clearing the {} of {key}", t.name())))
             }
             MissionAction::Start => {
                 let (autopilot, mavtype) = {
@@ -480,7 +453,7 @@ impl App {
                     steps.push(self.mode_step(key, autopilot, mavtype, auto)?);
                 }
                 steps.push(Step {
-                    spec: CommandSpec::long(key, MavCmd::MAV_CMD_MISSION_START, [0.0; 7]),
+                    spec: CommandSpec::long(key.into(), MavCmd::MAV_CMD_MISSION_START, [0.0; 7]),
                     until: Until::Ack,
                     label: "mission start".into(),
                     fallback: None,
@@ -604,13 +577,13 @@ impl App {
         self.ui.mission.sel = 0;
         if errors > 0 {
             self.notice(
-                SEV_ERROR,
+                Severity::ERROR,
                 None,
                 format!("{shown}: {errors} error(s), it will not be uploaded: {first_error}"),
             );
         } else {
             self.notice(
-                SEV_INFO,
+                Severity::INFO,
                 None,
                 format!("loaded {shown}: {} items (not uploaded)", counts.join(", ")),
             );
@@ -663,7 +636,7 @@ impl App {
     ) -> Result<(), String> {
         let v = self.vehicles.get(key).ok_or("vehicle gone")?;
         if !v.armed() {
-            return Err(format!("{what} refused: {}:{} is not armed", key.0, key.1));
+            return Err(format!("{what} refused: {key} is not armed"));
         }
         if guided {
             let Some(m) = v.profile().guided_mode() else {
@@ -675,9 +648,7 @@ impl App {
             let g = crate::proto::modes::mode_number(v.autopilot, v.mavtype, m);
             if g != Some(v.custom_mode) {
                 return Err(format!(
-                    "{what} refused: {}:{} is in {}, not {m} (mode {})",
-                    key.0,
-                    key.1,
+                    "{what} refused: {key} is in {}, not {m} (mode {})",
                     crate::proto::modes::mode_name(v.autopilot, v.mavtype, v.custom_mode),
                     m.to_ascii_lowercase()
                 ));
@@ -749,9 +720,9 @@ impl App {
             _ => Ok(None),
         };
         self.ui.message = match outcome {
-            Ok(Some(t)) => Some((SEV_INFO, t)),
+            Ok(Some(t)) => Some((Severity::INFO, t)),
             Ok(None) => None,
-            Err(e) => Some((SEV_ERROR, e)),
+            Err(e) => Some((Severity::ERROR, e)),
         };
     }
 }

@@ -4,6 +4,9 @@
 //! same state and the same effects, in the terminal, in headless replay and in tests.
 
 pub mod camera;
+mod confirm;
+mod editor;
+pub mod files;
 mod flight;
 pub mod input;
 pub mod inspector;
@@ -14,6 +17,7 @@ pub mod mission;
 pub mod notices;
 pub mod nudge;
 pub mod palette;
+pub mod param_meta;
 pub mod params;
 pub mod replay;
 pub mod report;
@@ -36,8 +40,9 @@ use crate::proto::loss::SeqOutcome;
 use crate::proto::machine::Incoming;
 use crate::proto::statustext::StatusTextJoiner;
 use crate::proto::vehicles::{Registry, VehicleEvent, VehicleKey, DEFAULT_LOST_TIMEOUT};
+use crate::wire::Severity;
 use links::{LinkState, LinkStatus};
-use notices::{Notice, Notices, SEV_ERROR, SEV_INFO, SEV_NOTICE, SEV_WARNING};
+use notices::{Notice, Notices};
 use session::{Session, SessionOut};
 
 /// Settings the core starts with.
@@ -65,6 +70,12 @@ pub struct AppConfig {
     pub takeoff_alt: f64,
     /// Parameter metadata (`--param-meta`), shared read-only.
     pub param_meta: Option<std::sync::Arc<crate::params::meta::MetaSet>>,
+    /// Where downloaded parameter metadata is kept (`mavterm` in the user's cache directory);
+    /// `None`: `param meta fetch` is refused and nothing is read from a cache.
+    pub param_meta_cache: Option<std::path::PathBuf>,
+    /// The published metadata's base URL (`MAVTERM_PARAM_META_URL`); `None`:
+    /// [`param_meta::DEFAULT_URL`].
+    pub param_meta_url: Option<String>,
     /// MAVLink 2 signing (`--signing-key`); `None`: we do not sign, and take every frame.
     pub signing: Option<signing::SigningConfig>,
     /// Fly mode's deadman: a nudge stops when no key of it has come for this long
@@ -86,6 +97,8 @@ impl Default for AppConfig {
             streams: crate::proto::rates::StreamRates::default(),
             takeoff_alt: 10.0,
             param_meta: None,
+            param_meta_cache: None,
+            param_meta_url: None,
             signing: None,
             nudge_deadman: nudge::DEADMAN,
         }
@@ -137,7 +150,14 @@ pub enum Event {
     /// A file the core asked for ([`Effect::ReadFile`]): its bytes, or why not.
     FileRead {
         path: std::path::PathBuf,
-        purpose: params::FileUse,
+        purpose: files::FileUse,
+        result: Result<Vec<u8>, String>,
+    },
+    /// Parameter metadata the core asked for ([`Effect::FetchParamMeta`],
+    /// [`Effect::ReadParamMeta`]): its bytes, or why not.
+    ParamMeta {
+        origin: param_meta::MetaOrigin,
+        cache_path: std::path::PathBuf,
         result: Result<Vec<u8>, String>,
     },
     /// The telemetry log the edge records: started, grown (at most once a second), or stopped.
@@ -173,7 +193,18 @@ pub enum Effect {
     /// Read a file; the bytes come back as [`Event::FileRead`].
     ReadFile {
         path: std::path::PathBuf,
-        purpose: params::FileUse,
+        purpose: files::FileUse,
+    },
+    /// Download parameter metadata: the first of `urls` that answers; the bytes (or why none
+    /// did) come back as [`Event::ParamMeta`]. The edge makes `cache_path`'s directory; the
+    /// core writes the file ([`Effect::WriteFile`]) once the bytes parse.
+    FetchParamMeta {
+        urls: Vec<String>,
+        cache_path: std::path::PathBuf,
+    },
+    /// Read cached parameter metadata; the bytes come back as [`Event::ParamMeta`].
+    ReadParamMeta {
+        path: std::path::PathBuf,
     },
     /// Open another link, whose id is `link` (the next free one).
     OpenLink {
@@ -230,13 +261,13 @@ pub struct UiState {
     pub edit: input::TextLine,
     /// The outcome of the last command, or completions, shown in the status bar until the
     /// next key: (severity, text).
-    pub message: Option<(u8, String)>,
+    pub message: Option<(Severity, String)>,
     /// Lines scrolled in the key help.
     pub help_scroll: usize,
     /// A dangerous action waiting for `y`.
-    pub confirm: Option<flight::Confirm>,
+    pub confirm: Option<confirm::Confirm>,
     /// Questions that came while one was open (a file that finished loading): asked in turn.
-    pub confirm_queue: std::collections::VecDeque<flight::Confirm>,
+    pub confirm_queue: std::collections::VecDeque<confirm::Confirm>,
     /// Selected row of the Commands screen (0 = newest).
     pub cmd_sel: usize,
     /// The command selected there, by its queue id: rows added meanwhile move it down, they
@@ -324,6 +355,8 @@ pub struct App {
     /// A target was chosen (the first autopilot heard, or by the operator): no automatic pick
     /// after that.
     target_held: bool,
+    /// Parameter metadata fetched or read from the cache.
+    pub meta: param_meta::MetaState,
     /// Automatic starts for new autopilots within the last [`AUTO_WINDOW`], beyond [`AUTO_FREE`].
     auto_starts: std::collections::VecDeque<Micros>,
     /// New autopilots whose automatic starts the budget held back.
@@ -340,7 +373,7 @@ impl App {
             .iter()
             .map(|s| LinkStatus::new(s.clone(), cfg.sysid, cfg.compid))
             .collect();
-        let vehicles = Registry::new((cfg.sysid, cfg.compid), cfg.lost_timeout);
+        let vehicles = Registry::new(VehicleKey(cfg.sysid, cfg.compid), cfg.lost_timeout);
         let signing = signing::SigningState::new(cfg.signing.as_ref());
         let nudge = nudge::Nudge::new(cfg.nudge_deadman);
         let mut app = Self {
@@ -365,6 +398,7 @@ impl App {
             last_drawn_sec: 0,
             quit: false,
             target_held: false,
+            meta: param_meta::MetaState::default(),
             auto_starts: std::collections::VecDeque::new(),
             auto_held: 0,
             suspend: false,
@@ -477,9 +511,9 @@ impl App {
                 SessionOut::Send(msg) => match self.route(key) {
                     Some(link) => self.send(link, msg, fx),
                     None => self.notice(
-                        SEV_WARNING,
+                        Severity::WARNING,
                         Some(key),
-                        format!("no link to {}:{}: not sent", key.0, key.1),
+                        format!("no link to {key}: not sent"),
                     ),
                 },
                 // Nothing automatic on high-latency links, nor when only those reach the vehicle.
@@ -511,7 +545,7 @@ impl App {
                     text,
                     ..
                 } => {
-                    self.inspector_outcome(target, command, sev, &text);
+                    self.inspector_outcome(target.into(), command, sev, &text);
                     self.notice(sev, Some(key), text)
                 }
             }
@@ -560,7 +594,7 @@ impl App {
             Ok(b) => Some((shown, String::from_utf8_lossy(&b).into_owned())),
             Err(e) => {
                 self.notice(
-                    notices::SEV_ERROR,
+                    Severity::ERROR,
                     None,
                     format!("could not read {shown}: {e}"),
                 );
@@ -569,7 +603,7 @@ impl App {
         }
     }
 
-    fn notice(&mut self, severity: u8, source: Option<(u8, u8)>, text: String) {
+    fn notice(&mut self, severity: Severity, source: Option<VehicleKey>, text: String) {
         let n = Notice {
             t: self.now,
             at: self.shown_instant(),
@@ -606,16 +640,16 @@ impl App {
                 self.signing_file_written(error)
             }
             Event::FileWritten { path, error } => match error {
-                None => self.notice(SEV_INFO, None, format!("saved {}", path.display())),
+                None => self.notice(Severity::INFO, None, format!("saved {}", path.display())),
                 Some(e) => self.notice(
-                    SEV_ERROR,
+                    Severity::ERROR,
                     None,
                     format!("could not save {}: {e}", path.display()),
                 ),
             },
             Event::FileRead {
                 path,
-                purpose: params::FileUse::Mission(t),
+                purpose: files::FileUse::Mission(t),
                 result,
             } => self.on_mission_file(path, t, result),
             Event::FileRead {
@@ -629,6 +663,11 @@ impl App {
                     self.dirty = true;
                 }
             }
+            Event::ParamMeta {
+                origin,
+                cache_path,
+                result,
+            } => self.on_param_meta(origin, cache_path, result, &mut fx),
             Event::Recording(st) => self.on_recording(st),
             Event::Output { out, status } => self.on_output(out, status),
             Event::ReplayStatus { link, status } => self.on_replay_status(link, status),
@@ -636,6 +675,7 @@ impl App {
         self.poll_confirm();
         self.poll_nudge(&mut fx);
         self.poll_sessions(&mut fx);
+        self.poll_param_meta(&mut fx);
         self.follow_selected_command();
         fx
     }
@@ -677,7 +717,7 @@ impl App {
         };
         if !whole {
             self.ui.message = Some((
-                SEV_WARNING,
+                Severity::WARNING,
                 format!(
                     "line full: {} characters at most",
                     crate::app::input::MAX_LINE
@@ -702,7 +742,7 @@ impl App {
         let events = self.vehicles.tick(self.now);
         self.on_vehicle_events(events, fx);
         for t in self.statustext.poll(self.now) {
-            self.notice(t.severity, Some(t.source), t.text);
+            self.notice(t.severity, Some(t.source.into()), t.text);
         }
         self.signing_time(fx);
     }
@@ -730,13 +770,17 @@ impl App {
                         s.on_link_reconnected(link);
                     }
                 }
-                self.notice(SEV_INFO, None, format!("link {spec} up"))
+                self.notice(Severity::INFO, None, format!("link {spec} up"))
             }
             LinkState::Down(reason) => {
                 // A link retried with the same failure is told of once.
                 if l.notified_down.as_ref() != Some(&reason) {
                     l.notified_down = Some(reason.clone());
-                    self.notice(SEV_WARNING, None, format!("link {spec} down: {reason}"))
+                    self.notice(
+                        Severity::WARNING,
+                        None,
+                        format!("link {spec} down: {reason}"),
+                    )
                 }
                 self.dirty = true;
             }
@@ -771,7 +815,7 @@ impl App {
     /// One frame from `link`: counted on the link, then handled once however many links carry it.
     fn on_frame(&mut self, link: LinkId, frame: &Frame, fx: &mut Vec<Effect>) {
         let now = self.now;
-        let key = (frame.sysid, frame.compid);
+        let key = VehicleKey(frame.sysid, frame.compid);
         // An id our dialect does not know has no CRC we could check: counted on the link only
         // (the parser did), never a source, never loss.
         if frame.message.is_none() && crate::wire::parser::msg_limits(frame.msgid).is_none() {
@@ -779,7 +823,9 @@ impl App {
         }
         let crc = frame.crc();
         // Our own frame coming back through a router: not another GCS, not a source.
-        if key == (self.cfg.sysid, self.cfg.compid) && self.links[link].sent_by_us(frame.seq, crc) {
+        if key == VehicleKey(self.cfg.sysid, self.cfg.compid)
+            && self.links[link].sent_by_us(frame.seq, crc)
+        {
             self.links[link].echoes += 1;
             return;
         }
@@ -880,10 +926,10 @@ impl App {
                     s.commands
                         .entries()
                         .filter(|e| e.open())
-                        .map(|e| e.spec.target),
+                        .map(|e| VehicleKey::from(e.spec.target)),
                 );
                 if let Some((comp, ..)) = s.params.downloading() {
-                    kept.push((k.0, comp));
+                    kept.push(VehicleKey(k.0, comp));
                 }
             }
             kept.extend(self.target);
@@ -904,7 +950,7 @@ impl App {
             && self.vehicles.get(key).is_some_and(|v| v.is_payload())
             && self
                 .sessions
-                .range((key.0, 0)..=(key.0, u8::MAX))
+                .range(VehicleKey(key.0, 0)..=VehicleKey(key.0, u8::MAX))
                 .next()
                 .is_none();
         if !self.sessions.contains_key(&key) && (autopilot || alone) {
@@ -938,8 +984,8 @@ impl App {
         let now = self.now;
         let texts = self.statustext.push(
             now,
-            key,
-            st.severity as u8,
+            key.into(),
+            st.severity.into(),
             &st.text[..],
             st.id,
             st.chunk_seq,
@@ -948,7 +994,7 @@ impl App {
             // A vehicle's reason for refusing a command comes as text.
             let keys: Vec<VehicleKey> = self
                 .sessions
-                .range((t.source.0, 0)..=(t.source.0, u8::MAX))
+                .range(VehicleKey(t.source.0, 0)..=VehicleKey(t.source.0, u8::MAX))
                 .map(|(k, _)| *k)
                 .collect();
             for k in keys {
@@ -956,7 +1002,7 @@ impl App {
                     s.on_text(now, &t.text);
                 }
             }
-            self.notice(t.severity, Some(t.source), t.text);
+            self.notice(t.severity, Some(t.source.into()), t.text);
         }
     }
 
@@ -969,14 +1015,14 @@ impl App {
         ack: Option<&CommandAck>,
         fx: &mut Vec<Effect>,
     ) {
-        let (now, key) = (self.now, (frame.sysid, frame.compid));
+        let (now, key) = (self.now, VehicleKey(frame.sysid, frame.compid));
         // Every session of the sender's system (almost always one) is handed the message, then
         // what they ask for is carried out, in key order. A session's own state is all
         // `on_message` touches, so this is the same as doing each in turn. Few sessions are
         // looked through faster than a range is found.
         let incoming = Incoming {
             now,
-            from: key,
+            from: key.into(),
             link,
             profile: self.links[link].profile,
             id: frame.msgid,
@@ -1009,7 +1055,10 @@ impl App {
                 }
             }
         } else {
-            for (k, s) in self.sessions.range_mut((key.0, 0)..=(key.0, u8::MAX)) {
+            for (k, s) in self
+                .sessions
+                .range_mut(VehicleKey(key.0, 0)..=VehicleKey(key.0, u8::MAX))
+            {
                 handle(k, s);
             }
         }
@@ -1038,7 +1087,7 @@ impl App {
     fn drop_payload_sessions(&mut self, sysid: u8) {
         let payloads: Vec<VehicleKey> = self
             .sessions
-            .range((sysid, 0)..=(sysid, u8::MAX))
+            .range(VehicleKey(sysid, 0)..=VehicleKey(sysid, u8::MAX))
             .map(|(k, _)| *k)
             .filter(|k| !self.vehicles.get(*k).is_some_and(|v| v.is_autopilot()))
             .filter(|k| self.target != Some(*k) && self.nudge.target != Some(*k))
@@ -1089,9 +1138,9 @@ impl App {
                         None => continue,
                     };
                     self.notice(
-                        SEV_NOTICE,
+                        Severity::NOTICE,
                         Some(key),
-                        format!("vehicle {}:{} found ({desc})", key.0, key.1),
+                        format!("vehicle {key} found ({desc})"),
                     );
                     // The first autopilot heard becomes the target; after that only the
                     // operator changes it.
@@ -1103,7 +1152,7 @@ impl App {
                 VehicleEvent::Lost(key) | VehicleEvent::Back(key)
                     if self.vehicles.get(key).is_some_and(|v| v.flood) => {}
                 VehicleEvent::Flood(n) => self.notice(
-                    SEV_ERROR,
+                    Severity::ERROR,
                     None,
                     format!(
                         "heartbeat flood: {n} new ids within {} s; new vehicles are listed \
@@ -1113,25 +1162,27 @@ impl App {
                 ),
                 VehicleEvent::Lost(key) => {
                     self.notice(
-                        SEV_WARNING,
+                        Severity::WARNING,
                         Some(key),
-                        format!("vehicle {}:{} lost (no heartbeat)", key.0, key.1),
+                        format!("vehicle {key} lost (no heartbeat)"),
                     );
                     if self.nudge.target == Some(key) {
                         self.leave_fly(fx);
-                        self.notice(SEV_WARNING, Some(key), "Fly mode left: vehicle lost".into());
+                        self.notice(
+                            Severity::WARNING,
+                            Some(key),
+                            "Fly mode left: vehicle lost".into(),
+                        );
                     }
                 }
-                VehicleEvent::Back(key) => self.notice(
-                    SEV_NOTICE,
-                    Some(key),
-                    format!("vehicle {}:{} back", key.0, key.1),
-                ),
+                VehicleEvent::Back(key) => {
+                    self.notice(Severity::NOTICE, Some(key), format!("vehicle {key} back"))
+                }
                 VehicleEvent::Rebooted(key, why) => {
                     self.notice(
-                        SEV_WARNING,
+                        Severity::WARNING,
                         Some(key),
-                        format!("vehicle {}:{} rebooted ({why})", key.0, key.1),
+                        format!("vehicle {key} rebooted ({why})"),
                     );
                     // A rebooted autopilot forgets what it was asked: its machines start over.
                     if let Some(s) = self.sessions.get_mut(&key) {
@@ -1139,21 +1190,15 @@ impl App {
                     }
                 }
                 VehicleEvent::Conflict(key, detail) => {
-                    self.notice(SEV_ERROR, Some(key), format!("sysid clash: {detail}"))
+                    self.notice(Severity::ERROR, Some(key), format!("sysid clash: {detail}"))
                 }
                 VehicleEvent::UsesGcsSysid(key) => {
-                    let text = if key == (self.cfg.sysid, self.cfg.compid) {
-                        format!(
-                            "another GCS uses our id {}:{}: replies may go to either",
-                            key.0, key.1
-                        )
+                    let text = if key == VehicleKey(self.cfg.sysid, self.cfg.compid) {
+                        format!("another GCS uses our id {key}: replies may go to either")
                     } else {
-                        format!(
-                            "component {}:{} uses our GCS sysid {}",
-                            key.0, key.1, self.cfg.sysid
-                        )
+                        format!("component {key} uses our GCS sysid {}", self.cfg.sysid)
                     };
-                    self.notice(SEV_ERROR, Some(key), text)
+                    self.notice(Severity::ERROR, Some(key), text)
                 }
                 VehicleEvent::Evicted(key) => {
                     self.sessions.remove(&key);
@@ -1172,7 +1217,7 @@ impl App {
 fn heartbeat_fallback(frame: &Frame) -> Option<MavMessage> {
     use dialect::{MavAutopilot, MavModeFlag, MavState, MavType};
     use num_traits::FromPrimitive;
-    if frame.msgid != 0 {
+    if frame.msgid != <dialect::HEARTBEAT_DATA as mavlink::MessageData>::ID {
         return None;
     }
     let mut p = [0u8; 9];

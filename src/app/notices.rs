@@ -3,19 +3,11 @@
 use std::collections::VecDeque;
 
 use crate::clock::Micros;
+use crate::proto::vehicles::VehicleKey;
+use crate::wire::Severity;
 
 /// How many messages are kept.
 pub const MAX_NOTICES: usize = 1000;
-
-/// RFC-5424 severities as MAVLink uses them (0 = EMERGENCY … 7 = DEBUG).
-pub const SEVERITY_NAMES: [&str; 8] = [
-    "EMERG", "ALERT", "CRIT", "ERROR", "WARN", "NOTICE", "INFO", "DEBUG",
-];
-
-pub const SEV_ERROR: u8 = 3;
-pub const SEV_WARNING: u8 = 4;
-pub const SEV_NOTICE: u8 = 5;
-pub const SEV_INFO: u8 = 6;
 
 /// One line in the message log.
 #[derive(Debug, Clone, PartialEq)]
@@ -23,19 +15,10 @@ pub struct Notice {
     pub t: Micros,
     /// The time shown for it: the wall clock's, or during a replay the recording's.
     pub at: chrono::DateTime<chrono::Utc>,
-    pub severity: u8,
+    pub severity: Severity,
     /// The sender for STATUSTEXT; `None` for mavterm's own notices.
-    pub source: Option<(u8, u8)>,
+    pub source: Option<VehicleKey>,
     pub text: String,
-}
-
-impl Notice {
-    pub fn severity_name(&self) -> &'static str {
-        SEVERITY_NAMES
-            .get(self.severity as usize)
-            .copied()
-            .unwrap_or("?")
-    }
 }
 
 /// Bounded log of notices.

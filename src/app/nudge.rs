@@ -24,9 +24,9 @@ use crate::dialect::{
 use crate::keymap::{Key, KeyCode};
 use crate::proto::vehicles::VehicleKey;
 
-use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
 use super::session::SessionOut;
 use super::{App, Effect};
+use crate::wire::Severity;
 
 /// Velocity targets per second while a key is held.
 pub const RATE_HZ: u64 = 10;
@@ -405,7 +405,7 @@ impl App {
     pub(super) fn enter_fly(&mut self) -> Result<Option<String>, String> {
         let key = self.commandable()?;
         if !self.sessions.contains_key(&key) {
-            return Err(format!("{}:{} is not an autopilot", key.0, key.1));
+            return Err(format!("{key} is not an autopilot"));
         }
         self.nudge.enter(key, self.ui.screen);
         Ok(Some(
@@ -482,8 +482,8 @@ impl App {
                         | Action::Takeoff),
                     ) => {
                         self.leave_fly(fx);
-                        self.notice(SEV_INFO, Some(target), "Fly mode left".into());
-                        self.ui.message = Some((SEV_INFO, "Fly mode left".into()));
+                        self.notice(Severity::INFO, Some(target), "Fly mode left".into());
+                        self.ui.message = Some((Severity::INFO, "Fly mode left".into()));
                         self.on_action(a, fx);
                         return;
                     }
@@ -492,9 +492,13 @@ impl App {
             }
         };
         self.ui.message = match outcome {
-            Ok(Some(t)) => Some((SEV_INFO, t)),
-            Ok(None) => self.ui.message.take().filter(|(s, _)| *s != SEV_ERROR),
-            Err(e) => Some((SEV_ERROR, e)),
+            Ok(Some(t)) => Some((Severity::INFO, t)),
+            Ok(None) => self
+                .ui
+                .message
+                .take()
+                .filter(|(s, _)| *s != Severity::ERROR),
+            Err(e) => Some((Severity::ERROR, e)),
         };
     }
 
@@ -545,7 +549,11 @@ impl App {
         if let Some(key) = self.nudge.target {
             if let Some(why) = self.fly_ends(key) {
                 self.leave_fly(fx);
-                self.notice(SEV_WARNING, Some(key), format!("Fly mode left: {why}"));
+                self.notice(
+                    Severity::WARNING,
+                    Some(key),
+                    format!("Fly mode left: {why}"),
+                );
                 self.dirty = true;
             }
         }
@@ -602,7 +610,7 @@ mod tests {
     fn a_held_key_streams_at_10_hz_and_the_deadman_stops_it() {
         let mut n = Nudge::new(300_000);
         assert!(n.press(0, Axis::Forward, 1.0).is_none(), "not in Fly mode");
-        n.enter((1, 1), "overview");
+        n.enter(VehicleKey(1, 1), "overview");
         let (_, m) = n.press(0, Axis::Forward, 1.0).unwrap();
         assert_eq!(vel(&m), [2.0, 0.0, -0.0, 0.0]);
         // Its first repeat 500 ms later, then every 30 ms: not more than 10 Hz.
@@ -631,7 +639,7 @@ mod tests {
     #[test]
     fn a_single_press_lasts_until_its_first_repeat_would_have_come() {
         let mut n = Nudge::new(300_000);
-        n.enter((1, 1), "overview");
+        n.enter(VehicleKey(1, 1), "overview");
         n.press(0, Axis::Right, 1.0).unwrap();
         let mut first_stop = None;
         let mut t = 0;
@@ -652,7 +660,7 @@ mod tests {
     /// went and whether it moved, and the time of the last key.
     fn held_for(delay: Micros, gap: Micros, hold: Micros) -> (Vec<(Micros, bool)>, Micros) {
         let mut n = Nudge::default();
-        n.enter((1, 1), "overview");
+        n.enter(VehicleKey(1, 1), "overview");
         let mut keys = vec![0];
         let mut k = delay;
         while k <= hold {
@@ -708,7 +716,7 @@ mod tests {
     #[test]
     fn a_release_stops_at_once_and_leaving_sends_zero() {
         let mut n = Nudge::default();
-        n.enter((1, 1), "overview");
+        n.enter(VehicleKey(1, 1), "overview");
         n.set_speed(2);
         n.press(0, Axis::Right, -1.0).unwrap();
         let (_, m) = n.release(50_000, Axis::Right, -1.0).unwrap();

@@ -13,11 +13,11 @@ use nucleo_matcher::{Config, Matcher, Utf32Str};
 
 use super::flight::FlightAction;
 use super::input::{parse_param, TextLine};
-use super::notices::SEV_INFO;
 use super::{App, Effect};
 use crate::keymap::{Action, Key, KeyCode, Mode};
 use crate::proto::mav_cmds;
 use crate::proto::vehicles::VehicleKey;
+use crate::wire::Severity;
 
 /// Fields of the form: param1..param7, then the target.
 pub const FIELDS: usize = 8;
@@ -89,8 +89,8 @@ impl PaletteForm {
     /// Empty parameters; the target filled in when there is one.
     pub fn new(command: u16, target: Option<VehicleKey>) -> Self {
         let mut fields: [TextLine; FIELDS] = Default::default();
-        if let Some((s, c)) = target {
-            fields[TARGET].set(&format!("{s}:{c}"));
+        if let Some(key) = target {
+            fields[TARGET].set(&key.to_string());
         }
         PaletteForm {
             command,
@@ -137,7 +137,7 @@ impl PaletteForm {
     /// field that does not parse shows `?`.
     pub fn preview(&self) -> [String; 2] {
         let target = match self.target() {
-            Ok((s, c)) => format!("{s}:{c}"),
+            Ok(key) => key.to_string(),
             Err(_) => "?".into(),
         };
         let head = format!(
@@ -171,7 +171,7 @@ pub fn parse_target(text: &str) -> Result<VehicleKey, String> {
     let (s, c) = text.trim().split_once(':').ok_or_else(usage)?;
     let s = s.trim().parse::<u8>().map_err(|_| usage())?;
     let c = c.trim().parse::<u8>().map_err(|_| usage())?;
-    Ok((s, c))
+    Ok(VehicleKey(s, c))
 }
 
 /// What a commonly used command gains in the ranking: half a matched character, as much as
@@ -298,7 +298,7 @@ impl App {
         match outcome {
             Ok(text) => {
                 self.close_palette();
-                self.ui.message = text.map(|t| (SEV_INFO, t));
+                self.ui.message = text.map(|t| (Severity::INFO, t));
             }
             Err(e) => {
                 if let Some(p) = self.ui.palette.as_mut() {
@@ -413,7 +413,7 @@ mod tests {
 
     #[test]
     fn empty_fields_are_zero_nan_is_allowed_and_bad_ones_are_named() {
-        let mut f = PaletteForm::new(22, Some((1, 1)));
+        let mut f = PaletteForm::new(22, Some(VehicleKey(1, 1)));
         f.fields[3].set("NaN");
         f.fields[6].set(" 10 ");
         let p = f.params().unwrap();
@@ -428,9 +428,9 @@ mod tests {
             e.starts_with("param7 (Altitude): `ten` is not a number"),
             "{e}"
         );
-        assert_eq!(f.target(), Ok((1, 1)));
+        assert_eq!(f.target(), Ok(VehicleKey(1, 1)));
         f.fields[TARGET].set("1:100");
-        assert_eq!(f.target(), Ok((1, 100)));
+        assert_eq!(f.target(), Ok(VehicleKey(1, 100)));
         for bad in ["", "1", "1:", "256:1", "a:b"] {
             f.fields[TARGET].set(bad);
             assert!(f.target().unwrap_err().contains("SYSID:COMPID"), "{bad}");
@@ -440,7 +440,7 @@ mod tests {
 
     #[test]
     fn the_preview_shows_every_field_of_the_command_long() {
-        let mut f = PaletteForm::new(22, Some((1, 1)));
+        let mut f = PaletteForm::new(22, Some(VehicleKey(1, 1)));
         f.fields[3].set("nan");
         f.fields[6].set("10");
         assert_eq!(
@@ -471,7 +471,7 @@ mod tests {
         p.query.set("takeoff");
         p.refilter();
         assert_eq!((p.sel, p.selected()), (0, Some(22)));
-        p.pick(Some((2, 1)));
+        p.pick(Some(VehicleKey(2, 1)));
         let f = p.form.as_mut().unwrap();
         assert_eq!((f.command, f.fields[TARGET].text.as_str()), (22, "2:1"));
         f.move_focus(-1);

@@ -8,15 +8,17 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use super::flight::{Ask, Confirmed};
-use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
+use super::confirm::{Ask, Confirmed};
+use super::editor::{self, EditKind, Edited};
+pub use super::files::FileUse;
 use super::{App, Effect};
-use crate::keymap::{Action, Key, KeyCode, Mode};
+use crate::keymap::{Action, Key};
 use crate::params::file::{self, Format, Header, ParamFile, Saved};
 use crate::params::meta::{ParamMeta, Variant};
 use crate::params::value;
 use crate::proto::params::ParamSet;
 use crate::proto::vehicles::VehicleKey;
+use crate::wire::Severity;
 
 /// A `param` command.
 #[derive(Debug, Clone, PartialEq)]
@@ -30,17 +32,6 @@ pub enum ParamCmd {
     Save(String),
     Load(String),
     Diff(String),
-}
-
-/// Why a file is being read.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum FileUse {
-    /// Compare, then offer to apply the differences.
-    Load,
-    /// Compare only.
-    Diff,
-    /// A mission, fence or rally point file (`wp load`, …): WPL or `.plan`.
-    Mission(crate::mission::MissionType),
 }
 
 /// A file loaded or compared: its values mark the parameters that differ from it.
@@ -164,7 +155,7 @@ impl App {
     pub fn param_target(&self) -> Result<(VehicleKey, u8), String> {
         let key = self.target.ok_or("no target vehicle")?;
         if !self.sessions.contains_key(&key) {
-            return Err(format!("{}:{} has no session", key.0, key.1));
+            return Err(format!("{key} has no session"));
         }
         Ok((key, self.ui.params.comp.unwrap_or(key.1)))
     }
@@ -220,22 +211,25 @@ impl App {
                 let c = c.unwrap_or(key.1);
                 let have = self.sessions[&key].params.sets.contains_key(&c);
                 Ok(Some(if have {
-                    format!("parameters of {}:{c}", key.0)
+                    format!("parameters of {}", VehicleKey(key.0, c))
                 } else {
                     format!(
-                        "parameters of {}:{c}: none yet (param fetch asks for them)",
-                        key.0
+                        "parameters of {}: none yet (param fetch asks for them)",
+                        VehicleKey(key.0, c)
                     )
                 }))
             }
             ParamCmd::Fetch => {
-                self.commandable_at((key.0, comp))?;
+                self.commandable_at(VehicleKey(key.0, comp))?;
                 let now = self.now;
                 let s = self.sessions.get_mut(&key).ok_or("no session")?;
                 let out = s.params.fetch(now, comp);
                 let out = out.into_iter().map(|o| s.pmap(o)).collect();
                 self.session_out(key, out, fx);
-                Ok(Some(format!("fetching the parameters of {}:{comp}", key.0)))
+                Ok(Some(format!(
+                    "fetching the parameters of {}",
+                    VehicleKey(key.0, comp)
+                )))
             }
             ParamCmd::Set(name, text) => self.set_param(key, comp, &name, &text, fx),
             ParamCmd::Encoding(choice) => {
@@ -256,7 +250,7 @@ impl App {
                     .get(&key)
                     .and_then(|s| s.params.sets.get(&comp))
                     .filter(|s| !s.params.is_empty())
-                    .ok_or_else(|| format!("no parameters of {}:{comp} yet", key.0))?;
+                    .ok_or_else(|| format!("no parameters of {} yet", VehicleKey(key.0, comp)))?;
                 let format = file::format_for_path(std::path::Path::new(&path));
                 let params: Vec<Saved> = match format {
                     Format::Parm => saved(comp, set).collect(),
@@ -329,13 +323,16 @@ impl App {
             .sessions
             .get(&key)
             .and_then(|s| s.params.sets.get(&comp))
-            .ok_or_else(|| format!("no parameters of {}:{comp} yet", key.0))?;
+            .ok_or_else(|| format!("no parameters of {} yet", VehicleKey(key.0, comp)))?;
         let name = if set.params.contains_key(name) {
             name.to_string()
         } else {
             let up = name.to_ascii_uppercase();
             if !set.params.contains_key(&up) {
-                return Err(format!("no parameter {name} on {}:{comp}", key.0));
+                return Err(format!(
+                    "no parameter {name} on {}",
+                    VehicleKey(key.0, comp)
+                ));
             }
             up
         };
@@ -360,7 +357,7 @@ impl App {
         }
         let old = p.value;
         let change = vec![(comp, name.clone(), v)];
-        self.commandable_at((key.0, comp))?;
+        self.commandable_at(VehicleKey(key.0, comp))?;
         let mut why = Vec::new();
         if let Some(e) = meta.and_then(|m| m.check_range(v).err()) {
             why.push(e);
@@ -376,10 +373,10 @@ impl App {
         if !why.is_empty() {
             self.ask(Ask {
                 text: format!(
-                    "{name} = {}: {}. Send to {}:{comp} anyway? y = yes, any other key = no",
+                    "{name} = {}: {}. Send to {} anyway? y = yes, any other key = no",
                     value::fmt_plain(v),
                     why.join("; "),
-                    key.0,
+                    VehicleKey(key.0, comp),
                 ),
                 action: Confirmed::Params(change),
                 target: key,
@@ -398,7 +395,7 @@ impl App {
     ) -> Result<Option<String>, String> {
         // Every component written to is heard and not lost.
         for (comp, _, _) in &changes {
-            self.commandable_at((key.0, *comp))?;
+            self.commandable_at(VehicleKey(key.0, *comp))?;
         }
         let now = self.now;
         let n = changes.len();
@@ -438,14 +435,14 @@ impl App {
         };
         let parsed = file::parse(&text);
         let Ok((key, comp)) = self.param_target() else {
-            self.notice(SEV_ERROR, None, format!("{shown}: no target vehicle"));
+            self.notice(Severity::ERROR, None, format!("{shown}: no target vehicle"));
             return;
         };
         let Some(set) = self.param_set() else {
             self.notice(
-                SEV_ERROR,
+                Severity::ERROR,
                 None,
-                format!("{shown}: no parameters of {}:{comp} yet", key.0),
+                format!("{shown}: no parameters of {} yet", VehicleKey(key.0, comp)),
             );
             return;
         };
@@ -458,7 +455,7 @@ impl App {
             .map(|p| (p.name.clone(), p.value))
             .collect();
         for e in parsed.errors.iter().take(20) {
-            self.notice(SEV_WARNING, None, format!("{shown}: {e}"));
+            self.notice(Severity::WARNING, None, format!("{shown}: {e}"));
         }
         let summary = format!(
             "{shown}: {} changed, {} only on the vehicle, {} only in the file{}",
@@ -471,7 +468,7 @@ impl App {
                 n => format!(", {n} bad lines"),
             }
         );
-        self.notice(SEV_INFO, None, summary.clone());
+        self.notice(Severity::INFO, None, summary.clone());
         let changes: Vec<(u8, String, f64)> = diff
             .changed
             .iter()
@@ -485,7 +482,7 @@ impl App {
             diff,
             values,
         });
-        self.ui.message = Some((SEV_INFO, summary));
+        self.ui.message = Some((Severity::INFO, summary));
         if purpose == FileUse::Diff {
             return;
         }
@@ -508,10 +505,10 @@ impl App {
             }
         }
         for text in bad {
-            self.notice(SEV_WARNING, None, text);
+            self.notice(Severity::WARNING, None, text);
         }
         if ok.is_empty() {
-            self.ui.message = Some((SEV_INFO, format!("{shown}: nothing to change")));
+            self.ui.message = Some((Severity::INFO, format!("{shown}: nothing to change")));
             return;
         }
         let mut list: Vec<String> = ok
@@ -534,10 +531,10 @@ impl App {
         };
         self.ask(Ask {
             text: format!(
-                "{warn}Apply {} change{} from {shown} to {}:{comp}? {} (y/n)",
+                "{warn}Apply {} change{} from {shown} to {}? {} (y/n)",
                 ok.len(),
                 if ok.len() == 1 { "" } else { "s" },
-                key.0,
+                VehicleKey(key.0, comp),
                 list.join(", ")
             ),
             action: Confirmed::Params(ok),
@@ -559,9 +556,8 @@ impl App {
     pub(super) fn on_param_action(&mut self, action: Action, fx: &mut Vec<Effect>) {
         let outcome: Result<Option<String>, String> = match action {
             Action::ParamFilter => {
-                self.ui.edit.set(&self.ui.params.filter.clone());
+                editor::open(&mut self.ui.edit, &mut self.ui.mode, &self.ui.params.filter);
                 self.ui.params.editing = Some(ParamEdit::Filter);
-                self.ui.mode = Mode::Edit;
                 Ok(None)
             }
             Action::ParamEdit => self.start_param_edit(),
@@ -588,8 +584,8 @@ impl App {
             _ => Ok(None),
         };
         self.ui.message = match outcome {
-            Ok(t) => t.map(|t| (SEV_INFO, t)),
-            Err(e) => Some((SEV_ERROR, e)),
+            Ok(t) => t.map(|t| (Severity::INFO, t)),
+            Err(e) => Some((Severity::ERROR, e)),
         };
     }
 
@@ -607,7 +603,7 @@ impl App {
         let (key, comp) = self.param_target()?;
         let name = self
             .param_selected()
-            .ok_or_else(|| format!("no parameters of {}:{comp} to edit", key.0))?;
+            .ok_or_else(|| format!("no parameters of {} to edit", VehicleKey(key.0, comp)))?;
         let p = self
             .param_set()
             .and_then(|s| s.params.get(&name))
@@ -615,13 +611,15 @@ impl App {
         if self.param_meta(&name).is_some_and(|m| m.read_only) {
             return Err(format!("{name} is read-only"));
         }
-        self.ui.edit.set(&p.text());
+        let text = p.text();
+        editor::open(&mut self.ui.edit, &mut self.ui.mode, &text);
         self.ui.params.editing = Some(ParamEdit::Value(comp, name));
-        self.ui.mode = Mode::Edit;
         Ok(None)
     }
 
-    /// A key while the filter or a value is typed on the Parameters screen.
+    /// A key while the filter or a value is typed on the Parameters screen: the shared edit
+    /// line; `enter` sends the value (checked against its type and metadata), tab completes a
+    /// value's name from the metadata.
     pub(super) fn on_param_edit_key(
         &mut self,
         key: Key,
@@ -633,13 +631,14 @@ impl App {
             return;
         };
         let filter = editing == ParamEdit::Filter;
-        match action {
-            Some(Action::Submit) => {
-                self.ui.mode = Mode::Normal;
+        let kind = EditKind {
+            filter,
+            completes: true,
+        };
+        match editor::key(&mut self.ui.edit, &mut self.ui.mode, kind, key, action) {
+            Edited::Submit(text) => {
                 self.ui.params.editing = None;
-                if let ParamEdit::Value(comp, name) = editing {
-                    let text = std::mem::take(&mut self.ui.edit.text);
-                    self.ui.edit.cursor = 0;
+                if let (ParamEdit::Value(comp, name), Some(text)) = (editing, text) {
                     let outcome = match self.param_target() {
                         Ok((key, _)) => self.set_param(key, comp, &name, &text, fx),
                         Err(e) => Err(e),
@@ -652,14 +651,13 @@ impl App {
                         self.ui.params.awaiting = Some(name);
                     }
                     self.ui.message = match outcome {
-                        Ok(t) => t.map(|t| (SEV_INFO, t)),
-                        Err(e) => Some((SEV_ERROR, e)),
+                        Ok(t) => t.map(|t| (Severity::INFO, t)),
+                        Err(e) => Some((Severity::ERROR, e)),
                     };
                 }
                 return;
             }
-            Some(Action::Cancel) => {
-                self.ui.mode = Mode::Normal;
+            Edited::Cancel => {
                 self.ui.params.editing = None;
                 if filter {
                     // The parameter found stays selected in the whole list.
@@ -667,14 +665,13 @@ impl App {
                     self.ui.params.filter.clear();
                     self.reselect(keep);
                 } else {
-                    self.ui.message = Some((SEV_INFO, "edit cancelled: nothing sent".into()));
+                    self.ui.message = Some((Severity::INFO, "edit cancelled: nothing sent".into()));
                 }
                 return;
             }
             // While filtering, up/down move through what the filter leaves.
-            Some(Action::HistoryPrev) if filter => self.move_param_sel(-1),
-            Some(Action::HistoryNext) if filter => self.move_param_sel(1),
-            Some(Action::Complete) => {
+            Edited::Move(step) => self.move_param_sel(step),
+            Edited::Complete => {
                 if let ParamEdit::Value(_, name) = &editing {
                     let next = self
                         .param_meta(name)
@@ -685,14 +682,7 @@ impl App {
                     }
                 }
             }
-            Some(a) => {
-                self.ui.edit.edit(a);
-            }
-            None => {
-                if let (KeyCode::Char(c), false, false) = (key.code, key.ctrl, key.alt) {
-                    self.ui.edit.insert(c);
-                }
-            }
+            Edited::Typed => {}
         }
         if filter && self.ui.params.filter != self.ui.edit.text {
             self.ui.params.filter = self.ui.edit.text.clone();
@@ -702,7 +692,7 @@ impl App {
 
     /// The outcome of an edit of parameter `name` (confirmed, refused, unanswered), with its
     /// notice: the one sent from the screen shows in the status bar.
-    pub(super) fn param_outcome(&mut self, name: &str, sev: u8, text: &str) {
+    pub(super) fn param_outcome(&mut self, name: &str, sev: Severity, text: &str) {
         if self.ui.params.awaiting.as_deref() == Some(name) {
             self.ui.message = Some((sev, text.to_string()));
             self.ui.params.awaiting = None;

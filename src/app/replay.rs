@@ -3,12 +3,12 @@
 //! the `replay` command, which go to every replay link.
 
 use super::links::{LinkState, ReplayView};
-use super::notices::{SEV_INFO, SEV_WARNING};
 use super::{App, Effect};
 use crate::clock::{Micros, SECOND};
 use crate::link::replay::{clock_text, ReplayCmd, ReplaySpeed, ReplayStatus};
 use crate::link::LinkId;
 use crate::proto::vehicles::Pace;
+use crate::wire::Severity;
 
 /// The reason shown on a replay link whose log has ended.
 pub const END_OF_LOG: &str = "end of log";
@@ -168,7 +168,7 @@ impl App {
             l.notified_down = Some(END_OF_LOG.into());
             let long = status.duration.unwrap_or(status.position) >= 3600 * SECOND;
             self.notice(
-                SEV_INFO,
+                Severity::INFO,
                 None,
                 format!(
                     "end of log at {} on {spec}",
@@ -180,10 +180,10 @@ impl App {
                 l.state = LinkState::Up;
                 l.notified_down = None;
             }
-            self.notice(SEV_INFO, None, format!("playing again: {spec}"));
+            self.notice(Severity::INFO, None, format!("playing again: {spec}"));
         }
         if let Some(note) = status.note {
-            self.notice(SEV_WARNING, None, format!("replay {spec}: {note}"));
+            self.notice(Severity::WARNING, None, format!("replay {spec}: {note}"));
         }
     }
 }

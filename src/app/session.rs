@@ -49,21 +49,21 @@ pub enum SessionOut {
     /// Send on this link (stream rates are per link).
     SendOn(LinkId, MavMessage),
     /// Tell the operator (severity, text).
-    Notice(u8, String),
+    Notice(crate::wire::Severity, String),
     /// The outcome of an edit of parameter `name` of component `comp`, and its notice.
     ParamSet {
         comp: u8,
         name: String,
         confirmed: bool,
-        sev: u8,
+        sev: crate::wire::Severity,
         text: String,
     },
     /// Command `command` of the queue to `target` finished, and its notice.
     Command {
         id: u64,
-        target: (u8, u8),
+        target: VehicleKey,
         command: u16,
-        sev: u8,
+        sev: crate::wire::Severity,
         text: String,
     },
 }
@@ -184,10 +184,10 @@ impl Session {
             key,
             pinned: None,
             heard: BTreeMap::new(),
-            streams: StreamMachine::new(key, autopilot, request_streams, rates),
+            streams: StreamMachine::new(key.into(), autopilot, request_streams, rates),
             commands: CommandQueue::default(),
             sequence: None,
-            flight: FlightTelemetry::new(key, request_streams),
+            flight: FlightTelemetry::new(key.into(), request_streams),
             params: ParamMachine::new(key, autopilot, fetch_params),
             mission: MissionMachine::new(key),
             cameras: CameraSet::default(),
@@ -492,7 +492,8 @@ impl Session {
 
     /// The queue's submit; a mode change remembers the mode it leaves.
     fn queue(&mut self, now: Micros, spec: CommandSpec) -> Result<(u64, Vec<CmdOut>), String> {
-        let mode = spec.command == MavCmd::MAV_CMD_DO_SET_MODE as u16 && spec.target == self.key;
+        let mode =
+            spec.command == MavCmd::MAV_CMD_DO_SET_MODE as u16 && spec.target == self.key.into();
         let (id, out) = self.commands.submit(now, spec)?;
         if mode {
             self.mode_asks.push((id, self.mode_seen));
@@ -525,10 +526,10 @@ impl Session {
             self.commands.hold_resends(id);
             if !ours {
                 out.push(SessionOut::Notice(
-                    crate::proto::severity::WARNING,
+                    crate::wire::Severity::WARNING,
                     format!(
-                        "{}:{} changed mode on its own meanwhile: our DO_SET_MODE is not resent",
-                        self.key.0, self.key.1
+                        "{} changed mode on its own meanwhile: our DO_SET_MODE is not resent",
+                        self.key
                     ),
                 ));
             }
@@ -542,7 +543,7 @@ impl Session {
         let mut out = Vec::new();
         if let Some(seq) = self.sequence.take().filter(|s| !s.finished()) {
             out.push(SessionOut::Notice(
-                crate::proto::severity::WARNING,
+                crate::wire::Severity::WARNING,
                 format!("{}: abandoned for {by}", seq.name),
             ));
         }
@@ -554,7 +555,10 @@ impl Session {
             MavCmd::MAV_CMD_NAV_LAND,
             MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH,
         ] {
-            done.extend(self.commands.supersede(now, self.key, command as u16));
+            done.extend(
+                self.commands
+                    .supersede(now, self.key.into(), command as u16),
+            );
         }
         self.mode_asks.clear();
         self.drive(now, done, &mut out);
@@ -607,7 +611,7 @@ impl Session {
             match o {
                 Out::Send { route, msg } => out.push(route_out(route, msg)),
                 Out::Event(MachineEvent::Notice(sev, text)) => {
-                    out.push(SessionOut::Notice(sev.0, text))
+                    out.push(SessionOut::Notice(sev, text))
                 }
                 Out::Event(MachineEvent::ParamSet {
                     comp,
@@ -618,7 +622,7 @@ impl Session {
                     comp,
                     name,
                     confirmed,
-                    sev: sev.0,
+                    sev,
                     text,
                 }),
                 Out::Event(MachineEvent::CommandDone { id, notice }) => {
@@ -628,9 +632,9 @@ impl Session {
                         if !crate::proto::gimbal::is_discovery(e.spec.command, &e.spec.params) {
                             out.push(SessionOut::Command {
                                 id,
-                                target: e.spec.target,
+                                target: e.spec.target.into(),
                                 command: e.spec.command,
-                                sev: sev.0,
+                                sev,
                                 text,
                             });
                         }
@@ -686,7 +690,7 @@ impl Session {
             match o {
                 Out::Send { route, msg } => out.push(route_out(route, msg)),
                 Out::Event(MachineEvent::Notice(sev, text)) => {
-                    out.push(SessionOut::Notice(sev.0, text))
+                    out.push(SessionOut::Notice(sev, text))
                 }
                 Out::Event(_) => {}
             }
@@ -717,7 +721,7 @@ impl Session {
     /// The stream machine holds its SET_MESSAGE_INTERVALs while one of the operator's is open.
     fn hold_streams(&mut self) {
         let interval = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
-        let operators = self.commands.is_open(self.key, interval)
+        let operators = self.commands.is_open(self.key.into(), interval)
             || self.commands.is_open((self.key.0, 0), interval);
         self.streams.hold_intervals(operators);
     }
@@ -782,17 +786,17 @@ impl Session {
                 comp,
                 name,
                 confirmed,
-                sev: sev.0,
+                sev,
                 text,
             },
             Out::Event(MachineEvent::Notice(sev, text))
             | Out::Event(MachineEvent::CommandDone {
                 notice: Some((sev, text)),
                 ..
-            }) => SessionOut::Notice(sev.0, text),
+            }) => SessionOut::Notice(sev, text),
             // The parameter machine runs no commands.
             Out::Event(MachineEvent::CommandDone { notice: None, .. }) => {
-                SessionOut::Notice(crate::wire::Severity::DEBUG.0, String::new())
+                SessionOut::Notice(crate::wire::Severity::DEBUG, String::new())
             }
         }
     }
@@ -923,14 +927,14 @@ mod tests {
             .drain(..)
             .map(|o| match o {
                 Out::Send { route, msg } => route_out(route, msg),
-                Out::Event(MachineEvent::Notice(s, t)) => SessionOut::Notice(s.0, t),
+                Out::Event(MachineEvent::Notice(s, t)) => SessionOut::Notice(s, t),
                 o => panic!("{o:?}"),
             })
             .collect();
         assert_eq!(
             out,
             vec![
-                SessionOut::Notice(6, "toy at 1500000".into()),
+                SessionOut::Notice(crate::wire::Severity::INFO, "toy at 1500000".into()),
                 SessionOut::SendAuto(App::gcs_heartbeat()),
             ]
         );
@@ -939,13 +943,16 @@ mod tests {
     #[test]
     fn outcomes_reach_the_screens_as_events_not_as_text() {
         let mut app = App::new(AppConfig::default());
-        let key = (1, 1);
+        let key = VehicleKey(1, 1);
         let mut fx = Vec::new();
         // A parameter edit awaited: a notice worded like its outcome is only a notice.
         app.ui.params.awaiting = Some("RTL_ALT".into());
         app.session_out(
             key,
-            vec![SessionOut::Notice(6, "RTL_ALT = 30 confirmed".into())],
+            vec![SessionOut::Notice(
+                crate::wire::Severity::INFO,
+                "RTL_ALT = 30 confirmed".into(),
+            )],
             &mut fx,
         );
         assert_eq!(app.ui.params.awaiting.as_deref(), Some("RTL_ALT"));
@@ -956,43 +963,56 @@ mod tests {
                 comp: 1,
                 name: "RTL_ALT".into(),
                 confirmed: true,
-                sev: 6,
+                sev: crate::wire::Severity::INFO,
                 text: "RTL_ALT = 30 confirmed".into(),
             }],
             &mut fx,
         );
         assert_eq!(app.ui.params.awaiting, None);
-        assert_eq!(app.ui.message, Some((6, "RTL_ALT = 30 confirmed".into())));
+        assert_eq!(
+            app.ui.message,
+            Some((crate::wire::Severity::INFO, "RTL_ALT = 30 confirmed".into()))
+        );
 
         // A rate asked from the Inspector: the finished command, not its text.
         let smi = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
         let prefix = "SET_MESSAGE_INTERVAL to 1:1: ".to_string();
         app.ui.inspector.awaiting = Some((prefix.clone(), "ATTITUDE 10 Hz from 1:1".into()));
         let text = format!("{prefix}ACCEPTED");
-        app.session_out(key, vec![SessionOut::Notice(6, text.clone())], &mut fx);
+        app.session_out(
+            key,
+            vec![SessionOut::Notice(
+                crate::wire::Severity::INFO,
+                text.clone(),
+            )],
+            &mut fx,
+        );
         assert!(app.ui.inspector.awaiting.is_some());
         // Another source's command is not it.
         let other = SessionOut::Command {
             id: 1,
-            target: (1, 2),
+            target: VehicleKey(1, 2),
             command: smi,
-            sev: 6,
+            sev: crate::wire::Severity::INFO,
             text: "SET_MESSAGE_INTERVAL to 1:2: ACCEPTED".into(),
         };
         app.session_out(key, vec![other], &mut fx);
         assert!(app.ui.inspector.awaiting.is_some());
         let done = SessionOut::Command {
             id: 2,
-            target: (1, 1),
+            target: VehicleKey(1, 1),
             command: smi,
-            sev: 6,
+            sev: crate::wire::Severity::INFO,
             text,
         };
         app.session_out(key, vec![done], &mut fx);
         assert_eq!(app.ui.inspector.awaiting, None);
         assert_eq!(
             app.ui.message,
-            Some((6, "ATTITUDE 10 Hz from 1:1: ACCEPTED".into()))
+            Some((
+                crate::wire::Severity::INFO,
+                "ATTITUDE 10 Hz from 1:1: ACCEPTED".into()
+            ))
         );
     }
 }

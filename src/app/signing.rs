@@ -30,8 +30,8 @@
 
 use std::path::PathBuf;
 
-use super::flight::{Ask, Confirmed};
-use super::notices::{SEV_ERROR, SEV_NOTICE, SEV_WARNING};
+pub use super::confirm::SigningAction;
+use super::confirm::{Ask, Confirmed};
 use super::{App, Effect};
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavMessage};
@@ -39,11 +39,13 @@ use crate::link::{Frame, LinkId};
 use crate::proto::vehicles::VehicleKey;
 use crate::wire::signing::{self as codec, Clock, SecretKey, Verdict};
 use crate::wire::tx::Sign;
+use crate::wire::Severity;
 
 /// RADIO_STATUS: SiK radios send it unsigned.
-pub const MSG_RADIO_STATUS: u32 = 109;
+pub const MSG_RADIO_STATUS: u32 = <dialect::RADIO_STATUS_DATA as mavlink::MessageData>::ID;
 /// RADIO (ardupilotmega): the older form, accepted unsigned as ArduPilot and MAVProxy do.
-pub const MSG_RADIO: u32 = 166;
+#[allow(deprecated)] // superseded by RADIO_STATUS, still sent by older radios
+pub const MSG_RADIO: u32 = <dialect::RADIO_DATA as mavlink::MessageData>::ID;
 /// How long after `signing setup`/`signing off` the vehicle's frames are watched for the change.
 pub const WATCH: Micros = 5 * SECOND;
 /// How far ahead of our clock the state file is written (30 s, in timestamp units), renewed when
@@ -196,13 +198,6 @@ pub enum SigningCmd {
     Off,
 }
 
-/// What a confirmed `signing` command does, and on which link.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SigningAction {
-    Setup { link: LinkId },
-    Off { link: LinkId },
-}
-
 /// The core's signing state.
 #[derive(Debug, Clone, Default)]
 pub struct SigningState {
@@ -322,7 +317,9 @@ pub fn link_id(link: LinkId) -> u8 {
 
 /// Unsigned messages taken even with a key (SiK radios cannot sign).
 fn unsigned_allowed(msgid: u32, heartbeat_too: bool) -> bool {
-    msgid == MSG_RADIO_STATUS || msgid == MSG_RADIO || (heartbeat_too && msgid == 0)
+    msgid == MSG_RADIO_STATUS
+        || msgid == MSG_RADIO
+        || (heartbeat_too && msgid == <dialect::HEARTBEAT_DATA as mavlink::MessageData>::ID)
 }
 
 impl App {
@@ -407,7 +404,7 @@ impl App {
         };
         let reference = wall.max(self.signing.saved_at.unwrap_or(0));
         self.notice(
-            SEV_WARNING,
+            Severity::WARNING,
             None,
             format!(
                 "{file} held {}, {} ahead of the clock: repaired, we sign from the system \
@@ -422,7 +419,7 @@ impl App {
     /// A rejected frame: counted on its source, told of once per kind.
     #[cold]
     pub(super) fn signing_rejected(&mut self, link: LinkId, frame: &Frame, c: Checked) {
-        let key = (frame.sysid, frame.compid);
+        let key = VehicleKey(frame.sysid, frame.compid);
         let first = self.links[link].source(key).signing.count(c);
         self.dirty = true;
         if c.is_told(first) {
@@ -444,9 +441,9 @@ impl App {
             if w.what == WatchFor::Setup && c.kind == SigKind::Signed {
                 self.signing.watch = None;
                 self.notice(
-                    SEV_NOTICE,
+                    Severity::NOTICE,
                     Some(key),
-                    format!("{}:{} signs with our key: signing is on", key.0, key.1),
+                    format!("{key} signs with our key: signing is on"),
                 );
                 return;
             }
@@ -462,7 +459,7 @@ impl App {
 
     /// The notice for the first frame of a kind from a source.
     fn tell_signing(&mut self, link: LinkId, key: VehicleKey, c: Checked) {
-        let who = format!("{}:{}", key.0, key.1);
+        let who = key.to_string();
         let fate = if c.accepted {
             "taken: the link is trusted"
         } else {
@@ -471,7 +468,7 @@ impl App {
         let (sev, text) = match c.kind {
             SigKind::Signed => return,
             SigKind::Unsigned => (
-                SEV_WARNING,
+                Severity::WARNING,
                 format!(
                     "{who} sends unsigned frames on link {link}: {fate} (we sign; `signing \
                      setup` gives it our key over a ?secure=1 link)"
@@ -480,28 +477,28 @@ impl App {
             // A recording or our own sim is not commanded.
             SigKind::Unchecked if !self.links[link].secure && self.links[link].trusted => return,
             SigKind::Unchecked => (
-                SEV_WARNING,
+                Severity::WARNING,
                 format!(
                     "{who} signs but we have no key: it ignores our commands (start with \
                      --signing-key)"
                 ),
             ),
             SigKind::BadSignature => (
-                SEV_ERROR,
+                Severity::ERROR,
                 format!(
                     "{who}: frames with a bad signature on link {link} (another key, or changed \
                      on the way): {fate}"
                 ),
             ),
             SigKind::Replayed => (
-                SEV_ERROR,
+                Severity::ERROR,
                 format!(
                     "{who}: replayed frames on link {link} (signing timestamps not newer than \
                      before): {fate}"
                 ),
             ),
             SigKind::TooOld => (
-                SEV_ERROR,
+                Severity::ERROR,
                 format!(
                     "{who}: signed frames over a minute behind our clock on link {link} (an old \
                      recording played back?): {fate}"
@@ -510,7 +507,7 @@ impl App {
             SigKind::Future => {
                 let Some(f) = c.future else { return };
                 (
-                    SEV_ERROR,
+                    Severity::ERROR,
                     format!(
                         "{who}: signed frames from the future, {} ahead of our clock (dated {}), \
                          on link {link} (its link id {}): {fate}, our clock kept. Ours wrong? set \
@@ -529,11 +526,11 @@ impl App {
     pub(super) fn signing_time(&mut self, fx: &mut Vec<Effect>) {
         if let Some(w) = self.signing.watch.filter(|w| self.now >= w.until) {
             self.signing.watch = None;
-            let who = format!("{}:{}", w.vehicle.0, w.vehicle.1);
+            let who = w.vehicle.to_string();
             let secs = WATCH / SECOND;
             match (w.what, w.signed) {
                 (WatchFor::Setup, _) => self.notice(
-                    SEV_WARNING,
+                    Severity::WARNING,
                     Some(w.vehicle),
                     format!(
                         "{who} sent no frame signed with our key in {secs} s since SETUP_SIGNING: \
@@ -541,12 +538,12 @@ impl App {
                     ),
                 ),
                 (WatchFor::Off, true) => self.notice(
-                    SEV_WARNING,
+                    Severity::WARNING,
                     Some(w.vehicle),
                     format!("{who} still signs {secs} s after `signing off`: it kept its key"),
                 ),
                 (WatchFor::Off, false) => self.notice(
-                    SEV_NOTICE,
+                    Severity::NOTICE,
                     Some(w.vehicle),
                     format!("{who} no longer signs: signing is off"),
                 ),
@@ -567,7 +564,7 @@ impl App {
         if let Some(e) = error {
             if !std::mem::replace(&mut self.signing.save_failure_told, true) {
                 self.notice(
-                    SEV_WARNING,
+                    Severity::WARNING,
                     None,
                     format!(
                         "could not keep the signing timestamp: {e} (signing goes on; after a \
@@ -623,14 +620,8 @@ impl App {
     /// `1:1 (ArduPilot QUADROTOR)`.
     fn who(&self, key: VehicleKey) -> String {
         match self.vehicles.get(key) {
-            Some(v) => format!(
-                "{}:{} ({} {})",
-                key.0,
-                key.1,
-                v.autopilot_name(),
-                v.type_name()
-            ),
-            None => format!("{}:{}", key.0, key.1),
+            Some(v) => format!("{key} ({} {})", v.autopilot_name(), v.type_name()),
+            None => key.to_string(),
         }
     }
 
@@ -646,9 +637,8 @@ impl App {
             .find(|&l| self.links.get(l).is_some_and(|s| s.secure) && self.link_up(l))
             .ok_or_else(|| {
                 format!(
-                    "{what}: {}:{} is not heard on a link marked ?secure=1 (a USB cable): \
-                     refused, SETUP_SIGNING would carry the key in clear",
-                    target.0, target.1
+                    "{what}: {target} is not heard on a link marked ?secure=1 (a USB cable): \
+                     refused, SETUP_SIGNING would carry the key in clear"
                 )
             })
     }
@@ -664,7 +654,7 @@ impl App {
         if !(self.links.get(link).is_some_and(|l| l.secure) && self.link_up(link)) {
             return Err(format!("link {link} is no longer up: nothing sent"));
         }
-        let who = format!("{}:{}", target.0, target.1);
+        let who = target.to_string();
         let (secret, initial_timestamp, what, text) = match action {
             SigningAction::Setup { .. } => {
                 let key = self.signing.configured.clone().ok_or("no signing key")?;
@@ -706,7 +696,7 @@ impl App {
             until: self.now + WATCH,
             signed: what == WatchFor::Off,
         });
-        self.notice(SEV_NOTICE, Some(target), text.clone());
+        self.notice(Severity::NOTICE, Some(target), text.clone());
         Ok(Some(text))
     }
 

@@ -5,9 +5,9 @@
 
 use std::path::PathBuf;
 
-use super::notices::{SEV_ERROR, SEV_INFO, SEV_WARNING};
 use super::App;
 use crate::link::LinkState;
+use crate::wire::Severity;
 
 /// The telemetry log: where, how big, and whether it stopped.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -59,10 +59,10 @@ impl App {
                 } else {
                     format!("not recording: {}: {e}", st.path.display())
                 };
-                self.notice(SEV_ERROR, None, text);
+                self.notice(Severity::ERROR, None, text);
             }
             None if !same_file => self.notice(
-                SEV_INFO,
+                Severity::INFO,
                 None,
                 format!("recording to {}", st.path.display()),
             ),
@@ -94,13 +94,13 @@ impl App {
             match &st.state {
                 LinkState::Up => {
                     o.told_down[out] = None;
-                    notice = Some((SEV_INFO, format!("output {} up", st.spec)));
+                    notice = Some((Severity::INFO, format!("output {} up", st.spec)));
                 }
                 // An output retried with the same failure is told of once.
                 LinkState::Down(reason) if o.told_down[out].as_ref() != Some(reason) => {
                     o.told_down[out] = Some(reason.clone());
                     let text = format!("output {} down: {reason}", st.spec);
-                    notice = Some((SEV_WARNING, text));
+                    notice = Some((Severity::WARNING, text));
                 }
                 _ => {}
             }

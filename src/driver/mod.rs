@@ -1,6 +1,6 @@
 //! The driver: one way to run the core, for every front end.
 //!
-//! [`Core`] feeds events into [`App::update`] and carries out every [`Effect`] the same way,
+//! [`step`] feeds events into [`App::update`] and carries out every [`Effect`] the same way,
 //! whatever the clock: frames go to a [`Links`] implementation, files are written atomically
 //! (and the outcome is told back to the core), new links are opened. Two runtimes use it:
 //! [`virtual_time::VirtualRunner`] steps in-process links and the core on a virtual clock
@@ -12,6 +12,7 @@
 //! ([`Links::heard`], [`Links::sending`]): the telemetry log ([`record`]) and forwarding to other
 //! ground stations ([`forward`]) happen there, at the edge, and report to the core as events.
 
+pub mod fetch;
 pub mod forward;
 pub mod real_time;
 pub mod record;
@@ -37,7 +38,13 @@ pub trait Links {
     /// Write a file atomically; the outcome comes back as [`Event::FileWritten`], now or later.
     fn write_file(&mut self, path: PathBuf, contents: Vec<u8>);
     /// Read a file; its bytes come back as [`Event::FileRead`], now or later.
-    fn read_file(&mut self, path: PathBuf, purpose: crate::app::params::FileUse);
+    fn read_file(&mut self, path: PathBuf, purpose: crate::app::files::FileUse);
+    /// Download parameter metadata ([`fetch::fetch_param_meta`]); the outcome comes back as
+    /// [`Event::ParamMeta`], now or later.
+    fn fetch_param_meta(&mut self, urls: Vec<String>, cache_path: PathBuf);
+    /// Read cached parameter metadata ([`fetch::read_param_meta`]): [`Event::ParamMeta`], now or
+    /// later, unless there is no such file.
+    fn read_param_meta(&mut self, path: PathBuf);
     /// Pass a replay control to link `link`'s source; what changes comes back as
     /// [`Event::ReplayStatus`], now or later.
     fn replay_control(&mut self, now: Micros, link: LinkId, cmd: ReplayCmd);
@@ -102,6 +109,10 @@ fn run_events(app: &mut App, links: &mut impl Links, now: Micros, mut queue: Vec
                     }
                     Effect::WriteFile { path, contents } => links.write_file(path, contents),
                     Effect::ReadFile { path, purpose } => links.read_file(path, purpose),
+                    Effect::FetchParamMeta { urls, cache_path } => {
+                        links.fetch_param_meta(urls, cache_path)
+                    }
+                    Effect::ReadParamMeta { path } => links.read_param_meta(path),
                     Effect::OpenLink { link, spec } => links.open(now, link, spec),
                     Effect::ReplayControl { link, cmd } => links.replay_control(now, link, cmd),
                     Effect::Quit => {}

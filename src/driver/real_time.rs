@@ -143,7 +143,7 @@ impl Links for RealLinks {
             let _ = done.send(Event::FileWritten { path, error });
         });
     }
-    fn read_file(&mut self, path: PathBuf, purpose: crate::app::params::FileUse) {
+    fn read_file(&mut self, path: PathBuf, purpose: crate::app::files::FileUse) {
         let done = self.done.clone();
         tokio::task::spawn_blocking(move || {
             let result = super::read_bounded(&path);
@@ -152,6 +152,20 @@ impl Links for RealLinks {
                 purpose,
                 result,
             });
+        });
+    }
+    fn fetch_param_meta(&mut self, urls: Vec<String>, cache_path: PathBuf) {
+        let done = self.done.clone();
+        tokio::task::spawn_blocking(move || {
+            let _ = done.send(super::fetch::fetch_param_meta(urls, cache_path));
+        });
+    }
+    fn read_param_meta(&mut self, path: PathBuf) {
+        let done = self.done.clone();
+        tokio::task::spawn_blocking(move || {
+            if let Some(ev) = super::fetch::read_param_meta(path) {
+                let _ = done.send(ev);
+            }
         });
     }
     fn heard(&mut self, wall: u64, link: LinkId, frames: &[Frame]) {

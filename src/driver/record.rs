@@ -33,7 +33,7 @@ pub const FLUSH_EVERY: Duration = Duration::from_secs(1);
 const REPORT_EVERY: Micros = SECOND;
 
 /// MAVLink 2 message id of SETUP_SIGNING, which carries the secret key.
-pub const SETUP_SIGNING_ID: u32 = 256;
+pub const SETUP_SIGNING_ID: u32 = <crate::dialect::SETUP_SIGNING_DATA as mavlink::MessageData>::ID;
 
 /// True for a frame that must never be logged nor forwarded: SETUP_SIGNING (read from the
 /// MAVLink 2 header; MAVLink 1 cannot carry id 256).

@@ -129,13 +129,23 @@ impl Links for VLinks {
         self.pending.push(Event::FileWritten { path, error });
     }
 
-    fn read_file(&mut self, path: PathBuf, purpose: crate::app::params::FileUse) {
+    fn read_file(&mut self, path: PathBuf, purpose: crate::app::files::FileUse) {
         let result = super::read_bounded(&path);
         self.pending.push(Event::FileRead {
             path,
             purpose,
             result,
         });
+    }
+
+    fn fetch_param_meta(&mut self, urls: Vec<String>, cache_path: PathBuf) {
+        // In place: virtual time stands still while the download runs.
+        self.pending
+            .push(super::fetch::fetch_param_meta(urls, cache_path));
+    }
+
+    fn read_param_meta(&mut self, path: PathBuf) {
+        self.pending.extend(super::fetch::read_param_meta(path));
     }
 
     fn heard(&mut self, wall: u64, _link: LinkId, frames: &[Frame]) {

@@ -94,39 +94,8 @@ pub mod frame {
     pub const LOCAL_FLU: u8 = 21;
 }
 
-/// MAV_CMD values this module reasons about.
-pub mod cmd {
-    pub const NAV_WAYPOINT: u16 = 16;
-    pub const NAV_LOITER_UNLIM: u16 = 17;
-    pub const NAV_LOITER_TURNS: u16 = 18;
-    pub const NAV_LOITER_TIME: u16 = 19;
-    pub const NAV_RETURN_TO_LAUNCH: u16 = 20;
-    pub const NAV_LAND: u16 = 21;
-    pub const NAV_TAKEOFF: u16 = 22;
-    pub const NAV_LAND_LOCAL: u16 = 23;
-    pub const NAV_TAKEOFF_LOCAL: u16 = 24;
-    pub const NAV_FOLLOW: u16 = 25;
-    pub const NAV_CONTINUE_AND_CHANGE_ALT: u16 = 30;
-    pub const NAV_LOITER_TO_ALT: u16 = 31;
-    pub const NAV_ROI: u16 = 80;
-    pub const NAV_SPLINE_WAYPOINT: u16 = 82;
-    pub const NAV_VTOL_TAKEOFF: u16 = 84;
-    pub const NAV_VTOL_LAND: u16 = 85;
-    pub const NAV_PAYLOAD_PLACE: u16 = 94;
-    pub const DO_JUMP: u16 = 177;
-    pub const DO_CHANGE_SPEED: u16 = 178;
-    pub const DO_SET_HOME: u16 = 179;
-    pub const DO_LAND_START: u16 = 189;
-    pub const DO_REPOSITION: u16 = 192;
-    pub const DO_SET_ROI_LOCATION: u16 = 195;
-    pub const DO_SET_ROI: u16 = 201;
-    pub const NAV_FENCE_RETURN_POINT: u16 = 5000;
-    pub const NAV_FENCE_POLYGON_VERTEX_INCLUSION: u16 = 5001;
-    pub const NAV_FENCE_POLYGON_VERTEX_EXCLUSION: u16 = 5002;
-    pub const NAV_FENCE_CIRCLE_INCLUSION: u16 = 5003;
-    pub const NAV_FENCE_CIRCLE_EXCLUSION: u16 = 5004;
-    pub const NAV_RALLY_POINT: u16 = 5100;
-}
+/// MAV_CMD values, from the dialect.
+pub use crate::wire::cmd;
 
 /// What an item's altitude (`z`) is measured from, by its frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]

@@ -11,7 +11,7 @@ use crate::dialect::MavResult;
 use crate::wire::Frame;
 
 /// COMMAND_ACK's message id.
-pub const MSG_ID: u32 = 77;
+pub const MSG_ID: u32 = <crate::dialect::COMMAND_ACK_DATA as mavlink::MessageData>::ID;
 
 /// A COMMAND_ACK, numbers as sent.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -469,7 +469,7 @@ impl CameraSet {
         id: u32,
         hb_type: Option<u8>,
         payload: &[u8],
-    ) -> Vec<(u8, String)> {
+    ) -> Vec<(crate::wire::Severity, String)> {
         let mut notes = Vec::new();
         if hb_type == Some(MAV_TYPE_CAMERA) && !self.cameras.contains_key(&from) {
             self.cameras.insert(from, Camera::new(from));
@@ -490,7 +490,7 @@ impl CameraSet {
                 let first = c.info.is_none();
                 if first {
                     notes.push((
-                        crate::proto::severity::INFO,
+                        crate::wire::Severity::INFO,
                         format!(
                             "camera {from}: {} {} {}x{}",
                             info.vendor, info.model, info.resolution.0, info.resolution.1
@@ -583,7 +583,7 @@ impl CameraSet {
         command: u16,
         params: &[f64; 7],
         accepted: bool,
-    ) -> Vec<(u8, String)> {
+    ) -> Vec<(crate::wire::Severity, String)> {
         let mut notes = Vec::new();
         let Some(c) = self.cameras.get_mut(&compid) else {
             return notes;
@@ -599,7 +599,7 @@ impl CameraSet {
             Some(MavCmd::MAV_CMD_REQUEST_CAMERA_INFORMATION) if c.info.is_none() && !accepted => {
                 c.discovery = Discovery::Failed;
                 notes.push((
-                    crate::proto::severity::WARNING,
+                    crate::wire::Severity::WARNING,
                     format!(
                         "camera {compid}: no CAMERA_INFORMATION (REQUEST_MESSAGE and 521 unanswered)"
                     ),
@@ -647,7 +647,12 @@ impl CameraSet {
     /// The camera refused a command (a COMMAND_ACK with a result other than ACCEPTED). A missing
     /// image it will not give is not asked for again; one below every index heard means the
     /// camera numbers its images from later than 0: said once.
-    pub fn on_refused(&mut self, compid: u8, command: u16, params: &[f64; 7]) -> Vec<(u8, String)> {
+    pub fn on_refused(
+        &mut self,
+        compid: u8,
+        command: u16,
+        params: &[f64; 7],
+    ) -> Vec<(crate::wire::Severity, String)> {
         let mut notes = Vec::new();
         let Some(c) = self.cameras.get_mut(&compid) else {
             return notes;
@@ -664,7 +669,7 @@ impl CameraSet {
             let l = lowest.unwrap_or(0);
             c.first_index = Some(l);
             notes.push((
-                crate::proto::severity::NOTICE,
+                crate::wire::Severity::NOTICE,
                 format!(
                     "camera {compid}: image {index} refused: its image numbering starts at {l}, not 0 as the camera protocol says; images before {l} are not asked for"
                 ),
@@ -902,7 +907,7 @@ impl CameraSet {
 }
 
 /// Notes in the one contract.
-pub(crate) fn notes_out(notes: Vec<(u8, String)>, out: &mut Vec<Out>) {
+pub(crate) fn notes_out(notes: Vec<(crate::wire::Severity, String)>, out: &mut Vec<Out>) {
     out.extend(notes.into_iter().map(|(s, t)| Out::notice(s, t)));
 }
 

@@ -206,7 +206,7 @@ impl Entry {
 pub enum CmdOut {
     Send(MavMessage),
     /// Tell the operator (severity, text).
-    Notice(u8, String),
+    Notice(crate::wire::Severity, String),
     /// Command `id` finished (ACK, no ACK, cancelled): sequences waiting on it go on.
     Finished(u64),
 }
@@ -333,9 +333,9 @@ impl CommandQueue {
         }
         let reason = e.reason.clone();
         let sev = if ok {
-            crate::proto::severity::INFO
+            crate::wire::Severity::INFO
         } else {
-            crate::proto::severity::WARNING
+            crate::wire::Severity::WARNING
         };
         vec![
             CmdOut::Notice(
@@ -385,7 +385,7 @@ impl CommandQueue {
                 e.state = State::NoAck;
                 e.changed = now;
                 out.push(CmdOut::Notice(
-                    crate::proto::severity::WARNING,
+                    crate::wire::Severity::WARNING,
                     format!("{name} to {s}:{c}: no progress report, given up"),
                 ));
                 out.push(CmdOut::Finished(e.id));
@@ -407,7 +407,7 @@ impl CommandQueue {
                     "no ACK (not resent: re-issue it if still wanted)".to_string()
                 };
                 out.push(CmdOut::Notice(
-                    crate::proto::severity::WARNING,
+                    crate::wire::Severity::WARNING,
                     format!("{name} to {s}:{c}: {why}"),
                 ));
                 out.push(CmdOut::Finished(e.id));
@@ -473,7 +473,7 @@ impl CommandQueue {
 /// Queue output in the one contract: sends go on `route` (the vehicle's, or mavterm's own for a
 /// request it makes on its own), and each finished command is one event with what to tell of it.
 pub fn to_out(outs: Vec<CmdOut>, route: Route, out: &mut Vec<Out>) {
-    let mut told: Option<(u8, String)> = None;
+    let mut told: Option<(crate::wire::Severity, String)> = None;
     for o in outs {
         if let Some((s, t)) = told.take() {
             match &o {

@@ -334,7 +334,7 @@ impl GimbalSet {
         hb_type: Option<u8>,
         autopilot: u8,
         payload: &[u8],
-    ) -> Vec<(u8, String)> {
+    ) -> Vec<(crate::wire::Severity, String)> {
         let mut notes = Vec::new();
         if hb_type == Some(MAV_TYPE_GIMBAL) {
             self.candidate(now, from, false);
@@ -359,7 +359,7 @@ impl GimbalSet {
                 };
                 if g.info.is_none() {
                     notes.push((
-                        crate::proto::severity::INFO,
+                        crate::wire::Severity::INFO,
                         format!(
                             "gimbal {from}/{device}: pitch {:.0}..{:.0}°, yaw {:.0}..{:.0}°",
                             info.pitch.0, info.pitch.1, info.yaw.0, info.yaw.1

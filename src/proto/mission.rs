@@ -54,8 +54,8 @@ use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavCmd, MavFrame, MavMessage, MavMissionResult, MavMissionType};
 use crate::mission::{xy_to_wire, MissionItem, MissionType};
 use crate::proto::machine::{Ids, Incoming, Machine, Out, Route};
-use crate::proto::severity::{INFO as SEV_INFO, NOTICE as SEV_NOTICE, WARNING as SEV_WARNING};
 use crate::proto::vehicles::VehicleKey;
+use crate::wire::Severity;
 use mavlink::MessageData;
 
 /// Wait for the vehicle's answer to MISSION_REQUEST_LIST, MISSION_COUNT, MISSION_CLEAR_ALL.
@@ -372,8 +372,8 @@ pub enum MissionEvent {
 
 impl MissionEvent {
     /// (severity, text) to show the operator, for the events worth a line in the messages.
-    pub fn notice(&self, key: VehicleKey) -> Option<(u8, String)> {
-        let v = format!("{}:{}", key.0, key.1);
+    pub fn notice(&self, key: VehicleKey) -> Option<(Severity, String)> {
+        let v = key.to_string();
         let plural = |n: usize| if n == 1 { "" } else { "s" };
         Some(match self {
             MissionEvent::Queued {
@@ -381,7 +381,7 @@ impl MissionEvent {
                 mission_type,
                 ahead,
             } => (
-                SEV_INFO,
+                Severity::INFO,
                 format!(
                     "{mission_type} {} for {v} queued behind {ahead} transfer{}",
                     op.name(),
@@ -393,7 +393,7 @@ impl MissionEvent {
                 items,
                 ..
             } => (
-                SEV_INFO,
+                Severity::INFO,
                 format!(
                     "{mission_type} downloaded from {v}: {} item{}",
                     items.len(),
@@ -405,14 +405,14 @@ impl MissionEvent {
                 count,
                 ..
             } => (
-                SEV_INFO,
+                Severity::INFO,
                 format!(
                     "{mission_type} uploaded to {v}: {count} item{} accepted",
                     plural(*count as usize)
                 ),
             ),
             MissionEvent::Cleared { mission_type } => {
-                (SEV_INFO, format!("{mission_type} cleared on {v}"))
+                (Severity::INFO, format!("{mission_type} cleared on {v}"))
             }
             MissionEvent::Refused {
                 op,
@@ -420,7 +420,7 @@ impl MissionEvent {
                 result,
                 retry_in,
             } => (
-                SEV_WARNING,
+                Severity::WARNING,
                 format!(
                     "{mission_type} {} refused by {v}: {}{}",
                     op.name(),
@@ -436,14 +436,14 @@ impl MissionEvent {
                 mission_type,
                 reason,
             } => (
-                SEV_WARNING,
+                Severity::WARNING,
                 format!("{mission_type} {} with {v} failed: {reason}", op.name()),
             ),
             MissionEvent::CurrentSet { seq } => {
-                (SEV_INFO, format!("{v} is now at mission item {seq}"))
+                (Severity::INFO, format!("{v} is now at mission item {seq}"))
             }
             MissionEvent::SetCurrentFailed { seq, now_at } => (
-                SEV_WARNING,
+                Severity::WARNING,
                 match now_at {
                     Some(at) => format!(
                         "mission item {seq} not taken by {v}: it is still at item {at} (not \
@@ -457,7 +457,7 @@ impl MissionEvent {
                 id,
                 ours,
             } => (
-                SEV_NOTICE,
+                Severity::NOTICE,
                 format!(
                     "{mission_type} on {v} changed (plan id {id:#x}, ours {ours:#x}): download \
                      it to see it"
@@ -1201,7 +1201,7 @@ impl MissionMachine {
                 total: n as u16,
             }));
         }
-        out.push(MissionOut::Send(item_message(self.key, &item)));
+        out.push(MissionOut::Send(item_message(self.key.into(), &item)));
     }
 
     fn on_ack(
@@ -1452,7 +1452,7 @@ mod tests {
     use super::*;
     use crate::mission::{cmd, frame};
 
-    const V: VehicleKey = (1, 1);
+    const V: VehicleKey = VehicleKey(1, 1);
     const US: (u8, u8) = (255, 190);
 
     fn wp(seq: u16, z: f32) -> MissionItem {
@@ -1514,7 +1514,7 @@ mod tests {
     fn payloads_read_like_the_dialect_writes_them() {
         use mavlink::Message;
         let item = wp(3, 20.0);
-        let m = item_message(V, &item);
+        let m = item_message(V.into(), &item);
         let mut buf = [0u8; 255];
         let n = m.ser(mavlink::MavlinkVersion::V2, &mut buf);
         match MissionMsg::read(id::MISSION_ITEM_INT, &buf[..n]).unwrap() {
@@ -1524,7 +1524,7 @@ mod tests {
                 mission_type,
                 legacy,
             } => {
-                assert_eq!((target, mission_type, legacy), (V, 0, false));
+                assert_eq!((target, mission_type, legacy), (V.into(), 0, false));
                 assert_eq!(got, item);
             }
             other => panic!("{other:?}"),
@@ -1698,7 +1698,7 @@ mod tests {
         ));
         assert!(!m.busy());
         let (sev, text) = events(&out)[0].notice(V).unwrap();
-        assert_eq!(sev, SEV_WARNING);
+        assert_eq!(sev, Severity::WARNING);
         assert_eq!(text, "mission upload refused by 1:1: NO_SPACE");
     }
 

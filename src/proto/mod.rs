@@ -20,12 +20,3 @@ pub mod statustext;
 pub mod streams;
 pub mod telemetry;
 pub mod vehicles;
-
-/// MAVLink severities (RFC-5424, as in STATUSTEXT): 0 = EMERGENCY … 7 = DEBUG.
-pub mod severity {
-    pub const ERROR: u8 = 3;
-    pub const WARNING: u8 = 4;
-    pub const NOTICE: u8 = 5;
-    pub const INFO: u8 = 6;
-    pub const DEBUG: u8 = 7;
-}

@@ -35,14 +35,11 @@ use crate::dialect::{self, MavAutopilot, MavMessage, MavParamType};
 use crate::params::value::{self, Encoding, ParamType};
 use crate::proto::machine::{Ids, Incoming, Machine, Out};
 use crate::proto::param_ftp::{FtpOut, FtpRead};
-use crate::proto::severity::{
-    DEBUG as SEV_DEBUG, ERROR as SEV_ERROR, INFO as SEV_INFO, NOTICE as SEV_NOTICE,
-    WARNING as SEV_WARNING,
-};
 use crate::proto::vehicles::VehicleKey;
 use crate::wire::mavftp::{FtpPacket, PAYLOAD_LEN};
 use crate::wire::param_pck::{self, PckType};
 use crate::wire::payload::Payload;
+use crate::wire::Severity;
 use mavlink::MessageData;
 
 /// What is read over MAVFTP from ArduPilot (its profile's parameter file).
@@ -335,13 +332,13 @@ struct Download {
 #[allow(clippy::large_enum_variant)]
 pub enum ParamOut {
     Send(MavMessage),
-    Notice(u8, String),
+    Notice(Severity, String),
     /// The outcome of an edit of `name` of component `comp`, and its notice.
     Set {
         comp: u8,
         name: String,
         confirmed: bool,
-        notice: (u8, String),
+        notice: (Severity, String),
     },
 }
 
@@ -730,7 +727,7 @@ impl ParamMachine {
         });
         let comp = d.comp;
         out.push(ParamOut::Notice(
-            SEV_INFO,
+            Severity::INFO,
             format!("parameters: {why}; using the parameter protocol"),
         ));
         out.push(self.list_request(comp));
@@ -862,7 +859,7 @@ impl ParamMachine {
         };
         let Some(ptype) = ParamType::from_code(m.type_code) else {
             return vec![ParamOut::Notice(
-                SEV_WARNING,
+                Severity::WARNING,
                 format!("{}: unknown parameter type {}", m.name, m.type_code),
             )];
         };
@@ -881,7 +878,7 @@ impl ParamMachine {
                     other.name()
                 );
                 out.push(ParamOut::Notice(
-                    SEV_WARNING,
+                    Severity::WARNING,
                     format!(
                         "parameters of {}:{from}: the encoding looks wrong ({text}): `param encoding {}` switches",
                         self.key.0,
@@ -902,7 +899,7 @@ impl ParamMachine {
             set.resize(m.count);
             if before.is_some_and(|b| b != m.count) {
                 out.push(ParamOut::Notice(
-                    SEV_NOTICE,
+                    Severity::NOTICE,
                     format!(
                         "{}:{} now has {} parameters (was {})",
                         self.key.0,
@@ -926,7 +923,7 @@ impl ParamMachine {
             }
             if set.refused <= MAX_REFUSED_TOLD {
                 out.push(ParamOut::Notice(
-                    SEV_WARNING,
+                    Severity::WARNING,
                     format!(
                         "{}:{from} parameter name refused (not 1-16 printable ASCII without \
                          spaces, # or ,): {}{}",
@@ -972,7 +969,7 @@ impl ParamMachine {
                     name: m.name.clone(),
                     confirmed: true,
                     notice: (
-                        SEV_INFO,
+                        Severity::INFO,
                         format!("{} = {} confirmed", m.name, value::format(v, ptype)),
                     ),
                 });
@@ -998,7 +995,7 @@ impl ParamMachine {
                     name: m.name.clone(),
                     confirmed: false,
                     notice: (
-                        SEV_ERROR,
+                        Severity::ERROR,
                         format!("{} = {} {why}", m.name, value::format(e.value, ptype)),
                     ),
                 });
@@ -1012,7 +1009,7 @@ impl ParamMachine {
             // STAT_ statistics, which change all flight long, are left out).
             if let Some(b) = before.filter(|b| !value::same(*b, v, ptype)) {
                 out.push(ParamOut::Notice(
-                    SEV_DEBUG,
+                    Severity::DEBUG,
                     format!(
                         "{} changed to {} (was {})",
                         m.name,
@@ -1115,12 +1112,12 @@ impl ParamMachine {
             d.stats.method.name()
         );
         self.last = Some(d.stats);
-        vec![ParamOut::Notice(SEV_INFO, text)]
+        vec![ParamOut::Notice(Severity::INFO, text)]
     }
 
     /// Ask for missing indices, [`READ_WINDOW`] in flight.
     fn fill(&mut self, now: Micros) -> Vec<ParamOut> {
-        let (sys, _) = self.key;
+        let sys = self.key.0;
         let Some(d) = self.download.as_mut() else {
             return Vec::new();
         };
@@ -1177,7 +1174,7 @@ impl ParamMachine {
             d.stats.finished = Some(now);
             self.last = Some(d.stats);
             out.push(ParamOut::Notice(
-                SEV_ERROR,
+                Severity::ERROR,
                 format!(
                     "parameters of {}:{comp}: {} of {count} never came ({} asked {READ_TRIES} times)",
                     sys,
@@ -1374,7 +1371,7 @@ impl ParamMachine {
                             name: name.clone(),
                             confirmed: false,
                             notice: (
-                                SEV_ERROR,
+                                Severity::ERROR,
                                 format!("{name} = {}: {why}", value::format(e.value, t)),
                             ),
                         });
@@ -1414,7 +1411,7 @@ impl ParamMachine {
                             stats.finished = Some(now);
                             self.last = Some(stats);
                             out.push(ParamOut::Notice(
-                                SEV_ERROR,
+                                Severity::ERROR,
                                 format!(
                                     "parameters of {}:{comp}: no answer to PARAM_REQUEST_LIST",
                                     self.key.0
@@ -1571,7 +1568,7 @@ impl Machine for ParamMachine {
 mod tests {
     use super::*;
 
-    const KEY: VehicleKey = (1, 1);
+    const KEY: VehicleKey = VehicleKey(1, 1);
 
     /// A PARAM_VALUE payload as it goes on the wire (MAVLink 2 trailing zeros cut).
     fn pv(name: &str, raw: f32, t: u8, count: u16, index: u16) -> Vec<u8> {

@@ -3,6 +3,13 @@
 
 use std::collections::BTreeMap;
 
+use mavlink::MessageData;
+
+use crate::dialect::{
+    ATTITUDE_DATA, BATTERY_STATUS_DATA, GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA,
+    SYSTEM_TIME_DATA, SYS_STATUS_DATA, VFR_HUD_DATA,
+};
+
 /// ArduPilot's REQUEST_DATA_STREAM groups (MAV_DATA_STREAM ids) that mavterm asks for.
 pub const GROUPS: &[(u8, &str)] = &[
     (1, "raw_sensors"),
@@ -45,13 +52,13 @@ impl Default for StreamRates {
             .into_iter()
             .collect(),
             messages: [
-                (1, 1.0),   // SYS_STATUS
-                (2, 0.5),   // SYSTEM_TIME
-                (24, 1.0),  // GPS_RAW_INT
-                (30, 4.0),  // ATTITUDE
-                (33, 4.0),  // GLOBAL_POSITION_INT
-                (74, 4.0),  // VFR_HUD
-                (147, 1.0), // BATTERY_STATUS
+                (SYS_STATUS_DATA::ID, 1.0),
+                (SYSTEM_TIME_DATA::ID, 0.5),
+                (GPS_RAW_INT_DATA::ID, 1.0),
+                (ATTITUDE_DATA::ID, 4.0),
+                (GLOBAL_POSITION_INT_DATA::ID, 4.0),
+                (VFR_HUD_DATA::ID, 4.0),
+                (BATTERY_STATUS_DATA::ID, 1.0),
             ]
             .into_iter()
             .collect(),

@@ -53,7 +53,7 @@ enum Phase {
 pub enum SeqOut {
     /// Send this message as it is (a fallback).
     Send(crate::dialect::MavMessage),
-    Notice(u8, String),
+    Notice(crate::wire::Severity, String),
     /// Finished, well or not.
     Done,
 }
@@ -110,7 +110,7 @@ impl Sequence {
     fn stop(&mut self, text: String) -> Vec<SeqOut> {
         self.i = self.steps.len();
         vec![
-            SeqOut::Notice(crate::proto::severity::WARNING, format!("{text}; stopped")),
+            SeqOut::Notice(crate::wire::Severity::WARNING, format!("{text}; stopped")),
             SeqOut::Done,
         ]
     }
@@ -169,7 +169,7 @@ impl Sequence {
                 format!("{label}: confirmed by the vehicle")
             };
             return vec![
-                SeqOut::Notice(crate::proto::severity::INFO, text),
+                SeqOut::Notice(crate::wire::Severity::INFO, text),
                 SeqOut::Done,
             ];
         }

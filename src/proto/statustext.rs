@@ -8,6 +8,7 @@
 use std::collections::BTreeMap;
 
 use crate::clock::{Micros, SECOND};
+use crate::wire::Severity;
 
 /// How long to wait for the rest of a chunked text.
 pub const CHUNK_TIMEOUT: Micros = 2 * SECOND;
@@ -18,13 +19,13 @@ pub const MAX_PENDING: usize = 32;
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Text {
     pub source: (u8, u8),
-    pub severity: u8,
+    pub severity: Severity,
     pub text: String,
 }
 
 #[derive(Debug, Clone)]
 struct Pending {
-    severity: u8,
+    severity: Severity,
     chunks: BTreeMap<u8, String>,
     started: Micros,
 }
@@ -66,7 +67,7 @@ impl StatusTextJoiner {
         &mut self,
         now: Micros,
         source: (u8, u8),
-        severity: u8,
+        severity: Severity,
         text: &[u8],
         id: u16,
         chunk_seq: u8,
@@ -147,7 +148,14 @@ mod tests {
     #[test]
     fn single_text_with_id_zero() {
         let mut j = StatusTextJoiner::default();
-        let t = j.push(0, (1, 1), 6, &chunk("PreArm: Need Position Estimate"), 0, 0);
+        let t = j.push(
+            0,
+            (1, 1),
+            Severity(6),
+            &chunk("PreArm: Need Position Estimate"),
+            0,
+            0,
+        );
         assert_eq!(t[0].text, "PreArm: Need Position Estimate");
     }
 
@@ -156,11 +164,17 @@ mod tests {
         let a = "A".repeat(50);
         let b = "B".repeat(50);
         let mut j = StatusTextJoiner::default();
-        assert!(j.push(0, (1, 1), 4, a.as_bytes(), 7, 0).is_empty());
-        assert!(j.push(1, (1, 1), 4, b.as_bytes(), 7, 1).is_empty());
-        let t = j.push(2, (1, 1), 4, &chunk("end"), 7, 2).remove(0);
+        assert!(j
+            .push(0, (1, 1), Severity(4), a.as_bytes(), 7, 0)
+            .is_empty());
+        assert!(j
+            .push(1, (1, 1), Severity(4), b.as_bytes(), 7, 1)
+            .is_empty());
+        let t = j
+            .push(2, (1, 1), Severity(4), &chunk("end"), 7, 2)
+            .remove(0);
         assert_eq!(t.text, format!("{a}{b}end"));
-        assert_eq!(t.severity, 4);
+        assert_eq!(t.severity, Severity(4));
         assert_eq!(j.next_deadline(), None);
     }
 
@@ -168,10 +182,12 @@ mod tests {
     fn a_missing_chunk_is_marked_and_a_missing_end_times_out() {
         let a = "A".repeat(50);
         let mut j = StatusTextJoiner::default();
-        j.push(0, (1, 1), 4, a.as_bytes(), 3, 0);
-        let t = j.push(10, (1, 1), 4, &chunk("end"), 3, 2).remove(0);
+        j.push(0, (1, 1), Severity(4), a.as_bytes(), 3, 0);
+        let t = j
+            .push(10, (1, 1), Severity(4), &chunk("end"), 3, 2)
+            .remove(0);
         assert_eq!(t.text, format!("{a}…end"));
-        j.push(0, (1, 1), 4, a.as_bytes(), 4, 0);
+        j.push(0, (1, 1), Severity(4), a.as_bytes(), 4, 0);
         assert!(j.poll(CHUNK_TIMEOUT - 1).is_empty());
         let t = j.poll(CHUNK_TIMEOUT);
         assert_eq!(t.len(), 1);
@@ -184,7 +200,9 @@ mod tests {
         let mut j = StatusTextJoiner::default();
         let mut shown = 0;
         for id in 1..=1000u16 {
-            shown += j.push(id as u64, (1, 1), 4, a.as_bytes(), id, 0).len();
+            shown += j
+                .push(id as u64, (1, 1), Severity(4), a.as_bytes(), id, 0)
+                .len();
         }
         assert!(j.pending.len() <= MAX_PENDING);
         // Nothing is lost: every text pushed out early was shown.

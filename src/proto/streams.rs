@@ -62,7 +62,7 @@ use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavAutopilot, MavCmd, MavDataStream, MavMessage, MavResult};
 use crate::proto::machine::{Ids, Incoming, Machine, Out, Route};
 use crate::proto::rates::StreamRates;
-use crate::proto::severity;
+use crate::wire::Severity;
 
 /// Shortest wait before a request is checked.
 pub const CHECK_AFTER: Micros = 3 * SECOND;
@@ -388,7 +388,7 @@ pub enum StreamOut {
     /// Send on this link (stream rates are per link).
     SendOn(usize, MavMessage),
     /// Tell the operator (severity, text).
-    Notice(u8, String),
+    Notice(Severity, String),
 }
 
 /// What a link is, as far as asking for telemetry goes.
@@ -783,7 +783,7 @@ impl StreamMachine {
         if !accepted {
             let why = crate::proto::ack::result_name(result);
             out.push(StreamOut::Notice(
-                severity::WARNING,
+                Severity::WARNING,
                 format!(
                     "{}:{} refused SET_MESSAGE_INTERVAL {} at {} Hz on link {}: {why}",
                     self.target.0,
@@ -983,7 +983,7 @@ impl StreamMachine {
                 }
             };
             out.push(StreamOut::Notice(
-                severity::WARNING,
+                Severity::WARNING,
                 format!(
                     "no {names} from {}:{} on link {link}: asked at {} Hz {how}, {why}",
                     target.0,
@@ -995,7 +995,7 @@ impl StreamMachine {
             return;
         };
         out.push(StreamOut::Notice(
-            severity::NOTICE,
+            Severity::NOTICE,
             format!(
                 "{}:{} on link {link}: {names} not arriving by {}; asking by {}",
                 target.0,
@@ -1162,7 +1162,7 @@ impl StreamMachine {
             } else {
                 self.pending = None;
                 out.push(StreamOut::Notice(
-                    severity::WARNING,
+                    Severity::WARNING,
                     format!(
                         "no answer from {}:{} to SET_MESSAGE_INTERVAL {} on link {} ({} sends)",
                         self.target.0,
@@ -1425,7 +1425,7 @@ mod tests {
         streaming: BTreeMap<(usize, u32), (Micros, Micros)>,
         /// Everything asked, in order, with the time.
         asked: Vec<(Micros, Req)>,
-        notices: Vec<(u8, String)>,
+        notices: Vec<(Severity, String)>,
         /// Intervals sent while another waited for its ACK.
         overlaps: u32,
         waiting: bool,

@@ -29,8 +29,31 @@ pub const DEFAULT_LOST_TIMEOUT: Micros = 5 * SECOND;
 /// Heartbeats closer together than this are copies of one (e.g. heard on two links).
 pub const HEARTBEAT_COPY_WINDOW: Micros = 100_000;
 
-/// (sysid, compid)
-pub type VehicleKey = (u8, u8);
+/// The MAVLink address of one component: (sysid, compid), shown as `sysid:compid`.
+///
+/// One type for every address: a component heard by heartbeat, the target of a command or a
+/// mission transfer, the source of a message, the ground station itself. MAVLink addresses them
+/// all alike, so a separate "component key" would only convert back and forth.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct VehicleKey(pub u8, pub u8);
+
+impl std::fmt::Display for VehicleKey {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}:{}", self.0, self.1)
+    }
+}
+
+impl From<(u8, u8)> for VehicleKey {
+    fn from((sysid, compid): (u8, u8)) -> Self {
+        VehicleKey(sysid, compid)
+    }
+}
+
+impl From<VehicleKey> for (u8, u8) {
+    fn from(k: VehicleKey) -> Self {
+        (k.0, k.1)
+    }
+}
 
 /// Components kept at most; a new one past this evicts the longest silent.
 pub const MAX_COMPONENTS: usize = 128;
@@ -84,6 +107,11 @@ pub struct Vehicle {
 }
 
 impl Vehicle {
+    /// Its address, `sysid:compid`.
+    pub fn key(&self) -> VehicleKey {
+        VehicleKey(self.sysid, self.compid)
+    }
+
     pub fn armed(&self) -> bool {
         self.base_mode
             .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED)
@@ -353,9 +381,9 @@ impl Registry {
                     let oldest = self
                         .vehicles
                         .values()
-                        .filter(|v| !self.kept.contains(&(v.sysid, v.compid)))
+                        .filter(|v| !self.kept.contains(&v.key()))
                         .min_by_key(|v| v.last_heard)
-                        .map(|v| (v.sysid, v.compid));
+                        .map(|v| v.key());
                     match oldest {
                         Some(k) => {
                             self.vehicles.remove(&k);
@@ -406,9 +434,7 @@ impl Registry {
             Some(v) => {
                 if v.mavtype != hb.mavtype || v.autopilot != hb.autopilot {
                     let detail = format!(
-                        "{}:{} heard as {}/{} and as {}/{}{}",
-                        key.0,
-                        key.1,
+                        "{key} heard as {}/{} and as {}/{}{}",
                         v.type_name(),
                         v.autopilot_name(),
                         short_name(&hb.mavtype, "MAV_TYPE_"),
@@ -550,6 +576,14 @@ impl Registry {
 mod tests {
     use super::*;
 
+    #[test]
+    fn a_key_shows_as_sysid_colon_compid_and_orders_by_sysid_first() {
+        assert_eq!(VehicleKey(1, 1).to_string(), "1:1");
+        assert_eq!(format!("target {}", VehicleKey(255, 190)), "target 255:190");
+        assert_eq!(VehicleKey::from((7, 100)), VehicleKey(7, 100));
+        assert!(VehicleKey(1, 200) < VehicleKey(2, 0));
+    }
+
     fn hb(mavtype: MavType, autopilot: MavAutopilot, armed: bool, mode: u32) -> HEARTBEAT_DATA {
         let mut base_mode = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
         if armed {
@@ -575,13 +609,19 @@ mod tests {
 
     #[test]
     fn found_then_lost_then_back() {
-        let mut r = Registry::new((255, 190), DEFAULT_LOST_TIMEOUT);
-        let ev = r.on_heartbeat(0, (1, 1), &copter(false, 0), Version::V2, 0);
-        assert_eq!(ev, vec![VehicleEvent::Found((1, 1))]);
+        let mut r = Registry::new(VehicleKey(255, 190), DEFAULT_LOST_TIMEOUT);
+        let ev = r.on_heartbeat(0, VehicleKey(1, 1), &copter(false, 0), Version::V2, 0);
+        assert_eq!(ev, vec![VehicleEvent::Found(VehicleKey(1, 1))]);
         for i in 1..4 {
-            r.on_heartbeat(0, (1, 1), &copter(true, 4), Version::V2, i * SECOND);
+            r.on_heartbeat(
+                0,
+                VehicleKey(1, 1),
+                &copter(true, 4),
+                Version::V2,
+                i * SECOND,
+            );
         }
-        let v = r.get((1, 1)).unwrap();
+        let v = r.get(VehicleKey(1, 1)).unwrap();
         assert!(v.armed());
         assert_eq!(v.mode_name(), "GUIDED");
         assert_eq!(v.type_name(), "QUADROTOR");
@@ -589,16 +629,28 @@ mod tests {
         assert_eq!(v.status_name(), "STANDBY");
         assert!((v.heartbeat_hz() - 1.0).abs() < 1e-9);
         assert!(r.tick(7 * SECOND).is_empty());
-        assert_eq!(r.tick(8 * SECOND), vec![VehicleEvent::Lost((1, 1))]);
+        assert_eq!(
+            r.tick(8 * SECOND),
+            vec![VehicleEvent::Lost(VehicleKey(1, 1))]
+        );
         assert!(r.tick(9 * SECOND).is_empty(), "lost only once");
-        let ev = r.on_heartbeat(1, (1, 1), &copter(false, 0), Version::V2, 10 * SECOND);
-        assert_eq!(ev, vec![VehicleEvent::Back((1, 1))]);
-        assert_eq!(r.get((1, 1)).unwrap().links, BTreeSet::from([0, 1]));
+        let ev = r.on_heartbeat(
+            1,
+            VehicleKey(1, 1),
+            &copter(false, 0),
+            Version::V2,
+            10 * SECOND,
+        );
+        assert_eq!(ev, vec![VehicleEvent::Back(VehicleKey(1, 1))]);
+        assert_eq!(
+            r.get(VehicleKey(1, 1)).unwrap().links,
+            BTreeSet::from([0, 1])
+        );
     }
 
     #[test]
     fn other_gcss_are_listed_and_sysid_clashes_flagged() {
-        let mut r = Registry::new((255, 190), DEFAULT_LOST_TIMEOUT);
+        let mut r = Registry::new(VehicleKey(255, 190), DEFAULT_LOST_TIMEOUT);
         let gcs = hb(
             MavType::MAV_TYPE_GCS,
             MavAutopilot::MAV_AUTOPILOT_INVALID,
@@ -606,47 +658,55 @@ mod tests {
             0,
         );
         // MAVProxy at 255:230: a GCS beside us, nothing wrong.
-        let ev = r.on_heartbeat(0, (255, 230), &gcs, Version::V2, 0);
-        assert_eq!(ev, vec![VehicleEvent::Found((255, 230))]);
-        assert!(r.get((255, 230)).unwrap().is_gcs());
-        assert!(!r.get((255, 230)).unwrap().is_autopilot());
+        let ev = r.on_heartbeat(0, VehicleKey(255, 230), &gcs, Version::V2, 0);
+        assert_eq!(ev, vec![VehicleEvent::Found(VehicleKey(255, 230))]);
+        assert!(r.get(VehicleKey(255, 230)).unwrap().is_gcs());
+        assert!(!r.get(VehicleKey(255, 230)).unwrap().is_autopilot());
         // Another GCS on our very id (QGroundControl's default is ours too): listed, flagged.
-        let ev = r.on_heartbeat(0, (255, 190), &gcs, Version::V2, 0);
-        assert!(ev.contains(&VehicleEvent::UsesGcsSysid((255, 190))));
-        let ev = r.on_heartbeat(0, (255, 1), &copter(false, 0), Version::V2, 0);
-        assert!(ev.contains(&VehicleEvent::UsesGcsSysid((255, 1))));
-        assert!(r.get((255, 1)).unwrap().uses_gcs_sysid);
+        let ev = r.on_heartbeat(0, VehicleKey(255, 190), &gcs, Version::V2, 0);
+        assert!(ev.contains(&VehicleEvent::UsesGcsSysid(VehicleKey(255, 190))));
+        let ev = r.on_heartbeat(0, VehicleKey(255, 1), &copter(false, 0), Version::V2, 0);
+        assert!(ev.contains(&VehicleEvent::UsesGcsSysid(VehicleKey(255, 1))));
+        assert!(r.get(VehicleKey(255, 1)).unwrap().uses_gcs_sysid);
     }
 
     #[test]
     fn two_vehicles_on_one_sysid_are_flagged() {
-        let mut r = Registry::new((255, 190), DEFAULT_LOST_TIMEOUT);
-        r.on_heartbeat(0, (1, 1), &copter(false, 0), Version::V2, 0);
+        let mut r = Registry::new(VehicleKey(255, 190), DEFAULT_LOST_TIMEOUT);
+        r.on_heartbeat(0, VehicleKey(1, 1), &copter(false, 0), Version::V2, 0);
         let plane = hb(
             MavType::MAV_TYPE_FIXED_WING,
             MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
             false,
             0,
         );
-        let ev = r.on_heartbeat(1, (1, 1), &plane, Version::V2, 1);
-        assert!(matches!(&ev[0], VehicleEvent::Conflict((1, 1), d) if d.contains("FIXED_WING")));
-        assert!(r.get((1, 1)).unwrap().conflict.is_some());
+        let ev = r.on_heartbeat(1, VehicleKey(1, 1), &plane, Version::V2, 1);
+        assert!(
+            matches!(&ev[0], VehicleEvent::Conflict(VehicleKey(1, 1), d) if d.contains("FIXED_WING"))
+        );
+        assert!(r.get(VehicleKey(1, 1)).unwrap().conflict.is_some());
     }
 
     #[test]
     fn heartbeat_rate_is_not_doubled_by_a_second_link() {
-        let mut r = Registry::new((255, 190), DEFAULT_LOST_TIMEOUT);
+        let mut r = Registry::new(VehicleKey(255, 190), DEFAULT_LOST_TIMEOUT);
         for i in 0..5 {
-            r.on_heartbeat(0, (1, 1), &copter(false, 0), Version::V2, i * SECOND);
+            r.on_heartbeat(
+                0,
+                VehicleKey(1, 1),
+                &copter(false, 0),
+                Version::V2,
+                i * SECOND,
+            );
             r.on_heartbeat(
                 1,
-                (1, 1),
+                VehicleKey(1, 1),
                 &copter(false, 0),
                 Version::V2,
                 i * SECOND + 20_000,
             );
         }
-        let v = r.get((1, 1)).unwrap();
+        let v = r.get(VehicleKey(1, 1)).unwrap();
         assert!(
             (v.heartbeat_hz() - 1.0).abs() < 1e-9,
             "{}",
@@ -657,67 +717,83 @@ mod tests {
 
     #[test]
     fn boot_time_near_the_top_of_u32_does_not_overflow() {
-        let mut r = Registry::new((255, 190), DEFAULT_LOST_TIMEOUT);
-        r.on_heartbeat(0, (1, 1), &copter(false, 0), Version::V2, 0);
-        assert!(r.on_system_time((1, 1), u32::MAX - 10, 0).is_empty());
-        assert!(r.on_system_time((1, 1), u32::MAX, 0).is_empty());
+        let mut r = Registry::new(VehicleKey(255, 190), DEFAULT_LOST_TIMEOUT);
+        r.on_heartbeat(0, VehicleKey(1, 1), &copter(false, 0), Version::V2, 0);
+        assert!(r
+            .on_system_time(VehicleKey(1, 1), u32::MAX - 10, 0)
+            .is_empty());
+        assert!(r.on_system_time(VehicleKey(1, 1), u32::MAX, 0).is_empty());
     }
 
     #[test]
     fn reboot_from_boot_time() {
-        let mut r = Registry::new((255, 190), DEFAULT_LOST_TIMEOUT);
-        r.on_heartbeat(0, (1, 1), &copter(false, 0), Version::V2, 0);
-        assert!(r.on_system_time((1, 1), 50_000, 0).is_empty());
-        assert!(r.on_system_time((1, 1), 50_900, SECOND).is_empty());
-        assert_eq!(r.on_system_time((1, 1), 300, 2 * SECOND).len(), 1);
-        assert_eq!(r.get((1, 1)).unwrap().reboots, 1);
+        let mut r = Registry::new(VehicleKey(255, 190), DEFAULT_LOST_TIMEOUT);
+        r.on_heartbeat(0, VehicleKey(1, 1), &copter(false, 0), Version::V2, 0);
+        assert!(r.on_system_time(VehicleKey(1, 1), 50_000, 0).is_empty());
+        assert!(r
+            .on_system_time(VehicleKey(1, 1), 50_900, SECOND)
+            .is_empty());
+        assert_eq!(r.on_system_time(VehicleKey(1, 1), 300, 2 * SECOND).len(), 1);
+        assert_eq!(r.get(VehicleKey(1, 1)).unwrap().reboots, 1);
         // The same reboot seen again on a second link, or by its sequence count: not again.
-        assert!(r.on_system_time((1, 1), 200, 2 * SECOND).is_empty());
-        assert!(r.on_sequence_restart((1, 1), 3 * SECOND).is_empty());
-        assert_eq!(r.get((1, 1)).unwrap().reboots, 1);
+        assert!(r
+            .on_system_time(VehicleKey(1, 1), 200, 2 * SECOND)
+            .is_empty());
+        assert!(r
+            .on_sequence_restart(VehicleKey(1, 1), 3 * SECOND)
+            .is_empty());
+        assert_eq!(r.get(VehicleKey(1, 1)).unwrap().reboots, 1);
     }
 
     #[test]
     fn sequence_restart_is_one_reboot_however_many_links_show_it() {
-        let mut r = Registry::new((255, 190), DEFAULT_LOST_TIMEOUT);
-        r.on_heartbeat(0, (1, 1), &copter(false, 0), Version::V2, 0);
-        assert_eq!(r.on_sequence_restart((1, 1), 10 * SECOND).len(), 1);
-        assert!(r.on_sequence_restart((1, 1), 10 * SECOND + 1).is_empty());
-        assert_eq!(r.on_sequence_restart((1, 1), 60 * SECOND).len(), 1);
-        assert_eq!(r.get((1, 1)).unwrap().reboots, 2);
+        let mut r = Registry::new(VehicleKey(255, 190), DEFAULT_LOST_TIMEOUT);
+        r.on_heartbeat(0, VehicleKey(1, 1), &copter(false, 0), Version::V2, 0);
+        assert_eq!(
+            r.on_sequence_restart(VehicleKey(1, 1), 10 * SECOND).len(),
+            1
+        );
+        assert!(r
+            .on_sequence_restart(VehicleKey(1, 1), 10 * SECOND + 1)
+            .is_empty());
+        assert_eq!(
+            r.on_sequence_restart(VehicleKey(1, 1), 60 * SECOND).len(),
+            1
+        );
+        assert_eq!(r.get(VehicleKey(1, 1)).unwrap().reboots, 2);
     }
 
     #[test]
     fn a_held_link_keeps_its_components_and_a_slow_one_stretches_the_timeout() {
-        let mut r = Registry::new((255, 190), 5 * SECOND);
-        r.on_heartbeat(0, (1, 1), &copter(false, 0), Version::V2, 0);
-        r.on_heartbeat(1, (2, 1), &copter(false, 0), Version::V2, 0);
+        let mut r = Registry::new(VehicleKey(255, 190), 5 * SECOND);
+        r.on_heartbeat(0, VehicleKey(1, 1), &copter(false, 0), Version::V2, 0);
+        r.on_heartbeat(1, VehicleKey(2, 1), &copter(false, 0), Version::V2, 0);
         // Link 0 held at 2 s: 1:1 is never lost meanwhile, 2:1 (link 1) is, after 5 s.
         r.set_pace(0, Some(Pace::Held(2 * SECOND)), 2 * SECOND);
         assert_eq!(r.next_deadline(), Some(5 * SECOND));
         r.tick(60 * SECOND);
-        assert!(!r.get((1, 1)).unwrap().lost);
-        assert!(r.get((2, 1)).unwrap().lost);
+        assert!(!r.get(VehicleKey(1, 1)).unwrap().lost);
+        assert!(r.get(VehicleKey(2, 1)).unwrap().lost);
         assert_eq!(r.next_deadline(), None, "nothing to wake for while held");
         // Running again at 60 s, slowly (×4): it was 2 s old when held, so lost 18 s on.
         r.set_pace(0, Some(Pace::Slow(4.0)), 60 * SECOND);
         assert_eq!(r.next_deadline(), Some(78 * SECOND));
         r.tick(77 * SECOND);
-        assert!(!r.get((1, 1)).unwrap().lost);
+        assert!(!r.get(VehicleKey(1, 1)).unwrap().lost);
         r.tick(78 * SECOND);
-        assert!(r.get((1, 1)).unwrap().lost);
+        assert!(r.get(VehicleKey(1, 1)).unwrap().lost);
     }
 
     #[test]
     fn a_flood_of_ids_is_bounded_and_counted() {
-        let mut r = Registry::new((255, 190), DEFAULT_LOST_TIMEOUT);
+        let mut r = Registry::new(VehicleKey(255, 190), DEFAULT_LOST_TIMEOUT);
         for i in 0..10_000u32 {
-            let key = ((i % 250) as u8 + 1, (i / 250) as u8);
+            let key = VehicleKey((i % 250) as u8 + 1, (i / 250) as u8);
             r.on_heartbeat(0, key, &copter(false, 0), Version::V2, i as u64);
         }
         assert_eq!(r.len(), MAX_COMPONENTS);
         assert_eq!(r.evicted, 10_000 - MAX_COMPONENTS as u64);
         // The most recently heard are the ones kept.
-        assert!(r.get((250, 39)).is_some());
+        assert!(r.get(VehicleKey(250, 39)).is_some());
     }
 }

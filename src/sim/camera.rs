@@ -10,6 +10,7 @@
 
 use crate::clock::{Micros, SECOND};
 use crate::dialect::*;
+use mavlink::MessageData;
 
 use super::vehicle::Out;
 
@@ -279,30 +280,32 @@ impl SimCamera {
         let mut then = None;
         let result = match command {
             MAV_CMD_REQUEST_MESSAGE => match p[0] as u32 {
-                259 => {
+                CAMERA_INFORMATION_DATA::ID => {
                     then = Some(self.information(now));
                     MAV_RESULT_ACCEPTED
                 }
-                260 => {
+                CAMERA_SETTINGS_DATA::ID => {
                     then = Some(self.settings(now));
                     MAV_RESULT_ACCEPTED
                 }
-                261 => {
+                STORAGE_INFORMATION_DATA::ID => {
                     then = Some(self.storage(now));
                     MAV_RESULT_ACCEPTED
                 }
-                262 => {
+                CAMERA_CAPTURE_STATUS_DATA::ID => {
                     then = Some(self.status(now));
                     MAV_RESULT_ACCEPTED
                 }
-                263 => match self.images.iter().position(|i| i.0 == p[1] as i32) {
-                    Some(i) => {
-                        then = Some(self.captured(i));
-                        MAV_RESULT_ACCEPTED
+                CAMERA_IMAGE_CAPTURED_DATA::ID => {
+                    match self.images.iter().position(|i| i.0 == p[1] as i32) {
+                        Some(i) => {
+                            then = Some(self.captured(i));
+                            MAV_RESULT_ACCEPTED
+                        }
+                        None => MAV_RESULT_DENIED,
                     }
-                    None => MAV_RESULT_DENIED,
-                },
-                269 => {
+                }
+                VIDEO_STREAM_INFORMATION_DATA::ID => {
                     then = Some(self.stream());
                     MAV_RESULT_ACCEPTED
                 }

@@ -19,7 +19,8 @@ pub const FORCE_MAGIC: f32 = 21196.0;
 /// ArduPilot's other magic param2: force arming (but not disarming).
 pub const FORCE_ARM_MAGIC: f32 = 2989.0;
 /// Message id of SET_MODE, which ArduPilot puts in the `command` of the ACK it answers with.
-const SET_MODE_ID: u16 = 11;
+#[allow(deprecated)] // superseded by MAV_CMD_DO_SET_MODE, still sent by GCSs
+const SET_MODE_ID: u16 = <SET_MODE_DATA as mavlink::MessageData>::ID as u16;
 /// MAV_MODE_FLAG_CUSTOM_MODE_ENABLED and MAV_MODE_FLAG_DECODE_POSITION_SAFETY.
 const CUSTOM_MODE_ENABLED: u32 = 1;
 const DECODE_POSITION_SAFETY: u32 = 128;

@@ -39,18 +39,24 @@ use crate::dialect::{MavMissionResult, MavSeverity};
 
 /// Message ids of the mission protocol.
 pub mod msgid {
-    pub const MISSION_WRITE_PARTIAL_LIST: u32 = 38;
-    pub const MISSION_ITEM: u32 = 39;
-    pub const MISSION_REQUEST: u32 = 40;
-    pub const MISSION_SET_CURRENT: u32 = 41;
-    pub const MISSION_CURRENT: u32 = 42;
-    pub const MISSION_REQUEST_LIST: u32 = 43;
-    pub const MISSION_COUNT: u32 = 44;
-    pub const MISSION_CLEAR_ALL: u32 = 45;
-    pub const MISSION_ITEM_REACHED: u32 = 46;
-    pub const MISSION_ACK: u32 = 47;
-    pub const MISSION_REQUEST_INT: u32 = 51;
-    pub const MISSION_ITEM_INT: u32 = 73;
+    use crate::dialect::*;
+    use mavlink::MessageData;
+
+    pub const MISSION_WRITE_PARTIAL_LIST: u32 = MISSION_WRITE_PARTIAL_LIST_DATA::ID;
+    #[allow(deprecated)] // the float forms: older GCSs still use them
+    pub const MISSION_ITEM: u32 = MISSION_ITEM_DATA::ID;
+    #[allow(deprecated)]
+    pub const MISSION_REQUEST: u32 = MISSION_REQUEST_DATA::ID;
+    #[allow(deprecated)] // superseded by MAV_CMD_DO_SET_MISSION_CURRENT, still sent
+    pub const MISSION_SET_CURRENT: u32 = MISSION_SET_CURRENT_DATA::ID;
+    pub const MISSION_CURRENT: u32 = MISSION_CURRENT_DATA::ID;
+    pub const MISSION_REQUEST_LIST: u32 = MISSION_REQUEST_LIST_DATA::ID;
+    pub const MISSION_COUNT: u32 = MISSION_COUNT_DATA::ID;
+    pub const MISSION_CLEAR_ALL: u32 = MISSION_CLEAR_ALL_DATA::ID;
+    pub const MISSION_ITEM_REACHED: u32 = MISSION_ITEM_REACHED_DATA::ID;
+    pub const MISSION_ACK: u32 = MISSION_ACK_DATA::ID;
+    pub const MISSION_REQUEST_INT: u32 = MISSION_REQUEST_INT_DATA::ID;
+    pub const MISSION_ITEM_INT: u32 = MISSION_ITEM_INT_DATA::ID;
 }
 
 /// True for the messages a GCS sends in the mission protocol (handled from their raw payload).
@@ -78,50 +84,8 @@ pub mod mission_type {
     pub const RALLY: u8 = 2;
 }
 
-/// MAV_CMD ids the stores and the AUTO mode look at.
-pub mod cmd {
-    pub const NAV_WAYPOINT: u16 = 16;
-    pub const NAV_LOITER_UNLIM: u16 = 17;
-    pub const NAV_LOITER_TURNS: u16 = 18;
-    pub const NAV_LOITER_TIME: u16 = 19;
-    pub const NAV_RETURN_TO_LAUNCH: u16 = 20;
-    pub const NAV_LAND: u16 = 21;
-    pub const NAV_TAKEOFF: u16 = 22;
-    pub const NAV_CONTINUE_AND_CHANGE_ALT: u16 = 30;
-    pub const NAV_LOITER_TO_ALT: u16 = 31;
-    pub const NAV_SPLINE_WAYPOINT: u16 = 82;
-    pub const NAV_GUIDED_ENABLE: u16 = 92;
-    pub const NAV_DELAY: u16 = 93;
-    /// MAV_CMD_NAV_LAST: every id up to it is a navigation command.
-    pub const NAV_LAST: u16 = 95;
-    pub const CONDITION_DELAY: u16 = 112;
-    pub const CONDITION_DISTANCE: u16 = 114;
-    pub const CONDITION_YAW: u16 = 115;
-    pub const DO_JUMP: u16 = 177;
-    pub const DO_CHANGE_SPEED: u16 = 178;
-    pub const DO_SET_HOME: u16 = 179;
-    pub const DO_SET_RELAY: u16 = 181;
-    pub const DO_REPEAT_RELAY: u16 = 182;
-    pub const DO_SET_SERVO: u16 = 183;
-    pub const DO_REPEAT_SERVO: u16 = 184;
-    pub const DO_LAND_START: u16 = 189;
-    pub const DO_GO_AROUND: u16 = 191;
-    pub const DO_SET_ROI: u16 = 201;
-    pub const DO_DIGICAM_CONTROL: u16 = 203;
-    pub const DO_MOUNT_CONTROL: u16 = 205;
-    pub const DO_SET_CAM_TRIGG_DIST: u16 = 206;
-    pub const DO_FENCE_ENABLE: u16 = 207;
-    pub const DO_PARACHUTE: u16 = 208;
-    pub const DO_INVERTED_FLIGHT: u16 = 210;
-    pub const DO_GRIPPER: u16 = 211;
-    pub const DO_GUIDED_LIMITS: u16 = 222;
-    pub const NAV_FENCE_RETURN_POINT: u16 = 5000;
-    pub const NAV_FENCE_POLYGON_VERTEX_INCLUSION: u16 = 5001;
-    pub const NAV_FENCE_POLYGON_VERTEX_EXCLUSION: u16 = 5002;
-    pub const NAV_FENCE_CIRCLE_INCLUSION: u16 = 5003;
-    pub const NAV_FENCE_CIRCLE_EXCLUSION: u16 = 5004;
-    pub const NAV_RALLY_POINT: u16 = 5100;
-}
+/// MAV_CMD values, from the dialect.
+pub use crate::wire::cmd;
 
 /// MAV_FRAME values used by mission items.
 pub mod frame {
@@ -233,7 +197,13 @@ pub(super) enum Incoming {
 /// (`AP_Mission::convert_MISSION_ITEM_to_MISSION_ITEM_INT`).
 fn xy_not_location(command: u16) -> bool {
     // DO_DIGICAM_CONFIGURE, DO_DIGICAM_CONTROL, NAV_ATTITUDE_TIME, DO_GIMBAL_MANAGER_PITCHYAW.
-    matches!(command, 202 | 203 | 42703 | 1000)
+    matches!(
+        command,
+        cmd::DO_DIGICAM_CONFIGURE
+            | cmd::DO_DIGICAM_CONTROL
+            | cmd::NAV_ATTITUDE_TIME
+            | cmd::DO_GIMBAL_MANAGER_PITCHYAW
+    )
 }
 
 fn check_lat(lat_e7: i32) -> bool {

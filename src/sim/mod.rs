@@ -47,19 +47,20 @@ pub use server::serve;
 pub use vehicle::SimVehicle;
 
 use crate::clock::Micros;
-use crate::dialect::MavResult;
+use crate::dialect::{MavResult, COMMAND_ACK_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA};
 use crate::wire::frame::{crc_extra, encode, frame_crc, Header, Version, MAGIC_V2};
 use crate::wire::parser::FrameParser;
 use impair::{ImpairConfig, Impairer};
+use mavlink::MessageData;
 use params::ParamTable;
 use rng::Rng;
 use std::path::PathBuf;
 use vehicle::{Out, TICK};
 
 /// Message id of COMMAND_LONG and COMMAND_ACK.
-const COMMAND_LONG_ID: u32 = 76;
-const COMMAND_INT_ID: u32 = 75;
-const COMMAND_ACK_ID: u32 = 77;
+const COMMAND_LONG_ID: u32 = COMMAND_LONG_DATA::ID;
+const COMMAND_INT_ID: u32 = COMMAND_INT_DATA::ID;
+const COMMAND_ACK_ID: u32 = COMMAND_ACK_DATA::ID;
 
 /// One or more simulated vehicles on one simulated link.
 #[derive(Debug)]

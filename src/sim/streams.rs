@@ -8,34 +8,37 @@ use std::collections::BTreeMap;
 
 /// Message ids the simulator can stream.
 pub mod id {
-    pub const HEARTBEAT: u32 = 0;
-    pub const SYS_STATUS: u32 = 1;
-    pub const SYSTEM_TIME: u32 = 2;
-    pub const GPS_RAW_INT: u32 = 24;
-    pub const RAW_IMU: u32 = 27;
-    pub const SCALED_PRESSURE: u32 = 29;
-    pub const GPS_GLOBAL_ORIGIN: u32 = 49;
-    pub const ATTITUDE: u32 = 30;
-    pub const LOCAL_POSITION_NED: u32 = 32;
-    pub const GLOBAL_POSITION_INT: u32 = 33;
-    pub const RC_CHANNELS: u32 = 65;
-    pub const SERVO_OUTPUT_RAW: u32 = 36;
-    pub const MISSION_CURRENT: u32 = 42;
-    pub const NAV_CONTROLLER_OUTPUT: u32 = 62;
-    pub const VFR_HUD: u32 = 74;
-    pub const POWER_STATUS: u32 = 125;
-    pub const BATTERY_STATUS: u32 = 147;
-    pub const AUTOPILOT_VERSION: u32 = 148;
-    pub const MEMINFO: u32 = 152;
-    pub const AHRS: u32 = 163;
-    pub const AHRS2: u32 = 178;
-    pub const EKF_STATUS_REPORT: u32 = 193;
-    pub const VIBRATION: u32 = 241;
-    pub const HOME_POSITION: u32 = 242;
-    pub const EXTENDED_SYS_STATE: u32 = 245;
-    pub const GIMBAL_MANAGER_INFORMATION: u32 = 280;
-    pub const GIMBAL_MANAGER_STATUS: u32 = 281;
-    pub const GIMBAL_DEVICE_ATTITUDE_STATUS: u32 = 285;
+    use crate::dialect::*;
+    use mavlink::MessageData;
+
+    pub const HEARTBEAT: u32 = HEARTBEAT_DATA::ID;
+    pub const SYS_STATUS: u32 = SYS_STATUS_DATA::ID;
+    pub const SYSTEM_TIME: u32 = SYSTEM_TIME_DATA::ID;
+    pub const GPS_RAW_INT: u32 = GPS_RAW_INT_DATA::ID;
+    pub const RAW_IMU: u32 = RAW_IMU_DATA::ID;
+    pub const SCALED_PRESSURE: u32 = SCALED_PRESSURE_DATA::ID;
+    pub const GPS_GLOBAL_ORIGIN: u32 = GPS_GLOBAL_ORIGIN_DATA::ID;
+    pub const ATTITUDE: u32 = ATTITUDE_DATA::ID;
+    pub const LOCAL_POSITION_NED: u32 = LOCAL_POSITION_NED_DATA::ID;
+    pub const GLOBAL_POSITION_INT: u32 = GLOBAL_POSITION_INT_DATA::ID;
+    pub const RC_CHANNELS: u32 = RC_CHANNELS_DATA::ID;
+    pub const SERVO_OUTPUT_RAW: u32 = SERVO_OUTPUT_RAW_DATA::ID;
+    pub const MISSION_CURRENT: u32 = MISSION_CURRENT_DATA::ID;
+    pub const NAV_CONTROLLER_OUTPUT: u32 = NAV_CONTROLLER_OUTPUT_DATA::ID;
+    pub const VFR_HUD: u32 = VFR_HUD_DATA::ID;
+    pub const POWER_STATUS: u32 = POWER_STATUS_DATA::ID;
+    pub const BATTERY_STATUS: u32 = BATTERY_STATUS_DATA::ID;
+    pub const AUTOPILOT_VERSION: u32 = AUTOPILOT_VERSION_DATA::ID;
+    pub const MEMINFO: u32 = MEMINFO_DATA::ID;
+    pub const AHRS: u32 = AHRS_DATA::ID;
+    pub const AHRS2: u32 = AHRS2_DATA::ID;
+    pub const EKF_STATUS_REPORT: u32 = EKF_STATUS_REPORT_DATA::ID;
+    pub const VIBRATION: u32 = VIBRATION_DATA::ID;
+    pub const HOME_POSITION: u32 = HOME_POSITION_DATA::ID;
+    pub const EXTENDED_SYS_STATE: u32 = EXTENDED_SYS_STATE_DATA::ID;
+    pub const GIMBAL_MANAGER_INFORMATION: u32 = GIMBAL_MANAGER_INFORMATION_DATA::ID;
+    pub const GIMBAL_MANAGER_STATUS: u32 = GIMBAL_MANAGER_STATUS_DATA::ID;
+    pub const GIMBAL_DEVICE_ATTITUDE_STATUS: u32 = GIMBAL_DEVICE_ATTITUDE_STATUS_DATA::ID;
 }
 
 /// ArduCopter's MAV_DATA_STREAM groups (GCS_Mavlink.cpp `STREAM_*` tables), restricted to the

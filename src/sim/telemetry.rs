@@ -83,7 +83,10 @@ pub(super) fn raw_command_ack(command: u16, result: MavResult, to: (u8, u8)) -> 
     payload.extend_from_slice(&command.to_le_bytes());
     payload.push(result as u8);
     payload.extend_from_slice(&[0, 0, 0, 0, 0, to.0, to.1]);
-    Out::Raw { msgid: 77, payload }
+    Out::Raw {
+        msgid: <COMMAND_ACK_DATA as mavlink::MessageData>::ID,
+        payload,
+    }
 }
 
 fn deg_e7(d: f64) -> i32 {

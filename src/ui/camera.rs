@@ -14,6 +14,7 @@ use super::Theme;
 use crate::app::session::Session;
 use crate::app::App;
 use crate::proto::camera::{flag_names, mode_name, Camera, CameraAction, Discovery};
+use crate::proto::vehicles::VehicleKey;
 
 fn mib(v: f32) -> String {
     format!("{v:.0} MiB")
@@ -238,9 +239,9 @@ fn action_lines(s: &Session, c: &Camera, theme: &Theme, lines: &mut Vec<Line<'st
 
 /// The border's title: the selected camera and the keys for it.
 fn title(app: &App, s: &Session, sel: Option<u8>) -> String {
-    let sys = s.key.0;
     match sel {
         Some(id) => {
+            let cam = VehicleKey(s.key.0, id);
             let n = s.cameras.cameras.len();
             let i = s.cameras.cameras.keys().position(|&c| c == id).unwrap_or(0) + 1;
             let keys = |a| {
@@ -252,7 +253,7 @@ fn title(app: &App, s: &Session, sel: Option<u8>) -> String {
             };
             use crate::keymap::Action as A;
             format!(
-                " Camera {sys}:{id} ({i} of {n})  {} shoot  {} video  {} mode  {}/{} zoom  {}/{} focus ",
+                " Camera {cam} ({i} of {n})  {} shoot  {} video  {} mode  {}/{} zoom  {}/{} focus ",
                 keys(A::CameraShoot),
                 keys(A::CameraVideo),
                 keys(A::CameraMode),
@@ -313,8 +314,8 @@ fn gimbal_lines(app: &App, s: &Session, theme: &Theme, lines: &mut Vec<Line<'sta
         };
         let control = match g.status {
             Some(st) if st.primary == (0, 0) => "nobody".to_string(),
-            Some(st) if st.primary == us => format!("{}:{} (us)", st.primary.0, st.primary.1),
-            Some(st) => format!("{}:{}", st.primary.0, st.primary.1),
+            Some(st) if st.primary == us => format!("{} (us)", VehicleKey::from(st.primary)),
+            Some(st) => VehicleKey::from(st.primary).to_string(),
             None => "?".into(),
         };
         lines.push(Line::raw(format!("  {limits}  control {control}")));

@@ -39,9 +39,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     };
     let title = match app.target {
         Some(k) => format!(
-            " Commands to {}:{}  {} send again  {} cancel ",
-            k.0,
-            k.1,
+            " Commands to {k}  {} send again  {} cancel ",
             key(crate::keymap::Action::Reissue),
             key(crate::keymap::Action::CancelCommand)
         ),

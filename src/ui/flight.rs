@@ -63,14 +63,14 @@ pub fn wanted_height(app: &App) -> u16 {
 pub fn title(app: &App) -> String {
     match (app.target, telemetry(app)) {
         (None, _) => "Flight: no target".into(),
-        (Some(k), None) => format!("Flight {}:{}: no telemetry", k.0, k.1),
+        (Some(k), None) => format!("Flight {k}: no telemetry"),
         (Some(k), Some((_, t))) => {
             let age = t.last_heard().map_or(0, |at| app.now.saturating_sub(at));
             if age > STALE_AFTER {
                 let old = fmt::duration(age / SECOND);
-                format!("Flight {}:{} ({old} old)", k.0, k.1)
+                format!("Flight {k} ({old} old)")
             } else {
-                format!("Flight {}:{}", k.0, k.1)
+                format!("Flight {k}")
             }
         }
     }

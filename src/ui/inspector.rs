@@ -20,6 +20,7 @@ use crate::app::inspector::{
 use crate::app::App;
 use crate::clock::SECOND;
 use crate::keymap::{Action, Mode};
+use crate::proto::vehicles::VehicleKey;
 
 /// Widths of the list's columns: source, rate, count, age.
 const SRC_W: usize = 7;
@@ -250,7 +251,7 @@ fn render_list(
         // The source on the first row of each group, and on the first row shown.
         let first = i == offset || rows[i - 1].0 != k.0 || rows[i - 1].1 != k.1;
         let src = if first {
-            format!("{}:{}", k.0, k.1)
+            VehicleKey(k.0, k.1).to_string()
         } else {
             String::new()
         };
@@ -437,7 +438,7 @@ fn render_detail(app: &App, frame: &mut Frame, area: Rect, theme: &Theme, sel: O
     };
     let entry = sel.and_then(|k| Some((k, app.inspector.get(k)?)));
     let title = match entry {
-        Some((k, e)) => format!(" {} #{} from {}:{} ", e.name, k.2, k.0, k.1),
+        Some((k, e)) => format!(" {} #{} from {} ", e.name, k.2, VehicleKey(k.0, k.1)),
         None => " Fields ".to_string(),
     };
     let mut block = Block::default()
@@ -545,9 +546,8 @@ pub fn rate_prompt(app: &App, k: MsgKey) -> String {
         })
         .collect();
     format!(
-        "{name} ({}:{}) Hz, 0 default, -1 off: {}",
-        k.0,
-        k.1,
+        "{name} ({}) Hz, 0 default, -1 off: {}",
+        VehicleKey(k.0, k.1),
         keys.join("  ")
     )
 }
@@ -555,7 +555,7 @@ pub fn rate_prompt(app: &App, k: MsgKey) -> String {
 /// The rate mavterm asked automatically for message `k.2` of autopilot `k.0:k.1`, on the link
 /// its commands go by.
 fn auto_requested(app: &App, k: (u8, u8, u32)) -> Option<f32> {
-    let key = (k.0, k.1);
+    let key = VehicleKey(k.0, k.1);
     let s = app.sessions.get(&key)?;
     let link = app.route(key)?;
     s.streams

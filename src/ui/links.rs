@@ -424,10 +424,10 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         if !l.expanded {
             continue;
         }
-        for ((sys, comp), s) in &l.sources {
+        for (src, s) in &l.sources {
             let q = &s.seq;
             let mut cells = vec![
-                Cell::from(fmt::fit(&format!("   └ {sys}:{comp}"), name_w).into_owned()),
+                Cell::from(fmt::fit(&format!("   └ {src}"), name_w).into_owned()),
                 Cell::from(""),
                 Cell::from(""),
                 Cell::from(""),

@@ -18,10 +18,10 @@ use crate::app::{App, Pane};
 pub fn notice_text(app: &App, n: &Notice) -> (String, String, String, String) {
     let time = app.cfg.zone.at(n.at).format("%H:%M:%S").to_string();
     let source = match n.source {
-        Some((s, c)) => format!("{s}:{c}"),
+        Some(key) => key.to_string(),
         None => "mavterm".to_string(),
     };
-    (time, n.severity_name().to_string(), source, n.text.clone())
+    (time, n.severity.name().to_string(), source, n.text.clone())
 }
 
 /// The title's counts and state: ` (17)`, ` (5 of 17) WARN+ sys 1`, and while scrolled back

@@ -195,7 +195,7 @@ mod tests {
         p.query.set(&"x".repeat(200));
         p.refilter();
         app.ui.palette = Some(p.clone());
-        let mut form = PaletteForm::new(22, Some((1, 1)));
+        let mut form = PaletteForm::new(22, Some(crate::proto::vehicles::VehicleKey(1, 1)));
         form.fields[6].set(&"9".repeat(100));
         form.fields[TARGET].set("255:255");
         form.focus = 6;

@@ -91,9 +91,9 @@ fn header(app: &App, shown: usize, theme: &Theme, width: usize) -> Vec<(String, 
         return parts;
     };
     let who = if comp == key.1 {
-        format!(" Parameters {}:{} ", key.0, key.1)
+        format!(" Parameters {key} ")
     } else {
-        format!(" Parameters {}:{} component {comp} ", key.0, key.1)
+        format!(" Parameters {key} component {comp} ")
     };
     parts.push((who, theme.focus_border()));
     let session = app.sessions.get(&key);
@@ -273,7 +273,10 @@ fn detail(
         Some(h) => Line::styled(ellipsize(&h, width), theme.header()),
         None if meta.is_some() => Line::styled(ellipsize(name, width), theme.header()),
         None => Line::styled(
-            ellipsize("no metadata for this parameter (--param-meta FILE)", width),
+            ellipsize(
+                "no metadata: :param meta fetch, or --param-meta FILE",
+                width,
+            ),
             theme.dim(),
         ),
     });

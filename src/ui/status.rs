@@ -34,11 +34,9 @@ pub fn target_text(app: &App) -> String {
     match app.target {
         None => "no target".into(),
         Some(key) => match app.vehicles.get(key) {
-            None => format!("target {}:{}", key.0, key.1),
+            None => format!("target {key}"),
             Some(v) => format!(
-                "target {}:{} {} {}{}",
-                key.0,
-                key.1,
+                "target {key} {} {}{}",
                 v.mode_name(),
                 if v.armed() { "ARMED" } else { "disarmed" },
                 if v.lost { " (lost)" } else { "" }
@@ -200,7 +198,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     // A message that does not fit gets the room of the target's mode and state.
     if let (Some((_, text)), Some(key)) = (&app.ui.message, app.target) {
         if text.chars().count() > room {
-            target = format!("{}:{}{progress}", key.0, key.1);
+            target = format!("{key}{progress}");
             room = room_for(&target);
         }
     }

@@ -4,6 +4,8 @@
 
 use ratatui::style::{Color, Modifier, Style};
 
+use crate::wire::Severity;
+
 /// How things look.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Theme {
@@ -70,14 +72,16 @@ impl Theme {
     pub fn armed(&self) -> Style {
         self.fg(Color::Red).add_modifier(Modifier::BOLD)
     }
-    /// A STATUSTEXT severity (0 = EMERGENCY … 7 = DEBUG).
-    pub fn severity(&self, sev: u8) -> Style {
+    /// A message's severity: a vehicle's STATUSTEXT or mavterm's own.
+    pub fn severity(&self, sev: Severity) -> Style {
         match sev {
-            0..=2 => self.fg(Color::Magenta).add_modifier(Modifier::BOLD),
-            3 => self.fg(Color::Red).add_modifier(Modifier::BOLD),
-            4 => self.fg(Color::Yellow),
-            5 => self.fg(Color::Cyan),
-            6 => Style::default(),
+            Severity::EMERGENCY | Severity::ALERT | Severity::CRITICAL => {
+                self.fg(Color::Magenta).add_modifier(Modifier::BOLD)
+            }
+            Severity::ERROR => self.fg(Color::Red).add_modifier(Modifier::BOLD),
+            Severity::WARNING => self.fg(Color::Yellow),
+            Severity::NOTICE => self.fg(Color::Cyan),
+            Severity::INFO => Style::default(),
             _ => self.dim(),
         }
     }

@@ -88,7 +88,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let texts =
         |f: &dyn Fn(&Vehicle) -> String| -> Vec<String> { vehicles.iter().map(|v| f(v)).collect() };
     let (ids, types, autopilots, modes, statuses, link_names, flags) = (
-        texts(&|v| format!("{}:{}", v.sysid, v.compid)),
+        texts(&|v| v.key().to_string()),
         texts(&|v| v.type_name()),
         texts(&|v| v.autopilot_name()),
         texts(&|v| v.mode_name()),
@@ -189,7 +189,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let sel = app.ui.vehicle_sel.min(total - 1);
     let first = fmt::scroll_offset(sel, visible, total);
     let rows = vehicles.iter().enumerate().map(|(i, v)| {
-        let key = (v.sysid, v.compid);
+        let key = v.key();
         let is_target = app.target == Some(key);
         let base = if v.lost {
             theme.dim()

@@ -2,6 +2,7 @@
 //! sequence numbers), and the MAVFTP and `param.pck` codecs. Pure: bytes in, values out. Used by
 //! the ground station and the simulated vehicle alike.
 
+pub mod cmd;
 pub mod frame;
 pub mod mavftp;
 pub mod param_pck;
