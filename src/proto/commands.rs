@@ -486,7 +486,7 @@ pub fn to_out(outs: Vec<CmdOut>, route: Route, out: &mut Vec<Out>) {
             CmdOut::Notice(s, t) => told = Some((s, t)),
             CmdOut::Finished(id) => out.push(Out::Event(MachineEvent::CommandDone {
                 id,
-                notice: told.take().map(|(s, t)| (s.into(), t)),
+                notice: told.take(),
             })),
         }
     }

@@ -1508,7 +1508,7 @@ impl ParamMachine {
                 comp,
                 name,
                 confirmed,
-                notice: (s.into(), t),
+                notice: (s, t),
             }),
         }
     }
