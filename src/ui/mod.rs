@@ -7,23 +7,26 @@
 //! every rectangle is clipped to the frame; below [`MIN_SIZE`] the screen just says it is too
 //! small and what it needs.
 
-pub mod camera;
-pub mod commands;
 pub mod confirm;
 pub mod flight;
 pub mod fmt;
 pub mod help;
-pub mod inspector;
 pub mod links;
 pub mod messages;
-pub mod mission;
-pub mod overview;
 pub mod palette;
-pub mod parameters;
 pub mod screens;
 pub mod status;
 pub mod theme;
 pub mod vehicles;
+
+// Every screen's module, `ui/NAME.rs`, named by the one screen list.
+macro_rules! screen_modules {
+    ($( $n:literal $name:ident $title:literal $what:literal
+        $(select = $sel:ident)? $(note = $note:ident)? ;)*) => {
+        $(pub mod $name;)*
+    };
+}
+crate::for_each_screen!(screen_modules);
 
 use ratatui::buffer::Buffer;
 use ratatui::layout::Rect;
