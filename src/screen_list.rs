@@ -9,8 +9,9 @@
 //!
 //! Every layer expands this list with [`for_each_screen!`]: `keymap` (the section names and
 //! the `screen_N` actions), `app::screen` (the core's `SCREENS`, number
-//! keys and selection) and `ui::screens` (the renderers). Adding a screen: its file `ui/NAME.rs`
-//! with `pub fn render`, its `pub mod NAME;` in `ui/mod.rs`, and one line here.
+//! keys and selection), `ui` (the screens' modules) and `ui::screens` (the renderers). Adding a
+//! screen: its file `ui/NAME.rs` with `pub fn render`, one line here, and its number key
+//! (`screen_N = ["N"]`) in `keymaps/default.toml`.
 
 /// Calls the macro `$then` with the list of screens (see the module doc for the fields).
 #[macro_export]
