@@ -192,17 +192,12 @@ fn the_binary_caches_under_xdg_cache_home() {
         "20 key :\n20 text \"param meta fetch\"\n20 key enter\n25 quit\n",
     )
     .unwrap();
-    let out = std::process::Command::new(common::mavterm())
-        .args(["--link", "sim://", "--headless", "--input"])
-        .arg(&script)
-        .env("XDG_CACHE_HOME", tmp.path().join("cache"))
-        .env("MAVTERM_PARAM_META_URL", &url)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    common::succeed(
+        std::process::Command::new(common::mavterm())
+            .args(["--link", "sim://", "--headless", "--input"])
+            .arg(&script)
+            .env("XDG_CACHE_HOME", tmp.path().join("cache"))
+            .env("MAVTERM_PARAM_META_URL", &url),
     );
     assert_eq!(*asked.lock().unwrap(), ["/ArduCopter/apm.pdef.xml"]);
     let file = tmp

@@ -332,6 +332,15 @@ mod tests {
     }
 
     /// An app that has heard 1:1 (disarmed) at 0 and asks to arm it at `at`.
+    /// What the status bar says.
+    fn said(app: &App) -> String {
+        app.ui
+            .message
+            .as_ref()
+            .map(|m| m.1.clone())
+            .unwrap_or_default()
+    }
+
     fn asked_to_arm(at: Micros) -> App {
         let mut app = App::new(AppConfig {
             links: vec!["x".into()],
@@ -422,12 +431,7 @@ mod tests {
         }
         app.update(S + CONFIRM_EXPIRY, Event::Tick);
         assert!(app.ui.confirm.is_none());
-        let said = app
-            .ui
-            .message
-            .as_ref()
-            .map(|m| m.1.clone())
-            .unwrap_or_default();
+        let said = said(&app);
         assert!(said.contains("not answered in 10 s"), "{said}");
 
         let mut app = asked_to_arm(S);
@@ -455,12 +459,7 @@ mod tests {
         let lost = app.cfg.lost_timeout + S;
         assert_eq!(arms(&key(&mut app, lost, Key::ch('y'))), 0);
         assert!(app.ui.confirm.is_none());
-        let said = app
-            .ui
-            .message
-            .as_ref()
-            .map(|m| m.1.clone())
-            .unwrap_or_default();
+        let said = said(&app);
         assert!(said.contains("lost"), "{said}");
 
         let mut app = asked_to_arm(S);

@@ -120,25 +120,14 @@ const VEHICLES: [&str; 6] = [
 /// ArduPilot's name of a vehicle type's firmware, as its metadata tree names it
 /// (`Parameters/ArduCopter/`), and as its `versioned/` tree does (`versioned/Copter/`).
 pub fn ardupilot_vehicle(mavtype: MavType) -> Option<(&'static str, &'static str)> {
-    use MavType::*;
-    Some(match mavtype {
-        MAV_TYPE_QUADROTOR | MAV_TYPE_HEXAROTOR | MAV_TYPE_OCTOROTOR | MAV_TYPE_TRICOPTER
-        | MAV_TYPE_HELICOPTER | MAV_TYPE_COAXIAL | MAV_TYPE_DODECAROTOR | MAV_TYPE_DECAROTOR => {
-            ("ArduCopter", "Copter")
-        }
-        MAV_TYPE_FIXED_WING
-        | MAV_TYPE_VTOL_TAILSITTER_DUOROTOR
-        | MAV_TYPE_VTOL_TAILSITTER_QUADROTOR
-        | MAV_TYPE_VTOL_TILTROTOR
-        | MAV_TYPE_VTOL_FIXEDROTOR
-        | MAV_TYPE_VTOL_TAILSITTER
-        | MAV_TYPE_VTOL_TILTWING
-        | MAV_TYPE_VTOL_RESERVED5 => ("ArduPlane", "Plane"),
-        MAV_TYPE_GROUND_ROVER | MAV_TYPE_SURFACE_BOAT => ("Rover", "Rover"),
-        MAV_TYPE_SUBMARINE => ("ArduSub", "Sub"),
-        MAV_TYPE_ANTENNA_TRACKER => ("AntennaTracker", "Tracker"),
-        MAV_TYPE_AIRSHIP => ("Blimp", "Blimp"),
-        _ => return None,
+    use crate::proto::profile::ArduVehicle;
+    Some(match ArduVehicle::of(mavtype)? {
+        ArduVehicle::Copter => ("ArduCopter", "Copter"),
+        ArduVehicle::Plane => ("ArduPlane", "Plane"),
+        ArduVehicle::Rover => ("Rover", "Rover"),
+        ArduVehicle::Sub => ("ArduSub", "Sub"),
+        ArduVehicle::Tracker => ("AntennaTracker", "Tracker"),
+        ArduVehicle::Blimp => ("Blimp", "Blimp"),
     })
 }
 

@@ -101,20 +101,8 @@ pub struct SourceReport {
     pub frames: u64,
     pub loss_pct: f64,
     pub loss_pct_10s: f64,
-    pub signing: SourceSigning,
-}
-
-/// `links[].sources[].signing`.
-#[derive(Debug, Serialize)]
-pub struct SourceSigning {
-    pub signed: u64,
-    pub unchecked: u64,
-    pub unsigned: u64,
-    pub bad_signature: u64,
-    pub replayed: u64,
-    pub too_old: u64,
-    pub future: u64,
-    pub rejected: u64,
+    /// `links[].sources[].signing`.
+    pub signing: super::signing::SigningCounts,
 }
 
 /// `links[].replay`: where a tlog link's replay is.
@@ -386,16 +374,7 @@ fn link_report(l: &LinkStatus, now: Micros) -> LinkReport<'_> {
                 frames: s.frames,
                 loss_pct: round2(s.seq.loss_pct()),
                 loss_pct_10s: round2(s.seq.window_loss_pct(now)),
-                signing: SourceSigning {
-                    signed: s.signing.signed,
-                    unchecked: s.signing.unchecked,
-                    unsigned: s.signing.unsigned,
-                    bad_signature: s.signing.bad_signature,
-                    replayed: s.signing.replayed,
-                    too_old: s.signing.too_old,
-                    future: s.signing.future,
-                    rejected: s.signing.rejected,
-                },
+                signing: s.signing,
             })
             .collect(),
         replay: l.replay.as_ref().map(|v| ReplayReport {

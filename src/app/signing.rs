@@ -122,8 +122,8 @@ impl Checked {
     }
 }
 
-/// Signing counts of one source on one link.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+/// Signing counts of one source on one link (the report's `links[].sources[].signing`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
 pub struct SigningCounts {
     /// Signed frames checked and good.
     pub signed: u64,

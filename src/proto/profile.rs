@@ -158,21 +158,11 @@ impl Profile for ArduPilot {
         true
     }
     fn mode_table(&self, mavtype: MavType) -> ModeTable {
-        use MavType::*;
-        match mavtype {
-            MAV_TYPE_FIXED_WING
-            | MAV_TYPE_VTOL_TAILSITTER_DUOROTOR
-            | MAV_TYPE_VTOL_TAILSITTER_QUADROTOR
-            | MAV_TYPE_VTOL_TILTROTOR
-            | MAV_TYPE_VTOL_FIXEDROTOR
-            | MAV_TYPE_VTOL_TAILSITTER
-            | MAV_TYPE_VTOL_TILTWING
-            | MAV_TYPE_VTOL_RESERVED5 => ModeTable::ArduPlane,
-            MAV_TYPE_GROUND_ROVER | MAV_TYPE_SURFACE_BOAT => ModeTable::ArduRover,
-            MAV_TYPE_SUBMARINE => ModeTable::ArduSub,
-            MAV_TYPE_QUADROTOR | MAV_TYPE_HEXAROTOR | MAV_TYPE_OCTOROTOR | MAV_TYPE_TRICOPTER
-            | MAV_TYPE_COAXIAL | MAV_TYPE_HELICOPTER | MAV_TYPE_DODECAROTOR
-            | MAV_TYPE_DECAROTOR => ModeTable::ArduCopter,
+        match ArduVehicle::of(mavtype) {
+            Some(ArduVehicle::Copter) => ModeTable::ArduCopter,
+            Some(ArduVehicle::Plane) => ModeTable::ArduPlane,
+            Some(ArduVehicle::Rover) => ModeTable::ArduRover,
+            Some(ArduVehicle::Sub) => ModeTable::ArduSub,
             _ => ModeTable::None,
         }
     }
@@ -244,6 +234,42 @@ pub fn of(autopilot: MavAutopilot) -> &'static dyn Profile {
         MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA => &ARDUPILOT,
         MavAutopilot::MAV_AUTOPILOT_PX4 => &PX4,
         _ => &GENERIC,
+    }
+}
+
+/// ArduPilot's firmware families, by the HEARTBEAT type each runs on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ArduVehicle {
+    Copter,
+    Plane,
+    Rover,
+    Sub,
+    Tracker,
+    Blimp,
+}
+
+impl ArduVehicle {
+    /// The firmware an ArduPilot vehicle of type `mavtype` runs, if any.
+    pub fn of(mavtype: MavType) -> Option<Self> {
+        use MavType::*;
+        Some(match mavtype {
+            MAV_TYPE_QUADROTOR | MAV_TYPE_HEXAROTOR | MAV_TYPE_OCTOROTOR | MAV_TYPE_TRICOPTER
+            | MAV_TYPE_COAXIAL | MAV_TYPE_HELICOPTER | MAV_TYPE_DODECAROTOR
+            | MAV_TYPE_DECAROTOR => ArduVehicle::Copter,
+            MAV_TYPE_FIXED_WING
+            | MAV_TYPE_VTOL_TAILSITTER_DUOROTOR
+            | MAV_TYPE_VTOL_TAILSITTER_QUADROTOR
+            | MAV_TYPE_VTOL_TILTROTOR
+            | MAV_TYPE_VTOL_FIXEDROTOR
+            | MAV_TYPE_VTOL_TAILSITTER
+            | MAV_TYPE_VTOL_TILTWING
+            | MAV_TYPE_VTOL_RESERVED5 => ArduVehicle::Plane,
+            MAV_TYPE_GROUND_ROVER | MAV_TYPE_SURFACE_BOAT => ArduVehicle::Rover,
+            MAV_TYPE_SUBMARINE => ArduVehicle::Sub,
+            MAV_TYPE_ANTENNA_TRACKER => ArduVehicle::Tracker,
+            MAV_TYPE_AIRSHIP => ArduVehicle::Blimp,
+            _ => return None,
+        })
     }
 }
 

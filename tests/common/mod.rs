@@ -344,17 +344,21 @@ pub fn headless_tcp<S: AsRef<std::ffi::OsStr>>(
     script: &std::path::Path,
     extra: impl IntoIterator<Item = S>,
 ) -> std::process::Output {
-    let out = std::process::Command::new(mavterm())
-        .args([
-            "--link",
-            &format!("tcp:127.0.0.1:{port}"),
-            "--headless",
-            "--input",
-        ])
-        .arg(script)
-        .args(extra)
-        .output()
-        .unwrap();
+    let mut cmd = std::process::Command::new(mavterm());
+    cmd.args([
+        "--link",
+        &format!("tcp:127.0.0.1:{port}"),
+        "--headless",
+        "--input",
+    ])
+    .arg(script)
+    .args(extra);
+    succeed(&mut cmd)
+}
+
+/// Run `cmd` to its end; it must succeed (its stderr says why not). Returns its output.
+pub fn succeed(cmd: &mut std::process::Command) -> std::process::Output {
+    let out = cmd.output().unwrap();
     assert!(
         out.status.success(),
         "{}",
