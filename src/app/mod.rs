@@ -565,6 +565,7 @@ impl App {
             at: self.shown_instant(),
             severity,
             source,
+            ours: true,
             text,
         };
         self.on_new_notice(&n);
@@ -692,7 +693,7 @@ impl App {
         let events = self.vehicles.tick(self.now);
         self.on_vehicle_events(events, fx);
         for t in self.statustext.poll(self.now) {
-            self.notice(t.severity, Some(t.source), t.text);
+            self.vehicle_notice(t.severity, t.source, t.text);
         }
         self.signing_time(fx);
     }
@@ -919,7 +920,7 @@ impl App {
                             s.on_text(now, &t.text);
                         }
                     }
-                    self.notice(t.severity, Some(t.source), t.text);
+                    self.vehicle_notice(t.severity, t.source, t.text);
                 }
             }
             _ => {}

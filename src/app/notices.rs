@@ -16,6 +16,7 @@ pub const SEV_ERROR: u8 = 3;
 pub const SEV_WARNING: u8 = 4;
 pub const SEV_NOTICE: u8 = 5;
 pub const SEV_INFO: u8 = 6;
+pub const SEV_DEBUG: u8 = 7;
 
 /// One line in the message log.
 #[derive(Debug, Clone, PartialEq)]
@@ -24,8 +25,12 @@ pub struct Notice {
     /// The time shown for it: the wall clock's, or during a replay the recording's.
     pub at: chrono::DateTime<chrono::Utc>,
     pub severity: u8,
-    /// The sender for STATUSTEXT; `None` for mavterm's own notices.
+    /// The sender for STATUSTEXT; for mavterm's own notices the vehicle they are about, or
+    /// `None`.
     pub source: Option<(u8, u8)>,
+    /// mavterm's own notice (not a vehicle's STATUSTEXT): shown as `mavterm`, whatever vehicle
+    /// it is about.
+    pub ours: bool,
     pub text: String,
 }
 
