@@ -225,12 +225,14 @@ fn any_key_closes_help_q_included() {
     d.key(t, "tab"); // bound: closes help, does not move focus
     assert_eq!(d.app.ui.mode, Mode::Normal);
     assert_eq!(d.app.ui.focus, Pane::Vehicles);
-    // `q` closes the help and does not quit from it; the next `q` quits.
+    // `q` closes the help and does not quit from it; the next `q` quits (1:1 is armed: after
+    // its question's `y`).
     d.key(t, "?");
     d.key(t, "q");
     assert_eq!(d.app.ui.mode, Mode::Normal);
     assert!(!d.app.quit);
     d.key(t, "q");
+    d.key(t + 500_000, "y");
     assert!(d.app.quit);
 }
 
