@@ -48,6 +48,9 @@ pub enum MissionAction {
     Upload(MissionType, Vec<MissionItem>),
     Clear(MissionType),
     Start,
+    /// `wp start` on a disarmed vehicle: the whole way there (the profile's
+    /// `start_disarmed`: modes, arm, a take-off), one sequence.
+    StartDisarmed,
     /// `wp set N` while the vehicle flies its mission.
     SetCurrent(u16),
 }
