@@ -7,7 +7,10 @@
 //! sends the loaded file's list — refused while the file has errors, asked first when
 //! [`upload_warnings`] finds something (altitudes in mixed frames, AMSL below home); `download`,
 //! `clear` (asked first), `set N` and `start` (asked first: mode AUTO, then MISSION_START) work
-//! on the vehicle. A `.plan` fills all three lists.
+//! on the vehicle. `start` on a disarmed vehicle names what it takes (the profile's
+//! `start_disarmed`: ArduCopter GUIDED, arm, take off to the first item's altitude, AUTO,
+//! MISSION_START) and asks for it all at once; with no mission known it is refused. A `.plan`
+//! fills all three lists.
 //!
 //! `goto LAT LON [ALT]` sends DO_REPOSITION as COMMAND_INT (frame GLOBAL_RELATIVE_ALT, lat/lon
 //! ×1e7, altitude above home; speed -1 = default; yaw NaN = keep), through the command queue so
