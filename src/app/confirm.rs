@@ -202,10 +202,10 @@ impl App {
             return;
         }
         let names: Vec<String> = armed.iter().map(|k| format!("{}:{}", k.0, k.1)).collect();
-        let (list, verb) = match names.as_slice() {
-            [one] => (one.clone(), "is"),
-            [rest @ .., last] => (format!("{} and {last}", rest.join(", ")), "are"),
-            [] => unreachable!(),
+        let (list, verb) = match names.split_last() {
+            Some((last, [])) => (last.clone(), "is"),
+            Some((last, rest)) => (format!("{} and {last}", rest.join(", ")), "are"),
+            None => return self.quit_now(fx),
         };
         self.ask(Ask {
             text: format!(

@@ -27,23 +27,22 @@ pub fn notice_text(app: &App, n: &Notice) -> (String, String, String, String) {
     (time, n.severity_name().to_string(), source, n.text.clone())
 }
 
-/// The title's counts and state: ` (17)`, ` (5, 12 debug hidden)`, ` (5 of 17) WARN+ sys 1`,
+/// The title's counts and state: ` (17)`, ` (17) 12 debug hidden`, ` (5 of 17) WARN+ sys 1`,
 /// and while scrolled back ` paused ↓ 3 newer` (the lines below the view; `end` follows the
 /// newest again).
 pub fn title_text(app: &App, shown: usize, below: usize) -> String {
     let total = app.notices.len();
     let f = &app.ui.msg_filter;
-    let hidden = match app.debug_hidden() {
-        0 => String::new(),
-        n => format!(", {n} debug hidden"),
-    };
     let mut t = if f.is_active() {
-        format!(" ({shown} of {total}{hidden}) {}", f.label(app.target))
-    } else if hidden.is_empty() {
-        format!(" ({total})")
+        format!(" ({shown} of {total}) {}", f.label(app.target))
     } else {
-        format!(" ({shown}{hidden})")
+        format!(" ({total})")
     };
+    match app.debug_hidden() {
+        0 => {}
+        n if f.is_active() => t += &format!(", {n} debug hidden"),
+        n => t += &format!(" {n} debug hidden"),
+    }
     if below > 0 {
         t += &format!(" paused ↓ {below} newer");
     }
