@@ -895,7 +895,8 @@ fn every_dangerous_command_asks_from_every_entry_point() {
     asked_nothing_sent(&mut b, 1.0, out, 400, "key D in flight");
     // The Mission screen's start (DO_SET_MODE AUTO then MISSION_START), the Camera screen's
     // format (STORAGE_FORMAT to the camera).
-    let mut b = bench_for(false);
+    // Armed (disarmed, with no mission known, `wp start` is refused: tests/operator.rs).
+    let mut b = bench_for(true);
     let out = b.command(1.0, "wp start");
     asked_nothing_sent(&mut b, 1.0, out, 300, "wp start");
     let mut b = bench_for(false);

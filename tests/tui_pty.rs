@@ -529,13 +529,25 @@ const UP: Step = Step::Type(b"\x1b[A");
 
 #[test]
 fn quitting_during_a_nudge_sends_the_stop() {
-    let steps = [(300, FLY), (600, UP), (1100, Step::Type(b"q"))];
+    // The stand-in is armed: `q` asks, `y` answers.
+    let steps = [
+        (300, FLY),
+        (600, UP),
+        (1100, Step::Type(b"q")),
+        (1600, Step::Type(b"y")),
+    ];
     ends_in_a_stop(&nudge_session("child_nudges_then_quits", &steps));
 }
 
 #[test]
 fn ctrl_c_during_a_nudge_sends_the_stop() {
-    let steps = [(300, FLY), (600, UP), (1100, Step::Type(b"\x03"))];
+    // The stand-in is armed: the first Ctrl-C asks, the second forces.
+    let steps = [
+        (300, FLY),
+        (600, UP),
+        (1100, Step::Type(b"\x03")),
+        (1400, Step::Type(b"\x03")),
+    ];
     ends_in_a_stop(&nudge_session("child_nudges_then_quits", &steps));
 }
 

@@ -48,6 +48,9 @@ pub enum MissionAction {
     Upload(MissionType, Vec<MissionItem>),
     Clear(MissionType),
     Start,
+    /// `wp start` on a disarmed vehicle: the whole way there (the profile's
+    /// `start_disarmed`: modes, arm, a take-off), one sequence.
+    StartDisarmed,
     /// `wp set N` while the vehicle flies its mission.
     SetCurrent(u16),
 }
@@ -137,7 +140,12 @@ pub enum Confirmed {
     Camera(u8, CameraAction),
     /// A mission upload with warnings, a clear, a mission start.
     Mission(MissionAction),
+    /// Quitting while a vehicle is armed (the question names them; `target` is the first).
+    Quit,
 }
+
+/// A second Ctrl-C this soon after the quit question appeared quits without an answer.
+pub const FORCE_QUIT_WITHIN: Micros = 2 * SECOND;
 
 impl App {
     /// Put `c` on screen, or queue it behind the question already there (one at a time).
@@ -152,6 +160,68 @@ impl App {
         c.context = self.confirm_context(c.target);
         self.ui.confirm = Some(c);
         self.dirty = true;
+    }
+
+    /// The autopilots that say they are armed (lost ones included: one may still be flying),
+    /// in key order.
+    pub(super) fn armed_vehicles(&self) -> Vec<VehicleKey> {
+        let mut keys: Vec<VehicleKey> = self
+            .sessions
+            .keys()
+            .copied()
+            .filter(|k| self.vehicles.get(*k).is_some_and(|v| v.armed()))
+            .collect();
+        keys.sort_unstable();
+        keys
+    }
+
+    /// `q` and `:quit`: a nudge in progress ends in its stop first; then, while any vehicle is
+    /// armed, a question naming them (`y` quits), else quit at once. `ctrl_c`: the question
+    /// takes the screen from any other (which sends nothing), and a second Ctrl-C within
+    /// [`FORCE_QUIT_WITHIN`] of it quits without an answer.
+    pub(super) fn quit_or_ask(&mut self, ctrl_c: bool, fx: &mut Vec<Effect>) {
+        self.leave_fly(fx);
+        let on_screen = self.ui.confirm.as_ref();
+        let asked_quit = on_screen
+            .filter(|c| c.action == Confirmed::Quit)
+            .map(|c| c.asked);
+        if ctrl_c && asked_quit.is_some_and(|at| self.now < at + FORCE_QUIT_WITHIN) {
+            self.quit_now(fx);
+            return;
+        }
+        let armed = self.armed_vehicles();
+        let Some(first) = armed.first().copied() else {
+            self.quit_now(fx);
+            return;
+        };
+        if ctrl_c && on_screen.is_some() && asked_quit.is_none() {
+            // The operator wants out: the question on screen goes, nothing sent.
+            self.ui.confirm = None;
+        }
+        if asked_quit.is_some() {
+            return;
+        }
+        let names: Vec<String> = armed.iter().map(|k| format!("{}:{}", k.0, k.1)).collect();
+        let (list, verb) = match names.split_last() {
+            Some((last, [])) => (last.clone(), "is"),
+            Some((last, rest)) => (format!("{} and {last}", rest.join(", ")), "are"),
+            None => return self.quit_now(fx),
+        };
+        self.ask(Ask {
+            text: format!(
+                "quit while {list} {verb} armed? y/n (ctrl-c twice or :quit! quits at once)"
+            ),
+            action: Confirmed::Quit,
+            target: first,
+        });
+    }
+
+    /// Quit now: a nudge in progress ends in its stop first.
+    pub(super) fn quit_now(&mut self, fx: &mut Vec<Effect>) {
+        self.leave_fly(fx);
+        self.ui.confirm = None;
+        self.quit = true;
+        fx.push(Effect::Quit);
     }
 
     /// The next queued question, once the one on screen is gone.
@@ -187,6 +257,10 @@ impl App {
     fn expired(&self, c: &Confirm) -> Option<String> {
         if self.now >= c.asked + CONFIRM_EXPIRY {
             return Some("not answered in 10 s".into());
+        }
+        // Quitting concerns mavterm, not the vehicle: only time ends the question.
+        if c.action == Confirmed::Quit {
+            return None;
         }
         if self.target != c.context.app_target {
             return Some("the target changed".into());
@@ -278,6 +352,10 @@ impl App {
                     Confirmed::Signing(a) => self.carry_out_signing(c.target, a, fx),
                     Confirmed::Mission(a) => self.carry_out_mission(c.target, a, fx),
                     Confirmed::Camera(compid, a) => self.camera_act(c.target, compid, a, fx),
+                    Confirmed::Quit => {
+                        self.quit_now(fx);
+                        Ok(None)
+                    }
                 },
             };
             self.ui.message = match outcome {

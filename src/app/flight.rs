@@ -325,25 +325,9 @@ impl App {
                     }
                 }
                 if !armed {
-                    steps.push(Step {
-                        spec: long(
-                            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
-                            [1.0, 0., 0., 0., 0., 0., 0.],
-                        ),
-                        until: Until::Armed,
-                        label: "arm".into(),
-                        fallback: None,
-                    });
+                    steps.push(Self::arm_step(key));
                 }
-                // ArduPilot: param7 above home; PX4 and the spec: above mean sea level.
-                let home = self.sessions.get(&key).and_then(|s| s.home_amsl());
-                let params = profile.takeoff_params(alt, home)?;
-                steps.push(Step {
-                    spec: long(MavCmd::MAV_CMD_NAV_TAKEOFF, params),
-                    until: Until::Ack,
-                    label: format!("take off to {alt} m"),
-                    fallback: None,
-                });
+                steps.push(self.takeoff_step(key, alt)?);
                 let seq = Sequence::new(format!("takeoff {alt} m"), steps);
                 return self
                     .start(key, seq, fx)
@@ -368,6 +352,33 @@ impl App {
         let out = s.start_sequence(now, seq)?;
         self.session_out(key, out, fx);
         Ok(())
+    }
+
+    /// COMPONENT_ARM_DISARM (arm), done when the heartbeat says armed.
+    pub(super) fn arm_step(key: VehicleKey) -> Step {
+        Step {
+            spec: CommandSpec::long(
+                key.into(),
+                MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+                [1.0, 0., 0., 0., 0., 0., 0.],
+            ),
+            until: Until::Armed,
+            label: "arm".into(),
+            fallback: None,
+        }
+    }
+
+    /// NAV_TAKEOFF to `alt` metres above home (ArduPilot: param7 above home; PX4 and the spec:
+    /// above mean sea level, from home's altitude), done at its ACK.
+    pub(super) fn takeoff_step(&self, key: VehicleKey, alt: f64) -> Result<Step, String> {
+        let home = self.sessions.get(&key).and_then(|s| s.home_amsl());
+        let params = self.profile(key).takeoff_params(alt, home)?;
+        Ok(Step {
+            spec: CommandSpec::long(key.into(), MavCmd::MAV_CMD_NAV_TAKEOFF, params),
+            until: Until::Ack,
+            label: format!("take off to {alt} m"),
+            fallback: None,
+        })
     }
 
     /// DO_SET_MODE to mode `name` (SET_MODE if the vehicle says DO_SET_MODE is UNSUPPORTED),

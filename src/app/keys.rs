@@ -2,7 +2,8 @@
 //!
 //! Normal mode looks keys up in the screen's keymap section, then `[normal]`; help mode closes on
 //! any key but its scrolling ones; the text modes (prompt, edit) type printable keys that are not
-//! bound. Ctrl-C quits from every mode: raw mode has turned off SIGINT.
+//! bound. Ctrl-C quits from every mode (raw mode has turned off SIGINT); while a vehicle is
+//! armed, `q`, `:quit` and Ctrl-C ask first, and a second Ctrl-C or `:quit!` quits at once.
 
 use super::flight::FlightAction;
 use super::input::{parse_command, Command, COMMANDS};
@@ -19,7 +20,7 @@ impl App {
     pub(super) fn on_key(&mut self, key: Key, repeat: bool, fx: &mut Vec<Effect>) {
         self.dirty = true;
         if key == Key::ctrl('c') {
-            self.on_action(Action::Quit, fx);
+            self.quit_or_ask(true, fx);
             return;
         }
         if self.ui.confirm.is_some() {
@@ -204,6 +205,12 @@ impl App {
 
     /// Run a prompt line; its outcome is shown in the status bar.
     fn run_line(&mut self, line: &str, fx: &mut Vec<Effect>) {
+        // `:quit!` quits without asking, armed or not.
+        if matches!(line.trim(), "quit!" | "q!" | "exit!") {
+            self.ui.message = None;
+            self.quit_now(fx);
+            return;
+        }
         let outcome = match parse_command(line, self.cfg.takeoff_alt) {
             Err(e) => Err(e),
             Ok(cmd) => self.run_command(cmd, fx),
@@ -331,12 +338,9 @@ impl App {
     pub fn on_action(&mut self, action: Action, fx: &mut Vec<Effect>) {
         self.dirty = true;
         match action {
-            Action::Quit => {
-                // A nudge in progress ends in a stop before anything else.
-                self.leave_fly(fx);
-                self.quit = true;
-                fx.push(Effect::Quit);
-            }
+            // A nudge in progress ends in a stop before anything else; while a vehicle is
+            // armed, asks first.
+            Action::Quit => self.quit_or_ask(false, fx),
             // The terminal front end stops the process (headless runs have nothing to suspend),
             // once a nudge in progress has ended in its stop, sent three times.
             Action::Suspend => {

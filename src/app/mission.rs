@@ -7,7 +7,10 @@
 //! sends the loaded file's list — refused while the file has errors, asked first when
 //! [`upload_warnings`] finds something (altitudes in mixed frames, AMSL below home); `download`,
 //! `clear` (asked first), `set N` and `start` (asked first: mode AUTO, then MISSION_START) work
-//! on the vehicle. A `.plan` fills all three lists.
+//! on the vehicle. `start` on a disarmed vehicle names what it takes (the profile's
+//! `start_disarmed`: ArduCopter GUIDED, arm, take off to the first item's altitude, AUTO,
+//! MISSION_START) and asks for it all at once; with no mission known it is refused. A `.plan`
+//! fills all three lists.
 //!
 //! `goto LAT LON [ALT]` sends DO_REPOSITION as COMMAND_INT (frame GLOBAL_RELATIVE_ALT, lat/lon
 //! ×1e7, altitude above home; speed -1 = default; yaw NaN = keep), through the command queue so
@@ -383,6 +386,21 @@ impl App {
             }
             MissionOp::Start => {
                 let key = self.mission_target()?;
+                if !self.vehicles.get(key).is_some_and(|v| v.armed()) {
+                    // What it takes, asked as one action.
+                    let (_, labels) = self.start_disarmed_steps(key)?;
+                    self.ask(Ask {
+                        text: format!(
+                            "{}:{} is disarmed: {}? y/n",
+                            key.0,
+                            key.1,
+                            labels.join(", ")
+                        ),
+                        action: Confirmed::Mission(MissionAction::StartDisarmed),
+                        target: key,
+                    });
+                    return Ok(None);
+                }
                 self.ask(Ask {
                     text: format!(
                         "START the mission on {key} ({}MISSION_START)? y = yes, any other key = no",
@@ -395,6 +413,114 @@ impl App {
                 });
                 Ok(None)
             }
+        }
+    }
+
+    /// The items of the mission the vehicle holds (home, ArduPilot's item 0, left out):
+    /// refused, saying why, when none is known or it is empty.
+    fn held_mission(&self, key: VehicleKey) -> Result<Vec<&MissionItem>, String> {
+        let who = format!("{}:{}", key.0, key.1);
+        let s = self.sessions.get(&key).ok_or("no session")?;
+        let known = s.mission.known(MissionType::Mission).ok_or_else(|| {
+            format!(
+                "no mission known on {who}: download it (wp download), or load and upload one \
+                 (wp load FILE, wp upload), first"
+            )
+        })?;
+        let home_item = self.profile(key).mission_home_item();
+        let items: Vec<&MissionItem> = known
+            .items
+            .iter()
+            .filter(|i| !(home_item && i.seq == 0))
+            .collect();
+        if items.is_empty() {
+            return Err(format!(
+                "{who} has no mission: load and upload one first (wp load FILE, wp upload)"
+            ));
+        }
+        Ok(items)
+    }
+
+    /// The altitude (metres above home) of the mission's first navigation item: what a
+    /// take-off before the mission climbs to.
+    fn first_item_alt(&self, key: VehicleKey, items: &[&MissionItem]) -> Result<f64, String> {
+        let who = format!("{}:{}", key.0, key.1);
+        // MAV_CMD_NAV_*: 16 ..= 95 (common.xml's NAV_LAST).
+        let nav = items
+            .iter()
+            .find(|i| (16..=95).contains(&i.command))
+            .ok_or_else(|| format!("{who}'s mission has no navigation item to take off to"))?;
+        let z = nav.z as f64;
+        // MAV_FRAME_GLOBAL (0) and GLOBAL_INT (5) are above mean sea level; the others above
+        // home (relative, terrain).
+        let alt = if matches!(nav.frame, 0 | 5) {
+            let home = self
+                .sessions
+                .get(&key)
+                .and_then(|s| s.home_amsl())
+                .ok_or("home altitude not known yet: wait for GLOBAL_POSITION_INT")?;
+            z - home
+        } else {
+            z
+        };
+        if !alt.is_finite() || alt <= 0.0 {
+            return Err(format!(
+                "{who}'s first mission item is at {alt:.1} m above home: nothing to take off to"
+            ));
+        }
+        // Whole decimetres are enough, and read well in the question.
+        Ok((alt * 10.0).round() / 10.0)
+    }
+
+    /// The steps that start the mission on the disarmed `key` (its profile's
+    /// `start_disarmed`; a mode it is already in is skipped), and their names for the question.
+    fn start_disarmed_steps(&self, key: VehicleKey) -> Result<(Vec<Step>, Vec<String>), String> {
+        use crate::proto::profile::StartStep;
+        let (autopilot, mavtype, mut mode) = {
+            let v = self.vehicles.get(key).ok_or("vehicle gone")?;
+            (v.autopilot, v.mavtype, v.custom_mode)
+        };
+        // Nothing to start without a mission, whatever the family.
+        let items = self.held_mission(key)?;
+        let mut steps = Vec::new();
+        let mut labels = Vec::new();
+        for step in self.profile(key).start_disarmed(mavtype) {
+            match *step {
+                StartStep::Mode(m) => {
+                    let number = crate::proto::modes::mode_number(autopilot, mavtype, m)
+                        .ok_or_else(|| format!("this vehicle has no {m} mode"))?;
+                    if number == mode {
+                        continue;
+                    }
+                    mode = number;
+                    steps.push(self.mode_step(key, autopilot, mavtype, m)?);
+                    labels.push(m.to_ascii_uppercase());
+                }
+                StartStep::Arm => {
+                    steps.push(Self::arm_step(key));
+                    labels.push("arm".into());
+                }
+                StartStep::Takeoff => {
+                    let alt = self.first_item_alt(key, &items)?;
+                    steps.push(self.takeoff_step(key, alt)?);
+                    labels.push(format!("take off to {alt} m"));
+                }
+                StartStep::MissionStart => {
+                    steps.push(Self::mission_start_step(key));
+                    labels.push("start mission".into());
+                }
+            }
+        }
+        Ok((steps, labels))
+    }
+
+    /// MAV_CMD_MISSION_START, done at its ACK.
+    fn mission_start_step(key: VehicleKey) -> Step {
+        Step {
+            spec: CommandSpec::long(key.into(), MavCmd::MAV_CMD_MISSION_START, [0.0; 7]),
+            until: Until::Ack,
+            label: "mission start".into(),
+            fallback: None,
         }
     }
 
@@ -452,17 +578,23 @@ impl App {
                 if let Some(auto) = crate::proto::profile::of(autopilot).mission_mode() {
                     steps.push(self.mode_step(key, autopilot, mavtype, auto)?);
                 }
-                steps.push(Step {
-                    spec: CommandSpec::long(key.into(), MavCmd::MAV_CMD_MISSION_START, [0.0; 7]),
-                    until: Until::Ack,
-                    label: "mission start".into(),
-                    fallback: None,
-                });
+                steps.push(Self::mission_start_step(key));
                 let now = self.now;
                 let s = self.sessions.get_mut(&key).ok_or("no session")?;
                 let out = s.start_sequence(now, Sequence::new("mission start", steps))?;
                 self.session_out(key, out, fx);
                 Ok(Some("mission start: sent".into()))
+            }
+            MissionAction::StartDisarmed => {
+                let (steps, labels) = self.start_disarmed_steps(key)?;
+                let now = self.now;
+                let s = self.sessions.get_mut(&key).ok_or("no session")?;
+                let out = s.start_sequence(now, Sequence::new("mission start", steps))?;
+                self.session_out(key, out, fx);
+                Ok(Some(format!(
+                    "mission start: {}: started",
+                    labels.join(", ")
+                )))
             }
         }
     }

@@ -609,6 +609,7 @@ impl App {
             at: self.shown_instant(),
             severity,
             source,
+            ours: true,
             text,
         };
         self.on_new_notice(&n);
@@ -742,7 +743,7 @@ impl App {
         let events = self.vehicles.tick(self.now);
         self.on_vehicle_events(events, fx);
         for t in self.statustext.poll(self.now) {
-            self.notice(t.severity, Some(t.source.into()), t.text);
+            self.vehicle_notice(t.severity, t.source.into(), t.text);
         }
         self.signing_time(fx);
     }

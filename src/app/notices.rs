@@ -16,8 +16,12 @@ pub struct Notice {
     /// The time shown for it: the wall clock's, or during a replay the recording's.
     pub at: chrono::DateTime<chrono::Utc>,
     pub severity: Severity,
-    /// The sender for STATUSTEXT; `None` for mavterm's own notices.
+    /// The sender for STATUSTEXT; for mavterm's own notices the vehicle they are about, or
+    /// `None`.
     pub source: Option<VehicleKey>,
+    /// mavterm's own notice (not a vehicle's STATUSTEXT): shown as `mavterm`, whatever vehicle
+    /// it is about.
+    pub ours: bool,
     pub text: String,
 }
 

@@ -24,6 +24,18 @@ pub enum ModeTable {
     None,
 }
 
+/// One step of starting a mission on a disarmed vehicle ([`Profile::start_disarmed`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StartStep {
+    /// Switch to this mode (skipped when the vehicle is in it already).
+    Mode(&'static str),
+    Arm,
+    /// Take off to the mission's first item's altitude.
+    Takeoff,
+    /// MAV_CMD_MISSION_START.
+    MissionStart,
+}
+
 /// One autopilot family's ways.
 pub trait Profile: Sync + std::fmt::Debug {
     /// The family's name, for people.
@@ -87,6 +99,12 @@ pub trait Profile: Sync + std::fmt::Debug {
     /// The mode a mission is flown in (switched to before MISSION_START), if any.
     fn mission_mode(&self) -> Option<&'static str> {
         None
+    }
+
+    /// How a disarmed vehicle of type `mavtype` is started on its mission, in order. The spec:
+    /// arm, then MAV_CMD_MISSION_START.
+    fn start_disarmed(&self, _mavtype: MavType) -> &'static [StartStep] {
+        &[StartStep::Arm, StartStep::MissionStart]
     }
 
     /// The mode that guided commands (goto, nudges) need, checked before they are sent.
@@ -183,6 +201,16 @@ impl Profile for ArduPilot {
     fn guided_mode(&self) -> Option<&'static str> {
         Some("GUIDED")
     }
+    /// ArduCopter does not arm in AUTO by default (AUTO_OPTIONS) nor take off from it: GUIDED,
+    /// arm, NAV_TAKEOFF, then AUTO and MISSION_START. Plane, Rover and Sub: arm, AUTO, then
+    /// MISSION_START.
+    fn start_disarmed(&self, mavtype: MavType) -> &'static [StartStep] {
+        use StartStep::*;
+        match self.mode_table(mavtype) {
+            ModeTable::ArduCopter => &[Mode("GUIDED"), Arm, Takeoff, Mode("AUTO"), MissionStart],
+            _ => &[Arm, Mode("AUTO"), MissionStart],
+        }
+    }
     /// ArduPilot repositions in GUIDED without the flag (and refuses it outside GUIDED).
     fn reposition_changes_mode(&self) -> bool {
         false
@@ -217,6 +245,10 @@ impl Profile for Px4 {
     }
     fn mission_mode(&self) -> Option<&'static str> {
         Some("MISSION")
+    }
+    /// PX4 starts the mission itself once armed in MISSION mode.
+    fn start_disarmed(&self, _mavtype: MavType) -> &'static [StartStep] {
+        &[StartStep::Arm, StartStep::Mode("MISSION")]
     }
     /// PX4 serves SET_MESSAGE_INTERVAL only.
     fn group_fallback(&self) -> bool {
@@ -311,6 +343,23 @@ mod tests {
         assert!(of(MAV_AUTOPILOT_GENERIC)
             .takeoff_params(10.0, None)
             .is_err());
+    }
+
+    #[test]
+    fn starting_a_mission_from_disarmed_per_family() {
+        use StartStep::*;
+        assert_eq!(
+            of(MAV_AUTOPILOT_ARDUPILOTMEGA).start_disarmed(MavType::MAV_TYPE_QUADROTOR),
+            &[Mode("GUIDED"), Arm, Takeoff, Mode("AUTO"), MissionStart]
+        );
+        assert_eq!(
+            of(MAV_AUTOPILOT_PX4).start_disarmed(MavType::MAV_TYPE_QUADROTOR),
+            &[Arm, Mode("MISSION")]
+        );
+        assert_eq!(
+            of(MAV_AUTOPILOT_GENERIC).start_disarmed(MavType::MAV_TYPE_QUADROTOR),
+            &[Arm, MissionStart]
+        );
     }
 
     #[test]

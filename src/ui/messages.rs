@@ -4,6 +4,9 @@
 //! for NO_COLOR). Only the messages passing the pane's filters are shown, the filters named in
 //! the title. It follows the newest unless scrolled back (`msg_scroll` lines below the view,
 //! applied only to lines that do not fit); the title then says `paused` and how many are below.
+//! DEBUG lines are hidden by default, the title counting them (`12 debug hidden`); mavterm's own
+//! notices show `mavterm` as their source, in their own colour. While following, recent
+//! warnings and worse stay in view when lines do not fit (see `app::messages::in_view`).
 
 use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
@@ -18,14 +21,15 @@ use crate::app::{App, Pane};
 pub fn notice_text(app: &App, n: &Notice) -> (String, String, String, String) {
     let time = app.cfg.zone.at(n.at).format("%H:%M:%S").to_string();
     let source = match n.source {
-        Some(key) => key.to_string(),
-        None => "mavterm".to_string(),
+        Some(key) if !n.ours => key.to_string(),
+        _ => "mavterm".to_string(),
     };
     (time, n.severity.name().to_string(), source, n.text.clone())
 }
 
-/// The title's counts and state: ` (17)`, ` (5 of 17) WARN+ sys 1`, and while scrolled back
-/// ` paused ↓ 3 newer` (the lines below the view; `end` follows the newest again).
+/// The title's counts and state: ` (17)`, ` (17) 12 debug hidden`, ` (5 of 17) WARN+ sys 1`,
+/// and while scrolled back ` paused ↓ 3 newer` (the lines below the view; `end` follows the
+/// newest again).
 pub fn title_text(app: &App, shown: usize, below: usize) -> String {
     let total = app.notices.len();
     let f = &app.ui.msg_filter;
@@ -34,6 +38,11 @@ pub fn title_text(app: &App, shown: usize, below: usize) -> String {
     } else {
         format!(" ({total})")
     };
+    match app.debug_hidden() {
+        0 => {}
+        n if f.is_active() => t += &format!(", {n} debug hidden"),
+        n => t += &format!(" {n} debug hidden"),
+    }
     if below > 0 {
         t += &format!(" paused ↓ {below} newer");
     }
@@ -64,19 +73,29 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         frame.render_widget(Paragraph::new(Line::styled(empty, theme.dim())), inner);
         return;
     }
-    let end = len - scroll;
-    let start = end.saturating_sub(visible);
-    let lines: Vec<Line> = notices[start..end]
+    // Following: the newest lines, recent warnings kept; scrolled back: the window as it is.
+    let in_view = if scroll == 0 {
+        crate::app::messages::in_view(&notices, visible, app.now)
+    } else {
+        let end = len - scroll;
+        notices[end.saturating_sub(visible)..end].to_vec()
+    };
+    let lines: Vec<Line> = in_view
         .iter()
         .map(|n| {
             let (time, sev, source, text) = notice_text(app, n);
             let style = theme.severity(n.severity);
+            let source_style = if n.ours || n.source.is_none() {
+                theme.ours()
+            } else {
+                theme.dim()
+            };
             Line::from(vec![
                 Span::styled(time, theme.dim()),
                 Span::raw(" "),
                 Span::styled(format!("{sev:<6}"), style),
                 Span::raw(" "),
-                Span::styled(format!("{source:<7}"), theme.dim()),
+                Span::styled(format!("{source:<7}"), source_style),
                 Span::raw(" "),
                 Span::styled(text, style),
             ])

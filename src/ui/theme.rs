@@ -72,6 +72,14 @@ impl Theme {
     pub fn armed(&self) -> Style {
         self.fg(Color::Red).add_modifier(Modifier::BOLD)
     }
+    /// mavterm's own notices' source column (`mavterm`), told apart from a vehicle's key.
+    pub fn ours(&self) -> Style {
+        if self.color {
+            Style::default().fg(Color::LightBlue)
+        } else {
+            Style::default().add_modifier(Modifier::ITALIC)
+        }
+    }
     /// A message's severity: a vehicle's STATUSTEXT or mavterm's own.
     pub fn severity(&self, sev: Severity) -> Style {
         match sev {
