@@ -4,7 +4,8 @@
 //! section's up, down, page and home/end keys, named in its last line) scroll it instead.
 //!
 //! Order: the keys that work everywhere (the screens' number keys, moving around, the target, the prompt and
-//! the palette, help, quit), then the current screen's own keys, then flying the target, then
+//! the palette, help, quit), then the current screen's own keys, then flying the target and Fly
+//! mode's own keys, then
 //! the replay keys (while replaying), then anything else bound, then the commands. The popup is
 //! at most 80 columns wide: a description that does not fit is wrapped, never cut.
 
@@ -53,6 +54,17 @@ const FLIGHT: &[Action] = &[
     Action::Rtl,
     Action::ModeMenu,
     Action::Fly,
+];
+
+/// Fly mode's own keys (fixed: [`crate::app::nudge::fly_key`]), listed under the flight keys.
+pub const FLY_KEYS: &[(&str, &str)] = &[
+    ("up, down", "fly forward, back (held: keeps moving, let go: stops)"),
+    ("left, right", "fly left, right"),
+    ("w, s", "climb, descend"),
+    ("a, d", "yaw left, right"),
+    ("1, 2, 3", "nudge speed 1, 2, 5 m/s"),
+    ("r, f", "altitude +1 m, -1 m (DO_REPOSITION)"),
+    ("esc", "leave Fly mode (stops the vehicle)"),
 ];
 
 /// A group of the help: a heading and its (keys, description) rows.
@@ -114,6 +126,7 @@ pub fn help_groups(app: &App) -> Vec<HelpGroup> {
         .map(|s| s.action())
         .chain(GLOBAL.iter().copied())
         .collect();
+    let fly_bound = bound.iter().any(|(a, _)| *a == Action::Fly);
     let mut groups = vec![
         HelpGroup {
             heading: "Everywhere".into(),
@@ -131,11 +144,22 @@ pub fn help_groups(app: &App) -> Vec<HelpGroup> {
             note: None,
         },
         HelpGroup {
+            heading: "In Fly mode (armed, GUIDED)".into(),
+            rows: FLY_KEYS
+                .iter()
+                .map(|(k, d)| (k.to_string(), *d))
+                .collect(),
+            note: Some("other keys leave Fly mode first, or do nothing there"),
+        },
+        HelpGroup {
             heading: "Replay (tlog: links)".into(),
             rows: take(&|a| a.is_replay(), None),
             note: None,
         },
     ];
+    if !fly_bound {
+        groups.retain(|g| !g.heading.starts_with("In Fly mode"));
+    }
     groups.push(HelpGroup {
         heading: "Other keys".into(),
         rows: take(&|_| true, None),

@@ -59,6 +59,9 @@ pub fn flags_text(v: &Vehicle, wide: bool) -> String {
     f.join(" ")
 }
 
+/// From this inner width the columns are 3 apart instead of 1.
+const SPREAD: u16 = 150;
+
 pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let mut block = pane_block(
         app,
@@ -170,7 +173,9 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         .filter_map(|c| cols.iter().position(|x| x.0 == *c))
         .collect();
     let spec: Vec<fmt::Col> = cols.iter().map(|c| c.2).collect();
-    let w = fmt::share(&spec, inner.width as usize, 1, &priority);
+    // Wide, the columns spread out rather than leave the pane's right half empty.
+    let gap = if inner.width >= SPREAD { 3 } else { 1 };
+    let w = fmt::share(&spec, inner.width as usize, gap, &priority);
     let width_of = |c: Column| cols.iter().position(|x| x.0 == c).map_or(0, |i| w[i]);
     let header: Vec<Cell> = cols
         .iter()
@@ -242,7 +247,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     frame.render_widget(block, area);
     let table = Table::new(rows, widths)
         .header(Row::new(header).style(theme.header()))
-        .column_spacing(1)
+        .column_spacing(gap as u16)
         .row_highlight_style(selected_style(app, Pane::Vehicles, theme));
     let mut state = TableState::default()
         .with_offset(first)
