@@ -56,16 +56,10 @@ const FLIGHT: &[Action] = &[
     Action::Fly,
 ];
 
-/// Fly mode's own keys (fixed: [`crate::app::nudge::fly_key`]), listed under the flight keys.
-pub const FLY_KEYS: &[(&str, &str)] = &[
-    ("up, down", "fly forward, back (held: keeps moving, let go: stops)"),
-    ("left, right", "fly left, right"),
-    ("w, s", "climb, descend"),
-    ("a, d", "yaw left, right"),
-    ("1, 2, 3", "nudge speed 1, 2, 5 m/s"),
-    ("r, f", "altitude +1 m, -1 m (DO_REPOSITION)"),
-    ("esc", "leave Fly mode (stops the vehicle)"),
-];
+/// Fly mode's own keys (fixed: [`crate::app::nudge::fly_key`]): the note below the flight keys.
+pub const FLY_NOTE: &str = "In Fly mode: up/down forward/back, left/right sideways (held: moves, \
+     let go: stops), w/s climb/descend, a/d yaw, 1/2/3 speed 1/2/5 m/s, r/f altitude +/-1 m, \
+     esc leaves (other keys leave it first or do nothing)";
 
 /// A group of the help: a heading and its (keys, description) rows.
 pub struct HelpGroup {
@@ -141,15 +135,7 @@ pub fn help_groups(app: &App) -> Vec<HelpGroup> {
         HelpGroup {
             heading: "Flying the target".into(),
             rows: take(&|a| FLIGHT.contains(&a), Some(FLIGHT)),
-            note: None,
-        },
-        HelpGroup {
-            heading: "In Fly mode (armed, GUIDED)".into(),
-            rows: FLY_KEYS
-                .iter()
-                .map(|(k, d)| (k.to_string(), *d))
-                .collect(),
-            note: Some("other keys leave Fly mode first, or do nothing there"),
+            note: fly_bound.then_some(FLY_NOTE),
         },
         HelpGroup {
             heading: "Replay (tlog: links)".into(),
@@ -157,9 +143,6 @@ pub fn help_groups(app: &App) -> Vec<HelpGroup> {
             note: None,
         },
     ];
-    if !fly_bound {
-        groups.retain(|g| !g.heading.starts_with("In Fly mode"));
-    }
     groups.push(HelpGroup {
         heading: "Other keys".into(),
         rows: take(&|_| true, None),

@@ -271,8 +271,17 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         }
     }
     let room_for = |target: &str| width.saturating_sub(used(target, &log));
-    // A message that does not fit is cut: the target's mode and state stay.
-    let room = room_for(&target);
+    // A message that does not fit gets the room of the word `target`, then is cut: the
+    // target's mode and state stay.
+    let mut room = room_for(&target);
+    if let Some((_, text)) = &app.ui.message {
+        if text.chars().count() > room {
+            if let Some(short) = target.strip_prefix("target ") {
+                target = short.to_string();
+                room = room_for(&target);
+            }
+        }
+    }
     if room == 0 {
         target = ellipsize(&target, width.saturating_sub(used("", &log)));
     }

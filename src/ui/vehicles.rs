@@ -186,7 +186,20 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             _ => Cell::from(fmt::fit(c.1, cw).into_owned()),
         })
         .collect();
-    let widths: Vec<Constraint> = w.iter().map(|&x| Constraint::Length(x as u16)).collect();
+    // The spread goes after each column but the selection mark, which stays next to the ID.
+    let widths: Vec<Constraint> = w
+        .iter()
+        .zip(&cols)
+        .enumerate()
+        .map(|(i, (&x, c))| {
+            let pad = if c.0 == Column::Mark || i + 1 == cols.len() {
+                0
+            } else {
+                gap - 1
+            };
+            Constraint::Length((x + pad) as u16)
+        })
+        .collect();
 
     // The rows below the header; the list scrolls with the selection.
     let visible = inner.height.saturating_sub(1) as usize;
@@ -247,7 +260,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     frame.render_widget(block, area);
     let table = Table::new(rows, widths)
         .header(Row::new(header).style(theme.header()))
-        .column_spacing(gap as u16)
+        .column_spacing(1)
         .row_highlight_style(selected_style(app, Pane::Vehicles, theme));
     let mut state = TableState::default()
         .with_offset(first)
