@@ -35,6 +35,15 @@ fn key(app: &mut App, k: &str) -> Vec<Effect> {
     app.update(t, Event::Key(k.parse().unwrap()))
 }
 
+fn sent(fx: &[Effect]) -> Vec<MavMessage> {
+    fx.iter()
+        .filter_map(|e| match e {
+            Effect::Send { msg, .. } => Some(msg.clone()),
+            _ => None,
+        })
+        .collect()
+}
+
 fn names() -> Vec<&'static str> {
     mavterm::app::screen::SCREENS.iter().map(|s| s.name).collect()
 }
@@ -139,9 +148,10 @@ fn mode_picker_lists_every_mode_filters_and_picks() {
     let fx = key(&mut d.app, "enter");
     assert!(d.app.ui.mode_picker.is_none());
     assert_eq!(d.app.ui.mode, Mode::Normal);
-    let asked = common::sent_messages(&fx).iter().any(|m| match m {
-        MavMessage::COMMAND_LONG(c) => c.command as u16 == 176 && c.param2 == 5.0,
-        MavMessage::SET_MODE(s) => s.custom_mode == 5,
+    let asked = sent(&fx).iter().any(|m| match m {
+        MavMessage::COMMAND_LONG(c) => {
+            c.command == mavterm::dialect::MavCmd::MAV_CMD_DO_SET_MODE && c.param2 == 5.0
+        }
         _ => false,
     });
     assert!(asked, "{fx:?}");
@@ -150,7 +160,7 @@ fn mode_picker_lists_every_mode_filters_and_picks() {
     let fx = key(&mut d.app, "esc");
     assert!(d.app.ui.mode_picker.is_none());
     assert_eq!(d.app.ui.mode, Mode::Normal);
-    assert!(common::sent_messages(&fx).is_empty(), "{fx:?}");
+    assert!(sent(&fx).is_empty(), "{fx:?}");
 }
 
 #[test]
