@@ -272,14 +272,25 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     }
     let room_for = |target: &str| width.saturating_sub(used(target, &log));
     // A message that does not fit gets the room of the word `target`, then is cut: the
-    // target's mode and state stay.
+    // target's mode and state stay. Where the state strip shows them (every screen but the
+    // Overview), the message gets their room too.
     let mut room = room_for(&target);
-    if let Some((_, text)) = &app.ui.message {
+    let long = app
+        .ui
+        .message
+        .as_ref()
+        .is_some_and(|(_, text)| text.chars().count() > room);
+    if long || room < MIN_TAIL / 3 {
+        if let Some(short) = target.strip_prefix("target ") {
+            target = short.to_string();
+            room = room_for(&target);
+        }
+    }
+    let strip = app.ui.screen != crate::app::screen::SCREENS[0].name;
+    if let (Some((_, text)), Some(key), true) = (&app.ui.message, app.target, strip) {
         if text.chars().count() > room {
-            if let Some(short) = target.strip_prefix("target ") {
-                target = short.to_string();
-                room = room_for(&target);
-            }
+            target = format!("{}:{}{progress}", key.0, key.1);
+            room = room_for(&target);
         }
     }
     if room == 0 {
