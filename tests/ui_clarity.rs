@@ -20,7 +20,9 @@ use mavterm::ui::{self, buffer_to_text, Theme};
 const MID_FLIGHT: Micros = 56 * SECOND;
 
 fn replay() -> VirtualRunner {
-    let spec: LinkSpec = "tlog:tests/data/copter-flight.vehicle.tlog".parse().unwrap();
+    let spec: LinkSpec = "tlog:tests/data/copter-flight.vehicle.tlog"
+        .parse()
+        .unwrap();
     let mut r = VirtualRunner::from_specs(&[spec], AppConfig::default()).unwrap();
     r.advance_to(MID_FLIGHT);
     r
@@ -45,7 +47,10 @@ fn sent(fx: &[Effect]) -> Vec<MavMessage> {
 }
 
 fn names() -> Vec<&'static str> {
-    mavterm::app::screen::SCREENS.iter().map(|s| s.name).collect()
+    mavterm::app::screen::SCREENS
+        .iter()
+        .map(|s| s.name)
+        .collect()
 }
 
 #[test]
@@ -74,8 +79,14 @@ fn every_screen_at_every_width_keeps_the_state_and_the_width() {
                 }
                 // The state strip on top: mode, arming, then altitude and battery whole.
                 let strip = lines[0];
-                assert!(strip.starts_with("1:1 GUIDED ARMED"), "{name} {w}x{h}: {strip}");
-                assert!(strip.contains("ALT 10.0 m (rel)"), "{name} {w}x{h}: {strip}");
+                assert!(
+                    strip.starts_with("1:1 GUIDED ARMED"),
+                    "{name} {w}x{h}: {strip}"
+                );
+                assert!(
+                    strip.contains("ALT 10.0 m (rel)"),
+                    "{name} {w}x{h}: {strip}"
+                );
                 assert!(strip.contains("BAT 12.6 V 97%"), "{name} {w}x{h}: {strip}");
             }
         }
@@ -124,7 +135,15 @@ fn mode_picker_lists_every_mode_filters_and_picks() {
     assert_eq!(d.app.ui.mode, Mode::Edit);
     let rows = d.app.mode_picker_rows();
     // ArduCopter's mode.h: every mode, loiter, RTL and land among them.
-    for m in ["stabilize", "guided", "loiter", "rtl", "land", "smart_rtl", "turtle"] {
+    for m in [
+        "stabilize",
+        "guided",
+        "loiter",
+        "rtl",
+        "land",
+        "smart_rtl",
+        "turtle",
+    ] {
         assert!(rows.iter().any(|r| r == m), "{m} in {rows:?}");
     }
     insta::assert_snapshot!("mode_picker_80x24", screen(&d.app, 80, 24));
@@ -174,13 +193,23 @@ fn tab_on_an_empty_mode_word_cycles_the_modes() {
     key(&mut d.app, "tab");
     assert_eq!(d.app.ui.prompt.line.text, "mode stabilize");
     let listed = &d.app.ui.message.as_ref().unwrap().1;
-    assert!(listed.contains("loiter") && listed.contains("land"), "{listed}");
+    assert!(
+        listed.contains("loiter") && listed.contains("land"),
+        "{listed}"
+    );
     key(&mut d.app, "tab");
     assert_eq!(d.app.ui.prompt.line.text, "mode acro");
     // A started word still completes.
     key(&mut d.app, "ctrl-u");
     for c in "mode lo".chars() {
-        key(&mut d.app, &if c == ' ' { "space".into() } else { c.to_string() });
+        key(
+            &mut d.app,
+            &if c == ' ' {
+                "space".into()
+            } else {
+                c.to_string()
+            },
+        );
     }
     key(&mut d.app, "tab");
     assert_eq!(d.app.ui.prompt.line.text, "mode loiter ");

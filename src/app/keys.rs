@@ -211,16 +211,14 @@ impl App {
             _ => None,
         };
         match action {
-            Some(Action::Submit | Action::Complete) => {
-                match rows.get(p.sel).cloned() {
-                    Some(m) => {
-                        self.ui.mode_picker = None;
-                        self.ui.mode = Mode::Normal;
-                        self.run_line(&format!("mode {m}"), fx);
-                    }
-                    None => self.ui.message = Some((SEV_ERROR, "no mode matches".into())),
+            Some(Action::Submit | Action::Complete) => match rows.get(p.sel).cloned() {
+                Some(m) => {
+                    self.ui.mode_picker = None;
+                    self.ui.mode = Mode::Normal;
+                    self.run_line(&format!("mode {m}"), fx);
                 }
-            }
+                None => self.ui.message = Some((SEV_ERROR, "no mode matches".into())),
+            },
             Some(Action::Cancel) => {
                 self.ui.mode_picker = None;
                 self.ui.mode = Mode::Normal;

@@ -224,7 +224,10 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     };
     let key = |a| key(app, a);
     // The title is cut with `…` to the border it sits on (corners kept).
-    let title = super::ellipsize(&title(app, t, session), (area.width as usize).saturating_sub(2));
+    let title = super::ellipsize(
+        &title(app, t, session),
+        (area.width as usize).saturating_sub(2),
+    );
     let mut block = Block::default()
         .borders(Borders::ALL)
         .border_style(theme.focus_border())

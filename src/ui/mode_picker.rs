@@ -20,7 +20,7 @@ pub fn hint(app: &App) -> String {
             .next()
             .map(|k| k.to_string())
     };
-    let mut parts = vec!["type filters".to_string()];
+    let mut parts = Vec::new();
     if let (Some(u), Some(d)) = (key(Action::HistoryPrev), key(Action::HistoryNext)) {
         parts.push(format!("{u}/{d} move"));
     }
@@ -30,6 +30,7 @@ pub fn hint(app: &App) -> String {
     if let Some(k) = key(Action::Cancel) {
         parts.push(format!("{k} leaves"));
     }
+    parts.push("typing filters".to_string());
     parts.join("  ")
 }
 
@@ -64,7 +65,15 @@ pub fn lines(app: &App, w: usize, rows: usize) -> Vec<(String, bool)> {
     }
     if modes.len() > rows {
         out.push((
-            ellipsize(&format!("{}-{} of {}", start + 1, (start + rows).min(modes.len()), modes.len()), w),
+            ellipsize(
+                &format!(
+                    "{}-{} of {}",
+                    start + 1,
+                    (start + rows).min(modes.len()),
+                    modes.len()
+                ),
+                w,
+            ),
             false,
         ));
     }

@@ -299,10 +299,9 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     // The last command's outcome stands where the hints are, until the next key.
     let tail = match &app.ui.message {
         Some((sev, text)) => Span::styled(ellipsize(text, room), theme.severity(*sev)),
-        None if app.ui.mode_picker.is_some() => Span::styled(
-            ellipsize(&super::mode_picker::hint(app), room),
-            theme.dim(),
-        ),
+        None if app.ui.mode_picker.is_some() => {
+            Span::styled(ellipsize(&super::mode_picker::hint(app), room), theme.dim())
+        }
         None if app.ui.palette.is_some() => {
             Span::styled(ellipsize("palette: esc goes back", room), theme.dim())
         }
