@@ -261,3 +261,29 @@ fn the_mission_title_is_cut_with_an_ellipsis() {
     assert!(title.ends_with("…┐"), "{title}");
     assert_eq!(title.chars().count(), 60, "{title}");
 }
+
+#[test]
+fn mission_command_names_take_the_room_there_is() {
+    let mut r = replay();
+    r.app.ui.screen = "mission";
+    let line = ":wp load tests/data/missions/mission-planner.waypoints";
+    for c in line.chars() {
+        let k = if c == ' ' {
+            "space".to_string()
+        } else {
+            c.to_string()
+        };
+        r.key(k.parse().unwrap());
+    }
+    r.key("enter".parse().unwrap());
+    r.advance_to(MID_FLIGHT + SECOND);
+    // Item 7 of the file is NAV_RETURN_TO_LAUNCH (20): whole where the row has room for it
+    // and the other columns, cut with `…` where not.
+    for w in [80, 200] {
+        let text = screen(&r.app, w, 24);
+        assert!(text.contains(" NAV_RETURN_TO_LAUNCH "), "{text}");
+    }
+    let narrow = screen(&r.app, 60, 24);
+    let row = narrow.lines().find(|l| l.contains(" 7    NAV_")).unwrap();
+    assert!(row.contains("NAV_RETUR") && row.contains('…'), "{narrow}");
+}
