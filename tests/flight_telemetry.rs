@@ -116,7 +116,7 @@ fn capture_mid_flight_values_are_pymavlinks() {
     // What the pane says.
     let text = screen(&r.app, 80, 24);
     let alt = format!(
-        "ALT {:.1} m rel {:.1} AMSL",
+        "ALT {:.1} m (rel) {:.1} m AMSL",
         gpi["relative_alt"].as_f64().unwrap() / 1000.0,
         gpi["alt"].as_f64().unwrap() / 1000.0
     );

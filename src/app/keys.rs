@@ -42,6 +42,10 @@ impl App {
             self.on_palette_key(key, action, fx);
             return;
         }
+        if self.ui.mode_picker.is_some() && self.ui.mode == Mode::Edit {
+            self.on_mode_picker_key(key, action, fx);
+            return;
+        }
         if self.ui.params.editing.is_some() && self.ui.mode == Mode::Edit {
             self.on_param_edit_key(key, action, fx);
             return;
@@ -111,6 +115,9 @@ impl App {
     fn on_text_key(&mut self, key: Key, action: Option<Action>, fx: &mut Vec<Effect>) {
         self.ui.message = None; // completions shown for the line as it was
         let prompt = self.ui.mode == Mode::Prompt;
+        if prompt && action == Some(Action::Complete) && self.cycle_mode_word() {
+            return;
+        }
         let line = if prompt {
             &mut self.ui.prompt.line
         } else {
@@ -153,6 +160,119 @@ impl App {
                 }
             }
         }
+    }
+
+    /// The target's mode names (its profile's mode table), lower case as `mode` takes them.
+    pub fn target_modes(&self) -> Vec<String> {
+        self.target
+            .and_then(|k| self.vehicles.get(k))
+            .map(|v| crate::proto::modes::mode_names(v.autopilot, v.mavtype))
+            .unwrap_or_default()
+            .into_iter()
+            .map(|m| m.to_ascii_lowercase())
+            .collect()
+    }
+
+    /// The modes the open picker lists: the target's modes containing what is typed.
+    pub fn mode_picker_rows(&self) -> Vec<String> {
+        let query = self
+            .ui
+            .mode_picker
+            .as_ref()
+            .map_or(String::new(), |p| p.query.text.trim().to_ascii_lowercase());
+        self.target_modes()
+            .into_iter()
+            .filter(|m| m.contains(&query))
+            .collect()
+    }
+
+    /// `M`: the mode picker, listing every mode of the target.
+    fn open_mode_picker(&mut self) {
+        if self.target_modes().is_empty() {
+            self.ui.message = Some((
+                Severity::ERROR,
+                match self.target {
+                    None => "no target vehicle".into(),
+                    Some(_) => "no modes known for the target".into(),
+                },
+            ));
+            return;
+        }
+        self.ui.mode_picker = Some(super::ModePicker::default());
+        self.ui.mode = Mode::Edit;
+    }
+
+    /// A key while the mode picker is open: arrows move, typing filters, enter asks for the
+    /// selected mode through the `mode` command (its questions unchanged), esc leaves.
+    fn on_mode_picker_key(&mut self, key: Key, action: Option<Action>, fx: &mut Vec<Effect>) {
+        self.ui.message = None;
+        let rows = self.mode_picker_rows();
+        let n = rows.len();
+        let Some(p) = self.ui.mode_picker.as_mut() else {
+            return;
+        };
+        let typed = match (key.code, key.ctrl, key.alt, action) {
+            (KeyCode::Char(c), false, false, None) => Some(c),
+            _ => None,
+        };
+        match action {
+            Some(Action::Submit | Action::Complete) => match rows.get(p.sel).cloned() {
+                Some(m) => {
+                    self.ui.mode_picker = None;
+                    self.ui.mode = Mode::Normal;
+                    self.run_line(&format!("mode {m}"), fx);
+                }
+                None => self.ui.message = Some((Severity::ERROR, "no mode matches".into())),
+            },
+            Some(Action::Cancel) => {
+                self.ui.mode_picker = None;
+                self.ui.mode = Mode::Normal;
+            }
+            Some(Action::HistoryPrev) => p.sel = clamp(p.sel, -1, n),
+            Some(Action::HistoryNext) => p.sel = clamp(p.sel, 1, n),
+            Some(a) => {
+                if p.query.edit(a) {
+                    p.sel = 0;
+                }
+            }
+            None => match (key.code, typed) {
+                (_, Some(c)) => {
+                    p.query.insert(c);
+                    p.sel = 0;
+                }
+                (KeyCode::Up, _) => p.sel = clamp(p.sel, -1, n),
+                (KeyCode::Down, _) => p.sel = clamp(p.sel, 1, n),
+                (KeyCode::PageUp, _) => p.sel = clamp(p.sel, -10, n),
+                (KeyCode::PageDown, _) => p.sel = clamp(p.sel, 10, n),
+                _ => {}
+            },
+        }
+    }
+
+    /// `tab` on the prompt's `mode` word when it is empty or a whole mode name: the next of
+    /// the target's modes, all of them listed. False when the line is anything else.
+    fn cycle_mode_word(&mut self) -> bool {
+        let line = &self.ui.prompt.line;
+        if line.cursor != line.text.chars().count() {
+            return false;
+        }
+        let Some(word) = line.text.strip_prefix("mode ") else {
+            return false;
+        };
+        let word = word.to_string();
+        let modes = self.target_modes();
+        if modes.is_empty() || word.contains(' ') {
+            return false;
+        }
+        let next = match modes.iter().position(|m| *m == word) {
+            Some(i) => (i + 1) % modes.len(),
+            None if word.is_empty() => 0,
+            None => return false,
+        };
+        self.ui.prompt.line.set(&format!("mode {}", modes[next]));
+        self.ui.prompt.line.end();
+        self.ui.message = Some((Severity::INFO, modes.join("  ")));
+        true
     }
 
     /// Whole-line completions for the prompt: command names for the first word, then each
@@ -498,7 +618,7 @@ impl App {
                 return;
             }
             Action::ModeMenu => {
-                self.open_prompt_with("mode ", true);
+                self.open_mode_picker();
                 return;
             }
             Action::Fly => self.enter_fly(),

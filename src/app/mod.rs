@@ -285,6 +285,18 @@ pub struct UiState {
     pub gimbal_sel: usize,
     /// The Mission screen and the mission files loaded.
     pub mission: mission::MissionView,
+    /// The mode picker (`M`), while open (its filter typed in [`Mode::Edit`]).
+    pub mode_picker: Option<ModePicker>,
+}
+
+/// The mode picker: the target's modes, filtered by what is typed; enter asks for the one
+/// selected through the `mode` command.
+#[derive(Debug, Clone, Default)]
+pub struct ModePicker {
+    /// What is typed: modes containing it (case ignored) are listed.
+    pub query: input::TextLine,
+    /// Selected row among the modes listed.
+    pub sel: usize,
 }
 
 impl Default for UiState {
@@ -311,6 +323,7 @@ impl Default for UiState {
             camera_sel: 0,
             gimbal_sel: 0,
             mission: mission::MissionView::default(),
+            mode_picker: None,
         }
     }
 }

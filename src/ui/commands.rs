@@ -74,10 +74,18 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         Some(more) => block.title_bottom(Line::from(format!(" {more} "))),
         None => block,
     };
+    // Wide, the command column is as wide as its longest name (up to 40).
+    let name_w = s
+        .commands
+        .entries()
+        .map(|e| e.spec.name().chars().count())
+        .max()
+        .unwrap_or(0)
+        .clamp(26, 40) as u16;
     let widths: Vec<Constraint> = if wide {
         vec![
             Constraint::Length(8),
-            Constraint::Length(26),
+            Constraint::Length(name_w),
             Constraint::Length(6),
             Constraint::Min(30),
             Constraint::Length(5),

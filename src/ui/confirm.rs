@@ -30,6 +30,13 @@ fn choices(yes: bool, theme: &Theme) -> Line<'static> {
 pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let Some(c) = &app.ui.confirm else { return };
     let w = (c.text.chars().count() as u16 + 4).clamp(32, area.width.max(1));
+    // As many columns on either side: the box sits centred between the panes' borders, not a
+    // column off.
+    let w = if (area.width - w) % 2 == 1 && w < area.width {
+        w + 1
+    } else {
+        w
+    };
     let inner = w.saturating_sub(2).max(1) as usize;
     let lines = c.text.chars().count().div_ceil(inner) as u16;
     let h = (lines + 3).min(area.height);

@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! ─ Flight 1:1 ──────────────────────────────────────────────────────────────────
-//! ALT 10.0 m rel 594.0 AMSL ▁▂▄▆██████  GS 0.2 m/s  CLB +1.4 m/s  HDG 353°
+//! ALT 10.0 m (rel) 594.0 m AMSL ▁▂▄▆██████  GS 0.2 m/s  CLB +1.4 m/s  HDG 353°
 //! POS -35.3632621 149.1652374  HOME 12 m 045°  EKF ok  PRE ok
 //! BAT 12.4 V 3.2 A 87%  GPS 3D 10 sats  LOSS 0.0% ▁▁▁▁▁▁▁▁▁▁▁▁▁▁▁▁▁▁▁▁▁▁▁▁▁▁▁▁▁
 //! ```
@@ -119,7 +119,7 @@ pub fn lines(app: &App, width: usize, theme: &Theme) -> Vec<Line<'static>> {
         pos.map(|p| {
             let v = p.value;
             let text = format!(
-                "{} m rel {} AMSL",
+                "{} m (rel) {} m AMSL",
                 dec1(v.relative_alt_m()),
                 dec1(v.alt_m())
             );

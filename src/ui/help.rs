@@ -4,7 +4,8 @@
 //! section's up, down, page and home/end keys, named in its last line) scroll it instead.
 //!
 //! Order: the keys that work everywhere (the screens' number keys, moving around, the target, the prompt and
-//! the palette, help, quit), then the current screen's own keys, then flying the target, then
+//! the palette, help, quit), then the current screen's own keys, then flying the target and Fly
+//! mode's own keys, then
 //! the replay keys (while replaying), then anything else bound, then the commands. The popup is
 //! at most 80 columns wide: a description that does not fit is wrapped, never cut.
 
@@ -54,6 +55,11 @@ const FLIGHT: &[Action] = &[
     Action::ModeMenu,
     Action::Fly,
 ];
+
+/// Fly mode's own keys (fixed: [`crate::app::nudge::fly_key`]): the note below the flight keys.
+pub const FLY_NOTE: &str = "In Fly mode: up/down forward/back, left/right sideways (held: moves, \
+     let go: stops), w/s climb/descend, a/d yaw, 1/2/3 speed 1/2/5 m/s, r/f altitude +/-1 m, \
+     esc leaves (other keys leave it first or do nothing)";
 
 /// A group of the help: a heading and its (keys, description) rows.
 pub struct HelpGroup {
@@ -114,6 +120,7 @@ pub fn help_groups(app: &App) -> Vec<HelpGroup> {
         .map(|s| s.action())
         .chain(GLOBAL.iter().copied())
         .collect();
+    let fly_bound = bound.iter().any(|(a, _)| *a == Action::Fly);
     let mut groups = vec![
         HelpGroup {
             heading: "Everywhere".into(),
@@ -128,7 +135,7 @@ pub fn help_groups(app: &App) -> Vec<HelpGroup> {
         HelpGroup {
             heading: "Flying the target".into(),
             rows: take(&|a| FLIGHT.contains(&a), Some(FLIGHT)),
-            note: None,
+            note: fly_bound.then_some(FLY_NOTE),
         },
         HelpGroup {
             heading: "Replay (tlog: links)".into(),

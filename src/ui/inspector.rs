@@ -90,7 +90,8 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         )
     } else {
         let detail_h = if area.height >= 10 {
-            (area.height * 2 / 5).max(5)
+            // Counted with the state strip's row, which the list gives up.
+            ((area.height + 1) * 2 / 5).max(5)
         } else {
             0
         };

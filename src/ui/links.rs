@@ -311,6 +311,9 @@ const NARROW: u16 = 70;
 /// Numeric columns shown narrow: F/S, B/S, LOSS, CRC, RX.
 const NARROW_SHOWN: [bool; 9] = [true, true, false, true, true, true, false, false, false];
 
+/// From this inner width the columns spread into the room left over.
+const SPREAD: u16 = 150;
+
 pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let key = app.signing.key.is_some();
     let title = if key {
@@ -389,7 +392,19 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     );
     let sw = fmt::share(&spec, inner.width as usize, 1, &[1, 0]);
     let (name_w, state_w) = (sw[0], sw[1]);
-    let widths: Vec<Constraint> = sw.iter().map(|&x| Constraint::Length(x as u16)).collect();
+    // Wide, what the columns leave spreads them out (up to 3 apart), after the name and state
+    // have all they want.
+    let used: usize = sw.iter().sum::<usize>() + sw.len().saturating_sub(1);
+    let pad = if inner.width >= SPREAD && sw.len() > 1 {
+        ((inner.width as usize).saturating_sub(used) / (sw.len() - 1)).min(2)
+    } else {
+        0
+    };
+    let widths: Vec<Constraint> = sw
+        .iter()
+        .enumerate()
+        .map(|(i, &x)| Constraint::Length((x + if i + 1 < sw.len() { pad } else { 0 }) as u16))
+        .collect();
     let keep = |cells: Vec<Cell<'static>>| -> Vec<Cell<'static>> {
         cells
             .into_iter()

@@ -223,7 +223,11 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         Shown::Vehicle => vehicle_home,
     };
     let key = |a| key(app, a);
-    let title = title(app, t, session);
+    // The title is cut with `…` to the border it sits on (corners kept).
+    let title = super::ellipsize(
+        &title(app, t, session),
+        (area.width as usize).saturating_sub(2),
+    );
     let mut block = Block::default()
         .borders(Borders::ALL)
         .border_style(theme.focus_border())
@@ -242,7 +246,10 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     }
     let status = status(app, session, t, vehicle_home);
     frame.render_widget(
-        Paragraph::new(Line::styled(status.join("  "), theme.header())),
+        Paragraph::new(Line::styled(
+            super::ellipsize(&status.join("  "), inner.width as usize),
+            theme.header(),
+        )),
         Rect { height: 1, ..inner },
     );
     let table_area = Rect {
@@ -262,6 +269,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
                 crate::app::mission::word(t)
             ),
         };
+        let hint = super::ellipsize(&hint, table_area.width as usize);
         frame.render_widget(Paragraph::new(Line::styled(hint, theme.dim())), table_area);
         return;
     }
@@ -284,9 +292,21 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
                 .collect()
         })
         .unwrap_or_default();
+    // Command names take the room there is once the row is wide (NAV_RETURN_TO_LAUNCH whole).
+    let command_w = rows
+        .iter()
+        .map(|i| cells(i, " ", false)[1].chars().count())
+        .max()
+        .unwrap_or(0)
+        .clamp(16, 32) as u16;
+    let command_w = if table_area.width >= 5 + 11 + 12 + 11 + 10 + 6 + command_w {
+        command_w
+    } else {
+        16
+    };
     let widths = [
         Constraint::Length(5),
-        Constraint::Length(16),
+        Constraint::Length(command_w),
         Constraint::Length(11),
         Constraint::Length(12),
         Constraint::Length(11),

@@ -13,6 +13,7 @@ pub mod fmt;
 pub mod help;
 pub mod links;
 pub mod messages;
+pub mod mode_picker;
 pub mod palette;
 pub mod screens;
 pub mod status;
@@ -60,13 +61,30 @@ pub fn render_with(app: &App, frame: &mut Frame, theme: &Theme) {
         height: 1,
         ..area
     };
-    let body = Rect {
+    let mut body = Rect {
         height: area.height - 1,
         ..area
     };
+    // Fly mode's keys, on the line above the status bar.
+    if app.fly_text().is_some() {
+        body.height -= 1;
+        let hint = Rect {
+            y: body.y + body.height,
+            height: 1,
+            ..body
+        };
+        status::render_fly_hint(frame, hint, theme);
+    }
+    // The target's state on top of every screen but the Overview (whose flight pane has it).
+    if app.ui.screen != crate::app::screen::SCREENS[0].name {
+        status::render_state(app, frame, Rect { height: 1, ..body }, theme);
+        body.y += 1;
+        body.height -= 1;
+    }
     screens::render(app, frame, body, theme);
     status::render(app, frame, status_area, theme);
     palette::render(app, frame, area, theme);
+    mode_picker::render(app, frame, area, theme);
     if app.ui.mode == Mode::Help {
         help::render(app, frame, area, theme);
     }

@@ -534,6 +534,9 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     }
 }
 
+/// From this width of the description column it also holds the documentation.
+const WIDE_DESC: usize = 60;
+
 fn render_list(
     app: &App,
     frame: &mut Frame,
@@ -685,8 +688,15 @@ fn render_list(
         }
         if show_desc {
             let d = meta.and_then(|m| m.human_name.as_deref()).unwrap_or("");
+            // Wide, the documentation follows the human name, on the row.
+            let d = match meta.map(|m| m.description.split_whitespace().collect::<Vec<_>>()) {
+                Some(words) if desc_w >= WIDE_DESC && !words.is_empty() => {
+                    format!("{d}: {}", words.join(" "))
+                }
+                _ => d.to_string(),
+            };
             spans.push(Span::styled(
-                format!(" {}", ellipsize(d, desc_w)),
+                format!(" {}", ellipsize(&d, desc_w)),
                 theme.dim().patch(base),
             ));
         }

@@ -45,6 +45,80 @@ pub fn target_text(app: &App) -> String {
     }
 }
 
+/// The target's state for the strip on top of every screen but the Overview: `1:1 GUIDED
+/// ARMED`, then its altitude above home and its battery (`ALT 10.0 m (rel)`, `BAT 12.4 V 87%`,
+/// `--` until heard), each whole or left out when the line is short.
+pub fn state_items(app: &App) -> Vec<String> {
+    let Some(key) = app.target else {
+        return vec!["no target".into()];
+    };
+    let mut out = vec![target_text(app)
+        .strip_prefix("target ")
+        .map(str::to_string)
+        .unwrap_or_else(|| target_text(app))];
+    let flight = app.sessions.get(&key).map(|s| &s.flight);
+    let alt = flight
+        .and_then(|f| f.position.as_ref())
+        .map_or("--".into(), |p| {
+            format!("{:.1} m (rel)", p.value.relative_alt_m())
+        });
+    out.push(format!("ALT {alt}"));
+    let bat = flight
+        .and_then(|f| f.battery.as_ref())
+        .map(|b| {
+            let v = b.value;
+            let mut parts = Vec::new();
+            if let Some(x) = v.volts() {
+                parts.push(format!("{x:.1} V"));
+            }
+            if let Some(x) = v.remaining_pct {
+                parts.push(format!("{x}%"));
+            }
+            parts.join(" ")
+        })
+        .filter(|t| !t.is_empty())
+        .unwrap_or_else(|| "--".into());
+    out.push(format!("BAT {bat}"));
+    out
+}
+
+/// The state strip's text in `width` columns: [`state_items`], the last ones left out where
+/// they do not fit, the first cut with `…` only when it alone is too long.
+pub fn state_text(app: &App, width: usize) -> String {
+    let mut out = String::new();
+    for (i, item) in state_items(app).into_iter().enumerate() {
+        let sep = if i == 0 { "" } else { "  " };
+        if i > 0 && out.chars().count() + sep.len() + item.chars().count() > width {
+            break;
+        }
+        out.push_str(sep);
+        out.push_str(&item);
+    }
+    ellipsize(&out, width)
+}
+
+/// The state strip: the target's mode, arming, altitude and battery on one line.
+pub fn render_state(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
+    let style = match app.target.and_then(|k| app.vehicles.get(k)) {
+        Some(v) if v.lost => theme.alert(),
+        Some(v) if v.armed() => theme.armed(),
+        Some(_) => theme.good(),
+        None => theme.dim(),
+    };
+    let line = Line::styled(state_text(app, area.width as usize), style);
+    frame.render_widget(Paragraph::new(line), area);
+}
+
+/// Fly mode's keys, in the line above the status bar while it is on (fits 80 columns).
+pub const FLY_HINT: &str =
+    "FLY ←↑↓→ move  w/s up/down  a/d yaw  1/2/3 speed  r/f alt ±1 m  esc leaves";
+
+/// The Fly-mode hint line.
+pub fn render_fly_hint(frame: &mut Frame, area: Rect, theme: &Theme) {
+    let line = Line::styled(ellipsize(FLY_HINT, area.width as usize), theme.armed());
+    frame.render_widget(Paragraph::new(line), area);
+}
+
 /// The first replay link's state: `replay 00:12/01:22 ×2 paused`, `replay 01:22/01:22 end`
 /// (hours shown once the log is an hour long; no duration for a stream).
 pub fn replay_text(app: &App) -> Option<String> {
@@ -110,6 +184,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             return text_line(frame, area, ":", &app.ui.prompt.line, hint, theme);
         }
         // The palette shows what is typed in its popup.
+        Mode::Edit if app.ui.mode_picker.is_some() => {}
         Mode::Edit if app.ui.palette.is_none() && app.ui.inspector.editing.is_some() => {
             return match &app.ui.inspector.editing {
                 Some(InspectEdit::Rate(k)) => {
@@ -194,17 +269,37 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         }
     }
     let room_for = |target: &str| width.saturating_sub(used(target, &log));
+    // A message that does not fit gets the room of the word `target`, then is cut: the
+    // target's mode and state stay. Where the state strip shows them (every screen but the
+    // Overview), the message gets their room too.
     let mut room = room_for(&target);
-    // A message that does not fit gets the room of the target's mode and state.
-    if let (Some((_, text)), Some(key)) = (&app.ui.message, app.target) {
+    let long = app
+        .ui
+        .message
+        .as_ref()
+        .is_some_and(|(_, text)| text.chars().count() > room);
+    if long || room < MIN_TAIL / 3 {
+        if let Some(short) = target.strip_prefix("target ") {
+            target = short.to_string();
+            room = room_for(&target);
+        }
+    }
+    let strip = app.ui.screen != crate::app::screen::SCREENS[0].name;
+    if let (Some((_, text)), Some(key), true) = (&app.ui.message, app.target, strip) {
         if text.chars().count() > room {
             target = format!("{key}{progress}");
             room = room_for(&target);
         }
     }
+    if room == 0 {
+        target = ellipsize(&target, width.saturating_sub(used("", &log)));
+    }
     // The last command's outcome stands where the hints are, until the next key.
     let tail = match &app.ui.message {
         Some((sev, text)) => Span::styled(ellipsize(text, room), theme.severity(*sev)),
+        None if app.ui.mode_picker.is_some() => {
+            Span::styled(ellipsize(&super::mode_picker::hint(app), room), theme.dim())
+        }
         None if app.ui.palette.is_some() => {
             Span::styled(ellipsize("palette: esc goes back", room), theme.dim())
         }

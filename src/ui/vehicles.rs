@@ -59,6 +59,9 @@ pub fn flags_text(v: &Vehicle, wide: bool) -> String {
     f.join(" ")
 }
 
+/// From this inner width the columns are 3 apart instead of 1.
+const SPREAD: u16 = 150;
+
 pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let mut block = pane_block(
         app,
@@ -170,7 +173,9 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         .filter_map(|c| cols.iter().position(|x| x.0 == *c))
         .collect();
     let spec: Vec<fmt::Col> = cols.iter().map(|c| c.2).collect();
-    let w = fmt::share(&spec, inner.width as usize, 1, &priority);
+    // Wide, the columns spread out rather than leave the pane's right half empty.
+    let gap = if inner.width >= SPREAD { 3 } else { 1 };
+    let w = fmt::share(&spec, inner.width as usize, gap, &priority);
     let width_of = |c: Column| cols.iter().position(|x| x.0 == c).map_or(0, |i| w[i]);
     let header: Vec<Cell> = cols
         .iter()
@@ -181,7 +186,20 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             _ => Cell::from(fmt::fit(c.1, cw).into_owned()),
         })
         .collect();
-    let widths: Vec<Constraint> = w.iter().map(|&x| Constraint::Length(x as u16)).collect();
+    // The spread goes after each column but the selection mark, which stays next to the ID.
+    let widths: Vec<Constraint> = w
+        .iter()
+        .zip(&cols)
+        .enumerate()
+        .map(|(i, (&x, c))| {
+            let pad = if c.0 == Column::Mark || i + 1 == cols.len() {
+                0
+            } else {
+                gap - 1
+            };
+            Constraint::Length((x + pad) as u16)
+        })
+        .collect();
 
     // The rows below the header; the list scrolls with the selection.
     let visible = inner.height.saturating_sub(1) as usize;

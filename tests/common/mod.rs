@@ -281,7 +281,7 @@ pub fn screen(r: &mavterm::driver::virtual_time::VirtualRunner, w: u16, h: u16) 
 pub fn shown_altitude(screen: &str) -> Option<f64> {
     let at = screen.find("ALT ")?;
     let rest = &screen[at + 4..];
-    let end = rest.find(" m rel")?;
+    let end = rest.find(" m (rel)")?;
     rest[..end].trim().parse().ok()
 }
 
