@@ -1,6 +1,8 @@
 //! The command palette popup (`ctrl-p`): the search line and the matching MAV_CMDs, the one
-//! chosen highlighted; then the form of the command picked, each parameter with its label, units
-//! and meaning, the target, and the COMMAND_LONG that enter sends. Fits 80x24.
+//! chosen highlighted, with what each does; then the form of the command picked, each parameter
+//! with its label, units and meaning (its enum's values, range and default under the fields for
+//! the one typed in), the target, and the COMMAND_LONG that enter sends. Everything said of a
+//! command comes from the dialect's XML definitions. Fits 80x24.
 
 use ratatui::layout::Rect;
 use ratatui::style::Style;
@@ -10,10 +12,11 @@ use ratatui::Frame;
 
 use super::{ellipsize, Theme};
 use crate::app::input::TextLine;
-use crate::app::palette::{Palette, PaletteForm, FIELDS, TARGET};
+use super::inspector::wrap_words;
+use crate::app::palette::{wire_value, Palette, PaletteForm, FIELDS, TARGET};
 use crate::app::App;
 use crate::proto::ack::command_name;
-use crate::proto::mav_cmds;
+use crate::proto::mav_cmds::{self, ParamInfo};
 
 /// Width of a field's value box.
 const VALUE_W: usize = 12;
@@ -23,7 +26,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let w = area.width.min(78);
     let h = match &p.form {
         None => area.height.min(20),
-        Some(_) => area.height.min(15),
+        Some(_) => area.height.min(21),
     };
     if w < 4 || h < 3 {
         return;
@@ -39,7 +42,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let body_h = (h - 2) as usize;
     let (title, lines, cursor) = match &p.form {
         None => list(p, inner_w, body_h, theme),
-        Some(f) => form(p, f, inner_w, theme),
+        Some(f) => form(p, f, inner_w, body_h, theme),
     };
     let block = Block::default()
         .borders(Borders::ALL)
@@ -79,7 +82,7 @@ fn list(p: &Palette, w: usize, body_h: usize, theme: &Theme) -> Drawn {
         .min(p.matches.len().saturating_sub(rows));
     for (i, &n) in p.matches.iter().enumerate().skip(start).take(rows) {
         let name = command_name(n);
-        let desc = mav_cmds::doc(n).map_or("", |d| d.description);
+        let desc = mav_cmds::description(n);
         // `>` marks the selection without colour too.
         let mark = if i == p.sel { '>' } else { ' ' };
         let left = format!("{mark}{n:>5} {name:<28}");
@@ -114,36 +117,97 @@ fn list(p: &Palette, w: usize, body_h: usize, theme: &Theme) -> Drawn {
     (" Command palette ".into(), lines, Some((2 + cur, 0)))
 }
 
-/// The description, a row per field, the preview, and the error or a footer.
-fn form(p: &Palette, f: &PaletteForm, w: usize, theme: &Theme) -> Drawn {
-    let doc = mav_cmds::doc(f.command);
-    let labels: Vec<(String, &str, &str)> = (0..7)
-        .map(|i| mav_cmds::param(f.command, i))
-        .chain([("target".to_string(), "", "SYSID:COMPID (a camera: 1:100)")])
+/// A number as the about line shows it: `-2`, `0.5`, `nan`.
+fn num(v: f64) -> String {
+    wire_value(v)
+}
+
+/// The focused parameter's description, enum values, range and default, as one text.
+fn about(f: &PaletteForm, infos: &[ParamInfo]) -> String {
+    if f.focus == TARGET {
+        return "target: SYSID:COMPID of the component the command goes to (a camera: 1:100)"
+            .into();
+    }
+    let Some(p) = infos.get(f.focus) else {
+        return String::new();
+    };
+    let units = if p.units.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", p.units)
+    };
+    let mut parts = vec![format!("p{} {}{units}:", f.focus + 1, p.label)];
+    if !p.used {
+        parts.push("not used by this command.".into());
+    } else if !p.description.is_empty() {
+        parts.push(p.description.clone());
+    }
+    if !p.enum_name.is_empty() {
+        parts.push(format!("{}: {}.", p.enum_name, p.values));
+    }
+    let mut range = Vec::new();
+    if let Some(v) = p.min {
+        range.push(format!("min {}", num(v)));
+    }
+    if let Some(v) = p.max {
+        range.push(format!("max {}", num(v)));
+    }
+    if let Some(v) = p.increment {
+        range.push(format!("increment {}", num(v)));
+    }
+    range.push(format!("empty sends {}", num(p.default)));
+    parts.push(range.join(", ") + ".");
+    parts.join(" ")
+}
+
+/// The description, a row per field (an empty one shows, dimmed, the default it sends), the
+/// focused field's documentation, the preview, and the error or a footer; cut to `body_h`
+/// lines, the documentation first, then the description's second line.
+fn form(p: &Palette, f: &PaletteForm, w: usize, body_h: usize, theme: &Theme) -> Drawn {
+    let infos: Vec<ParamInfo> = (0..7).map(|i| mav_cmds::param_info(f.command, i)).collect();
+    let labels: Vec<&str> = infos
+        .iter()
+        .map(|i| i.label.as_str())
+        .chain(["target"])
         .collect();
     let label_w = labels
         .iter()
-        .map(|l| l.0.chars().count())
+        .map(|l| l.chars().count())
         .max()
         .unwrap_or(0)
         .min(20);
-    let mut lines = vec![Line::styled(
-        ellipsize(
-            doc.map_or("(no description: parameters as param N)", |d| d.description),
-            w,
-        ),
-        theme.dim(),
-    )];
+    let desc = mav_cmds::description(f.command);
+    let mut desc_lines = if desc.is_empty() {
+        vec!["(the dialect does not describe this command)".to_string()]
+    } else {
+        wrap_words(desc, w)
+    };
+    // Fixed: the fields, the preview, the footer; then a line of description at least.
+    let fixed = FIELDS + 2 + 1;
+    let spare = body_h.saturating_sub(fixed + 1);
+    let blank = usize::from(spare >= 1);
+    let about_room = spare.saturating_sub(blank + 1).min(4);
+    let desc_room = 1 + usize::from(spare >= 2 + about_room.max(1));
+    if desc_lines.len() > desc_room {
+        desc_lines.truncate(desc_room);
+        if let Some(last) = desc_lines.last_mut() {
+            *last = ellipsize(&format!("{last} …"), w);
+        }
+    }
+    let mut lines: Vec<Line<'static>> = desc_lines
+        .into_iter()
+        .map(|l| Line::styled(l, theme.dim()))
+        .collect();
     let mut cursor = None;
-    for (i, (label, units, hint)) in labels.iter().enumerate().take(FIELDS) {
+    for (i, label) in labels.iter().enumerate().take(FIELDS) {
         let name = if i == TARGET {
             "  ".to_string()
         } else {
             format!("p{}", i + 1)
         };
         let head = format!("{name} {:<label_w$} ", ellipsize(label, label_w));
-        let (value, cur) = shown(&f.fields[i], VALUE_W);
         let focused = i == f.focus;
+        let (value, cur) = shown(&f.fields[i], VALUE_W);
         if focused {
             cursor = Some((head.chars().count() + 1 + cur, lines.len()));
         }
@@ -152,19 +216,55 @@ fn form(p: &Palette, f: &PaletteForm, w: usize, theme: &Theme) -> Drawn {
         } else {
             Style::default()
         };
+        // Empty: the default it sends, dimmed.
+        let value_span = if i != TARGET && f.fields[i].text.trim().is_empty() {
+            Span::styled(
+                format!("{:<VALUE_W$}", wire_value(f.default(i))),
+                value_style.patch(theme.dim()),
+            )
+        } else {
+            Span::styled(format!("{value:<VALUE_W$}"), value_style)
+        };
+        let (units, hint, used) = match infos.get(i) {
+            Some(p) => {
+                let hint = if p.values.is_empty() {
+                    p.description.as_str()
+                } else {
+                    p.values.as_str()
+                };
+                (p.units, hint, p.used)
+            }
+            None => ("", "SYSID:COMPID (a camera: 1:100)", true),
+        };
         let tail = format!(" {units:<4} ");
         let room = w.saturating_sub(head.chars().count() + VALUE_W + 2 + tail.chars().count());
-        let unused = label == "(unused)";
         lines.push(Line::from(vec![
-            Span::styled(head, if unused { theme.dim() } else { theme.header() }),
+            Span::styled(head, if used { theme.header() } else { theme.dim() }),
             Span::raw("["),
-            Span::styled(format!("{value:<VALUE_W$}"), value_style),
+            value_span,
             Span::raw("]"),
             Span::raw(tail),
             Span::styled(ellipsize(hint, room), theme.dim()),
         ]));
     }
-    lines.push(Line::raw(""));
+    if blank > 0 {
+        lines.push(Line::raw(""));
+    }
+    if about_room > 0 {
+        let mut text = wrap_words(&about(f, &infos), w);
+        if text.len() > about_room {
+            text.truncate(about_room);
+            if let Some(last) = text.last_mut() {
+                *last = ellipsize(&format!("{last} …"), w);
+            }
+        }
+        for l in text {
+            lines.push(Line::raw(l));
+        }
+        if spare > blank + about_room + desc_room - 1 {
+            lines.push(Line::raw(""));
+        }
+    }
     for l in f.preview() {
         lines.push(Line::raw(ellipsize(&l, w)));
     }
@@ -172,7 +272,7 @@ fn form(p: &Palette, f: &PaletteForm, w: usize, theme: &Theme) -> Drawn {
         Some(e) => Line::styled(ellipsize(e, w), theme.alert()),
         None => Line::styled(
             ellipsize(
-                "empty = 0, nan allowed  tab/up/down field  enter send  esc back",
+                "empty = the default shown, nan allowed  tab/up/down field  enter send  esc back",
                 w,
             ),
             theme.dim(),

@@ -4,6 +4,7 @@
 
 pub mod frame;
 pub mod mavftp;
+pub mod mavlink_xml;
 pub mod param_pck;
 pub mod parser;
 pub mod severity;
