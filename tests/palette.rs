@@ -89,7 +89,7 @@ fn arm_from_the_palette_asks_first_then_arms_the_sim() {
     let s = screen(&r);
     for want in [
         "COMPONENT_ARM_DISARM (400)",
-        "Arms / disarms a component",
+        "Arms / Disarms a component",
         "p1 Arm",
         "p2 Force",
         "[1:1",

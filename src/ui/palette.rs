@@ -31,6 +31,18 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     if w < 4 || h < 3 {
         return;
     }
+    let inner_w = (w - 2) as usize;
+    let body_h = (h - 2) as usize;
+    let (title, lines, cursor) = match &p.form {
+        None => list(p, inner_w, body_h, theme),
+        Some(f) => form(p, f, inner_w, body_h, theme),
+    };
+    // The form as tall as what it shows.
+    let h = if p.form.is_some() {
+        h.min(lines.len() as u16 + 2).max(3)
+    } else {
+        h
+    };
     let popup = Rect::new(
         area.x + (area.width - w) / 2,
         area.y + (area.height.saturating_sub(1) - h.min(area.height - 1)) / 2,
@@ -38,12 +50,6 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         h,
     );
     frame.render_widget(Clear, popup);
-    let inner_w = (w - 2) as usize;
-    let body_h = (h - 2) as usize;
-    let (title, lines, cursor) = match &p.form {
-        None => list(p, inner_w, body_h, theme),
-        Some(f) => form(p, f, inner_w, body_h, theme),
-    };
     let block = Block::default()
         .borders(Borders::ALL)
         .border_style(theme.focus_border())
@@ -140,7 +146,11 @@ fn about(f: &PaletteForm, infos: &[ParamInfo]) -> String {
     if !p.used {
         parts.push("not used by this command.".into());
     } else if !p.description.is_empty() {
-        parts.push(p.description.clone());
+        let d = p.description.trim_end();
+        parts.push(match d.ends_with(['.', '!', '?', ')']) {
+            true => d.to_string(),
+            false => format!("{d}."),
+        });
     }
     if !p.enum_name.is_empty() {
         parts.push(format!("{}: {}.", p.enum_name, p.values));
@@ -182,16 +192,26 @@ fn form(p: &Palette, f: &PaletteForm, w: usize, body_h: usize, theme: &Theme) ->
     } else {
         wrap_words(desc, w)
     };
-    // Fixed: the fields, the preview, the footer; then a line of description at least.
-    let fixed = FIELDS + 2 + 1;
-    let spare = body_h.saturating_sub(fixed + 1);
-    let blank = usize::from(spare >= 1);
-    let about_room = spare.saturating_sub(blank + 1).min(4);
-    let desc_room = 1 + usize::from(spare >= 2 + about_room.max(1));
-    if desc_lines.len() > desc_room {
-        desc_lines.truncate(desc_room);
-        if let Some(last) = desc_lines.last_mut() {
-            *last = ellipsize(&format!("{last} …"), w);
+    // Fixed: the fields, the preview, the footer and a line of description. Then, as room
+    // allows: a blank line, the focused field's documentation (4 lines at most), the
+    // description's second line, a blank line after the documentation.
+    let mut spare = body_h.saturating_sub(FIELDS + 2 + 1 + 1);
+    let mut take = |want: usize| {
+        let n = want.min(spare);
+        spare -= n;
+        n
+    };
+    let blank = take(1);
+    let mut about_lines = wrap_words(&about(f, &infos), w);
+    let about_n = take(about_lines.len().min(4));
+    let desc_n = 1 + take(desc_lines.len().saturating_sub(1).min(1));
+    let blank2 = if about_n > 0 { take(1) } else { 0 };
+    for (text, n) in [(&mut desc_lines, desc_n), (&mut about_lines, about_n)] {
+        if text.len() > n {
+            text.truncate(n);
+            if let Some(last) = text.last_mut() {
+                *last = ellipsize(&format!("{last} …"), w);
+            }
         }
     }
     let mut lines: Vec<Line<'static>> = desc_lines
@@ -250,20 +270,9 @@ fn form(p: &Palette, f: &PaletteForm, w: usize, body_h: usize, theme: &Theme) ->
     if blank > 0 {
         lines.push(Line::raw(""));
     }
-    if about_room > 0 {
-        let mut text = wrap_words(&about(f, &infos), w);
-        if text.len() > about_room {
-            text.truncate(about_room);
-            if let Some(last) = text.last_mut() {
-                *last = ellipsize(&format!("{last} …"), w);
-            }
-        }
-        for l in text {
-            lines.push(Line::raw(l));
-        }
-        if spare > blank + about_room + desc_room - 1 {
-            lines.push(Line::raw(""));
-        }
+    lines.extend(about_lines.into_iter().map(Line::raw));
+    if blank2 > 0 {
+        lines.push(Line::raw(""));
     }
     for l in f.preview() {
         lines.push(Line::raw(ellipsize(&l, w)));
@@ -272,7 +281,7 @@ fn form(p: &Palette, f: &PaletteForm, w: usize, body_h: usize, theme: &Theme) ->
         Some(e) => Line::styled(ellipsize(e, w), theme.alert()),
         None => Line::styled(
             ellipsize(
-                "empty = the default shown, nan allowed  tab/up/down field  enter send  esc back",
+                "empty = the default shown, nan ok  tab/up/down field  enter send  esc back",
                 w,
             ),
             theme.dim(),
