@@ -377,7 +377,10 @@ fn empty_fields_send_the_documented_defaults_on_the_wire() {
     // On the throttle: its description, range and default from the XML.
     keys(&mut r, &["tab", "tab"]);
     let s = screen(&r);
-    assert!(s.contains("p3 Throttle (%): Throttle (-1 indicates no change"), "{s}");
+    assert!(
+        s.contains("p3 Throttle (%): Throttle (-1 indicates no change"),
+        "{s}"
+    );
     assert!(s.contains("min -2") && s.contains("empty sends -1"), "{s}");
     // A number typed replaces the default.
     keys(&mut r, &["backtab"]);

@@ -410,17 +410,28 @@ pub fn fields_in_units(msg: &MavMessage, raw: bool) -> Vec<(String, String)> {
     let Some(def) = def else {
         return out;
     };
-    for (name, value) in &mut out {
+    // (index, shown, raw): the raw ones lined up after the widest value shown.
+    let mut done: Vec<(usize, String, Option<String>)> = Vec::new();
+    for (i, (name, value)) in out.iter().enumerate() {
         let Some(f) = def.field(name) else {
             continue;
         };
         if let Some(shown) = in_units(value, f) {
-            *value = if raw && converted(f, value) {
-                format!("{shown}  raw {value}")
-            } else {
-                shown
-            };
+            let raw = (raw && converted(f, value)).then(|| value.clone());
+            done.push((i, shown, raw));
         }
+    }
+    let width = done
+        .iter()
+        .filter(|d| d.2.is_some())
+        .map(|d| d.1.chars().count())
+        .max()
+        .unwrap_or(0);
+    for (i, shown, raw) in done {
+        out[i].1 = match raw {
+            Some(raw) => format!("{shown:<width$}  raw {raw}"),
+            None => shown,
+        };
     }
     out
 }
@@ -636,7 +647,7 @@ impl App {
                 v.detail_focus = !v.detail_focus;
                 Ok(Some(
                     if v.detail_focus {
-                        "the keys scroll the fields, raw values shown"
+                        "keys scroll the fields, raw shown"
                     } else {
                         "the keys move through the list"
                     }
@@ -934,7 +945,7 @@ mod tests {
         let f = fields_in_units(&gpi, true);
         let get = |n: &str| f.iter().find(|(k, _)| k == n).unwrap().1.clone();
         assert_eq!(get("lat"), "-35.3632621 deg  raw -353632621");
-        assert_eq!(get("hdg"), "unknown  raw 65535");
+        assert_eq!(get("hdg"), "unknown          raw 65535");
         // Nothing converted: no raw.
         assert_eq!(get("time_boot_ms"), "10000 ms");
         // Voltages and currents; enums and strings as they were.

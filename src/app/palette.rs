@@ -388,7 +388,11 @@ mod tests {
         // note for ArduPilot.
         assert_eq!(
             label(MavCmd::MAV_CMD_NAV_TAKEOFF, 6),
-            ("Altitude".into(), "m", "ArduPilot: above home. Altitude".into())
+            (
+                "Altitude".into(),
+                "m",
+                "ArduPilot: above home. Altitude".into()
+            )
         );
         assert_eq!(label(MavCmd::MAV_CMD_NAV_TAKEOFF, 3).1, "deg");
         assert_eq!(label(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 0).0, "Arm");
@@ -411,7 +415,10 @@ mod tests {
         assert_eq!(mav_cmds::param(servo, 1).0, "PWM");
         assert_eq!(mav_cmds::param(servo, 1).1, "us");
         assert_eq!(mav_cmds::param(servo, 6).0, "(unused)");
-        assert_eq!(mav_cmds::description(servo), "Set a servo to a desired PWM value.");
+        assert_eq!(
+            mav_cmds::description(servo),
+            "Set a servo to a desired PWM value."
+        );
     }
 
     #[test]

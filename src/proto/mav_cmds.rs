@@ -130,7 +130,9 @@ pub fn param_info(command: u16, i: usize) -> ParamInfo {
     info.min = p.min;
     info.max = p.max;
     info.increment = p.increment;
-    info.default = p.default.unwrap_or_else(|| described_default(&p.description));
+    info.default = p
+        .default
+        .unwrap_or_else(|| described_default(&p.description));
     info
 }
 
@@ -217,14 +219,23 @@ mod tests {
         assert_eq!(param_info(speed, 1).default, -1.0);
         let t = param_info(speed, 0);
         assert_eq!(t.enum_name, "SPEED_TYPE");
-        assert!(t.values.starts_with("0 AIRSPEED, 1 GROUNDSPEED"), "{}", t.values);
+        assert!(
+            t.values.starts_with("0 AIRSPEED, 1 GROUNDSPEED"),
+            "{}",
+            t.values
+        );
         assert!(!param_info(speed, 3).used);
         assert!(description(MavCmd::MAV_CMD_DO_SET_SERVO as u16).starts_with("Set a servo"));
         // Latitude in COMMAND_LONG: degrees.
         let takeoff = MavCmd::MAV_CMD_NAV_TAKEOFF as u16;
         assert_eq!(param(takeoff, 4).1, "deg");
-        assert!(param_info(takeoff, 3).default.is_nan(), "NaN: the current yaw mode");
-        assert!(param_info(takeoff, 6).description.starts_with("ArduPilot: above home."));
+        assert!(
+            param_info(takeoff, 3).default.is_nan(),
+            "NaN: the current yaw mode"
+        );
+        assert!(param_info(takeoff, 6)
+            .description
+            .starts_with("ArduPilot: above home."));
         assert!(param_info(2000, 6).default.is_nan());
         assert_eq!(param(400, 2).0, "(unused)");
         for c in COMMON {

@@ -10,9 +10,9 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Borders, Clear, Paragraph};
 use ratatui::Frame;
 
+use super::inspector::wrap_words;
 use super::{ellipsize, Theme};
 use crate::app::input::TextLine;
-use super::inspector::wrap_words;
 use crate::app::palette::{wire_value, Palette, PaletteForm, FIELDS, TARGET};
 use crate::app::App;
 use crate::proto::ack::command_name;

@@ -15,17 +15,26 @@ const FILES: &[(&str, &str)] = &[
         "ardupilotmega.xml",
         include_str!("../../assets/mavlink/ardupilotmega.xml"),
     ),
-    ("common.xml", include_str!("../../assets/mavlink/common.xml")),
+    (
+        "common.xml",
+        include_str!("../../assets/mavlink/common.xml"),
+    ),
     (
         "standard.xml",
         include_str!("../../assets/mavlink/standard.xml"),
     ),
-    ("minimal.xml", include_str!("../../assets/mavlink/minimal.xml")),
+    (
+        "minimal.xml",
+        include_str!("../../assets/mavlink/minimal.xml"),
+    ),
     (
         "uAvionix.xml",
         include_str!("../../assets/mavlink/uAvionix.xml"),
     ),
-    ("icarous.xml", include_str!("../../assets/mavlink/icarous.xml")),
+    (
+        "icarous.xml",
+        include_str!("../../assets/mavlink/icarous.xml"),
+    ),
     (
         "loweheiser.xml",
         include_str!("../../assets/mavlink/loweheiser.xml"),
@@ -187,10 +196,13 @@ impl Definitions {
         let Some(name) = node.attribute("name") else {
             return;
         };
-        let def = self.enums.entry(name.to_string()).or_insert_with(|| EnumDef {
-            name: name.to_string(),
-            ..EnumDef::default()
-        });
+        let def = self
+            .enums
+            .entry(name.to_string())
+            .or_insert_with(|| EnumDef {
+                name: name.to_string(),
+                ..EnumDef::default()
+            });
         def.bitmask |= node.attribute("bitmask") == Some("true");
         if def.description.is_empty() {
             def.description = child_text(node, "description");
