@@ -8,6 +8,7 @@ mod common;
 
 use mavterm::app::inspector::{fields, MsgKey};
 use mavterm::app::{App, AppConfig, Event};
+use mavterm::clock::Micros;
 use mavterm::dialect::{self, MavMessage};
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::keymap::{Key, Mode};
@@ -170,18 +171,20 @@ fn the_selected_message_shows_its_fields_as_the_sim_sent_them() {
     let s = screen(&r);
     let v = sim(&r).vehicle(1).unwrap();
     let (lat, lon, _) = v.home();
-    let num = |n: &str| -> i64 {
+    let num = |n: &str| -> f64 {
         shown_field(&s, n)
             .unwrap_or_else(|| panic!("no {n}\n{s}"))
             .parse()
             .unwrap()
     };
-    // Landed at home: latitude and longitude in 1e-7 degrees, altitude 0 above home.
-    assert!((num("lat") - (lat * 1e7).round() as i64).abs() <= 10, "{s}");
-    assert!((num("lon") - (lon * 1e7).round() as i64).abs() <= 10, "{s}");
-    assert_eq!(
-        num("relative_alt"),
-        (v.relative_alt_m() * 1000.0).round() as i64
+    // Landed at home: latitude and longitude in degrees (sent in 1e-7 degrees), altitude 0 m
+    // above home (sent in mm).
+    assert!((num("lat") - lat).abs() <= 1e-6, "{s}");
+    assert!((num("lon") - lon).abs() <= 1e-6, "{s}");
+    assert!(s.contains(" deg "), "{s}");
+    assert!(
+        (num("relative_alt") - v.relative_alt_m()).abs() < 0.001,
+        "{s}"
     );
     for f in ["time_boot_ms", "alt", "vx", "vy", "vz", "hdg"] {
         assert!(shown_field(&s, f).is_some(), "{f}\n{s}");
@@ -445,4 +448,49 @@ fn the_screen_never_panics_at_any_size() {
     let k = app.inspector_selected().unwrap();
     let msg = app.inspector.get(k).unwrap().decode(k.2).unwrap();
     assert!(!fields(&msg).is_empty());
+}
+
+/// Mid-flight in the real capture: hovering at the 10 m of the takeoff.
+const MID_FLIGHT: Micros = 56 * SECOND;
+
+#[test]
+fn the_capture_shows_latitude_in_degrees_and_on_enter_the_raw_value() {
+    let spec: LinkSpec = "tlog:tests/data/copter-flight.vehicle.tlog"
+        .parse()
+        .unwrap();
+    let mut r = VirtualRunner::from_specs(&[spec], AppConfig::default()).unwrap();
+    r.advance_to(MID_FLIGHT);
+    common::keys(&mut r, &["4"]);
+    let k = select(&mut r, "GLOBAL_POSITION_INT");
+    let Ok(MavMessage::GLOBAL_POSITION_INT(m)) = r.app.inspector.get(k).unwrap().decode(k.2) else {
+        panic!("not decoded")
+    };
+    // common.xml: lat, lon in degE7; relative_alt in mm; vx in cm/s; hdg in cdeg.
+    let s = screen(&r);
+    let deg = format!("{:.7}", m.lat as f64 / 1e7);
+    assert_eq!(shown_field(&s, "lat").as_deref(), Some(deg.as_str()), "{s}");
+    assert!(s.contains(&format!("lat          = {deg} deg")), "{s}");
+    let lon = format!("{:.7}", m.lon as f64 / 1e7);
+    assert_eq!(shown_field(&s, "lon").as_deref(), Some(lon.as_str()), "{s}");
+    let rel = format!("{:.3}", m.relative_alt as f64 / 1000.0);
+    assert!(s.contains(&format!("= {rel} m")), "{s}");
+    assert!(
+        (m.relative_alt as f64 / 1000.0 - 10.0).abs() < 1.5,
+        "hovering at 10 m"
+    );
+    let hdg = format!("{:.2}", m.hdg as f64 / 100.0);
+    assert_eq!(shown_field(&s, "hdg").as_deref(), Some(hdg.as_str()), "{s}");
+    assert!(!s.contains(&m.lat.to_string()), "{s}");
+    insta::assert_snapshot!("inspector_units_80x24", s);
+    // enter: the raw values as sent beside the converted ones.
+    common::keys(&mut r, &["enter"]);
+    let s = screen(&r);
+    let line = s
+        .lines()
+        .find(|l| l.contains(&format!("lat          = {deg} deg ")))
+        .unwrap_or_else(|| panic!("{s}"));
+    assert!(line.contains(&format!(" raw {} ", m.lat)), "{s}");
+    insta::assert_snapshot!("inspector_units_raw_80x24", s);
+    common::keys(&mut r, &["enter"]);
+    assert!(!screen(&r).contains(&format!("raw {}", m.lat)));
 }

@@ -90,7 +90,7 @@ fn arm_from_the_palette_asks_first_then_arms_the_sim() {
     let s = screen(&r);
     for want in [
         "COMPONENT_ARM_DISARM (400)",
-        "Arms / disarms a component",
+        "Arms / Disarms a component",
         "p1 Arm",
         "p2 Force",
         "[1:1",
@@ -343,4 +343,116 @@ fn the_takeoff_form_shows_units_and_the_command_long_to_be_sent() {
         r.app.sessions[&VehicleKey(1, 1)].commands.entries().len(),
         0
     );
+}
+
+/// The COMMAND_LONGs of `command` that left for the sim since the last call, as parsed from the
+/// bytes on the wire.
+fn sent_commands(r: &mut VirtualRunner, command: MavCmd) -> Vec<dialect::COMMAND_LONG_DATA> {
+    r.take_sent()
+        .into_iter()
+        .flat_map(|(_, _, bytes)| FrameParser::new().parse_all(&bytes))
+        .filter_map(|f| match f.message {
+            Some(MavMessage::COMMAND_LONG(c)) if c.command == command => Some(c),
+            _ => None,
+        })
+        .collect()
+}
+
+/// `ctrl-p`, the query typed, the first match picked (it must be `command`).
+fn pick(r: &mut VirtualRunner, query: &str, command: MavCmd) {
+    keys(r, &["ctrl-p"]);
+    typed(r, query);
+    assert_eq!(
+        r.app.ui.palette.as_ref().unwrap().selected(),
+        Some(command as u16),
+        "{query}"
+    );
+    keys(r, &["enter"]);
+}
+
+#[test]
+fn empty_fields_send_the_documented_defaults_on_the_wire() {
+    let mut r = runner();
+    r.capture_sent();
+    // DO_CHANGE_SPEED, every field empty. common.xml: speed and throttle "-1 indicates no
+    // change"; param4-7 reserved, default="0"; the speed type (SPEED_TYPE) has no default: 0.
+    pick(&mut r, "change speed", MavCmd::MAV_CMD_DO_CHANGE_SPEED);
+    let s = screen(&r);
+    for want in [
+        "DO_CHANGE_SPEED (178)",
+        "Change speed and/or throttle set points.",
+        "p2 Speed",
+        "p3 Throttle",
+        "[-1          ] m/s",
+        "[-1          ] %",
+        "p1=0 p2=-1 p3=-1 p4=0 p5=0 p6=0 p7=0",
+        // The focused field's documentation: the enum's values.
+        "SPEED_TYPE: 0 AIRSPEED, 1 GROUNDSPEED",
+    ] {
+        assert!(s.contains(want), "{want}\n{s}");
+    }
+    insta::assert_snapshot!("palette_change_speed_defaults_80x24", s);
+    // On the throttle: its description, range and default from the XML.
+    keys(&mut r, &["tab", "tab"]);
+    let s = screen(&r);
+    assert!(
+        s.contains("p3 Throttle (%): Throttle (-1 indicates no change"),
+        "{s}"
+    );
+    assert!(s.contains("min -2") && s.contains("empty sends -1"), "{s}");
+    // A number typed replaces the default.
+    keys(&mut r, &["backtab"]);
+    typed(&mut r, "5");
+    keys(&mut r, &["enter"]);
+    assert!(r.app.ui.palette.is_none(), "{:?}", r.app.ui.palette);
+    wait(&mut r, 0.5);
+    let sent = sent_commands(&mut r, MavCmd::MAV_CMD_DO_CHANGE_SPEED);
+    let [c] = sent.as_slice() else {
+        panic!("{sent:?}")
+    };
+    assert_eq!((c.target_system, c.target_component), (1, 1));
+    assert_eq!(
+        [c.param1, c.param2, c.param3, c.param4, c.param5, c.param6, c.param7],
+        [0.0, 5.0, -1.0, 0.0, 0.0, 0.0, 0.0]
+    );
+
+    // IMAGE_START_CAPTURE: param7 reserved with default="NaN" in common.xml.
+    pick(&mut r, "image start", MavCmd::MAV_CMD_IMAGE_START_CAPTURE);
+    assert!(screen(&r).contains("p7=nan"), "{}", screen(&r));
+    keys(&mut r, &["enter"]);
+    wait(&mut r, 0.5);
+    let sent = sent_commands(&mut r, MavCmd::MAV_CMD_IMAGE_START_CAPTURE);
+    let [c] = sent.as_slice() else {
+        panic!("{sent:?}")
+    };
+    assert!(c.param7.is_nan(), "{c:?}");
+    assert_eq!((c.param1, c.param5, c.param6), (0.0, 0.0, 0.0));
+}
+
+#[test]
+fn a_command_never_described_by_hand_has_the_xmls_description_and_labels() {
+    let mut r = runner();
+    keys(&mut r, &["ctrl-p"]);
+    typed(&mut r, "do_set_servo");
+    assert_eq!(
+        r.app.ui.palette.as_ref().unwrap().selected(),
+        Some(MavCmd::MAV_CMD_DO_SET_SERVO as u16)
+    );
+    // In the list: common.xml's <description>.
+    let s = screen(&r);
+    assert!(s.contains("Set a servo to a desired PWM value."), "{s}");
+    keys(&mut r, &["enter"]);
+    let s = screen(&r);
+    for want in [
+        "DO_SET_SERVO (183)",
+        "Set a servo to a desired PWM value.",
+        "p1 Instance",
+        "p2 PWM",
+        "] us ",
+        "p3 (unused)",
+        "p1 Instance: Servo instance number. min 0, increment 1, empty sends 0.",
+    ] {
+        assert!(s.contains(want), "{want}\n{s}");
+    }
+    insta::assert_snapshot!("palette_set_servo_form_80x24", s);
 }

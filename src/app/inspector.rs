@@ -278,7 +278,7 @@ pub struct InspectorView {
     /// Names containing this (case-insensitive).
     pub filter: String,
     pub editing: Option<InspectEdit>,
-    /// The keys scroll the fields instead of the list.
+    /// The keys scroll the fields instead of the list, and the fields show their raw values too.
     pub detail_focus: bool,
     /// Lines the fields are scrolled by.
     pub detail_scroll: usize,
@@ -349,6 +349,92 @@ pub fn hz_text(hz: f64) -> String {
 /// other arrays compact (runs as `0×14`). Text it cannot split comes back whole, as one field.
 pub fn fields(msg: &MavMessage) -> Vec<(String, String)> {
     fields_of_debug(&format!("{msg:?}"))
+}
+
+/// A unit of the dialect shown scaled: (the dialect's unit, what a raw value is divided by, the
+/// unit shown, decimals). Units not listed show as they are, after the raw value.
+const SCALED: &[(&str, f64, &str, usize)] = &[
+    ("degE7", 1e7, "deg", 7),
+    ("degE5", 1e5, "deg", 5),
+    ("cdeg", 100.0, "deg", 2),
+    ("ddeg/s", 10.0, "deg/s", 1),
+    ("deg/2", 0.5, "deg", 0),
+    ("cm", 100.0, "m", 2),
+    ("mm", 1000.0, "m", 3),
+    ("dm", 10.0, "m", 1),
+    ("dam", 0.1, "m", 0),
+    ("cm/s", 100.0, "m/s", 2),
+    ("mm/s", 1000.0, "m/s", 3),
+    ("dm/s", 10.0, "m/s", 1),
+    ("mV", 1000.0, "V", 3),
+    ("cV", 100.0, "V", 2),
+    ("mA", 1000.0, "A", 3),
+    ("cA", 100.0, "A", 2),
+    ("cdegC", 100.0, "degC", 2),
+    ("mrad/s", 1000.0, "rad/s", 3),
+    ("c%", 100.0, "%", 2),
+    ("d%", 10.0, "%", 1),
+    ("cs", 100.0, "s", 2),
+    ("ds", 10.0, "s", 1),
+];
+
+/// One field's value in the unit its definition gives (`units="degE7"`): scaled to a unit an
+/// operator reads (`-35.3632621 deg` for `-353632621`), or with its unit after it (`10000 ms`);
+/// `unknown` for the field's `invalid` value. `None` when there is nothing to add to the raw
+/// text (no unit, an enum, a string, an array).
+pub fn in_units(value: &str, def: &crate::wire::mavlink_xml::FieldDef) -> Option<String> {
+    if crate::wire::mavlink_xml::is_invalid(&def.invalid, value) {
+        return Some("unknown".into());
+    }
+    if def.units.is_empty() || def.ty.contains('[') {
+        return None;
+    }
+    let v: f64 = value.trim().parse().ok()?;
+    Some(match SCALED.iter().find(|(u, ..)| *u == def.units) {
+        Some((_, div, unit, decimals)) => format!("{:.*} {unit}", *decimals, v / div),
+        None => format!("{value} {}", def.units),
+    })
+}
+
+/// Whether [`in_units`] changed the number (scaled, or `unknown`), so the raw one is worth showing.
+fn converted(def: &crate::wire::mavlink_xml::FieldDef, value: &str) -> bool {
+    crate::wire::mavlink_xml::is_invalid(&def.invalid, value)
+        || SCALED.iter().any(|(u, ..)| *u == def.units)
+}
+
+/// [`fields`] as the Inspector shows them: each value in the units of the dialect's definition
+/// of the field ([`in_units`]); with `raw`, a value converted is followed by the raw one as sent
+/// (`-35.3632621 deg  raw -353632621`).
+pub fn fields_in_units(msg: &MavMessage, raw: bool) -> Vec<(String, String)> {
+    let def = crate::wire::mavlink_xml::definitions().message(msg.message_name());
+    let mut out = fields(msg);
+    let Some(def) = def else {
+        return out;
+    };
+    // (index, shown, raw): the raw ones lined up after the widest value shown.
+    let mut done: Vec<(usize, String, Option<String>)> = Vec::new();
+    for (i, (name, value)) in out.iter().enumerate() {
+        let Some(f) = def.field(name) else {
+            continue;
+        };
+        if let Some(shown) = in_units(value, f) {
+            let raw = (raw && converted(f, value)).then(|| value.clone());
+            done.push((i, shown, raw));
+        }
+    }
+    let width = done
+        .iter()
+        .filter(|d| d.2.is_some())
+        .map(|d| d.1.chars().count())
+        .max()
+        .unwrap_or(0);
+    for (i, shown, raw) in done {
+        out[i].1 = match raw {
+            Some(raw) => format!("{shown:<width$}  raw {raw}"),
+            None => shown,
+        };
+    }
+    out
 }
 
 /// [`fields`] from a `NAME(NAME_DATA { a: 1, b: [2, 3] })` text.
@@ -519,7 +605,7 @@ impl App {
             let n = self
                 .inspector_selected()
                 .and_then(|k| Some(self.inspector.get(k)?.decode(k.2)))
-                .map_or(0, |d| d.map_or(20, |m| fields(&m).len()));
+                .map_or(0, |d| d.map_or(20, |m| fields_in_units(&m, true).len()));
             let v = &mut self.ui.inspector;
             v.detail_scroll = (v.detail_scroll as isize + step).clamp(0, n as isize) as usize;
             return;
@@ -562,7 +648,7 @@ impl App {
                 v.detail_focus = !v.detail_focus;
                 Ok(Some(
                     if v.detail_focus {
-                        "the keys scroll the fields"
+                        "keys scroll the fields, raw shown"
                     } else {
                         "the keys move through the list"
                     }
@@ -842,6 +928,49 @@ mod tests {
         );
         // Text that is not a struct comes back whole.
         assert_eq!(fields_of_debug("odd"), vec![(String::new(), "odd".into())]);
+    }
+
+    #[test]
+    fn fields_in_the_units_of_the_dialect_and_raw_on_demand() {
+        let gpi = MavMessage::GLOBAL_POSITION_INT(dialect::GLOBAL_POSITION_INT_DATA {
+            time_boot_ms: 10_000,
+            lat: -353_632_621,
+            lon: 1_491_652_374,
+            alt: 584_000,
+            relative_alt: 10_250,
+            vx: -150,
+            vy: 0,
+            vz: 0,
+            hdg: u16::MAX,
+        });
+        let f = fields_in_units(&gpi, false);
+        let get = |n: &str| f.iter().find(|(k, _)| k == n).unwrap().1.clone();
+        // common.xml: degE7, mm, cm/s, cdeg with invalid="UINT16_MAX", ms.
+        assert_eq!(get("lat"), "-35.3632621 deg");
+        assert_eq!(get("lon"), "149.1652374 deg");
+        assert_eq!(get("alt"), "584.000 m");
+        assert_eq!(get("relative_alt"), "10.250 m");
+        assert_eq!(get("vx"), "-1.50 m/s");
+        assert_eq!(get("hdg"), "unknown");
+        assert_eq!(get("time_boot_ms"), "10000 ms");
+        let f = fields_in_units(&gpi, true);
+        let get = |n: &str| f.iter().find(|(k, _)| k == n).unwrap().1.clone();
+        assert_eq!(get("lat"), "-35.3632621 deg  raw -353632621");
+        assert_eq!(get("hdg"), "unknown          raw 65535");
+        // Nothing converted: no raw.
+        assert_eq!(get("time_boot_ms"), "10000 ms");
+        // Voltages and currents; enums and strings as they were.
+        let st = MavMessage::SYS_STATUS(dialect::SYS_STATUS_DATA {
+            voltage_battery: 12_600,
+            current_battery: 50,
+            ..Default::default()
+        });
+        let f = fields_in_units(&st, false);
+        let get = |n: &str| f.iter().find(|(k, _)| k == n).unwrap().1.clone();
+        assert_eq!(get("voltage_battery"), "12.600 V");
+        assert_eq!(get("current_battery"), "0.50 A");
+        let hb = MavMessage::HEARTBEAT(dialect::HEARTBEAT_DATA::default());
+        assert_eq!(fields_in_units(&hb, true), fields(&hb));
     }
 
     #[test]

@@ -42,7 +42,8 @@ pub struct Palette {
 #[derive(Debug, Clone, PartialEq)]
 pub struct PaletteForm {
     pub command: u16,
-    /// param1..param7 (empty = 0, `nan` allowed), then the target `SYSID:COMPID`.
+    /// param1..param7 (empty: the parameter's documented default, [`mav_cmds::ParamInfo`];
+    /// `nan` allowed), then the target `SYSID:COMPID`.
     pub fields: [TextLine; FIELDS],
     /// The field typed into.
     pub focus: usize,
@@ -104,9 +105,13 @@ impl PaletteForm {
         self.focus = (self.focus as isize + step).rem_euclid(FIELDS as isize) as usize;
     }
 
-    /// Parameter `i` (0-based) as typed, or why it is not a number.
+    /// Parameter `i` (0-based) as typed (its documented default when empty), or why it is not
+    /// a number.
     pub fn param(&self, i: usize) -> Result<f64, String> {
         let text = self.fields[i].text.trim();
+        if text.is_empty() {
+            return Ok(self.default(i));
+        }
         parse_param(text)
             .and_then(|v| match v.is_finite() && (v as f32).is_infinite() {
                 true => Err(format!("`{text}` is too large for a float32")),
@@ -116,6 +121,11 @@ impl PaletteForm {
                 let (label, _, _) = mav_cmds::param(self.command, i);
                 format!("param{} ({label}): {e}", i + 1)
             })
+    }
+
+    /// What parameter `i` (0-based) is when its field is left empty.
+    pub fn default(&self, i: usize) -> f64 {
+        mav_cmds::param_info(self.command, i).default
     }
 
     /// All seven parameters, or the first that is wrong.
@@ -179,7 +189,7 @@ pub fn parse_target(text: &str) -> Result<VehicleKey, String> {
 const COMMON_BONUS: u32 = 8;
 
 /// The commands matching `query`, best first: fuzzy over the names (without `MAV_CMD_`; case and
-/// a typed `MAV_CMD_` prefix do not matter), the commonly used commands ([`mav_cmds::DOCS`])
+/// a typed `MAV_CMD_` prefix do not matter), the commonly used commands ([`mav_cmds::COMMON`])
 /// winning near ties, then the shorter name (`takeoff`: NAV_TAKEOFF before NAV_VTOL_TAKEOFF).
 /// Digits find commands by number, the exact one first. An empty query lists every command by
 /// number.
@@ -207,7 +217,7 @@ pub fn search(query: &str) -> Vec<u16> {
         .iter()
         .filter_map(|(n, name)| {
             let score = pattern.score(Utf32Str::new(name, &mut buf), &mut matcher)?;
-            let common = mav_cmds::doc(*n).is_some();
+            let common = mav_cmds::is_common(*n);
             let score = score + if common { COMMON_BONUS } else { 0 };
             Some((score, !common, name.len(), *n))
         })
@@ -372,47 +382,53 @@ mod tests {
     }
 
     #[test]
-    fn the_form_labels_the_common_commands_params_with_units() {
+    fn the_form_labels_every_commands_params_from_the_xml() {
         let label = |c: MavCmd, i: usize| mav_cmds::param(c as u16, i);
+        // common.xml: <param index="7" label="Altitude" units="m">Altitude</param>, and our
+        // note for ArduPilot.
         assert_eq!(
             label(MavCmd::MAV_CMD_NAV_TAKEOFF, 6),
-            ("Altitude".into(), "m", "ArduPilot: above home")
+            (
+                "Altitude".into(),
+                "m",
+                "ArduPilot: above home. Altitude".into()
+            )
         );
         assert_eq!(label(MavCmd::MAV_CMD_NAV_TAKEOFF, 3).1, "deg");
         assert_eq!(label(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 0).0, "Arm");
         assert_eq!(label(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 1).0, "Force");
         assert_eq!(label(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 2).0, "(unused)");
         assert_eq!(label(MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL, 1).1, "us");
-        assert_eq!(label(MavCmd::MAV_CMD_DO_CHANGE_SPEED, 1), {
-            ("Speed".into(), "m/s", "-1 no change, -2 default")
-        });
+        let speed = label(MavCmd::MAV_CMD_DO_CHANGE_SPEED, 1);
+        assert_eq!((speed.0.as_str(), speed.1), ("Speed", "m/s"));
+        assert!(speed.2.contains("-1 indicates no change"), "{}", speed.2);
         assert_eq!(label(MavCmd::MAV_CMD_DO_CHANGE_SPEED, 2).1, "%");
-        assert_eq!(label(MavCmd::MAV_CMD_DO_REPOSITION, 3).1, "rad");
         assert_eq!(label(MavCmd::MAV_CMD_VIDEO_START_CAPTURE, 1).1, "Hz");
         assert_eq!(label(MavCmd::MAV_CMD_IMAGE_START_CAPTURE, 1).1, "s");
         assert_eq!(label(MavCmd::MAV_CMD_DO_MOTOR_TEST, 3).1, "s");
-        assert_eq!(label(MavCmd::MAV_CMD_NAV_LAND, 0), {
-            ("Abort Alt".into(), "m", "0: system default")
-        });
+        let land = label(MavCmd::MAV_CMD_NAV_LAND, 0);
+        assert_eq!((land.0.as_str(), land.1), ("Abort Alt", "m"));
         assert_eq!(label(MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH, 0).0, "(unused)");
-        for c in [
-            MavCmd::MAV_CMD_DO_SET_MODE,
-            MavCmd::MAV_CMD_REQUEST_MESSAGE,
-            MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION,
-            MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN,
-            MavCmd::MAV_CMD_DO_SET_HOME,
-        ] {
-            assert!(mav_cmds::doc(c as u16).is_some(), "{c:?}");
-            assert_ne!(label(c, 0).0, "param 1", "{c:?}");
-        }
-        // Any other command: "param N".
-        let other = MavCmd::MAV_CMD_DO_SET_SERVO as u16;
-        assert_eq!(mav_cmds::param(other, 0), ("param 1".into(), "", ""));
-        assert_eq!(mav_cmds::param(other, 6).0, "param 7");
+        // A command the hand-written table never described: labelled from the XML too.
+        let servo = MavCmd::MAV_CMD_DO_SET_SERVO as u16;
+        assert_eq!(mav_cmds::param(servo, 0).0, "Instance");
+        assert_eq!(mav_cmds::param(servo, 1).0, "PWM");
+        assert_eq!(mav_cmds::param(servo, 1).1, "us");
+        assert_eq!(mav_cmds::param(servo, 6).0, "(unused)");
+        assert_eq!(
+            mav_cmds::description(servo),
+            "Set a servo to a desired PWM value."
+        );
     }
 
     #[test]
-    fn empty_fields_are_zero_nan_is_allowed_and_bad_ones_are_named() {
+    fn empty_fields_are_the_default_nan_is_allowed_and_bad_ones_are_named() {
+        // DO_CHANGE_SPEED: "-1 indicates no change" for speed and throttle; reserved 0.
+        let f = PaletteForm::new(MavCmd::MAV_CMD_DO_CHANGE_SPEED as u16, Some(VehicleKey(1, 1)));
+        assert_eq!(f.params().unwrap(), [0.0, -1.0, -1.0, 0.0, 0.0, 0.0, 0.0]);
+        // IMAGE_START_CAPTURE: param7 reserved, default="NaN".
+        let f = PaletteForm::new(MavCmd::MAV_CMD_IMAGE_START_CAPTURE as u16, Some(VehicleKey(1, 1)));
+        assert!(f.params().unwrap()[6].is_nan());
         let mut f = PaletteForm::new(22, Some(VehicleKey(1, 1)));
         f.fields[3].set("NaN");
         f.fields[6].set(" 10 ");

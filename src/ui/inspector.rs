@@ -1,6 +1,8 @@
 //! The MAVLink Inspector (`4`): every message id heard, grouped per source (`1:1 HEARTBEAT
 //! 1.0 Hz 112 0.3s`: source, name, measured rate, count, time since the last), and below it (beside
-//! it when wide) the selected one's last fields, `name = value`, in as many columns as fit.
+//! it when wide) the selected one's last fields, `name = value`, in as many columns as fit, each
+//! value in the units the dialect defines for it (`lat = -35.3632621 deg`); while the fields have
+//! the keys (`enter`), a value converted shows the raw one as sent too.
 //!
 //! A message the dialect could not read (an enum value newer than our dialect) shows why and its
 //! payload in hex. A message not heard for the whole rate window is dimmed. While a rate is typed
@@ -15,7 +17,7 @@ use ratatui::Frame;
 
 use super::{ellipsize, Theme};
 use crate::app::inspector::{
-    fields, hex_lines, hz_text, interval_text, InspectEdit, MsgEntry, MsgKey, RATE_WINDOW,
+    fields_in_units, hex_lines, hz_text, interval_text, InspectEdit, MsgEntry, MsgKey, RATE_WINDOW,
 };
 use crate::app::App;
 use crate::clock::SECOND;
@@ -495,7 +497,7 @@ fn render_detail(app: &App, frame: &mut Frame, area: Rect, theme: &Theme, sel: O
     let body_h = h.saturating_sub(1);
     match e.decode(k.2) {
         Ok(msg) => {
-            let body = field_lines(&fields(&msg), w);
+            let body = field_lines(&fields_in_units(&msg, v.detail_focus), w);
             let max_scroll = body.len().saturating_sub(body_h);
             let scroll = v.detail_scroll.min(max_scroll);
             for l in body.iter().skip(scroll).take(body_h) {

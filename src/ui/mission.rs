@@ -25,7 +25,8 @@ fn num(v: f64) -> String {
     }
 }
 
-/// `label=value` for the parameters 1-4 the command uses (the palette's labels).
+/// `label=value` for the parameters 1-4 the command uses (the palette's labels); at 0, only those
+/// of the commonly used commands.
 fn params_text(i: &MissionItem) -> String {
     let mut out = Vec::new();
     for (n, p) in i.params.iter().enumerate() {
@@ -33,7 +34,7 @@ fn params_text(i: &MissionItem) -> String {
         if label == "(unused)" {
             continue;
         }
-        if label.starts_with("param ") && *p == 0.0 {
+        if *p == 0.0 && !crate::proto::mav_cmds::is_common(i.command) {
             continue;
         }
         let short: String = label.split_whitespace().collect::<Vec<_>>().join(" ");

@@ -5,6 +5,7 @@
 pub mod cmd;
 pub mod frame;
 pub mod mavftp;
+pub mod mavlink_xml;
 pub mod param_pck;
 pub mod parser;
 pub mod payload;
