@@ -424,10 +424,16 @@ mod tests {
     #[test]
     fn empty_fields_are_the_default_nan_is_allowed_and_bad_ones_are_named() {
         // DO_CHANGE_SPEED: "-1 indicates no change" for speed and throttle; reserved 0.
-        let f = PaletteForm::new(MavCmd::MAV_CMD_DO_CHANGE_SPEED as u16, Some(VehicleKey(1, 1)));
+        let f = PaletteForm::new(
+            MavCmd::MAV_CMD_DO_CHANGE_SPEED as u16,
+            Some(VehicleKey(1, 1)),
+        );
         assert_eq!(f.params().unwrap(), [0.0, -1.0, -1.0, 0.0, 0.0, 0.0, 0.0]);
         // IMAGE_START_CAPTURE: param7 reserved, default="NaN".
-        let f = PaletteForm::new(MavCmd::MAV_CMD_IMAGE_START_CAPTURE as u16, Some(VehicleKey(1, 1)));
+        let f = PaletteForm::new(
+            MavCmd::MAV_CMD_IMAGE_START_CAPTURE as u16,
+            Some(VehicleKey(1, 1)),
+        );
         assert!(f.params().unwrap()[6].is_nan());
         let mut f = PaletteForm::new(22, Some(VehicleKey(1, 1)));
         f.fields[3].set("NaN");
