@@ -1016,7 +1016,7 @@ impl App {
                     s.on_text(now, &t.text);
                 }
             }
-            self.notice(t.severity, Some(t.source.into()), t.text);
+            self.vehicle_notice(t.severity, t.source.into(), t.text);
         }
     }
 
