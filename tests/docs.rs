@@ -54,12 +54,15 @@ fn captures() -> BTreeMap<String, (String, PathBuf)> {
             .links
             .iter()
             .map(|(line, spec)| {
-                spec.parse().unwrap_or_else(|e| {
-                    panic!("{}:{line}: bad link {spec}: {e}", path.display())
-                })
+                spec.parse()
+                    .unwrap_or_else(|e| panic!("{}:{line}: bad link {spec}: {e}", path.display()))
             })
             .collect();
-        assert!(!specs.is_empty(), "{}: no `# link SPEC` header", path.display());
+        assert!(
+            !specs.is_empty(),
+            "{}: no `# link SPEC` header",
+            path.display()
+        );
         let size = script
             .size
             .unwrap_or_else(|| panic!("{}: no `# size WxH` header", path.display()));
@@ -70,9 +73,14 @@ fn captures() -> BTreeMap<String, (String, PathBuf)> {
             ..ReplayOptions::default()
         };
         // The scripts name files relative to the repository (`wp load tests/data/...`).
-        let (outcome, _app) =
-            run_script_on_specs(&script, &specs, AppConfig::default(), &opts, &mut Vec::new())
-                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let (outcome, _app) = run_script_on_specs(
+            &script,
+            &specs,
+            AppConfig::default(),
+            &opts,
+            &mut Vec::new(),
+        )
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         assert!(
             outcome.completed,
             "{}: the script did not run to its end (a key quit mavterm?)",
@@ -99,7 +107,7 @@ fn pages() -> Vec<PathBuf> {
     pages
 }
 
-/// One pasted capture: its name and the byte range of its text inside the page.
+/// One pasted capture: its name, the line of its marker and the byte range of its text.
 struct Paste {
     name: String,
     line: usize,
@@ -119,6 +127,7 @@ fn pastes(page: &Path, text: &str) -> Vec<Paste> {
         let Some(rest) = l.trim_end().strip_prefix(MARKER) else {
             continue;
         };
+        let marker_line = i;
         let name = rest
             .strip_suffix("-->")
             .unwrap_or_else(|| panic!("{}:{i}: marker without `-->`", page.display()))
@@ -143,7 +152,7 @@ fn pastes(page: &Path, text: &str) -> Vec<Paste> {
         );
         out.push(Paste {
             name,
-            line: i,
+            line: marker_line,
             range: start..offset,
         });
     }
@@ -280,5 +289,46 @@ fn every_page_link_resolves() {
                 );
             }
         }
+    }
+}
+
+/// The command replay.md gives makes the same screens as the test: `mavterm --headless --input
+/// SCRIPT --utc --screens DIR` (with no config, keymap or cached metadata of the machine's).
+#[test]
+fn the_binary_makes_the_same_captures() {
+    let caps = captures();
+    let home = tempfile::tempdir().unwrap();
+    let out = tempfile::tempdir().unwrap();
+    for script in sorted_files(&root().join("docs/scripts"), "txt") {
+        let status = std::process::Command::new(env!("CARGO_BIN_EXE_mavterm"))
+            .current_dir(root())
+            .env("HOME", home.path())
+            .env("XDG_CONFIG_HOME", home.path().join("config"))
+            .env("XDG_DATA_HOME", home.path().join("data"))
+            .env("XDG_CACHE_HOME", home.path().join("cache"))
+            .arg("--headless")
+            .arg("--input")
+            .arg(&script)
+            .arg("--utc")
+            .arg("--screens")
+            .arg(out.path())
+            .output()
+            .unwrap();
+        assert!(
+            status.status.success(),
+            "{}: {}",
+            script.display(),
+            String::from_utf8_lossy(&status.stderr)
+        );
+    }
+    for (name, (text, script)) in &caps {
+        let got = std::fs::read_to_string(out.path().join(format!("{name}.txt")))
+            .unwrap_or_else(|e| panic!("{name}.txt from {}: {e}", script.display()));
+        assert!(
+            got == *text,
+            "mavterm --headless --input {} --utc makes another `{name}` than the test ({})",
+            script.display(),
+            first_difference(text, &got)
+        );
     }
 }
