@@ -265,6 +265,29 @@ fn captures_and_pages_match_their_scripts() {
     );
 }
 
+/// The anchor a Markdown heading line gets (as GitHub makes it): lower case, spaces as `-`,
+/// other punctuation dropped.
+fn heading_anchor(line: &str) -> Option<String> {
+    let title = line
+        .strip_prefix('#')?
+        .trim_start_matches('#')
+        .strip_prefix(' ')?;
+    Some(
+        title
+            .trim()
+            .to_lowercase()
+            .chars()
+            .filter_map(|c| match c {
+                ' ' => Some('-'),
+                c if c.is_alphanumeric() || c == '-' || c == '_' => Some(c),
+                _ => None,
+            })
+            .collect(),
+    )
+}
+
+/// Every relative link of the pages names a file that exists, and a heading of it when it has
+/// an anchor.
 #[test]
 fn every_page_link_resolves() {
     for page in pages() {
@@ -277,16 +300,33 @@ fn every_page_link_resolves() {
                 let Some(end) = rest.find(')') else { break };
                 let target = &rest[..end];
                 rest = &rest[end..];
-                if target.contains("://") || target.starts_with('#') {
+                if target.contains("://") {
                     continue;
                 }
-                let file = target.split('#').next().unwrap();
+                let (file, anchor) = target.split_once('#').unwrap_or((target, ""));
+                let path = if file.is_empty() {
+                    page.clone()
+                } else {
+                    dir.join(file)
+                };
                 assert!(
-                    dir.join(file).exists(),
+                    path.exists(),
                     "{}:{}: link to {target}, which does not exist",
                     page.display(),
                     n + 1
                 );
+                if !anchor.is_empty() {
+                    let heads = std::fs::read_to_string(&path).unwrap();
+                    assert!(
+                        heads
+                            .lines()
+                            .any(|l| heading_anchor(l).as_deref() == Some(anchor)),
+                        "{}:{}: link to {target}: {} has no heading with that anchor",
+                        page.display(),
+                        n + 1,
+                        path.display()
+                    );
+                }
             }
         }
     }
