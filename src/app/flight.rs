@@ -9,8 +9,8 @@
 //! in progress (see `Session::supersede_mode`).
 
 pub use super::confirm::FlightAction;
-use super::outcome::ActionKind;
 use super::confirm::{Confirm, Confirmed};
+use super::outcome::ActionKind;
 use super::{App, Effect};
 use crate::dialect::{MavAutopilot, MavCmd, MavMessage, MavModeFlag};
 use crate::proto::commands::CommandSpec;
@@ -337,7 +337,7 @@ impl App {
         let s = self.sessions.get_mut(&via).ok_or("no session")?;
         let (id, out) = s.submit(now, spec)?;
         let text = format!("{label}: sent");
-        self.start_action(vec![id], ActionKind::Command, text.clone());
+        self.start_action(Some(via), vec![id], ActionKind::Command, text.clone());
         self.session_out(via, out, fx);
         Ok(Some(text))
     }
@@ -354,7 +354,12 @@ impl App {
         let s = self.sessions.get_mut(&key).ok_or("no session")?;
         let out = s.start_sequence(now, seq)?;
         // Its first step's command is in the queue now: the line follows it.
-        self.start_action(Vec::new(), ActionKind::Sequence(key), text.to_string());
+        self.start_action(
+            Some(key),
+            Vec::new(),
+            ActionKind::Sequence(key),
+            text.to_string(),
+        );
         self.session_out(key, out, fx);
         Ok(())
     }

@@ -15,8 +15,8 @@ pub mod links;
 pub mod messages;
 pub mod mission;
 pub mod notices;
-pub mod outcome;
 pub mod nudge;
+pub mod outcome;
 pub mod palette;
 pub mod param_meta;
 pub mod params;
@@ -673,7 +673,7 @@ impl App {
             Event::FileWritten { path, error } => {
                 self.file_outcome(&path, error.as_deref());
                 match error {
-                None => self.notice(Severity::INFO, None, format!("saved {}", path.display())),
+                    None => self.notice(Severity::INFO, None, format!("saved {}", path.display())),
                     Some(e) => self.notice(
                         Severity::ERROR,
                         None,
@@ -709,6 +709,7 @@ impl App {
         self.poll_confirm();
         self.poll_nudge(&mut fx);
         self.poll_sessions(&mut fx);
+        self.follow_reason();
         self.poll_param_meta(&mut fx);
         self.follow_selected_command();
         fx

@@ -278,6 +278,7 @@ impl App {
                     _ => format!("saving {n} parameters to {path} ({})", format.name()),
                 };
                 self.start_action(
+                    None,
                     Vec::new(),
                     super::outcome::ActionKind::ParamSave {
                         path: PathBuf::from(&path),

@@ -210,9 +210,7 @@ pub fn to_out(outs: Vec<SeqOut>, out: &mut Vec<Out>) {
         match o {
             SeqOut::Send(m) => out.push(Out::send(Route::Vehicle, m)),
             SeqOut::Notice(s, t) if outs.peek() == Some(&SeqOut::Done) => {
-                out.push(Out::Event(MachineEvent::SequenceDone {
-                    notice: (s, t),
-                }))
+                out.push(Out::Event(MachineEvent::SequenceDone { notice: (s, t) }))
             }
             SeqOut::Notice(s, t) => out.push(Out::notice(s, t)),
             SeqOut::Done => {}

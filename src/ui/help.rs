@@ -239,13 +239,19 @@ pub fn help_lines(app: &App, inner_w: usize) -> Vec<(String, LineKind)> {
 /// `:messages`: the actions' results, newest last, with the time shown for each; the one still
 /// awaited last of all.
 pub fn outcome_lines(app: &App, inner_w: usize) -> Vec<(String, LineKind)> {
-    let mut out = vec![("results of actions, newest last".to_string(), LineKind::Heading)];
+    let mut out = vec![(
+        "results of actions, newest last".to_string(),
+        LineKind::Heading,
+    )];
     if app.ui.outcomes.is_empty() {
         out.push(("none yet".into(), LineKind::Note));
     }
     for o in &app.ui.outcomes {
         let t = app.wall(o.t).format("%H:%M:%S").to_string();
-        for (i, l) in wrap(&format!("{t}  {}", o.text), inner_w).into_iter().enumerate() {
+        for (i, l) in wrap(&format!("{t}  {}", o.text), inner_w)
+            .into_iter()
+            .enumerate()
+        {
             let n = if i == 0 { t.len() } else { 0 };
             out.push((l, LineKind::Row(n)));
         }
