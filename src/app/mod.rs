@@ -569,8 +569,9 @@ impl App {
                     sev,
                     text,
                 } => {
-                    self.inspector_outcome(target.into(), command, sev, &text);
+                    // The Inspector's own wording of a rate it asked stands over the line.
                     self.command_outcome(id, sev, &text);
+                    self.inspector_outcome(target.into(), command, sev, &text);
                     self.notice(sev, Some(key), text)
                 }
                 SessionOut::SequenceDone { sev, text } => {
