@@ -258,3 +258,21 @@ fn on_the_sim_a_refused_take_off_then_an_accepted_arm_then_a_saved_parameter_fil
     common::keys(&mut r, &["j"]);
     assert!(!runner_screen(&r).contains(" Outcomes "));
 }
+
+#[test]
+fn a_mission_upload_ends_with_the_items_uploaded() {
+    let mut r = sim_runner();
+    wait(&mut r, 6.0);
+    let path = common::test_path("data/missions/square.waypoints");
+    command(&mut r, &format!("wp load {}", path.display()));
+    command(&mut r, "wp upload");
+    if r.app.ui.confirm.is_some() {
+        common::yes(&mut r);
+    }
+    // The file's six lines (home and five items) go.
+    assert_eq!(runner_tail(&r), "uploading 6 mission items to 1:1");
+    wait(&mut r, 5.0);
+    assert_eq!(runner_tail(&r), "6 mission items uploaded");
+    command(&mut r, "messages");
+    assert!(runner_screen(&r).contains("6 mission items uploaded"));
+}

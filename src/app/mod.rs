@@ -581,6 +581,7 @@ impl App {
             }
         }
         self.follow_sequence(key);
+        self.follow_mission(key);
     }
 
     /// Poll the sessions that have work due at `now`.

@@ -8,6 +8,7 @@
 
 use super::App;
 use crate::clock::Micros;
+use crate::mission::MissionType;
 use crate::proto::commands::State;
 use crate::proto::vehicles::VehicleKey;
 use crate::wire::Severity;
@@ -25,6 +26,13 @@ pub enum ActionKind {
     Sequence(VehicleKey),
     /// `param save`: `count` parameters into `path`.
     ParamSave { path: PathBuf, count: usize },
+    /// An upload of `count` items of list `t` to vehicle `key`, asked at `at`.
+    MissionUpload {
+        key: VehicleKey,
+        t: MissionType,
+        count: usize,
+        at: Micros,
+    },
 }
 
 /// The last action and where it stands.
@@ -190,6 +198,50 @@ impl App {
                 a.ids.push(e.id);
             }
         }
+    }
+
+    /// The mission upload of `key` ended: the vehicle accepted the list (it is known as
+    /// uploaded since the upload was asked), or the transfer stopped without it.
+    pub(super) fn follow_mission(&mut self, key: VehicleKey) {
+        let Some(ActionLine {
+            kind:
+                ActionKind::MissionUpload {
+                    key: k,
+                    t,
+                    count,
+                    at,
+                },
+            done: false,
+            ..
+        }) = self.ui.action.as_ref()
+        else {
+            return;
+        };
+        let (t, count, at) = (*t, *count, *at);
+        let Some(m) = self
+            .sessions
+            .get(k)
+            .filter(|_| *k == key)
+            .map(|s| &s.mission)
+        else {
+            return;
+        };
+        let uploaded = m.known(t).is_some_and(|k| !k.downloaded && k.at >= at);
+        let waiting = m.busy() || m.queued().next().is_some();
+        let (sev, text) = if uploaded {
+            (
+                Severity::INFO,
+                format!("{count} {} items uploaded", t.name()),
+            )
+        } else if !waiting {
+            (
+                Severity::WARNING,
+                format!("{count} {} items not uploaded (see the messages)", t.name()),
+            )
+        } else {
+            return;
+        };
+        self.action_moves(sev, text, true);
     }
 
     /// A file was written (or not): the parameter save that wrote it is done.
