@@ -10,6 +10,7 @@
 
 pub use super::confirm::FlightAction;
 use super::confirm::{Confirm, Confirmed};
+use super::outcome::ActionKind;
 use super::{App, Effect};
 use crate::dialect::{MavAutopilot, MavCmd, MavMessage, MavModeFlag};
 use crate::proto::commands::CommandSpec;
@@ -310,9 +311,8 @@ impl App {
             FlightAction::Mode(name) => {
                 let step = mode_step.ok_or("no mode step")?;
                 let seq = Sequence::new(format!("mode {}", step.label), vec![step]);
-                return self
-                    .start(key, seq, fx)
-                    .map(|()| Some(format!("mode {name}: sent")));
+                let text = format!("mode {name}: sent");
+                return self.start(key, seq, &text, fx).map(|()| Some(text));
             }
             FlightAction::Takeoff(alt) => {
                 let mut steps = Vec::new();
@@ -329,27 +329,37 @@ impl App {
                 }
                 steps.push(self.takeoff_step(key, alt)?);
                 let seq = Sequence::new(format!("takeoff {alt} m"), steps);
-                return self
-                    .start(key, seq, fx)
-                    .map(|()| Some(format!("takeoff to {alt} m: started")));
+                let text = format!("takeoff to {alt} m: started");
+                return self.start(key, seq, &text, fx).map(|()| Some(text));
             }
         };
         let now = self.now;
         let s = self.sessions.get_mut(&via).ok_or("no session")?;
-        let (_, out) = s.submit(now, spec)?;
+        let (id, out) = s.submit(now, spec)?;
+        let text = format!("{label}: sent");
+        self.start_action(Some(via), vec![id], ActionKind::Command, text.clone());
         self.session_out(via, out, fx);
-        Ok(Some(format!("{label}: sent")))
+        Ok(Some(text))
     }
 
+    /// Start `seq` on `key`; the status bar follows it from `text` on.
     fn start(
         &mut self,
         key: VehicleKey,
         seq: Sequence,
+        text: &str,
         fx: &mut Vec<Effect>,
     ) -> Result<(), String> {
         let now = self.now;
         let s = self.sessions.get_mut(&key).ok_or("no session")?;
         let out = s.start_sequence(now, seq)?;
+        // Its first step's command is in the queue now: the line follows it.
+        self.start_action(
+            Some(key),
+            Vec::new(),
+            ActionKind::Sequence(key),
+            text.to_string(),
+        );
         self.session_out(key, out, fx);
         Ok(())
     }

@@ -356,6 +356,8 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
 #[derive(Debug, Clone, PartialEq)]
 pub enum Command {
     Help,
+    /// List the actions' results, newest last.
+    Messages,
     Quit,
     /// Make (sysid, compid) the target; compid `None`: the system's autopilot.
     Target(u8, Option<u8>),
@@ -471,6 +473,7 @@ pub fn parse_command(line: &str, takeoff_alt: f64) -> Result<Command, String> {
     match word {
         "" => Err("type a command (tab lists them)".into()),
         "help" | "?" => no_args(Command::Help),
+        "messages" => no_args(Command::Messages),
         "quit" | "q" | "exit" => no_args(Command::Quit),
         "target" => {
             let usage = || "usage: target SYSID[:COMPID], e.g. target 1 or target 1:1".to_string();

@@ -74,7 +74,10 @@ impl App {
                 Some(Action::Top) => self.ui.help_scroll = 0,
                 Some(Action::Bottom) => self.ui.help_scroll = usize::MAX / 2,
                 // Any other key closes the help, `q` included: it does not quit from here.
-                _ => self.ui.mode = Mode::Normal,
+                _ => {
+                    self.ui.mode = Mode::Normal;
+                    self.ui.show_outcomes = false;
+                }
             },
             Mode::Prompt | Mode::Edit => self.on_text_key(key, action, fx),
         }
@@ -94,6 +97,7 @@ impl App {
 
     fn open_help(&mut self) {
         self.ui.help_scroll = 0;
+        self.ui.show_outcomes = false;
         self.ui.mode = Mode::Help;
     }
 
@@ -351,6 +355,10 @@ impl App {
         match cmd {
             Command::Help => {
                 self.open_help();
+                Ok(None)
+            }
+            Command::Messages => {
+                self.open_outcomes();
                 Ok(None)
             }
             Command::Quit => {

@@ -550,9 +550,21 @@ impl App {
         match action {
             MissionAction::Upload(t, items) => {
                 let n = items.len();
-                self.mission_request(key, Request::Upload(t, items), fx)?;
+                let text = format!("uploading {n} {} items to {key}", t.name());
+                let kind = super::outcome::ActionKind::MissionUpload {
+                    key,
+                    t,
+                    count: n,
+                    at: self.now,
+                };
+                // Set first: the transfer's end may come with its first answer.
+                self.start_action(Some(key), Vec::new(), kind, text.clone());
+                if let Err(e) = self.mission_request(key, Request::Upload(t, items), fx) {
+                    self.ui.action = None;
+                    return Err(e);
+                }
                 self.ui.mission.list = t.index();
-                Ok(Some(format!("uploading {n} {} items to {key}", t.name())))
+                Ok(Some(text))
             }
             MissionAction::SetCurrent(seq) => {
                 let now = self.now;

@@ -16,6 +16,7 @@ pub mod messages;
 pub mod mission;
 pub mod notices;
 pub mod nudge;
+pub mod outcome;
 pub mod palette;
 pub mod param_meta;
 pub mod params;
@@ -287,6 +288,13 @@ pub struct UiState {
     pub mission: mission::MissionView,
     /// The mode picker (`M`), while open (its filter typed in [`Mode::Edit`]).
     pub mode_picker: Option<ModePicker>,
+    /// The last action and where it stands: the status bar shows it when no message does,
+    /// until the next action.
+    pub action: Option<outcome::ActionLine>,
+    /// The actions' results, newest last (at most [`outcome::HISTORY`]).
+    pub outcomes: std::collections::VecDeque<outcome::OutcomeEntry>,
+    /// The help popup lists the results instead of the keys (`:messages`).
+    pub show_outcomes: bool,
 }
 
 /// The mode picker: the target's modes, filtered by what is typed; enter asks for the one
@@ -324,6 +332,9 @@ impl Default for UiState {
             gimbal_sel: 0,
             mission: mission::MissionView::default(),
             mode_picker: None,
+            action: None,
+            outcomes: std::collections::VecDeque::new(),
+            show_outcomes: false,
         }
     }
 }
@@ -552,17 +563,25 @@ impl App {
                     self.notice(sev, Some(key), text)
                 }
                 SessionOut::Command {
+                    id,
                     target,
                     command,
                     sev,
                     text,
-                    ..
                 } => {
+                    // The Inspector's own wording of a rate it asked stands over the line.
+                    self.command_outcome(id, sev, &text);
                     self.inspector_outcome(target.into(), command, sev, &text);
+                    self.notice(sev, Some(key), text)
+                }
+                SessionOut::SequenceDone { sev, text } => {
+                    self.sequence_outcome(key, sev, &text);
                     self.notice(sev, Some(key), text)
                 }
             }
         }
+        self.follow_sequence(key);
+        self.follow_mission(key);
     }
 
     /// Poll the sessions that have work due at `now`.
@@ -653,14 +672,17 @@ impl App {
             Event::FileWritten { path, error } if self.signing.is_state_file(&path) => {
                 self.signing_file_written(error)
             }
-            Event::FileWritten { path, error } => match error {
-                None => self.notice(Severity::INFO, None, format!("saved {}", path.display())),
-                Some(e) => self.notice(
-                    Severity::ERROR,
-                    None,
-                    format!("could not save {}: {e}", path.display()),
-                ),
-            },
+            Event::FileWritten { path, error } => {
+                self.file_outcome(&path, error.as_deref());
+                match error {
+                    None => self.notice(Severity::INFO, None, format!("saved {}", path.display())),
+                    Some(e) => self.notice(
+                        Severity::ERROR,
+                        None,
+                        format!("could not save {}: {e}", path.display()),
+                    ),
+                }
+            }
             Event::FileRead {
                 path,
                 purpose: files::FileUse::Mission(t),
@@ -689,6 +711,7 @@ impl App {
         self.poll_confirm();
         self.poll_nudge(&mut fx);
         self.poll_sessions(&mut fx);
+        self.follow_reason();
         self.poll_param_meta(&mut fx);
         self.follow_selected_command();
         fx

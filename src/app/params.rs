@@ -270,13 +270,23 @@ impl App {
                     contents: text.into_bytes(),
                 });
                 let n = params.len();
-                Ok(Some(match count {
+                let text = match count {
                     Some(c) if (got as u16) < c => format!(
                         "saving {n} parameters to {path} ({format}): the download is incomplete ({got}/{c})",
                         format = format.name()
                     ),
                     _ => format!("saving {n} parameters to {path} ({})", format.name()),
-                }))
+                };
+                self.start_action(
+                    None,
+                    Vec::new(),
+                    super::outcome::ActionKind::ParamSave {
+                        path: PathBuf::from(&path),
+                        count: n,
+                    },
+                    text.clone(),
+                );
+                Ok(Some(text))
             }
             ParamCmd::Load(path) | ParamCmd::Diff(path) if path.is_empty() => Err(USAGE.into()),
             ParamCmd::Load(path) => {

@@ -58,6 +58,11 @@ pub enum SessionOut {
         sev: crate::wire::Severity,
         text: String,
     },
+    /// The running sequence ended (done, or stopped), and its notice.
+    SequenceDone {
+        sev: crate::wire::Severity,
+        text: String,
+    },
     /// Command `command` of the queue to `target` finished, and its notice.
     Command {
         id: u64,
@@ -625,6 +630,9 @@ impl Session {
                     sev,
                     text,
                 }),
+                Out::Event(MachineEvent::SequenceDone {
+                    notice: (sev, text),
+                }) => out.push(SessionOut::SequenceDone { sev, text }),
                 Out::Event(MachineEvent::CommandDone { id, notice }) => {
                     if let (Some((sev, text)), Some(e)) = (notice, self.commands.get(id)) {
                         // The gimbal discovery asks every autopilot (most have no mount): its
@@ -692,6 +700,9 @@ impl Session {
                 Out::Event(MachineEvent::Notice(sev, text)) => {
                     out.push(SessionOut::Notice(sev, text))
                 }
+                Out::Event(MachineEvent::SequenceDone {
+                    notice: (sev, text),
+                }) => out.push(SessionOut::SequenceDone { sev, text }),
                 Out::Event(_) => {}
             }
         }
@@ -790,6 +801,9 @@ impl Session {
                 text,
             },
             Out::Event(MachineEvent::Notice(sev, text))
+            | Out::Event(MachineEvent::SequenceDone {
+                notice: (sev, text),
+            })
             | Out::Event(MachineEvent::CommandDone {
                 notice: Some((sev, text)),
                 ..

@@ -76,6 +76,8 @@ pub enum MachineEvent {
         confirmed: bool,
         notice: (Severity, String),
     },
+    /// The running sequence ended (done, or stopped), with what to tell of it.
+    SequenceDone { notice: (Severity, String) },
 }
 
 /// What a machine wants done.

@@ -8,7 +8,7 @@
 
 use crate::clock::{Micros, SECOND};
 use crate::proto::commands::CommandSpec;
-use crate::proto::machine::{Ids, Incoming, Machine, Out, Route};
+use crate::proto::machine::{Ids, Incoming, Machine, MachineEvent, Out, Route};
 use mavlink::MessageData;
 
 /// How long after an accepted ACK the heartbeat may take to show the change.
@@ -203,10 +203,15 @@ impl Sequence {
 }
 
 /// Sequence output in the one contract (its fallback messages go to the vehicle on its route).
+/// A notice followed by `Done` is the sequence's last word.
 pub fn to_out(outs: Vec<SeqOut>, out: &mut Vec<Out>) {
-    for o in outs {
+    let mut outs = outs.into_iter().peekable();
+    while let Some(o) = outs.next() {
         match o {
             SeqOut::Send(m) => out.push(Out::send(Route::Vehicle, m)),
+            SeqOut::Notice(s, t) if outs.peek() == Some(&SeqOut::Done) => {
+                out.push(Out::Event(MachineEvent::SequenceDone { notice: (s, t) }))
+            }
             SeqOut::Notice(s, t) => out.push(Out::notice(s, t)),
             SeqOut::Done => {}
         }

@@ -236,6 +236,34 @@ pub fn help_lines(app: &App, inner_w: usize) -> Vec<(String, LineKind)> {
     out
 }
 
+/// `:messages`: the actions' results, newest last, with the time shown for each; the one still
+/// awaited last of all.
+pub fn outcome_lines(app: &App, inner_w: usize) -> Vec<(String, LineKind)> {
+    let mut out = vec![(
+        "results of actions, newest last".to_string(),
+        LineKind::Heading,
+    )];
+    if app.ui.outcomes.is_empty() {
+        out.push(("none yet".into(), LineKind::Note));
+    }
+    for o in &app.ui.outcomes {
+        let t = app.wall(o.t).format("%H:%M:%S").to_string();
+        for (i, l) in wrap(&format!("{t}  {}", o.text), inner_w)
+            .into_iter()
+            .enumerate()
+        {
+            let n = if i == 0 { t.len() } else { 0 };
+            out.push((l, LineKind::Row(n)));
+        }
+    }
+    if let Some(a) = app.ui.action.as_ref().filter(|a| !a.done) {
+        for l in wrap(&format!("awaited: {}", a.text), inner_w) {
+            out.push((l, LineKind::Note));
+        }
+    }
+    out
+}
+
 /// The last line's text: which keys scroll the help (those of the `[help]` section), and that
 /// any other key closes it (`q` too: it does not quit from here).
 pub fn footer_text(app: &App) -> String {
@@ -254,7 +282,11 @@ pub fn footer_text(app: &App) -> String {
 pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let max_w = area.width.min(MAX_WIDTH);
     let inner_w = (max_w as usize).saturating_sub(2);
-    let mut lines = help_lines(app, inner_w);
+    let mut lines = if app.ui.show_outcomes {
+        outcome_lines(app, inner_w)
+    } else {
+        help_lines(app, inner_w)
+    };
     // As narrow as the text allows.
     let text_w = lines.iter().map(|l| l.0.chars().count()).max().unwrap_or(0);
     let footer = wrap(&footer_text(app), inner_w);
@@ -289,10 +321,15 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         h,
     );
     frame.render_widget(Clear, popup);
-    let title = if max_scroll > 0 {
-        format!(" Keys ({}/{}) ", scroll + 1, max_scroll + 1)
+    let name = if app.ui.show_outcomes {
+        "Outcomes"
     } else {
-        " Keys ".to_string()
+        "Keys"
+    };
+    let title = if max_scroll > 0 {
+        format!(" {name} ({}/{}) ", scroll + 1, max_scroll + 1)
+    } else {
+        format!(" {name} ")
     };
     let block = Block::default()
         .borders(Borders::ALL)

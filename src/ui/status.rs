@@ -273,9 +273,15 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     // target's mode and state stay. Where the state strip shows them (every screen but the
     // Overview), the message gets their room too.
     let mut room = room_for(&target);
-    let long = app
-        .ui
-        .message
+    // The last key's message, else the last action's line (until the next action).
+    let message = app.ui.message.clone().or_else(|| {
+        app.ui
+            .action
+            .as_ref()
+            .filter(|_| app.ui.mode_picker.is_none() && app.ui.palette.is_none())
+            .map(|a| (a.sev, a.text.clone()))
+    });
+    let long = message
         .as_ref()
         .is_some_and(|(_, text)| text.chars().count() > room);
     if long || room < MIN_TAIL / 3 {
@@ -285,7 +291,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         }
     }
     let strip = app.ui.screen != crate::app::screen::SCREENS[0].name;
-    if let (Some((_, text)), Some(key), true) = (&app.ui.message, app.target, strip) {
+    if let (Some((_, text)), Some(key), true) = (&message, app.target, strip) {
         if text.chars().count() > room {
             target = format!("{key}{progress}");
             room = room_for(&target);
@@ -295,7 +301,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         target = ellipsize(&target, width.saturating_sub(used("", &log)));
     }
     // The last command's outcome stands where the hints are, until the next key.
-    let tail = match &app.ui.message {
+    let tail = match &message {
         Some((sev, text)) => Span::styled(ellipsize(text, room), theme.severity(*sev)),
         None if app.ui.mode_picker.is_some() => {
             Span::styled(ellipsize(&super::mode_picker::hint(app), room), theme.dim())
