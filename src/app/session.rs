@@ -26,7 +26,7 @@ use crate::link::LinkId;
 use crate::proto::camera::{CameraAction, CameraSet};
 use crate::proto::commands::{self, CmdOut, CommandQueue, CommandSpec, State};
 use crate::proto::gimbal::GimbalSet;
-use crate::proto::machine::{Ids, Incoming, Machine, MachineEvent, Out, Route};
+use crate::proto::machine::{Ids, Incoming, Machine, MachineEvent, Out, Requests, Route};
 use crate::proto::mission::{MissionMachine, Request as MissionRequest};
 use crate::proto::params::{ParamMachine, ParamOut};
 use crate::proto::rates::StreamRates;
@@ -167,9 +167,6 @@ pub struct Session {
     pub quiet: std::collections::BTreeSet<u8>,
     /// The autopilot family (its profile encodes DO_SET_MODE).
     autopilot: MavAutopilot,
-    /// A camera's or gimbal's request may wait for the queue since this time (a command of
-    /// theirs finished, the gimbals were asked for): the next poll offers them to the queue.
-    offer: Option<Micros>,
 }
 
 impl Session {
@@ -196,7 +193,6 @@ impl Session {
             mode_asks: Vec::new(),
             quiet: std::collections::BTreeSet::new(),
             autopilot,
-            offer: None,
         };
         s.gimbals.autopilot = key.1;
         let profile = crate::proto::profile::of(autopilot);
@@ -280,7 +276,7 @@ impl Session {
                 Machine::on_message(&mut self.commands, m, &mut buf);
                 self.deliver(now, &mut buf, &mut out);
             }
-            self.camera_requests(now, &mut out);
+            self.offer_requests(now, &mut out);
             self.hold_streams();
             return out;
         }
@@ -319,7 +315,7 @@ impl Session {
             Machine::on_message(seq, m, &mut buf);
             self.deliver(now, &mut buf, &mut out);
         }
-        self.camera_requests(now, &mut out);
+        self.offer_requests(now, &mut out);
         self.hold_streams();
         out
     }
@@ -363,7 +359,6 @@ impl Session {
             Err(why) if self.gimbals.usable().is_empty() => {
                 // None known: ask the autopilot, the usual manager (not the pointing itself).
                 self.gimbals.ask_autopilot(now, self.key.1);
-                self.offer = Some(self.offer.map_or(now, |t| t.min(now)));
                 return Err(format!(
                     "{why}; asking the autopilot for GIMBAL_MANAGER_INFORMATION"
                 ));
@@ -400,19 +395,23 @@ impl Session {
         self.submit(now, spec)
     }
 
-    /// The cameras' and gimbals' waiting requests, each component's first, when the queue takes
-    /// it (one command of a kind per target open at a time). Asked on their own: mavterm's own
-    /// traffic.
-    fn camera_requests(&mut self, now: Micros, out: &mut Vec<SessionOut>) {
-        let heads: Vec<(bool, Request)> = self
-            .cameras
-            .heads()
-            .into_iter()
-            .map(|h| (true, h))
-            .chain(self.gimbals.heads().into_iter().map(|h| (false, h)))
-            .collect();
-        for (camera, head) in heads {
-            let (compid, command, params) = head;
+    /// The waiting requests of the machines asking through the queue (cameras, then gimbals),
+    /// each component's first, when the queue takes it (one command of a kind per target open
+    /// at a time); a refused one is offered again after the next message or poll.
+    fn offer_requests(&mut self, now: Micros, out: &mut Vec<SessionOut>) {
+        self.drain_requests(now, |s| &mut s.cameras, out);
+        self.drain_requests(now, |s| &mut s.gimbals, out);
+    }
+
+    /// One machine's requests offered to the queue; those taken go out as mavterm's own.
+    fn drain_requests<M: Requests>(
+        &mut self,
+        now: Micros,
+        machine: fn(&mut Session) -> &mut M,
+        out: &mut Vec<SessionOut>,
+    ) {
+        for r in machine(self).requests() {
+            let (compid, command, params) = r;
             let target = (self.key.0, compid);
             if self.commands.is_open(target, command) {
                 continue;
@@ -426,11 +425,7 @@ impl Session {
             let Ok((_, sends)) = self.commands.submit(now, spec) else {
                 continue;
             };
-            if camera {
-                self.cameras.sent(compid);
-            } else {
-                self.gimbals.sent(&head);
-            }
+            machine(self).taken(&r);
             let mut buf = Vec::new();
             commands::to_out(sends, Route::Auto, &mut buf);
             self.deliver(now, &mut buf, out);
@@ -662,7 +657,6 @@ impl Session {
         let refused = matches!(e.state, State::Done(r) if r != 0);
         if target.0 == self.key.0 {
             self.gimbals.on_finished(now, target.1, cmd, &p);
-            self.offer = Some(self.offer.map_or(now, |t| t.min(now)));
         }
         if self.cameras.cameras.contains_key(&target.1) && target.0 == self.key.0 {
             if accepted && cmd == MavCmd::MAV_CMD_STORAGE_FORMAT as u16 && p[2] == 1.0 {
@@ -767,8 +761,7 @@ impl Session {
         Machine::poll(&mut self.cameras, now, &mut buf);
         Machine::poll(&mut self.gimbals, now, &mut buf);
         self.deliver(now, &mut buf, &mut out);
-        self.offer = None;
-        self.camera_requests(now, &mut out);
+        self.offer_requests(now, &mut out);
         self.hold_streams();
         out
     }
@@ -813,16 +806,12 @@ impl Session {
             Machine::next_deadline(&self.mission),
             Machine::next_deadline(&self.cameras),
             Machine::next_deadline(&self.gimbals),
-            self.offer,
         ]
         .into_iter()
         .flatten()
         .min()
     }
 }
-
-/// A component's request waiting for the queue: (component, command, params).
-type Request = (u8, u16, [f64; 7]);
 
 /// The routing policy: the operator's messages on the vehicle's route, mavterm's own spared on
 /// high-latency links, stream requests on their link.

@@ -124,3 +124,19 @@ pub trait Machine {
     /// When it next needs a poll (untimed work: the time it became due).
     fn next_deadline(&self) -> Option<Micros>;
 }
+
+/// A command a machine wants sent through the session's command queue, to component `.0` of
+/// its system: (component, command, params). Asked on its own: mavterm's own traffic.
+pub type Request = (u8, u16, [f64; 7]);
+
+/// A machine whose commands go through the session's command queue (one command of a kind per
+/// target open at a time). It keeps its requests until the queue takes them; the session offers
+/// them after every message and poll, through one path for every such machine, and a refused
+/// one is offered again then (the machine's deadline wakes the session when a command of its
+/// system finished).
+pub trait Requests {
+    /// The requests the queue may take now, in order (each component's first).
+    fn requests(&self) -> Vec<Request>;
+    /// The queue took `r`: it is on its way.
+    fn taken(&mut self, r: &Request);
+}
