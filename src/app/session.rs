@@ -605,7 +605,8 @@ impl Session {
         for o in outs.drain(..) {
             match o {
                 Out::Send { route, msg } => out.push(route_out(route, msg)),
-                Out::Event(MachineEvent::Notice(sev, text)) => {
+                Out::Event(MachineEvent::Notice(sev, text))
+                | Out::Event(MachineEvent::Text { sev, text, .. }) => {
                     out.push(SessionOut::Notice(sev, text))
                 }
                 Out::Event(MachineEvent::ParamSet {
@@ -783,6 +784,7 @@ impl Session {
                 text,
             },
             Out::Event(MachineEvent::Notice(sev, text))
+            | Out::Event(MachineEvent::Text { sev, text, .. })
             | Out::Event(MachineEvent::CommandDone {
                 notice: Some((sev, text)),
                 ..

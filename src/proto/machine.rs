@@ -76,6 +76,14 @@ pub enum MachineEvent {
         confirmed: bool,
         notice: (Severity, String),
     },
+    /// A text the vehicle said (STATUSTEXT, joined): from component `from`. `late`: its last
+    /// chunk never came (shown as far as it got, not read as a refusal's reason).
+    Text {
+        from: crate::proto::vehicles::VehicleKey,
+        sev: Severity,
+        text: String,
+        late: bool,
+    },
 }
 
 /// What a machine wants done.
