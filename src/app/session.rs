@@ -181,10 +181,10 @@ impl Session {
             key,
             pinned: None,
             heard: BTreeMap::new(),
-            streams: StreamMachine::new(key.into(), autopilot, request_streams, rates),
+            streams: StreamMachine::new(key, autopilot, request_streams, rates),
             commands: CommandQueue::default(),
             sequence: None,
-            flight: FlightTelemetry::new(key.into(), request_streams),
+            flight: FlightTelemetry::new(key, request_streams),
             params: ParamMachine::new(key, autopilot, fetch_params),
             mission: MissionMachine::new(key),
             cameras: CameraSet::default(),
@@ -412,12 +412,12 @@ impl Session {
     ) {
         for r in machine(self).requests() {
             let (compid, command, params) = r;
-            let target = (self.key.0, compid);
+            let target = VehicleKey(self.key.0, compid);
             if self.commands.is_open(target, command) {
                 continue;
             }
             let spec = CommandSpec {
-                target,
+                target: target.into(),
                 command,
                 params,
                 form: crate::proto::commands::Form::Long,
@@ -487,8 +487,7 @@ impl Session {
 
     /// The queue's submit; a mode change remembers the mode it leaves.
     fn queue(&mut self, now: Micros, spec: CommandSpec) -> Result<(u64, Vec<CmdOut>), String> {
-        let mode =
-            spec.command == MavCmd::MAV_CMD_DO_SET_MODE as u16 && spec.target == self.key.into();
+        let mode = spec.command == MavCmd::MAV_CMD_DO_SET_MODE as u16 && spec.key() == self.key;
         let (id, out) = self.commands.submit(now, spec)?;
         if mode {
             self.mode_asks.push((id, self.mode_seen));
@@ -550,10 +549,7 @@ impl Session {
             MavCmd::MAV_CMD_NAV_LAND,
             MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH,
         ] {
-            done.extend(
-                self.commands
-                    .supersede(now, self.key.into(), command as u16),
-            );
+            done.extend(self.commands.supersede(now, self.key, command as u16));
         }
         self.mode_asks.clear();
         self.drive(now, done, &mut out);
@@ -628,7 +624,7 @@ impl Session {
                         if !crate::proto::gimbal::is_discovery(e.spec.command, &e.spec.params) {
                             out.push(SessionOut::Command {
                                 id,
-                                target: e.spec.target.into(),
+                                target: e.spec.key(),
                                 command: e.spec.command,
                                 sev,
                                 text,
@@ -716,8 +712,8 @@ impl Session {
     /// The stream machine holds its SET_MESSAGE_INTERVALs while one of the operator's is open.
     fn hold_streams(&mut self) {
         let interval = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
-        let operators = self.commands.is_open(self.key.into(), interval)
-            || self.commands.is_open((self.key.0, 0), interval);
+        let operators = self.commands.is_open(self.key, interval)
+            || self.commands.is_open(VehicleKey(self.key.0, 0), interval);
         self.streams.hold_intervals(operators);
     }
 
@@ -767,33 +763,30 @@ impl Session {
         out
     }
 
-    /// A parameter machine's output (of an operator's fetch or edit), in the one contract.
-    pub(crate) fn pmap(&self, o: ParamOut) -> SessionOut {
-        match self.params.out(o) {
-            Out::Send { route, msg } => route_out(route, msg),
-            Out::Event(MachineEvent::ParamSet {
-                comp,
-                name,
-                confirmed,
-                notice: (sev, text),
-            }) => SessionOut::ParamSet {
-                comp,
-                name,
-                confirmed,
-                sev,
-                text,
-            },
-            Out::Event(MachineEvent::Notice(sev, text))
-            | Out::Event(MachineEvent::Text { sev, text, .. })
-            | Out::Event(MachineEvent::CommandDone {
-                notice: Some((sev, text)),
-                ..
-            }) => SessionOut::Notice(sev, text),
-            // The parameter machine runs no commands.
-            Out::Event(MachineEvent::CommandDone { notice: None, .. }) => {
-                SessionOut::Notice(crate::wire::Severity::DEBUG, String::new())
-            }
-        }
+    /// The operator fetches the parameters of component `comp`.
+    pub fn params_fetch(&mut self, now: Micros, comp: u8) -> Vec<SessionOut> {
+        let o = self.params.fetch(now, comp);
+        self.params_out(now, o)
+    }
+
+    /// The operator sets parameter `name` of component `comp` to `v`.
+    pub fn params_set(
+        &mut self,
+        now: Micros,
+        comp: u8,
+        name: &str,
+        v: f64,
+    ) -> Result<Vec<SessionOut>, String> {
+        let o = self.params.set(now, comp, name, v)?;
+        Ok(self.params_out(now, o))
+    }
+
+    /// The parameter machine's output of an operator's fetch or edit, delivered.
+    fn params_out(&mut self, now: Micros, o: Vec<ParamOut>) -> Vec<SessionOut> {
+        let mut buf: Vec<Out> = o.into_iter().map(|o| self.params.out(o)).collect();
+        let mut out = Vec::new();
+        self.deliver(now, &mut buf, &mut out);
+        out
     }
 
     /// When the session next needs a poll: the machines' deadlines (work not on a timer is

@@ -614,8 +614,9 @@ impl GimbalSet {
         if let Some(s) = g.status {
             if s.primary != (0, 0) && s.primary != us {
                 return Err(format!(
-                    "gimbal {} is controlled by {}:{}: `gimbal control` takes it (not sent)",
-                    g.manager, s.primary.0, s.primary.1
+                    "gimbal {} is controlled by {}: `gimbal control` takes it (not sent)",
+                    g.manager,
+                    crate::proto::vehicles::VehicleKey::from(s.primary)
                 ));
             }
         }
