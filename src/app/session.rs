@@ -284,6 +284,9 @@ impl Session {
             Machine::on_message(&mut self.mission, m, &mut buf);
             self.deliver(now, &mut buf, &mut out);
         }
+        // A SET_MESSAGE_INTERVAL's ACK is the stream machine's while one of its own waits,
+        // else the command queue's.
+        let claimed = w & Dispatch::STREAMS != 0 && self.streams.claims(m);
         if w & Dispatch::STREAMS != 0 {
             Machine::on_message(&mut self.streams, m, &mut buf);
         }
@@ -291,18 +294,9 @@ impl Session {
             Machine::on_message(&mut self.flight, m, &mut buf);
         }
         self.deliver(now, &mut buf, &mut out);
-        if let Some(a) = m.ack {
-            // A SET_MESSAGE_INTERVAL's ACK is the stream machine's while one of its own waits
-            // (it went before any of the operator's: the machine sends none while one of those
-            // is open), else the command queue's.
-            match self.streams.on_ack_out(now, a) {
-                Some(mut o) => self.deliver(now, &mut o, &mut out),
-                None if w & Dispatch::COMMANDS != 0 => {
-                    Machine::on_message(&mut self.commands, m, &mut buf);
-                    self.deliver(now, &mut buf, &mut out);
-                }
-                None => {}
-            }
+        if w & Dispatch::COMMANDS != 0 && !claimed {
+            Machine::on_message(&mut self.commands, m, &mut buf);
+            self.deliver(now, &mut buf, &mut out);
         }
         if let Some(hb) = m.heartbeat() {
             self.on_mode_seen(hb.custom_mode, &mut out);

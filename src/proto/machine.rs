@@ -131,6 +131,12 @@ pub trait Machine {
     fn poll(&mut self, now: Micros, out: &mut Vec<Out>);
     /// When it next needs a poll (untimed work: the time it became due).
     fn next_deadline(&self) -> Option<Micros>;
+    /// True when `m` is this machine's alone, asked before it is handed the message: the
+    /// machines that would read it too (the command queue, for a COMMAND_ACK answering a
+    /// command this machine sent itself) are not handed it.
+    fn claims(&self, _m: &Incoming) -> bool {
+        false
+    }
 }
 
 /// A command a machine wants sent through the session's command queue, to component `.0` of

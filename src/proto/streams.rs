@@ -1288,26 +1288,27 @@ impl StreamMachine {
             StreamOut::Notice(s, t) => Out::notice(s, t),
         }));
     }
-
-    /// [`StreamMachine::on_ack`] in the one contract: `None` when the ACK is not this machine's.
-    pub fn on_ack_out(
-        &mut self,
-        now: Micros,
-        ack: &crate::proto::ack::CommandAck,
-    ) -> Option<Vec<Out>> {
-        let o = self.on_ack(now, ack.command, ack.result)?;
-        let mut out = Vec::new();
-        Self::emit(o, &mut out);
-        Some(out)
-    }
 }
 
 impl Machine for StreamMachine {
     /// Every message: arrivals are counted against the rates asked.
     const IDS: Ids = Ids::All;
 
-    fn on_message(&mut self, m: &Incoming, _: &mut Vec<Out>) {
+    /// Every message; a COMMAND_ACK of MAV_CMD_SET_MESSAGE_INTERVAL while one of its own waits
+    /// is its answer (see [`Machine::claims`]).
+    fn on_message(&mut self, m: &Incoming, out: &mut Vec<Out>) {
         StreamMachine::on_message(self, m.now, m.link, m.profile, m.id, m.heartbeat());
+        if let Some(o) = m.ack.and_then(|a| self.on_ack(m.now, a.command, a.result)) {
+            Self::emit(o, out);
+        }
+    }
+
+    /// The ACK of its own SET_MESSAGE_INTERVAL: one waits (it went before any of the
+    /// operator's: the machine sends none while one of those is open).
+    fn claims(&self, m: &Incoming) -> bool {
+        m.ack.is_some_and(|a| {
+            a.command == MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16 && self.pending.is_some()
+        })
     }
 
     fn poll(&mut self, now: Micros, out: &mut Vec<Out>) {
