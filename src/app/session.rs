@@ -11,12 +11,14 @@
 //! waking ([`Session::next_deadline`]).
 //!
 //! Adding a machine: its file under `src/proto` (named in `src/proto/mod.rs`) implements
-//! [`Machine`] (its `IDS`, `on_message`, `poll`, `next_deadline`, answering in [`Out`]); here,
-//! a field of [`Session`] (built in [`Session::new`]), a bit in [`Dispatch`] and a line in
-//! [`TABLE`], a call in [`Session::on_message`] under its bit, one in [`Session::poll`], and
-//! its deadline in [`Session::next_deadline`]. A new kind of event is a [`MachineEvent`]
-//! variant, routed in [`Session::deliver`] (and, for the screens, a [`SessionOut`] variant
-//! handled in `App::session_out`).
+//! [`Machine`] (its `IDS`, `on_message`, `poll`, `next_deadline`, answering in [`Out`]; and
+//! `claims` when some message is its alone); here, a field of [`Session`] (built in
+//! [`Session::new`]), a bit in [`Dispatch`] and a line in [`TABLE`], a call in
+//! [`Session::on_message`] under its bit, one in [`Session::poll`], and its deadline in
+//! [`Session::next_deadline`]. A machine whose commands go through the queue also implements
+//! [`Requests`] and gets a line in `Session::offer_requests`. A new kind of event is a
+//! [`MachineEvent`] variant, routed in [`Session::deliver`] (and, for the screens, a
+//! [`SessionOut`] variant handled in `App::session_out`).
 
 use std::collections::BTreeMap;
 
