@@ -38,7 +38,7 @@ use crate::link::replay::{ReplayCmd, ReplayStatus};
 use crate::link::{Frame, LinkId, LinkSpec, ParserStats};
 use crate::proto::ack::CommandAck;
 use crate::proto::loss::SeqOutcome;
-use crate::proto::machine::Incoming;
+use crate::proto::machine::{Incoming, Machine, MachineEvent, Out};
 use crate::proto::statustext::StatusTextJoiner;
 use crate::proto::vehicles::{Registry, VehicleEvent, VehicleKey, DEFAULT_LOST_TIMEOUT};
 use crate::wire::Severity;
@@ -485,7 +485,7 @@ impl App {
             }
         };
         at(self.vehicles.next_deadline());
-        at(self.statustext.next_deadline());
+        at(Machine::next_deadline(&self.statustext));
         at(self.signing_deadline());
         for s in self.sessions.values() {
             at(s.next_deadline());
@@ -778,9 +778,9 @@ impl App {
         }
         let events = self.vehicles.tick(self.now);
         self.on_vehicle_events(events, fx);
-        for t in self.statustext.poll(self.now) {
-            self.vehicle_notice(t.severity, t.source.into(), t.text);
-        }
+        let mut texts = Vec::new();
+        Machine::poll(&mut self.statustext, self.now, &mut texts);
+        self.on_texts(texts);
         self.signing_time(fx);
     }
 
@@ -928,8 +928,8 @@ impl App {
                 let ev = self.vehicles.on_system_time(key, st.time_boot_ms, now);
                 self.on_vehicle_events(ev, fx);
             }
-            Some(MavMessage::STATUSTEXT(st)) => {
-                self.on_statustext_frame(key, st);
+            Some(MavMessage::STATUSTEXT(_)) => {
+                self.on_statustext_frame(link, frame, msg);
             }
             _ => {}
         }
@@ -1015,31 +1015,51 @@ impl App {
         }
     }
 
-    /// A STATUSTEXT chunk: joined texts are told, and handed to the sessions of their system
-    /// (a refusal's reason).
-    fn on_statustext_frame(&mut self, key: VehicleKey, st: &dialect::STATUSTEXT_DATA) {
+    /// A STATUSTEXT chunk, to the joiner.
+    fn on_statustext_frame(&mut self, link: LinkId, frame: &Frame, msg: Option<&MavMessage>) {
+        let incoming = Incoming {
+            now: self.now,
+            from: (frame.sysid, frame.compid),
+            link,
+            profile: self.links[link].profile,
+            id: frame.msgid,
+            payload: frame.payload(),
+            msg,
+            ack: None,
+        };
+        let mut texts = Vec::new();
+        Machine::on_message(&mut self.statustext, &incoming, &mut texts);
+        self.on_texts(texts);
+    }
+
+    /// The joiner's texts: each is told, and handed to the sessions of its system (a refusal's
+    /// reason), unless its last chunk never came.
+    fn on_texts(&mut self, texts: Vec<Out>) {
         let now = self.now;
-        let texts = self.statustext.push(
-            now,
-            key.into(),
-            st.severity.into(),
-            &st.text[..],
-            st.id,
-            st.chunk_seq,
-        );
-        for t in texts {
-            // A vehicle's reason for refusing a command comes as text.
-            let keys: Vec<VehicleKey> = self
-                .sessions
-                .range(VehicleKey(t.source.0, 0)..=VehicleKey(t.source.0, u8::MAX))
-                .map(|(k, _)| *k)
-                .collect();
-            for k in keys {
-                if let Some(s) = self.sessions.get_mut(&k) {
-                    s.on_text(now, &t.text);
+        for o in texts {
+            let Out::Event(MachineEvent::Text {
+                from,
+                sev,
+                text,
+                late,
+            }) = o
+            else {
+                continue;
+            };
+            if !late {
+                // A vehicle's reason for refusing a command comes as text.
+                let keys: Vec<VehicleKey> = self
+                    .sessions
+                    .range(VehicleKey(from.0, 0)..=VehicleKey(from.0, u8::MAX))
+                    .map(|(k, _)| *k)
+                    .collect();
+                for k in keys {
+                    if let Some(s) = self.sessions.get_mut(&k) {
+                        s.on_text(now, &text);
+                    }
                 }
             }
-            self.vehicle_notice(t.severity, t.source.into(), t.text);
+            self.vehicle_notice(sev, from, text);
         }
     }
 

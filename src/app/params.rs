@@ -223,8 +223,7 @@ impl App {
                 self.commandable_at(VehicleKey(key.0, comp))?;
                 let now = self.now;
                 let s = self.sessions.get_mut(&key).ok_or("no session")?;
-                let out = s.params.fetch(now, comp);
-                let out = out.into_iter().map(|o| s.pmap(o)).collect();
+                let out = s.params_fetch(now, comp);
                 self.session_out(key, out, fx);
                 Ok(Some(format!(
                     "fetching the parameters of {}",
@@ -413,8 +412,8 @@ impl App {
         let mut errors = Vec::new();
         let s = self.sessions.get_mut(&key).ok_or("vehicle gone")?;
         for (comp, name, v) in &changes {
-            match s.params.set(now, *comp, name, *v) {
-                Ok(o) => out.extend(o.into_iter().map(|o| s.pmap(o))),
+            match s.params_set(now, *comp, name, *v) {
+                Ok(o) => out.extend(o),
                 Err(e) => errors.push(format!("{name}: {e}")),
             }
         }

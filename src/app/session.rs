@@ -11,12 +11,14 @@
 //! waking ([`Session::next_deadline`]).
 //!
 //! Adding a machine: its file under `src/proto` (named in `src/proto/mod.rs`) implements
-//! [`Machine`] (its `IDS`, `on_message`, `poll`, `next_deadline`, answering in [`Out`]); here,
-//! a field of [`Session`] (built in [`Session::new`]), a bit in [`Dispatch`] and a line in
-//! [`TABLE`], a call in [`Session::on_message`] under its bit, one in [`Session::poll`], and
-//! its deadline in [`Session::next_deadline`]. A new kind of event is a [`MachineEvent`]
-//! variant, routed in [`Session::deliver`] (and, for the screens, a [`SessionOut`] variant
-//! handled in `App::session_out`).
+//! [`Machine`] (its `IDS`, `on_message`, `poll`, `next_deadline`, answering in [`Out`]; and
+//! `claims` when some message is its alone); here, a field of [`Session`] (built in
+//! [`Session::new`]), a bit in [`Dispatch`] and a line in [`TABLE`], a call in
+//! [`Session::on_message`] under its bit, one in [`Session::poll`], and its deadline in
+//! [`Session::next_deadline`]. A machine whose commands go through the queue also implements
+//! [`Requests`] and gets a line in `Session::offer_requests`. A new kind of event is a
+//! [`MachineEvent`] variant, routed in [`Session::deliver`] (and, for the screens, a
+//! [`SessionOut`] variant handled in `App::session_out`).
 
 use std::collections::BTreeMap;
 
@@ -26,7 +28,7 @@ use crate::link::LinkId;
 use crate::proto::camera::{CameraAction, CameraSet};
 use crate::proto::commands::{self, CmdOut, CommandQueue, CommandSpec, State};
 use crate::proto::gimbal::GimbalSet;
-use crate::proto::machine::{Ids, Incoming, Machine, MachineEvent, Out, Route};
+use crate::proto::machine::{Ids, Incoming, Machine, MachineEvent, Out, Requests, Route};
 use crate::proto::mission::{MissionMachine, Request as MissionRequest};
 use crate::proto::params::{ParamMachine, ParamOut};
 use crate::proto::rates::StreamRates;
@@ -172,9 +174,6 @@ pub struct Session {
     pub quiet: std::collections::BTreeSet<u8>,
     /// The autopilot family (its profile encodes DO_SET_MODE).
     autopilot: MavAutopilot,
-    /// A camera's or gimbal's request may wait for the queue since this time (a command of
-    /// theirs finished, the gimbals were asked for): the next poll offers them to the queue.
-    offer: Option<Micros>,
 }
 
 impl Session {
@@ -189,10 +188,10 @@ impl Session {
             key,
             pinned: None,
             heard: BTreeMap::new(),
-            streams: StreamMachine::new(key.into(), autopilot, request_streams, rates),
+            streams: StreamMachine::new(key, autopilot, request_streams, rates),
             commands: CommandQueue::default(),
             sequence: None,
-            flight: FlightTelemetry::new(key.into(), request_streams),
+            flight: FlightTelemetry::new(key, request_streams),
             params: ParamMachine::new(key, autopilot, fetch_params),
             mission: MissionMachine::new(key),
             cameras: CameraSet::default(),
@@ -201,7 +200,6 @@ impl Session {
             mode_asks: Vec::new(),
             quiet: std::collections::BTreeSet::new(),
             autopilot,
-            offer: None,
         };
         s.gimbals.autopilot = key.1;
         let profile = crate::proto::profile::of(autopilot);
@@ -285,7 +283,7 @@ impl Session {
                 Machine::on_message(&mut self.commands, m, &mut buf);
                 self.deliver(now, &mut buf, &mut out);
             }
-            self.camera_requests(now, &mut out);
+            self.offer_requests(now, &mut out);
             self.hold_streams();
             return out;
         }
@@ -293,6 +291,9 @@ impl Session {
             Machine::on_message(&mut self.mission, m, &mut buf);
             self.deliver(now, &mut buf, &mut out);
         }
+        // A SET_MESSAGE_INTERVAL's ACK is the stream machine's while one of its own waits,
+        // else the command queue's.
+        let claimed = w & Dispatch::STREAMS != 0 && self.streams.claims(m);
         if w & Dispatch::STREAMS != 0 {
             Machine::on_message(&mut self.streams, m, &mut buf);
         }
@@ -300,18 +301,9 @@ impl Session {
             Machine::on_message(&mut self.flight, m, &mut buf);
         }
         self.deliver(now, &mut buf, &mut out);
-        if let Some(a) = m.ack {
-            // A SET_MESSAGE_INTERVAL's ACK is the stream machine's while one of its own waits
-            // (it went before any of the operator's: the machine sends none while one of those
-            // is open), else the command queue's.
-            match self.streams.on_ack_out(now, a) {
-                Some(mut o) => self.deliver(now, &mut o, &mut out),
-                None if w & Dispatch::COMMANDS != 0 => {
-                    Machine::on_message(&mut self.commands, m, &mut buf);
-                    self.deliver(now, &mut buf, &mut out);
-                }
-                None => {}
-            }
+        if w & Dispatch::COMMANDS != 0 && !claimed {
+            Machine::on_message(&mut self.commands, m, &mut buf);
+            self.deliver(now, &mut buf, &mut out);
         }
         if let Some(hb) = m.heartbeat() {
             self.on_mode_seen(hb.custom_mode, &mut out);
@@ -324,7 +316,7 @@ impl Session {
             Machine::on_message(seq, m, &mut buf);
             self.deliver(now, &mut buf, &mut out);
         }
-        self.camera_requests(now, &mut out);
+        self.offer_requests(now, &mut out);
         self.hold_streams();
         out
     }
@@ -368,7 +360,6 @@ impl Session {
             Err(why) if self.gimbals.usable().is_empty() => {
                 // None known: ask the autopilot, the usual manager (not the pointing itself).
                 self.gimbals.ask_autopilot(now, self.key.1);
-                self.offer = Some(self.offer.map_or(now, |t| t.min(now)));
                 return Err(format!(
                     "{why}; asking the autopilot for GIMBAL_MANAGER_INFORMATION"
                 ));
@@ -405,25 +396,29 @@ impl Session {
         self.submit(now, spec)
     }
 
-    /// The cameras' and gimbals' waiting requests, each component's first, when the queue takes
-    /// it (one command of a kind per target open at a time). Asked on their own: mavterm's own
-    /// traffic.
-    fn camera_requests(&mut self, now: Micros, out: &mut Vec<SessionOut>) {
-        let heads: Vec<(bool, Request)> = self
-            .cameras
-            .heads()
-            .into_iter()
-            .map(|h| (true, h))
-            .chain(self.gimbals.heads().into_iter().map(|h| (false, h)))
-            .collect();
-        for (camera, head) in heads {
-            let (compid, command, params) = head;
-            let target = (self.key.0, compid);
+    /// The waiting requests of the machines asking through the queue (cameras, then gimbals),
+    /// each component's first, when the queue takes it (one command of a kind per target open
+    /// at a time); a refused one is offered again after the next message or poll.
+    fn offer_requests(&mut self, now: Micros, out: &mut Vec<SessionOut>) {
+        self.drain_requests(now, |s| &mut s.cameras, out);
+        self.drain_requests(now, |s| &mut s.gimbals, out);
+    }
+
+    /// One machine's requests offered to the queue; those taken go out as mavterm's own.
+    fn drain_requests<M: Requests>(
+        &mut self,
+        now: Micros,
+        machine: fn(&mut Session) -> &mut M,
+        out: &mut Vec<SessionOut>,
+    ) {
+        for r in machine(self).requests() {
+            let (compid, command, params) = r;
+            let target = VehicleKey(self.key.0, compid);
             if self.commands.is_open(target, command) {
                 continue;
             }
             let spec = CommandSpec {
-                target,
+                target: target.into(),
                 command,
                 params,
                 form: crate::proto::commands::Form::Long,
@@ -431,11 +426,7 @@ impl Session {
             let Ok((_, sends)) = self.commands.submit(now, spec) else {
                 continue;
             };
-            if camera {
-                self.cameras.sent(compid);
-            } else {
-                self.gimbals.sent(&head);
-            }
+            machine(self).taken(&r);
             let mut buf = Vec::new();
             commands::to_out(sends, Route::Auto, &mut buf);
             self.deliver(now, &mut buf, out);
@@ -497,8 +488,7 @@ impl Session {
 
     /// The queue's submit; a mode change remembers the mode it leaves.
     fn queue(&mut self, now: Micros, spec: CommandSpec) -> Result<(u64, Vec<CmdOut>), String> {
-        let mode =
-            spec.command == MavCmd::MAV_CMD_DO_SET_MODE as u16 && spec.target == self.key.into();
+        let mode = spec.command == MavCmd::MAV_CMD_DO_SET_MODE as u16 && spec.key() == self.key;
         let (id, out) = self.commands.submit(now, spec)?;
         if mode {
             self.mode_asks.push((id, self.mode_seen));
@@ -560,10 +550,7 @@ impl Session {
             MavCmd::MAV_CMD_NAV_LAND,
             MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH,
         ] {
-            done.extend(
-                self.commands
-                    .supersede(now, self.key.into(), command as u16),
-            );
+            done.extend(self.commands.supersede(now, self.key, command as u16));
         }
         self.mode_asks.clear();
         self.drive(now, done, &mut out);
@@ -615,7 +602,8 @@ impl Session {
         for o in outs.drain(..) {
             match o {
                 Out::Send { route, msg } => out.push(route_out(route, msg)),
-                Out::Event(MachineEvent::Notice(sev, text)) => {
+                Out::Event(MachineEvent::Notice(sev, text))
+                | Out::Event(MachineEvent::Text { sev, text, .. }) => {
                     out.push(SessionOut::Notice(sev, text))
                 }
                 Out::Event(MachineEvent::ParamSet {
@@ -640,7 +628,7 @@ impl Session {
                         if !crate::proto::gimbal::is_discovery(e.spec.command, &e.spec.params) {
                             out.push(SessionOut::Command {
                                 id,
-                                target: e.spec.target.into(),
+                                target: e.spec.key(),
                                 command: e.spec.command,
                                 sev,
                                 text,
@@ -670,7 +658,6 @@ impl Session {
         let refused = matches!(e.state, State::Done(r) if r != 0);
         if target.0 == self.key.0 {
             self.gimbals.on_finished(now, target.1, cmd, &p);
-            self.offer = Some(self.offer.map_or(now, |t| t.min(now)));
         }
         if self.cameras.cameras.contains_key(&target.1) && target.0 == self.key.0 {
             if accepted && cmd == MavCmd::MAV_CMD_STORAGE_FORMAT as u16 && p[2] == 1.0 {
@@ -732,8 +719,8 @@ impl Session {
     /// The stream machine holds its SET_MESSAGE_INTERVALs while one of the operator's is open.
     fn hold_streams(&mut self) {
         let interval = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
-        let operators = self.commands.is_open(self.key.into(), interval)
-            || self.commands.is_open((self.key.0, 0), interval);
+        let operators = self.commands.is_open(self.key, interval)
+            || self.commands.is_open(VehicleKey(self.key.0, 0), interval);
         self.streams.hold_intervals(operators);
     }
 
@@ -778,41 +765,35 @@ impl Session {
         Machine::poll(&mut self.cameras, now, &mut buf);
         Machine::poll(&mut self.gimbals, now, &mut buf);
         self.deliver(now, &mut buf, &mut out);
-        self.offer = None;
-        self.camera_requests(now, &mut out);
+        self.offer_requests(now, &mut out);
         self.hold_streams();
         out
     }
 
-    /// A parameter machine's output (of an operator's fetch or edit), in the one contract.
-    pub(crate) fn pmap(&self, o: ParamOut) -> SessionOut {
-        match self.params.out(o) {
-            Out::Send { route, msg } => route_out(route, msg),
-            Out::Event(MachineEvent::ParamSet {
-                comp,
-                name,
-                confirmed,
-                notice: (sev, text),
-            }) => SessionOut::ParamSet {
-                comp,
-                name,
-                confirmed,
-                sev,
-                text,
-            },
-            Out::Event(MachineEvent::Notice(sev, text))
-            | Out::Event(MachineEvent::SequenceDone {
-                notice: (sev, text),
-            })
-            | Out::Event(MachineEvent::CommandDone {
-                notice: Some((sev, text)),
-                ..
-            }) => SessionOut::Notice(sev, text),
-            // The parameter machine runs no commands.
-            Out::Event(MachineEvent::CommandDone { notice: None, .. }) => {
-                SessionOut::Notice(crate::wire::Severity::DEBUG, String::new())
-            }
-        }
+    /// The operator fetches the parameters of component `comp`.
+    pub fn params_fetch(&mut self, now: Micros, comp: u8) -> Vec<SessionOut> {
+        let o = self.params.fetch(now, comp);
+        self.params_out(now, o)
+    }
+
+    /// The operator sets parameter `name` of component `comp` to `v`.
+    pub fn params_set(
+        &mut self,
+        now: Micros,
+        comp: u8,
+        name: &str,
+        v: f64,
+    ) -> Result<Vec<SessionOut>, String> {
+        let o = self.params.set(now, comp, name, v)?;
+        Ok(self.params_out(now, o))
+    }
+
+    /// The parameter machine's output of an operator's fetch or edit, delivered.
+    fn params_out(&mut self, now: Micros, o: Vec<ParamOut>) -> Vec<SessionOut> {
+        let mut buf: Vec<Out> = o.into_iter().map(|o| self.params.out(o)).collect();
+        let mut out = Vec::new();
+        self.deliver(now, &mut buf, &mut out);
+        out
     }
 
     /// When the session next needs a poll: the machines' deadlines (work not on a timer is
@@ -827,16 +808,12 @@ impl Session {
             Machine::next_deadline(&self.mission),
             Machine::next_deadline(&self.cameras),
             Machine::next_deadline(&self.gimbals),
-            self.offer,
         ]
         .into_iter()
         .flatten()
         .min()
     }
 }
-
-/// A component's request waiting for the queue: (component, command, params).
-type Request = (u8, u16, [f64; 7]);
 
 /// The routing policy: the operator's messages on the vehicle's route, mavterm's own spared on
 /// high-latency links, stream requests on their link.

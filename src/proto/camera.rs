@@ -29,7 +29,7 @@ use std::collections::{BTreeMap, VecDeque};
 
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavCmd};
-use crate::proto::machine::{Ids, Incoming, Machine, Out};
+use crate::proto::machine::{Ids, Incoming, Machine, Out, Request, Requests};
 use mavlink::MessageData;
 use num_traits::FromPrimitive;
 
@@ -457,6 +457,9 @@ impl CameraAction {
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct CameraSet {
     pub cameras: BTreeMap<u8, Camera>,
+    /// A request may wait for the queue since this time (a command to a camera finished): the
+    /// next poll has it offered again.
+    offer: Option<Micros>,
 }
 
 impl CameraSet {
@@ -588,6 +591,7 @@ impl CameraSet {
         let Some(c) = self.cameras.get_mut(&compid) else {
             return notes;
         };
+        self.offer = Some(self.offer.map_or(now, |t| t.min(now)));
         match MavCmd::from_u16(command) {
             Some(MavCmd::MAV_CMD_REQUEST_MESSAGE)
                 if params[0] == CAMERA_INFORMATION as f64
@@ -937,11 +941,25 @@ impl Machine for CameraSet {
     }
 
     fn poll(&mut self, now: Micros, _: &mut Vec<Out>) {
+        self.offer = None;
         CameraSet::poll(self, now);
     }
 
     fn next_deadline(&self) -> Option<Micros> {
         CameraSet::next_deadline(self)
+            .into_iter()
+            .chain(self.offer)
+            .min()
+    }
+}
+
+impl Requests for CameraSet {
+    fn requests(&self) -> Vec<Request> {
+        self.heads()
+    }
+
+    fn taken(&mut self, r: &Request) {
+        self.sent(r.0);
     }
 }
 

@@ -23,6 +23,7 @@ use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavCmd, MavFrame, MavMessage, MavResult};
 use crate::proto::ack::{command_name, result_name, CommandAck};
 use crate::proto::machine::{Ids, Incoming, Machine, MachineEvent, Out, Route};
+use crate::proto::vehicles::VehicleKey;
 use mavlink::MessageData;
 use num_traits::FromPrimitive;
 
@@ -68,6 +69,11 @@ impl CommandSpec {
 
     pub fn name(&self) -> String {
         command_name(self.command)
+    }
+
+    /// The target, as a key.
+    pub fn key(&self) -> VehicleKey {
+        self.target.into()
     }
 
     /// The message for send number `confirmation` (0 first).
@@ -237,10 +243,10 @@ impl CommandQueue {
     }
 
     /// True while `command` to `target` waits for its answer.
-    pub fn is_open(&self, target: (u8, u8), command: u16) -> bool {
+    pub fn is_open(&self, target: VehicleKey, command: u16) -> bool {
         self.entries
             .iter()
-            .any(|e| e.open() && e.spec.target == target && e.spec.command == command)
+            .any(|e| e.open() && e.spec.key() == target && e.spec.command == command)
     }
 
     /// The wait for an ACK: four round trips, within [`MIN_TIMEOUT`]..[`MAX_TIMEOUT`]; the
@@ -258,10 +264,9 @@ impl CommandQueue {
             .find(|e| e.open() && e.spec.target == spec.target && e.spec.command == spec.command)
         {
             return Err(format!(
-                "{} to {}:{} is still {}: not sent again",
+                "{} to {} is still {}: not sent again",
                 e.spec.name(),
-                spec.target.0,
-                spec.target.1,
+                spec.key(),
                 e.outcome()
             ));
         }
@@ -312,7 +317,7 @@ impl CommandQueue {
             });
         }
         let name = e.spec.name();
-        let target = e.spec.target;
+        let target = e.spec.key();
         if ack.result == MavResult::MAV_RESULT_IN_PROGRESS as u8 {
             e.state = State::InProgress(ack.progress);
             e.changed = now;
@@ -341,9 +346,7 @@ impl CommandQueue {
             CmdOut::Notice(
                 sev,
                 format!(
-                    "{name} to {}:{}: {}{}",
-                    target.0,
-                    target.1,
+                    "{name} to {target}: {}{}",
                     result_name(ack.result),
                     reason.map(|r| format!(" ({r})")).unwrap_or_default()
                 ),
@@ -447,12 +450,12 @@ impl CommandQueue {
 
     /// Every open `command` to `target` is superseded by a newer request: finished at once,
     /// not resent, its late ACK ignored. Returns what finished.
-    pub fn supersede(&mut self, now: Micros, target: (u8, u8), command: u16) -> Vec<CmdOut> {
+    pub fn supersede(&mut self, now: Micros, target: VehicleKey, command: u16) -> Vec<CmdOut> {
         let mut out = Vec::new();
         for e in self
             .entries
             .iter_mut()
-            .filter(|e| e.open() && e.spec.target == target && e.spec.command == command)
+            .filter(|e| e.open() && e.spec.key() == target && e.spec.command == command)
         {
             e.state = State::Superseded;
             e.changed = now;

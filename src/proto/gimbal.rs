@@ -35,7 +35,7 @@ use std::collections::{BTreeMap, VecDeque};
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavCmd};
 pub use crate::proto::camera::names;
-use crate::proto::machine::{Ids, Incoming, Machine, Out};
+use crate::proto::machine::{Ids, Incoming, Machine, Out, Request, Requests};
 use crate::wire::payload::Payload as P;
 use mavlink::MessageData;
 
@@ -264,6 +264,9 @@ pub struct GimbalSet {
     pending: VecDeque<(u8, u16, [f64; 7])>,
     /// The autopilot's component id (the usual manager).
     pub autopilot: u8,
+    /// A request may wait for the queue since this time (a command of the system finished,
+    /// the autopilot was asked for): the next poll has it offered again.
+    offer: Option<Micros>,
 }
 
 /// A request the discovery sends on its own (GIMBAL_MANAGER_INFORMATION asked, the status and
@@ -432,6 +435,7 @@ impl GimbalSet {
 
     /// A command to component `compid` finished (`accepted` or not).
     pub fn on_finished(&mut self, now: Micros, compid: u8, command: u16, params: &[f64; 7]) {
+        self.offer = Some(self.offer.map_or(now, |t| t.min(now)));
         if command == (MavCmd::MAV_CMD_REQUEST_MESSAGE as u16)
             && params[0] == GIMBAL_MANAGER_INFORMATION as f64
         {
@@ -546,6 +550,7 @@ impl GimbalSet {
         let fresh = !self.candidates.contains_key(&compid);
         self.candidate(now, compid, true);
         self.poll(now);
+        self.offer = Some(self.offer.map_or(now, |t| t.min(now)));
         fresh
             || self
                 .candidates
@@ -609,8 +614,9 @@ impl GimbalSet {
         if let Some(s) = g.status {
             if s.primary != (0, 0) && s.primary != us {
                 return Err(format!(
-                    "gimbal {} is controlled by {}:{}: `gimbal control` takes it (not sent)",
-                    g.manager, s.primary.0, s.primary.1
+                    "gimbal {} is controlled by {}: `gimbal control` takes it (not sent)",
+                    g.manager,
+                    crate::proto::vehicles::VehicleKey::from(s.primary)
                 ));
             }
         }
@@ -682,11 +688,25 @@ impl Machine for GimbalSet {
     }
 
     fn poll(&mut self, now: Micros, _: &mut Vec<Out>) {
+        self.offer = None;
         GimbalSet::poll(self, now);
     }
 
     fn next_deadline(&self) -> Option<Micros> {
         GimbalSet::next_deadline(self)
+            .into_iter()
+            .chain(self.offer)
+            .min()
+    }
+}
+
+impl Requests for GimbalSet {
+    fn requests(&self) -> Vec<Request> {
+        self.heads()
+    }
+
+    fn taken(&mut self, r: &Request) {
+        self.sent(r);
     }
 }
 

@@ -78,6 +78,14 @@ pub enum MachineEvent {
     },
     /// The running sequence ended (done, or stopped), with what to tell of it.
     SequenceDone { notice: (Severity, String) },
+    /// A text the vehicle said (STATUSTEXT, joined): from component `from`. `late`: its last
+    /// chunk never came (shown as far as it got, not read as a refusal's reason).
+    Text {
+        from: crate::proto::vehicles::VehicleKey,
+        sev: Severity,
+        text: String,
+        late: bool,
+    },
 }
 
 /// What a machine wants done.
@@ -125,4 +133,26 @@ pub trait Machine {
     fn poll(&mut self, now: Micros, out: &mut Vec<Out>);
     /// When it next needs a poll (untimed work: the time it became due).
     fn next_deadline(&self) -> Option<Micros>;
+    /// True when `m` is this machine's alone, asked before it is handed the message: the
+    /// machines that would read it too (the command queue, for a COMMAND_ACK answering a
+    /// command this machine sent itself) are not handed it.
+    fn claims(&self, _m: &Incoming) -> bool {
+        false
+    }
+}
+
+/// A command a machine wants sent through the session's command queue, to component `.0` of
+/// its system: (component, command, params). Asked on its own: mavterm's own traffic.
+pub type Request = (u8, u16, [f64; 7]);
+
+/// A machine whose commands go through the session's command queue (one command of a kind per
+/// target open at a time). It keeps its requests until the queue takes them; the session offers
+/// them after every message and poll, through one path for every such machine, and a refused
+/// one is offered again then (the machine's deadline wakes the session when a command of its
+/// system finished).
+pub trait Requests {
+    /// The requests the queue may take now, in order (each component's first).
+    fn requests(&self) -> Vec<Request>;
+    /// The queue took `r`: it is on its way.
+    fn taken(&mut self, r: &Request);
 }

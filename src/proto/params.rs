@@ -901,9 +901,8 @@ impl ParamMachine {
                 out.push(ParamOut::Notice(
                     Severity::NOTICE,
                     format!(
-                        "{}:{} now has {} parameters (was {})",
-                        self.key.0,
-                        from,
+                        "{} now has {} parameters (was {})",
+                        VehicleKey(self.key.0, from),
                         m.count,
                         before.unwrap_or(0)
                     ),
@@ -1106,9 +1105,8 @@ impl ParamMachine {
         d.stats.finished = Some(now);
         let secs = (now - d.stats.started) as f64 / SECOND as f64;
         let text = format!(
-            "parameters of {}:{}: {count}/{count} in {secs:.1} s by {}",
-            self.key.0,
-            d.comp,
+            "parameters of {}: {count}/{count} in {secs:.1} s by {}",
+            VehicleKey(self.key.0, d.comp),
             d.stats.method.name()
         );
         self.last = Some(d.stats);

@@ -8,7 +8,10 @@
 use std::collections::BTreeMap;
 
 use crate::clock::{Micros, SECOND};
+use crate::dialect::{self, MavMessage};
+use crate::proto::machine::{Ids, Incoming, Machine, MachineEvent, Out};
 use crate::wire::Severity;
+use mavlink::MessageData;
 
 /// How long to wait for the rest of a chunked text.
 pub const CHUNK_TIMEOUT: Micros = 2 * SECOND;
@@ -132,6 +135,45 @@ impl StatusTextJoiner {
             .values()
             .map(|p| p.started + CHUNK_TIMEOUT)
             .min()
+    }
+}
+
+fn text_out(t: Text, late: bool) -> Out {
+    Out::Event(MachineEvent::Text {
+        from: t.source.into(),
+        sev: t.severity,
+        text: t.text,
+        late,
+    })
+}
+
+impl Machine for StatusTextJoiner {
+    const IDS: Ids = Ids::Only(&[dialect::STATUSTEXT_DATA::ID]);
+
+    /// A chunk: the texts it completes (a text pushed out unfinished to make room included).
+    fn on_message(&mut self, m: &Incoming, out: &mut Vec<Out>) {
+        let Some(MavMessage::STATUSTEXT(st)) = m.msg else {
+            return;
+        };
+        let texts = self.push(
+            m.now,
+            m.from,
+            st.severity.into(),
+            &st.text[..],
+            st.id,
+            st.chunk_seq,
+        );
+        out.extend(texts.into_iter().map(|t| text_out(t, false)));
+    }
+
+    /// Texts whose last chunk did not come in time.
+    fn poll(&mut self, now: Micros, out: &mut Vec<Out>) {
+        let texts = StatusTextJoiner::poll(self, now);
+        out.extend(texts.into_iter().map(|t| text_out(t, true)));
+    }
+
+    fn next_deadline(&self) -> Option<Micros> {
+        StatusTextJoiner::next_deadline(self)
     }
 }
 

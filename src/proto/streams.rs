@@ -62,6 +62,7 @@ use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavAutopilot, MavCmd, MavDataStream, MavMessage, MavResult};
 use crate::proto::machine::{Ids, Incoming, Machine, Out, Route};
 use crate::proto::rates::StreamRates;
+use crate::proto::vehicles::VehicleKey;
 use crate::wire::Severity;
 
 /// Shortest wait before a request is checked.
@@ -350,11 +351,12 @@ pub fn fit_to_link(groups: &[(u8, f32)], messages: &[(u32, f32)], baud: Option<u
 
 /// REQUEST_DATA_STREAM for one stream group.
 pub fn request_data_stream(
-    target: (u8, u8),
+    target: impl Into<VehicleKey>,
     stream: MavDataStream,
     hz: u16,
     start: bool,
 ) -> MavMessage {
+    let target = target.into();
     MavMessage::REQUEST_DATA_STREAM(dialect::REQUEST_DATA_STREAM_DATA {
         req_message_rate: hz,
         target_system: target.0,
@@ -365,7 +367,12 @@ pub fn request_data_stream(
 }
 
 /// COMMAND_LONG MAV_CMD_SET_MESSAGE_INTERVAL (param2 in µs; -1 disables, 0 default rate).
-pub fn set_message_interval(target: (u8, u8), msgid: u32, interval_us: f32) -> MavMessage {
+pub fn set_message_interval(
+    target: impl Into<VehicleKey>,
+    msgid: u32,
+    interval_us: f32,
+) -> MavMessage {
+    let target = target.into();
     MavMessage::COMMAND_LONG(dialect::COMMAND_LONG_DATA {
         target_system: target.0,
         target_component: target.1,
@@ -603,7 +610,7 @@ pub struct StreamInfo {
 /// Stream requests for one autopilot, per link.
 #[derive(Debug, Clone)]
 pub struct StreamMachine {
-    target: (u8, u8),
+    target: VehicleKey,
     autopilot: MavAutopilot,
     /// Off when the operator asked mavterm not to request streams.
     enabled: bool,
@@ -620,13 +627,13 @@ pub struct StreamMachine {
 
 impl StreamMachine {
     pub fn new(
-        target: (u8, u8),
+        target: impl Into<VehicleKey>,
         autopilot: MavAutopilot,
         enabled: bool,
         rates: StreamRates,
     ) -> Self {
         Self {
-            target,
+            target: target.into(),
             autopilot,
             enabled,
             rates,
@@ -785,9 +792,8 @@ impl StreamMachine {
             out.push(StreamOut::Notice(
                 Severity::WARNING,
                 format!(
-                    "{}:{} refused SET_MESSAGE_INTERVAL {} at {} Hz on link {}: {why}",
-                    self.target.0,
-                    self.target.1,
+                    "{} refused SET_MESSAGE_INTERVAL {} at {} Hz on link {}: {why}",
+                    self.target,
                     msg_name(p.msgid),
                     hz_text(1e6 / p.interval_us as f64),
                     p.link
@@ -985,9 +991,7 @@ impl StreamMachine {
             out.push(StreamOut::Notice(
                 Severity::WARNING,
                 format!(
-                    "no {names} from {}:{} on link {link}: asked at {} Hz {how}, {why}",
-                    target.0,
-                    target.1,
+                    "no {names} from {target} on link {link}: asked at {} Hz {how}, {why}",
                     hz_text(it.hz as f64)
                 ),
             ));
@@ -997,9 +1001,7 @@ impl StreamMachine {
         out.push(StreamOut::Notice(
             Severity::NOTICE,
             format!(
-                "{}:{} on link {link}: {names} not arriving by {}; asking by {}",
-                target.0,
-                target.1,
+                "{target} on link {link}: {names} not arriving by {}; asking by {}",
                 it.method.name(),
                 m.name()
             ),
@@ -1164,9 +1166,8 @@ impl StreamMachine {
                 out.push(StreamOut::Notice(
                     Severity::WARNING,
                     format!(
-                        "no answer from {}:{} to SET_MESSAGE_INTERVAL {} on link {} ({} sends)",
-                        self.target.0,
-                        self.target.1,
+                        "no answer from {} to SET_MESSAGE_INTERVAL {} on link {} ({} sends)",
+                        self.target,
                         msg_name(p.msgid),
                         p.link,
                         p.sends
@@ -1287,26 +1288,27 @@ impl StreamMachine {
             StreamOut::Notice(s, t) => Out::notice(s, t),
         }));
     }
-
-    /// [`StreamMachine::on_ack`] in the one contract: `None` when the ACK is not this machine's.
-    pub fn on_ack_out(
-        &mut self,
-        now: Micros,
-        ack: &crate::proto::ack::CommandAck,
-    ) -> Option<Vec<Out>> {
-        let o = self.on_ack(now, ack.command, ack.result)?;
-        let mut out = Vec::new();
-        Self::emit(o, &mut out);
-        Some(out)
-    }
 }
 
 impl Machine for StreamMachine {
     /// Every message: arrivals are counted against the rates asked.
     const IDS: Ids = Ids::All;
 
-    fn on_message(&mut self, m: &Incoming, _: &mut Vec<Out>) {
+    /// Every message; a COMMAND_ACK of MAV_CMD_SET_MESSAGE_INTERVAL while one of its own waits
+    /// is its answer (see [`Machine::claims`]).
+    fn on_message(&mut self, m: &Incoming, out: &mut Vec<Out>) {
         StreamMachine::on_message(self, m.now, m.link, m.profile, m.id, m.heartbeat());
+        if let Some(o) = m.ack.and_then(|a| self.on_ack(m.now, a.command, a.result)) {
+            Self::emit(o, out);
+        }
+    }
+
+    /// The ACK of its own SET_MESSAGE_INTERVAL: one waits (it went before any of the
+    /// operator's: the machine sends none while one of those is open).
+    fn claims(&self, m: &Incoming) -> bool {
+        m.ack.is_some_and(|a| {
+            a.command == MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16 && self.pending.is_some()
+        })
     }
 
     fn poll(&mut self, now: Micros, out: &mut Vec<Out>) {

@@ -23,6 +23,7 @@ use std::collections::VecDeque;
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavCmd, MavMessage};
 use crate::proto::machine::Out;
+use crate::proto::vehicles::VehicleKey;
 
 /// A value older than this is shown stale.
 pub const STALE_AFTER: Micros = 3 * SECOND;
@@ -312,7 +313,8 @@ impl History {
 }
 
 /// COMMAND_LONG MAV_CMD_REQUEST_MESSAGE for HOME_POSITION.
-pub fn request_home(target: (u8, u8)) -> MavMessage {
+pub fn request_home(target: impl Into<VehicleKey>) -> MavMessage {
+    let target = target.into();
     MavMessage::COMMAND_LONG(dialect::COMMAND_LONG_DATA {
         target_system: target.0,
         target_component: target.1,
@@ -331,7 +333,7 @@ pub fn request_home(target: (u8, u8)) -> MavMessage {
 /// What one autopilot last told of its flight.
 #[derive(Debug, Clone)]
 pub struct FlightTelemetry {
-    target: (u8, u8),
+    target: VehicleKey,
     /// Off when the operator asked mavterm not to request telemetry.
     request_home: bool,
     pub position: Option<Timed<Position>>,
@@ -359,9 +361,9 @@ pub struct FlightTelemetry {
 }
 
 impl FlightTelemetry {
-    pub fn new(target: (u8, u8), request_home: bool) -> Self {
+    pub fn new(target: impl Into<VehicleKey>, request_home: bool) -> Self {
         Self {
-            target,
+            target: target.into(),
             request_home,
             position: None,
             motion: None,
