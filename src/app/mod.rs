@@ -1277,16 +1277,13 @@ fn heartbeat_fallback(frame: &Frame) -> Option<MavMessage> {
     if frame.msgid != <dialect::HEARTBEAT_DATA as mavlink::MessageData>::ID {
         return None;
     }
-    let mut p = [0u8; 9];
-    let payload = frame.payload();
-    let n = payload.len().min(9);
-    p[..n].copy_from_slice(&payload[..n]);
+    let p = crate::wire::payload::Payload(frame.payload());
     Some(MavMessage::HEARTBEAT(dialect::HEARTBEAT_DATA {
-        custom_mode: u32::from_le_bytes([p[0], p[1], p[2], p[3]]),
-        mavtype: MavType::from_u8(p[4]).unwrap_or(MavType::MAV_TYPE_GENERIC),
-        autopilot: MavAutopilot::from_u8(p[5]).unwrap_or(MavAutopilot::MAV_AUTOPILOT_GENERIC),
-        base_mode: MavModeFlag::from_bits_truncate(p[6]),
-        system_status: MavState::from_u8(p[7]).unwrap_or(MavState::MAV_STATE_UNINIT),
-        mavlink_version: p[8],
+        custom_mode: p.u32(0),
+        mavtype: MavType::from_u8(p.u8(4)).unwrap_or(MavType::MAV_TYPE_GENERIC),
+        autopilot: MavAutopilot::from_u8(p.u8(5)).unwrap_or(MavAutopilot::MAV_AUTOPILOT_GENERIC),
+        base_mode: MavModeFlag::from_bits_truncate(p.u8(6)),
+        system_status: MavState::from_u8(p.u8(7)).unwrap_or(MavState::MAV_STATE_UNINIT),
+        mavlink_version: p.u8(8),
     }))
 }

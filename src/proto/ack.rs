@@ -33,18 +33,15 @@ impl CommandAck {
             return None;
         }
         // Wire order: command u16, result u8, progress u8, result_param2 i32, target_system u8,
-        // target_component u8. MAVLink 2 drops trailing zeros, so pad to the full length.
-        let mut p = [0u8; 10];
-        let payload = frame.payload();
-        let n = payload.len().min(p.len());
-        p[..n].copy_from_slice(&payload[..n]);
+        // target_component u8 (MAVLink 2 drops trailing zeros: they read as zero).
+        let p = crate::wire::payload::Payload(frame.payload());
         Some(CommandAck {
-            command: u16::from_le_bytes([p[0], p[1]]),
-            result: p[2],
-            progress: p[3],
-            result_param2: i32::from_le_bytes([p[4], p[5], p[6], p[7]]),
-            target_system: p[8],
-            target_component: p[9],
+            command: p.u16(0),
+            result: p.u8(2),
+            progress: p.u8(3),
+            result_param2: p.i32(4),
+            target_system: p.u8(8),
+            target_component: p.u8(9),
         })
     }
 

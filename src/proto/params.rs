@@ -372,9 +372,9 @@ impl ParamValueMsg {
             String::from_utf8_lossy(&id[..len]).into_owned()
         };
         Some(ParamValueMsg {
-            raw: f32::from_le_bytes([p[0], p[1], p[2], p[3]]),
-            count: u16::from_le_bytes([p[4], p[5]]),
-            index: u16::from_le_bytes([p[6], p[7]]),
+            raw: Payload(&p).f32(0),
+            count: Payload(&p).u16(4),
+            index: Payload(&p).u16(6),
             name,
             type_code: p[24],
             refused,

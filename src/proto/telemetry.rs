@@ -574,18 +574,14 @@ impl FlightTelemetry {
     }
 }
 
-/// `N` bytes of a payload MAVLink 2 may have cut short (trailing zeros), padded back.
-fn padded<const N: usize>(payload: &[u8]) -> [u8; N] {
-    crate::wire::payload::Payload(payload).bytes(0)
-}
-
 /// GPS_RAW_INT's fix type and satellites from its payload. Wire order: time_usec u64, lat,
 /// lon, alt i32, eph, epv, vel, cog u16, fix_type u8, satellites_visible u8 (bytes 28 and 29).
 fn gps_from_payload(payload: &[u8]) -> Gps {
-    let p = padded::<30>(payload);
+    let p = crate::wire::payload::Payload(payload);
+    let satellites = p.u8(29);
     Gps {
-        fix_type: p[28],
-        satellites: (p[29] != u8::MAX).then_some(p[29]),
+        fix_type: p.u8(28),
+        satellites: (satellites != u8::MAX).then_some(satellites),
     }
 }
 
@@ -594,14 +590,13 @@ fn gps_from_payload(payload: &[u8]) -> Gps {
 /// (30), id u8 (32), battery_function, type u8, battery_remaining i8 (35); extensions:
 /// time_remaining i32, charge_state u8, voltages_ext [u16; 4] (bytes 41..49), ...
 fn battery_status_from_payload(payload: &[u8]) -> (u8, Battery) {
-    let p = padded::<49>(payload);
-    let u16_at = |i: usize| u16::from_le_bytes([p[i], p[i + 1]]);
-    let voltages: [u16; 10] = std::array::from_fn(|k| u16_at(10 + 2 * k));
-    let ext: [u16; 4] = std::array::from_fn(|k| u16_at(41 + 2 * k));
-    let current = i16::from_le_bytes([p[30], p[31]]);
-    let remaining = p[35] as i8;
+    let p = crate::wire::payload::Payload(payload);
+    let voltages: [u16; 10] = std::array::from_fn(|k| p.u16(10 + 2 * k));
+    let ext: [u16; 4] = std::array::from_fn(|k| p.u16(41 + 2 * k));
+    let current = p.i16(30);
+    let remaining = p.u8(35) as i8;
     (
-        p[32],
+        p.u8(32),
         Battery::from_battery_status(&voltages, &ext, current, remaining),
     )
 }

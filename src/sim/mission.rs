@@ -36,6 +36,7 @@
 use super::vehicle::{Out, SimVehicle};
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{MavMissionResult, MavSeverity};
+use crate::wire::payload::Payload;
 
 /// Message ids of the mission protocol.
 pub mod msgid {
@@ -144,19 +145,6 @@ fn padded(payload: &[u8], len: usize) -> Vec<u8> {
     p
 }
 
-fn u16_at(p: &[u8], i: usize) -> u16 {
-    u16::from_le_bytes([p[i], p[i + 1]])
-}
-fn i16_at(p: &[u8], i: usize) -> i16 {
-    i16::from_le_bytes([p[i], p[i + 1]])
-}
-fn i32_at(p: &[u8], i: usize) -> i32 {
-    i32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]])
-}
-fn f32_at(p: &[u8], i: usize) -> f32 {
-    f32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]])
-}
-
 /// A mission protocol message from the GCS, read from its payload.
 #[derive(Debug, Clone, PartialEq)]
 pub(super) enum Incoming {
@@ -219,13 +207,18 @@ pub(super) fn parse(id: u32, payload: &[u8]) -> Option<(u8, u8, Incoming)> {
     Some(match id {
         MISSION_ITEM_INT | MISSION_ITEM => {
             let p = padded(payload, 38);
-            let command = u16_at(&p, 30);
+            let command = Payload(&p).u16(30);
             let mut item = MissionItem {
-                params: [f32_at(&p, 0), f32_at(&p, 4), f32_at(&p, 8), f32_at(&p, 12)],
-                x: i32_at(&p, 16),
-                y: i32_at(&p, 20),
-                z: f32_at(&p, 24),
-                seq: u16_at(&p, 28),
+                params: [
+                    Payload(&p).f32(0),
+                    Payload(&p).f32(4),
+                    Payload(&p).f32(8),
+                    Payload(&p).f32(12),
+                ],
+                x: Payload(&p).i32(16),
+                y: Payload(&p).i32(20),
+                z: Payload(&p).f32(24),
+                seq: Payload(&p).u16(28),
                 command,
                 frame: p[34],
                 current: p[35],
@@ -234,7 +227,7 @@ pub(super) fn parse(id: u32, payload: &[u8]) -> Option<(u8, u8, Incoming)> {
             };
             let mut bad = None;
             if id == MISSION_ITEM {
-                let (fx, fy) = (f32_at(&p, 16), f32_at(&p, 20));
+                let (fx, fy) = (Payload(&p).f32(16), Payload(&p).f32(20));
                 if xy_not_location(command) {
                     item.x = fx as i32;
                     item.y = fy as i32;
@@ -264,7 +257,7 @@ pub(super) fn parse(id: u32, payload: &[u8]) -> Option<(u8, u8, Incoming)> {
                 p[2],
                 p[3],
                 Incoming::Request {
-                    seq: u16_at(&p, 0),
+                    seq: Payload(&p).u16(0),
                     ty: p[4],
                     int: id == MISSION_REQUEST_INT,
                 },
@@ -276,7 +269,7 @@ pub(super) fn parse(id: u32, payload: &[u8]) -> Option<(u8, u8, Incoming)> {
                 p[2],
                 p[3],
                 Incoming::Count {
-                    count: u16_at(&p, 0),
+                    count: Payload(&p).u16(0),
                     ty: p[4],
                 },
             )
@@ -291,7 +284,13 @@ pub(super) fn parse(id: u32, payload: &[u8]) -> Option<(u8, u8, Incoming)> {
         }
         MISSION_SET_CURRENT => {
             let p = padded(payload, 4);
-            (p[2], p[3], Incoming::SetCurrent { seq: u16_at(&p, 0) })
+            (
+                p[2],
+                p[3],
+                Incoming::SetCurrent {
+                    seq: Payload(&p).u16(0),
+                },
+            )
         }
         MISSION_WRITE_PARTIAL_LIST => {
             let p = padded(payload, 7);
@@ -299,8 +298,8 @@ pub(super) fn parse(id: u32, payload: &[u8]) -> Option<(u8, u8, Incoming)> {
                 p[4],
                 p[5],
                 Incoming::WritePartial {
-                    start: i16_at(&p, 0),
-                    end: i16_at(&p, 2),
+                    start: Payload(&p).i16(0),
+                    end: Payload(&p).i16(2),
                     ty: p[6],
                 },
             )

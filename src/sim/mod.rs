@@ -247,12 +247,10 @@ impl Sim {
     fn unknown_command(&mut self, now: Micros, from: (u8, u8), payload: &[u8]) {
         // Wire layout, the same in both: 28 bytes of params (COMMAND_INT: 4 floats, x, y, z),
         // command u16, target_system u8, target_component u8.
-        let mut p = [0u8; 33];
-        let n = payload.len().min(33);
-        p[..n].copy_from_slice(&payload[..n]);
-        let command = u16::from_le_bytes([p[28], p[29]]);
+        let p = crate::wire::payload::Payload(payload);
+        let command = p.u16(28);
         for i in 0..self.vehicles.len() {
-            if !self.vehicles[i].for_me(p[30], p[31]) || self.vehicles[i].take_drop(command) {
+            if !self.vehicles[i].for_me(p.u8(30), p.u8(31)) || self.vehicles[i].take_drop(command) {
                 continue;
             }
             // COMMAND_ACK: command u16, result u8, progress u8, result_param2 i32,
