@@ -6,15 +6,14 @@
 
 mod common;
 
-use common::{command, keys, wait};
+use common::{command, hear, keys, wait};
 
 use mavterm::app::{App, AppConfig, Effect, Event};
 use mavterm::dialect::{self, MavMessage};
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::keymap::Key;
-use mavterm::link::{LinkSpec, ParserStats};
+use mavterm::link::LinkSpec;
 use mavterm::ui::{buffer_to_text, render_to_buffer, Theme};
-use mavterm::wire::frame::{decode_one, encode, Header, Version};
 use serde_json::Value;
 
 const SECOND: u64 = 1_000_000;
@@ -39,24 +38,6 @@ fn statustext(severity: dialect::MavSeverity, text: &str) -> MavMessage {
         id: 0,
         chunk_seq: 0,
     })
-}
-
-/// `msg` from 1:1 on link 0 at `now`.
-fn hear(app: &mut App, now: u64, msg: &MavMessage) -> Vec<Effect> {
-    let h = Header {
-        sysid: 1,
-        compid: 1,
-        seq: 0,
-    };
-    let frame = decode_one(&encode(Version::V2, h, msg)).unwrap();
-    app.update(
-        now,
-        Event::Frames {
-            link: 0,
-            frames: vec![frame],
-            stats: ParserStats::default(),
-        },
-    )
 }
 
 /// An app on one link that has heard 1:1 at 0 s, armed or not.

@@ -11,8 +11,17 @@ use crate::clock::Micros;
 use crate::dialect::MavMessage;
 use crate::link::LinkId;
 use crate::proto::ack::CommandAck;
-use crate::proto::streams::LinkProfile;
 use crate::wire::Severity;
+
+/// What a link is, as far as asking for telemetry goes.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct LinkProfile {
+    /// High latency or low bandwidth (`?hl=1`), or a tlog replay: nothing automatic is sent on
+    /// it.
+    pub hl: bool,
+    /// The baud rate given on a serial spec (unknown otherwise).
+    pub baud: Option<u32>,
+}
 
 /// A message of the session's system, for us or broadcast, as a machine sees it.
 #[derive(Debug, Clone, Copy)]

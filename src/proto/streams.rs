@@ -398,15 +398,7 @@ pub enum StreamOut {
     Notice(Severity, String),
 }
 
-/// What a link is, as far as asking for telemetry goes.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct LinkProfile {
-    /// High latency or low bandwidth (`?hl=1`), or a tlog replay: nothing automatic is sent on
-    /// it.
-    pub hl: bool,
-    /// The baud rate given on a serial spec (unknown otherwise).
-    pub baud: Option<u32>,
-}
+pub use super::machine::LinkProfile;
 
 /// How a stream is asked for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

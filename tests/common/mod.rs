@@ -375,3 +375,26 @@ pub fn sim(r: &mavterm::driver::virtual_time::VirtualRunner) -> &mavterm::sim::S
         .downcast_ref::<mavterm::sim::Sim>()
         .unwrap()
 }
+
+/// `msg` from 1:1 on link 0 of a core, at `now`: what the core does with it.
+pub fn hear(
+    app: &mut mavterm::app::App,
+    now: u64,
+    msg: &mavterm::dialect::MavMessage,
+) -> Vec<mavterm::app::Effect> {
+    use mavterm::wire::frame::{decode_one, encode, Header, Version};
+    let h = Header {
+        sysid: 1,
+        compid: 1,
+        seq: 0,
+    };
+    let frame = decode_one(&encode(Version::V2, h, msg)).unwrap();
+    app.update(
+        now,
+        mavterm::app::Event::Frames {
+            link: 0,
+            frames: vec![frame],
+            stats: mavterm::link::ParserStats::default(),
+        },
+    )
+}
