@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{command, hear, keys, wait};
+use common::{command, hear, keys, statustext, wait};
 
 use mavterm::app::{App, AppConfig, Effect, Event};
 use mavterm::dialect::{self, MavMessage};
@@ -28,15 +28,6 @@ fn heartbeat(armed: bool) -> MavMessage {
         system_status: dialect::MavState::MAV_STATE_STANDBY,
         mavlink_version: 3,
         custom_mode: 0,
-    })
-}
-
-fn statustext(severity: dialect::MavSeverity, text: &str) -> MavMessage {
-    MavMessage::STATUSTEXT(dialect::STATUSTEXT_DATA {
-        severity,
-        text: text.into(),
-        id: 0,
-        chunk_seq: 0,
     })
 }
 
@@ -239,34 +230,11 @@ fn runner() -> VirtualRunner {
 /// Message ids of what an operator sends: COMMAND_INT, COMMAND_LONG, SET_MODE.
 const OPERATOR_IDS: [u32; 3] = [75, 76, 11];
 
-fn msgid(frame: &[u8]) -> u32 {
-    match frame.first() {
-        Some(0xFD) if frame.len() >= 10 => u32::from_le_bytes([frame[7], frame[8], frame[9], 0]),
-        Some(0xFE) if frame.len() >= 6 => frame[5] as u32,
-        _ => u32::MAX,
-    }
-}
-
 /// The operator's commands sent since the last call, read by pymavlink (automatic requests —
 /// message intervals, REQUEST_MESSAGE, capabilities, streams — left out).
 fn sent(r: &mut VirtualRunner) -> Vec<Value> {
-    let frames: Vec<Vec<u8>> = r
-        .take_sent()
-        .into_iter()
-        .map(|(_, _, f)| f)
-        .filter(|f| OPERATOR_IDS.contains(&msgid(f)))
-        .collect();
-    if frames.is_empty() {
-        return Vec::new();
-    }
-    common::pymavlink_decode(&frames)
-        .into_iter()
-        .inspect(|v| assert!(v.get("error").is_none(), "pymavlink: {v}"))
-        .filter(|v| {
-            let c = v["command"].as_u64().unwrap_or(0);
-            !(v["name"] == "COMMAND_LONG" && matches!(c, 511 | 512 | 520 | 2504 | 2505 | 1000))
-        })
-        .collect()
+    let frames: Vec<Vec<u8>> = r.take_sent().into_iter().map(|(_, _, f)| f).collect();
+    common::operator_messages(&frames, &OPERATOR_IDS)
 }
 
 /// Home, a take-off to 20 m (relative frame 3) and two waypoints at 25 m.

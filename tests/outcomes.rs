@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{command, hear, wait};
+use common::{command, hear, statustext, wait};
 
 use mavterm::app::{App, AppConfig, Event};
 use mavterm::dialect::{self, MavMessage};
@@ -86,15 +86,6 @@ fn ack(command: dialect::MavCmd, result: dialect::MavResult) -> MavMessage {
         command,
         result,
         ..Default::default()
-    })
-}
-
-fn statustext(severity: dialect::MavSeverity, text: &str) -> MavMessage {
-    MavMessage::STATUSTEXT(dialect::STATUSTEXT_DATA {
-        severity,
-        text: text.into(),
-        id: 0,
-        chunk_seq: 0,
     })
 }
 

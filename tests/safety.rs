@@ -20,33 +20,9 @@ const SECOND: u64 = 1_000_000;
 /// SET_POSITION_TARGET_LOCAL_NED.
 const OPERATOR_IDS: [u32; 5] = [75, 76, 11, 23, 84];
 
-fn msgid(frame: &[u8]) -> u32 {
-    match frame.first() {
-        Some(0xFD) if frame.len() >= 10 => u32::from_le_bytes([frame[7], frame[8], frame[9], 0]),
-        Some(0xFE) if frame.len() >= 6 => frame[5] as u32,
-        _ => u32::MAX,
-    }
-}
-
 /// The operator's frames among `frames`, as pymavlink reads them (automatic requests left out).
 fn operator_frames(frames: &[Vec<u8>]) -> Vec<Value> {
-    let mine: Vec<Vec<u8>> = frames
-        .iter()
-        .filter(|f| OPERATOR_IDS.contains(&msgid(f)))
-        .cloned()
-        .collect();
-    if mine.is_empty() {
-        return Vec::new();
-    }
-    common::pymavlink_decode(&mine)
-        .into_iter()
-        .inspect(|v| assert!(v.get("error").is_none(), "pymavlink: {v}"))
-        .filter(|v| {
-            // Automatic requests: SET_MESSAGE_INTERVAL, REQUEST_MESSAGE, capabilities, streams.
-            let c = v["command"].as_u64().unwrap_or(0);
-            !(v["name"] == "COMMAND_LONG" && matches!(c, 511 | 512 | 520 | 2504 | 2505 | 1000))
-        })
-        .collect()
+    common::operator_messages(frames, &OPERATOR_IDS)
 }
 
 /// What the runner sent since the last call, read by pymavlink.
@@ -1054,7 +1030,7 @@ fn armed_uploads_and_parameter_changes_ask_naming_the_vehicle() {
     let mut out = out;
     out.extend(b.keys(3.5, &["n"]));
     // No MISSION_COUNT (44) left.
-    assert!(out.iter().all(|f| msgid(f) != 44));
+    assert!(out.iter().all(|f| common::frame_msgid(f) != 44));
 }
 
 /// The ARM commands among what the runner sent since the last call.

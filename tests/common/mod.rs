@@ -398,3 +398,47 @@ pub fn hear(
         },
     )
 }
+
+/// A STATUSTEXT of `severity` saying `text`, in one chunk.
+pub fn statustext(
+    severity: mavterm::dialect::MavSeverity,
+    text: &str,
+) -> mavterm::dialect::MavMessage {
+    mavterm::dialect::MavMessage::STATUSTEXT(mavterm::dialect::STATUSTEXT_DATA {
+        severity,
+        text: text.into(),
+        id: 0,
+        chunk_seq: 0,
+    })
+}
+
+/// The message id of a MAVLink 1 or 2 frame (`u32::MAX` for what is neither).
+pub fn frame_msgid(frame: &[u8]) -> u32 {
+    match frame.first() {
+        Some(0xFD) if frame.len() >= 10 => u32::from_le_bytes([frame[7], frame[8], frame[9], 0]),
+        Some(0xFE) if frame.len() >= 6 => frame[5] as u32,
+        _ => u32::MAX,
+    }
+}
+
+/// The operator's frames among `frames` (those whose id is in `ids`), as pymavlink reads them;
+/// mavterm's automatic requests (SET_MESSAGE_INTERVAL, REQUEST_MESSAGE, capabilities, streams)
+/// left out.
+pub fn operator_messages(frames: &[Vec<u8>], ids: &[u32]) -> Vec<serde_json::Value> {
+    let mine: Vec<Vec<u8>> = frames
+        .iter()
+        .filter(|f| ids.contains(&frame_msgid(f)))
+        .cloned()
+        .collect();
+    if mine.is_empty() {
+        return Vec::new();
+    }
+    pymavlink_decode(&mine)
+        .into_iter()
+        .inspect(|v| assert!(v.get("error").is_none(), "pymavlink: {v}"))
+        .filter(|v| {
+            let c = v["command"].as_u64().unwrap_or(0);
+            !(v["name"] == "COMMAND_LONG" && matches!(c, 511 | 512 | 520 | 2504 | 2505 | 1000))
+        })
+        .collect()
+}
