@@ -224,6 +224,8 @@ pub enum Action {
     CancelCommand,
     /// The command palette: any MAV_CMD, searched, its parameters filled in, previewed, sent.
     Palette,
+    /// The results of the last actions, newest last (`:messages`).
+    Outcomes,
     /// Parameters screen: type a filter (names containing it; `ATC_` = names starting with it).
     ParamFilter,
     /// Parameters screen: edit the selected parameter's value in place.
@@ -410,6 +412,11 @@ impl Action {
             Action::Palette,
             "palette",
             "command palette: any MAV_CMD, with its parameters",
+        ),
+        (
+            Action::Outcomes,
+            "messages",
+            "the results of the last actions, newest last (:messages)",
         ),
         (
             Action::ParamFilter,

@@ -441,6 +441,7 @@ fn keys_for_and_bindings_list_what_applies_in_file_order() {
         ("rtl", "R"),
         ("mode", "M"),
         ("palette", "ctrl-p"),
+        ("messages", "O"),
         ("fly", "F"),
     ]);
     let replay = [
@@ -472,6 +473,7 @@ fn keys_for_and_bindings_list_what_applies_in_file_order() {
         ("rtl", "R"),
         ("mode", "M"),
         ("palette", "ctrl-p"),
+        ("messages", "O"),
         ("param_filter", "/"),
         ("param_edit", "enter"),
         ("param_fetch", "f"),
@@ -711,6 +713,10 @@ fn shipped_vim_keymap_works_on_top_of_the_default() {
         k("k")
     );
     assert_eq!(at(Mode::Help, "overview", "j"), Some(Action::Down));
+    // The results of the last actions on every screen, as in the default keymap.
+    for screen in ["overview", "parameters", "commands", "mission", "camera"] {
+        assert_eq!(at(Mode::Normal, screen, "O"), Some(Action::Outcomes));
+    }
     assert_eq!(
         at(Mode::Prompt, "overview", "ctrl-b"),
         Some(Action::LineStart)

@@ -248,3 +248,68 @@ fn a_mission_upload_ends_with_the_items_uploaded() {
     command(&mut r, "messages");
     assert!(runner_screen(&r).contains("6 mission items uploaded"));
 }
+
+/// The whole screen at a size where the help fits unscrolled.
+fn tall_screen(app: &App) -> String {
+    buffer_to_text(&render_to_buffer(app, 200, 200, &Theme::PLAIN))
+}
+
+#[test]
+fn messages_is_listed_in_help_completes_on_tab_and_has_a_key() {
+    let mut app = app();
+    arm(&mut app, SECOND);
+    hear(
+        &mut app,
+        1_700_000,
+        &ack(
+            dialect::MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+            dialect::MavResult::MAV_RESULT_ACCEPTED,
+        ),
+    );
+    let accepted = "COMPONENT_ARM_DISARM to 1:1: ACCEPTED";
+    assert_eq!(tail(&app), accepted);
+    // `?` lists the command and its key.
+    key(&mut app, 2 * SECOND, Key::ch('?'));
+    let help = tall_screen(&app);
+    // A row of the popup: its text inside the borders, by what it starts with.
+    let row = |start: &str| {
+        help.lines()
+            .filter_map(|l| l.split('│').nth(2))
+            .find(|l| l.starts_with(start))
+            .unwrap_or_else(|| panic!("no row {start:?} in the help:\n{help}"))
+            .to_string()
+    };
+    assert!(
+        row(":messages ").contains("the results of the last 50 actions, newest last"),
+        "{help}"
+    );
+    assert!(
+        row("O ").contains("the results of the last actions, newest last (:messages)"),
+        "{help}"
+    );
+    key(&mut app, 2 * SECOND, "esc".parse().unwrap());
+    assert!(!tall_screen(&app).contains(" Keys "));
+    // Tab completes the first word.
+    key(&mut app, 3 * SECOND, Key::ch(':'));
+    for c in "mess".chars() {
+        key(&mut app, 3 * SECOND, Key::ch(c));
+    }
+    key(&mut app, 3 * SECOND, "tab".parse().unwrap());
+    assert_eq!(app.ui.prompt.line.text, "messages ");
+    assert!(status(&app).contains(":messages"), "{}", status(&app));
+    key(&mut app, 3 * SECOND, "enter".parse().unwrap());
+    let s = screen(&app);
+    assert!(s.contains(" Outcomes "), "{s}");
+    assert!(s.contains(&format!("00:00:01 {accepted}")), "{s}");
+    key(&mut app, 4 * SECOND, Key::ch('j'));
+    assert!(!screen(&app).contains(" Outcomes "));
+    // `O` opens the same list, on any screen.
+    for screen_key in ['1', '2', '3', '5'] {
+        key(&mut app, 5 * SECOND, Key::ch(screen_key));
+        key(&mut app, 5 * SECOND, Key::ch('O'));
+        let s = screen(&app);
+        assert!(s.contains(" Outcomes "), "screen {screen_key}: {s}");
+        assert!(s.contains(&format!("00:00:01 {accepted}")), "{s}");
+        key(&mut app, 5 * SECOND, "esc".parse().unwrap());
+    }
+}

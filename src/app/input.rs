@@ -329,6 +329,11 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
     ),
     ("help", "", "show the keys of this screen"),
     (
+        "messages",
+        "",
+        "the results of the last 50 actions, newest last",
+    ),
+    (
         "link",
         "SPEC",
         "open another link (udpin:0.0.0.0:14550, tcp:HOST:PORT, …)",

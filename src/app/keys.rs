@@ -498,6 +498,7 @@ impl App {
                 self.ui.mode = Mode::Prompt;
             }
             Action::Palette => self.open_palette(),
+            Action::Outcomes => self.open_outcomes(),
             Action::Arm
             | Action::Disarm
             | Action::Land

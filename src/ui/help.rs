@@ -39,6 +39,7 @@ const GLOBAL: &[Action] = &[
     Action::PrevVehicle,
     Action::Prompt,
     Action::Palette,
+    Action::Outcomes,
     Action::Cancel,
     Action::Help,
     Action::Suspend,
