@@ -379,13 +379,20 @@ impl App {
     }
 
     /// NAV_TAKEOFF to `alt` metres above home (ArduPilot: param7 above home; PX4 and the spec:
-    /// above mean sea level, from home's altitude), done at its ACK.
+    /// above mean sea level, from home's altitude), done when the vehicle is there
+    /// ([`Until::Altitude`]: GLOBAL_POSITION_INT's height above home), staying in the profile's
+    /// take-off mode (ArduPilot: GUIDED) where it has one.
     pub(super) fn takeoff_step(&self, key: VehicleKey, alt: f64) -> Result<Step, String> {
         let home = self.sessions.get(&key).and_then(|s| s.home_amsl());
-        let params = self.profile(key).takeoff_params(alt, home)?;
+        let profile = self.profile(key);
+        let params = profile.takeoff_params(alt, home)?;
+        let mode = match (profile.takeoff_mode(), self.vehicles.get(key)) {
+            (Some(m), Some(v)) => modes::mode_number(v.autopilot, v.mavtype, m),
+            _ => None,
+        };
         Ok(Step {
             spec: CommandSpec::long(key.into(), MavCmd::MAV_CMD_NAV_TAKEOFF, params),
-            until: Until::Ack,
+            until: Until::altitude(alt, mode),
             label: format!("take off to {alt} m"),
             fallback: None,
         })

@@ -591,24 +591,34 @@ impl App {
                     steps.push(self.mode_step(key, autopilot, mavtype, auto)?);
                 }
                 steps.push(Self::mission_start_step(key));
-                let now = self.now;
-                let s = self.sessions.get_mut(&key).ok_or("no session")?;
-                let out = s.start_sequence(now, Sequence::new("mission start", steps))?;
-                self.session_out(key, out, fx);
-                Ok(Some("mission start: sent".into()))
+                let text = "mission start: sent".to_string();
+                self.start_mission_sequence(key, steps, &text, fx)?;
+                Ok(Some(text))
             }
             MissionAction::StartDisarmed => {
                 let (steps, labels) = self.start_disarmed_steps(key)?;
-                let now = self.now;
-                let s = self.sessions.get_mut(&key).ok_or("no session")?;
-                let out = s.start_sequence(now, Sequence::new("mission start", steps))?;
-                self.session_out(key, out, fx);
-                Ok(Some(format!(
-                    "mission start: {}: started",
-                    labels.join(", ")
-                )))
+                let text = format!("mission start: {}: started", labels.join(", "));
+                self.start_mission_sequence(key, steps, &text, fx)?;
+                Ok(Some(text))
             }
         }
+    }
+
+    /// Start the mission's sequence on `key`; the status bar follows it from `text` on.
+    fn start_mission_sequence(
+        &mut self,
+        key: VehicleKey,
+        steps: Vec<Step>,
+        text: &str,
+        fx: &mut Vec<Effect>,
+    ) -> Result<(), String> {
+        let now = self.now;
+        let s = self.sessions.get_mut(&key).ok_or("no session")?;
+        let out = s.start_sequence(now, Sequence::new("mission start", steps))?;
+        let kind = super::outcome::ActionKind::Sequence(key);
+        self.start_action(Some(key), Vec::new(), kind, text.to_string());
+        self.session_out(key, out, fx);
+        Ok(())
     }
 
     fn save_list(

@@ -275,11 +275,8 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let mut room = room_for(&target);
     // The last key's message, else the last action's line (until the next action).
     let message = app.ui.message.clone().or_else(|| {
-        app.ui
-            .action
-            .as_ref()
+        app.action_text()
             .filter(|_| app.ui.mode_picker.is_none() && app.ui.palette.is_none())
-            .map(|a| (a.sev, a.text.clone()))
     });
     let long = message
         .as_ref()
