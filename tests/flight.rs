@@ -90,7 +90,11 @@ fn guided_arm_takeoff_by_keys_in_one_sequence() {
     common::yes(&mut r);
     wait(&mut r, 15.0);
     assert_flying_at_10m(&r);
-    assert!(r.app.notices.iter().any(|n| n.text == "takeoff 10 m: done"));
+    assert!(r
+        .app
+        .notices
+        .iter()
+        .any(|n| n.text == "take-off: 10.0 m reached"));
 }
 
 #[test]

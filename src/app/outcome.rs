@@ -271,27 +271,24 @@ impl App {
     }
 
     /// The action's line as the status bar shows it: a take-off of the action's sequence adds
-    /// its climb (`…: ACCEPTED; climbing: 4.3 m of 10.0 m`), and a take-off done on the way
+    /// its climb (`NAV_TAKEOFF to 1:1: ACCEPTED; climbing: 4.3 m of 10.0 m`), and a take-off done on the way
     /// (the mission's start goes on) shows `take-off: 10.0 m reached` until the next step's
     /// answer.
     pub fn action_text(&self) -> Option<(Severity, String)> {
         let a = self.ui.action.as_ref()?;
         let running = match (&a.kind, a.done) {
-            (ActionKind::Sequence(key), false) => self
-                .sessions
-                .get(key)
-                .and_then(|s| s.sequence.as_ref()),
+            (ActionKind::Sequence(key), false) => {
+                self.sessions.get(key).and_then(|s| s.sequence.as_ref())
+            }
             _ => None,
         };
         if let Some(seq) = running {
             if let Some(c) = seq.climb() {
-                let alt = c
-                    .alt_m
-                    .map_or("no altitude heard yet".to_string(), |h| format!("{h:.1} m"));
-                return Some((
-                    a.sev,
-                    format!("{}; climbing: {alt} of {:.1} m", a.text, c.target_m),
-                ));
+                let climb = match c.alt_m {
+                    Some(h) => format!("climbing: {h:.1} m of {:.1} m", c.target_m),
+                    None => format!("climbing to {:.1} m", c.target_m),
+                };
+                return Some((a.sev, format!("{}; {climb}", a.text)));
             }
             if let Some(r) = seq.reached() {
                 return Some((Severity::INFO, r.to_string()));

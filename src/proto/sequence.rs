@@ -256,19 +256,30 @@ impl Sequence {
             .map_or(String::new(), |c| format!("{:.1} m", c.target_m))
     }
 
+    /// What a climb's failure names: `take-off to 10.0 m`, within its sequence when more
+    /// follows (`mission start (take-off to 20.0 m)`).
+    fn climb_label(&self) -> String {
+        let what = format!("take-off to {}", self.target());
+        if self.i + 1 < self.steps.len() {
+            format!("{} ({what})", self.name)
+        } else {
+            what
+        }
+    }
+
     /// A heartbeat of the vehicle: does it show the step done? While a take-off climbs: is it
     /// still armed, and in the take-off's mode (`mode_name`: the heartbeat's, for the message)?
     pub fn on_heartbeat(&mut self, custom_mode: u32, armed: bool, mode_name: &str) -> Vec<SeqOut> {
         let until = self.current().map(|s| s.until);
         if let (Some(_), Some(Until::Altitude { mode, .. })) = (self.climb(), until) {
             let why = if !armed {
-                format!("disarmed{} before {}", self.at(), self.target())
+                format!("disarmed{}", self.at())
             } else if mode.is_some_and(|m| m != custom_mode) {
-                format!("mode changed to {mode_name}{} before {}", self.at(), self.target())
+                format!("mode changed to {mode_name}{}", self.at())
             } else {
                 return Vec::new();
             };
-            return self.stop(format!("{}: {why}", self.label()));
+            return self.stop(format!("{}: {why}", self.climb_label()));
         }
         let Phase::Confirming(_) = self.phase else {
             return Vec::new();
@@ -314,13 +325,11 @@ impl Sequence {
                 *left_ground = true;
                 return Vec::new();
             }
-            LANDING => format!("landing{} before {}", self.at(), self.target()),
-            ON_GROUND if *left_ground => {
-                format!("back on the ground before {}", self.target())
-            }
+            LANDING => format!("landing{}", self.at()),
+            ON_GROUND if *left_ground => "back on the ground".to_string(),
             _ => return Vec::new(),
         };
-        self.stop(format!("{}: {why}", self.label()))
+        self.stop(format!("{}: {why}", self.climb_label()))
     }
 
     fn advance(&mut self) -> Vec<SeqOut> {
@@ -357,12 +366,14 @@ impl Sequence {
                 deadline, since, ..
             } if now >= deadline => {
                 let secs = (now - since) / SECOND;
+                let at = match self.climb().and_then(|c| c.alt_m) {
+                    Some(a) => format!(" (at {a:.1} m)"),
+                    None => " (no altitude heard)".to_string(),
+                };
                 let text = format!(
-                    "{}: {} not reached after {secs} s{}; no longer waited for, nothing resent \
+                    "{}: not reached after {secs} s{at}; no longer waited for, nothing resent \
                      (watch the vehicle)",
-                    self.label(),
-                    self.target(),
-                    self.at()
+                    self.climb_label(),
                 );
                 self.fail(text)
             }
@@ -465,7 +476,11 @@ mod tests {
 
     fn auto() -> Step {
         Step {
-            spec: CommandSpec::long((1, 1), MavCmd::MAV_CMD_DO_SET_MODE, [1.0, 3.0, 0., 0., 0., 0., 0.]),
+            spec: CommandSpec::long(
+                (1, 1),
+                MavCmd::MAV_CMD_DO_SET_MODE,
+                [1.0, 3.0, 0., 0., 0., 0., 0.],
+            ),
             until: Until::Mode(3),
             label: "AUTO".into(),
             fallback: None,
@@ -528,7 +543,7 @@ mod tests {
         let out = s.on_heartbeat(GUIDED, false, "GUIDED");
         assert_eq!(
             last_word(&out),
-            Some("takeoff 10 m: disarmed at 3.2 m before 10.0 m; stopped")
+            Some("take-off to 10.0 m: disarmed at 3.2 m; stopped")
         );
         assert!(matches!(out[0], SeqOut::Notice(Severity::WARNING, _)));
         assert!(s.finished());
@@ -537,7 +552,7 @@ mod tests {
         let out = s.on_heartbeat(LAND, true, "LAND");
         assert_eq!(
             last_word(&out),
-            Some("takeoff 10 m: mode changed to LAND before 10.0 m; stopped")
+            Some("take-off to 10.0 m: mode changed to LAND; stopped")
         );
 
         let mut s = climbing(10.0);
@@ -545,7 +560,7 @@ mod tests {
         let out = s.on_landed_state(LANDING);
         assert_eq!(
             last_word(&out),
-            Some("takeoff 10 m: landing at 6.0 m before 10.0 m; stopped")
+            Some("take-off to 10.0 m: landing at 6.0 m; stopped")
         );
 
         // On the ground at the ACK is the start; on the ground after leaving it is the end.
@@ -556,7 +571,7 @@ mod tests {
         let out = s.on_landed_state(ON_GROUND);
         assert_eq!(
             last_word(&out),
-            Some("takeoff 10 m: back on the ground before 10.0 m; stopped")
+            Some("take-off to 10.0 m: back on the ground; stopped")
         );
     }
 
@@ -570,7 +585,7 @@ mod tests {
         assert_eq!(
             last_word(&out),
             Some(
-                "takeoff 10 m: 10.0 m not reached after 30 s at 6.3 m; no longer waited for, \
+                "take-off to 10.0 m: not reached after 30 s (at 6.3 m); no longer waited for, \
                  nothing resent (watch the vehicle)"
             )
         );
