@@ -287,3 +287,66 @@ fn mission_command_names_take_the_room_there_is() {
     let row = narrow.lines().find(|l| l.contains(" 7    NAV_")).unwrap();
     assert!(row.contains("NAV_RETUR") && row.contains('…'), "{narrow}");
 }
+
+/// STATUSTEXT `text` from 1:1 in chunks of 50 bytes (id 7), as ArduPilot sends a long text.
+fn long_statustext(d: &mut common::Drive, t: Micros, text: &str) {
+    let bytes = text.as_bytes();
+    for (i, chunk) in bytes.chunks(50).enumerate() {
+        let msg = MavMessage::STATUSTEXT(mavterm::dialect::STATUSTEXT_DATA {
+            severity: mavterm::dialect::MavSeverity::MAV_SEVERITY_WARNING,
+            text: std::str::from_utf8(chunk).unwrap().into(),
+            id: 7,
+            chunk_seq: i as u8,
+        });
+        d.send(t + i as u64 * 1000, 0, (1, 1), &msg);
+    }
+}
+
+/// The row of the Messages pane holding `start`, at `w`x24.
+fn message_row(app: &App, w: u16, start: &str) -> String {
+    let text = screen(app, w, 24);
+    text.lines()
+        .find(|l| l.contains(start))
+        .unwrap_or_else(|| panic!("no {start:?} at {w}:\n{text}"))
+        .to_string()
+}
+
+#[test]
+fn a_long_message_row_is_cut_with_an_ellipsis() {
+    let mut d = common::Drive::new(&["udpin:0.0.0.0:14550"]);
+    d.link_state(0, 0, mavterm::link::LinkState::Up);
+    d.send(0, 0, (1, 1), &common::copter(false, 0));
+    // 120 characters: more than a row of 80 columns holds after time, severity and source.
+    let long = "PreArm: Compass not calibrated, Accels inconsistent by 1.25 m/s/s, \
+                Gyros inconsistent by 5 deg/s, Check mag field (xy diff)";
+    assert!(long.len() > 100 && long.len() < 150);
+    long_statustext(&mut d, SECOND, long);
+    d.tick(2 * SECOND);
+    let row = message_row(&d.app, 80, "PreArm: Compass");
+    assert_eq!(row.chars().count(), 80, "{row}");
+    // `│12:00:01 WARN   1:1     ` takes 25 columns and the border 1: 53 of the text, then `…`.
+    let shown: String = long.chars().take(80 - 24 - 2 - 1).collect();
+    assert!(row.ends_with(&format!("{shown}…│")), "{row}");
+    // Where it fits, it is whole.
+    let wide = message_row(&d.app, 200, "PreArm: Compass");
+    assert!(
+        wide.contains(&format!("{long} ")) && !wide.contains('…'),
+        "{wide}"
+    );
+    // Wide characters take two columns: the row still fits, and the cut shows.
+    // Chunks of 50 bytes that end between characters: `0:` and 16 three-byte characters.
+    let wide_text: String = (0..3)
+        .map(|k| format!("{k}:高度センサー異常気圧計距離計値確"))
+        .chain(["end".to_string()])
+        .collect();
+    assert_eq!(wide_text.len(), 153);
+    long_statustext(&mut d, 3 * SECOND, &wide_text);
+    d.tick(4 * SECOND);
+    // (The text of a screen has one character a cell: a wide character's second cell is a
+    // space.)
+    let row = message_row(&d.app, 80, "0:高");
+    assert_eq!(row.chars().count(), 80, "{row}");
+    assert!(row.contains("1:高"), "{row}");
+    assert!(row.trim_end_matches('│').trim_end().ends_with('…'), "{row}");
+    assert!(!row.contains("2:高"), "{row}");
+}

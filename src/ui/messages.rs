@@ -6,14 +6,15 @@
 //! applied only to lines that do not fit); the title then says `paused` and how many are below.
 //! DEBUG lines are hidden by default, the title counting them (`12 debug hidden`); mavterm's own
 //! notices show `mavterm` as their source, in their own colour. While following, recent
-//! warnings and worse stay in view when lines do not fit (see `app::messages::in_view`).
+//! warnings and worse stay in view when lines do not fit (see `app::messages::in_view`). A text
+//! wider than the pane is cut and ends with `…` (by display width).
 
 use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::Paragraph;
 use ratatui::Frame;
 
-use super::{pane_block, Theme};
+use super::{fmt, pane_block, Theme};
 use crate::app::notices::Notice;
 use crate::app::{App, Pane};
 
@@ -90,12 +91,17 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             } else {
                 theme.dim()
             };
+            let (sev, source) = (format!("{sev:<6}"), format!("{source:<7}"));
+            // A text wider than what the columns before it leave is cut with `…`.
+            let room = (inner.width as usize)
+                .saturating_sub(fmt::width(&time) + fmt::width(&sev) + fmt::width(&source) + 3);
+            let text = fmt::fit(&text, room).into_owned();
             Line::from(vec![
                 Span::styled(time, theme.dim()),
                 Span::raw(" "),
-                Span::styled(format!("{sev:<6}"), style),
+                Span::styled(sev, style),
                 Span::raw(" "),
-                Span::styled(format!("{source:<7}"), source_style),
+                Span::styled(source, source_style),
                 Span::raw(" "),
                 Span::styled(text, style),
             ])
