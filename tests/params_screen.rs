@@ -400,3 +400,121 @@ fn a_files_differences_are_marked_and_can_be_shown_alone() {
         .downloading()
         .is_some());
 }
+
+#[test]
+fn at_200x60_value_units_and_description_sit_side_by_side() {
+    let mut r = downloaded(runner_with("", Some(meta())));
+    common::keys(&mut r, &["2"]);
+    // The rate controller's roll gains: six of them documented in the metadata, one with
+    // units (ATC_RAT_RLL_FLTT, Hz).
+    common::keys(&mut r, &["/"]);
+    common::typed(&mut r, "ATC_RAT_RLL_");
+    common::keys(&mut r, &["enter"]);
+    let s = common::screen(&r, 200, 60);
+    insta::assert_snapshot!("params_meta_200x60", s);
+    let lines: Vec<&str> = s.lines().collect();
+    assert!(lines.iter().all(|l| l.chars().count() <= 200), "{s}");
+    let title = lines
+        .iter()
+        .find(|l| l.contains(" NAME ") && l.contains(" VALUE "))
+        .unwrap_or_else(|| panic!("{s}"));
+    let col = |l: &str, word: &str| -> usize {
+        let b = l.find(word).unwrap_or_else(|| panic!("no {word:?} in {l}"));
+        l[..b].chars().count()
+    };
+    let (value, units, desc) = (
+        col(title, " VALUE ") + 1,
+        col(title, " UNITS ") + 1,
+        col(title, " DESCRIPTION") + 1,
+    );
+    assert!(value < units && units < desc, "{title}");
+    // Every documented row: its value, units and description in their columns, on one line.
+    let row = |name: &str| -> String {
+        lines
+            .iter()
+            .find(|l| l.contains(&format!(" {name} ")))
+            .unwrap_or_else(|| panic!("no row {name}: {s}"))
+            .to_string()
+    };
+    let cell = |l: &str, from: usize, to: usize| -> String {
+        l.chars()
+            .skip(from)
+            .take(to - from)
+            .collect::<String>()
+            .trim()
+            .to_string()
+    };
+    let documented = [
+        // The human name, then the documentation without its first sentence that only says
+        // the name again.
+        ("ATC_RAT_RLL_P", "", "Roll axis rate controller P gain: Corrects in proportion to the difference between the desired roll rate vs actual roll rate"),
+        ("ATC_RAT_RLL_I", "", "Roll axis rate controller I gain: Corrects long-term difference in desired roll rate vs actual roll rate"),
+        // Documentation that only repeats the name: said once.
+        ("ATC_RAT_RLL_FLTT", "Hz", "Roll axis rate controller target frequency in Hz"),
+        ("ATC_RAT_RLL_FF", "", "Roll axis rate controller feed forward"),
+    ];
+    for (name, unit, text) in documented {
+        let l = row(name);
+        let v = sim_param(&r, name);
+        // The sim holds REAL32 values.
+        let shown = cell(&l, value, units).parse::<f32>().ok();
+        assert_eq!(shown, Some(v as f32), "{l}");
+        assert_eq!(cell(&l, units, desc), unit, "{l}");
+        let d: String = l.chars().skip(desc).collect();
+        assert!(d.trim_end_matches('│').trim() == text, "{name}: {d:?}");
+    }
+    // A row without metadata leaves units and description empty.
+    let l = row("ATC_RAT_RLL_SMAX");
+    assert_eq!(cell(&l, units, l.chars().count() - 1), "", "{l}");
+    // The whole list, from its top (ACRO_*, none with units in view): at 200 columns the
+    // columns stay where they are; at 80 the units column only comes with rows that have
+    // units.
+    common::keys(&mut r, &["/", "ctrl-u", "esc", "home"]);
+    let title = |w: u16, h: u16| -> String {
+        common::screen(&r, w, h)
+            .lines()
+            .find(|l| l.contains(" NAME "))
+            .unwrap()
+            .to_string()
+    };
+    let wide = title(200, 60);
+    assert!(
+        wide.contains(" UNITS ") && wide.contains(" DESCRIPTION"),
+        "{wide}"
+    );
+    let narrow = title(80, 24);
+    assert!(!narrow.contains(" UNITS "), "{narrow}");
+}
+
+#[test]
+fn from_60_to_220_columns_a_description_is_whole_or_ends_in_an_ellipsis() {
+    let mut r = downloaded(runner_with("", Some(meta())));
+    common::keys(&mut r, &["2", "/"]);
+    common::typed(&mut r, "ATC_RAT_RLL_");
+    common::keys(&mut r, &["enter"]);
+    let human = "Roll axis rate controller P gain";
+    let doc = "Corrects in proportion to the difference between the desired roll rate vs actual \
+               roll rate";
+    for w in 60..=220u16 {
+        for h in [24u16, 60] {
+            let s = common::screen(&r, w, h);
+            for l in s.lines() {
+                assert!(l.chars().count() <= w as usize, "{w}x{h}: {l}");
+            }
+            let row = s
+                .lines()
+                .find(|l| l.contains(" ATC_RAT_RLL_P "))
+                .unwrap_or_else(|| panic!("{w}x{h}: {s}"));
+            let Some(at) = row.find(human.split(' ').next().unwrap()) else {
+                continue; // no room for a description at this width
+            };
+            let shown = row[at..].trim_end_matches(['│', ' ']);
+            let whole = [human.to_string(), format!("{human}: {doc}")];
+            let ok = whole.iter().any(|t| t == shown)
+                || shown
+                    .strip_suffix('…')
+                    .is_some_and(|cut| whole.iter().any(|t| t.starts_with(cut)));
+            assert!(ok, "{w}x{h}: {shown:?}");
+        }
+    }
+}

@@ -534,8 +534,28 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     }
 }
 
+/// The documentation `doc`, its spaces made single, without a first sentence that only says
+/// the human `name` again (ArduPilot's often start so: `Roll axis rate controller P gain.
+/// Corrects …`); empty when that is all it says.
+fn after_name(name: &str, doc: &str) -> String {
+    let doc = doc.split_whitespace().collect::<Vec<_>>().join(" ");
+    let name = name.split_whitespace().collect::<Vec<_>>().join(" ");
+    if name.is_empty() {
+        return doc;
+    }
+    match doc.strip_prefix(&name) {
+        Some(rest) if rest.is_empty() || rest == "." => String::new(),
+        Some(rest) if rest.starts_with(". ") => rest[2..].to_string(),
+        _ => doc,
+    }
+}
+
 /// From this width of the description column it also holds the documentation.
 const WIDE_DESC: usize = 60;
+
+/// From this width of the list the units and description columns do not come and go with the
+/// rows in view.
+const WIDE_LIST: usize = 120;
 
 fn render_list(
     app: &App,
@@ -582,6 +602,16 @@ fn render_list(
                 .map_or(0, |u| u.chars().count()),
         );
     }
+    // Wide, the units column is there for every row the filter keeps, not only those in
+    // view: value, units and description stay side by side, in place, while scrolling.
+    if w >= WIDE_LIST && units_w == 0 {
+        units_w = rows
+            .iter()
+            .filter_map(|n| app.param_meta(n)?.units.as_ref())
+            .map(|u| u.chars().count())
+            .max()
+            .unwrap_or(0);
+    }
     if edit.is_some() {
         full_w = full_w.max(app.ui.edit.text.chars().count() + 1).max(12);
     }
@@ -611,10 +641,10 @@ fn render_list(
     };
     let used = MARKS + name_w + 1 + value_w + if units_w > 0 { units_w + 1 } else { 0 };
     let desc_w = w.saturating_sub(used + 1);
+    let named = |m: Option<&ParamMeta>| m.is_some_and(|m| m.human_name.is_some());
     let show_desc = desc_w >= 8
-        && visible
-            .iter()
-            .any(|(_, _, m)| m.is_some_and(|m| m.human_name.is_some()));
+        && (visible.iter().any(|(_, _, m)| named(*m))
+            || (w >= WIDE_LIST && rows.iter().any(|n| named(app.param_meta(n)))));
     let mut lines: Vec<Line> = Vec::with_capacity(h);
     let mut title = format!(
         "{}{} {}",
@@ -688,11 +718,10 @@ fn render_list(
         }
         if show_desc {
             let d = meta.and_then(|m| m.human_name.as_deref()).unwrap_or("");
-            // Wide, the documentation follows the human name, on the row.
-            let d = match meta.map(|m| m.description.split_whitespace().collect::<Vec<_>>()) {
-                Some(words) if desc_w >= WIDE_DESC && !words.is_empty() => {
-                    format!("{d}: {}", words.join(" "))
-                }
+            // Wide, the documentation follows the human name, on the row, without saying the
+            // name again.
+            let d = match meta.map(|m| after_name(d, &m.description)) {
+                Some(doc) if desc_w >= WIDE_DESC && !doc.is_empty() => format!("{d}: {doc}"),
                 _ => d.to_string(),
             };
             spans.push(Span::styled(
