@@ -69,6 +69,24 @@
 //!
 //! with optional attributes `volatile="true"`, `boolean="true"`, `category="..."`.
 //!
+//! **PX4's JSON** (`parameters.json`, what the component metadata protocol serves:
+//! `src/lib/parameters/px4params/jsonout.py`, read as QGroundControl's `CompInfoParam` reads it):
+//!
+//! ```json
+//! {"version": 1, "parameters": [
+//!   {"name": "MC_ROLL_P", "type": "Float", "default": 6.5, "group": "Multicopter Attitude Control",
+//!    "category": "Standard", "shortDesc": "Roll P gain", "longDesc": "...", "units": "",
+//!    "min": 0.0, "max": 12, "decimalPlaces": 2, "increment": 0.1, "rebootRequired": true,
+//!    "values": [{"value": 0, "description": "Disabled"}],
+//!    "bitmask": [{"index": 0, "description": "..."}]}]}
+//! ```
+//!
+//! Numbers are typed for `Float` and `Int32` and strings for the other types (`jsonout.py`'s
+//! `get_typed_value`): both are read. Older generators wrote `shortDescription`,
+//! `longDescription`, `defaultValue`, `minValue`, `maxValue`: read too. Only version 1 is known
+//! (as QGroundControl); another is refused. The file usually comes xz-compressed
+//! (`parameters.json.xz`): [`inflate`] undoes that, bounded.
+//!
 //! Parsing is one pass over the tree with a hash map keyed by name: linear in the file's size
 //! (the Copter file is ~2.4 MB).
 
@@ -395,6 +413,38 @@ impl MetaSet {
         self.by_name.entry(c.meta.name.clone()).or_default().push(c);
     }
 
+    /// Reads PX4's `parameters.json` (see the module docs).
+    pub fn parse_px4_json(bytes: &[u8]) -> Result<MetaSet, String> {
+        let doc: serde_json::Value =
+            serde_json::from_slice(bytes).map_err(|e| format!("not JSON: {e}"))?;
+        let root = doc
+            .as_object()
+            .ok_or("not parameter metadata: the JSON is not an object")?;
+        match root.get("version").and_then(serde_json::Value::as_u64) {
+            Some(1) => {}
+            Some(v) => return Err(format!("parameter metadata version {v} is not known (1 is)")),
+            None => return Err("not parameter metadata: no \"version\"".into()),
+        }
+        let params = root
+            .get("parameters")
+            .and_then(serde_json::Value::as_array)
+            .ok_or("not parameter metadata: no \"parameters\" list")?;
+        let mut set = MetaSet {
+            format: MetaFormat::Px4,
+            by_name: HashMap::with_capacity(params.len()),
+        };
+        for p in params {
+            if let Some(meta) = px4_json_param(p) {
+                set.push(Candidate {
+                    meta,
+                    vehicle: None,
+                    flavor: Flavor::Any,
+                });
+            }
+        }
+        Ok(set)
+    }
+
     fn read_ardupilot(&mut self, root: Node) {
         for section in root.children().filter(Node::is_element) {
             let in_vehicles = match section.tag_name().name() {
@@ -646,6 +696,134 @@ fn px4_param(p: Node, group: &str) -> Option<ParamMeta> {
             min.unwrap_or(f64::NEG_INFINITY),
             max.unwrap_or(f64::INFINITY),
         ));
+    }
+    Some(m)
+}
+
+/// Decompressed metadata files larger than this are refused (PX4's `parameters.json` is ~1 MB).
+pub const MAX_JSON: usize = 8 * 1024 * 1024;
+
+/// The xz stream magic (`FD 37 7A 58 5A 00`).
+const XZ_MAGIC: &[u8] = &[0xFD, b'7', b'z', b'X', b'Z', 0];
+
+/// A metadata file as it came (`name` is its path or URL): xz-decompressed when it is xz (by its
+/// magic, or its name ending in `.xz`), at most `max` bytes either way. A truncated or corrupt
+/// stream, or one that inflates past `max`, is an error in words (never a panic, never more
+/// than `max` bytes held).
+pub fn inflate(name: &str, bytes: &[u8], max: usize) -> Result<Vec<u8>, String> {
+    let named = name.to_ascii_lowercase().ends_with(".xz");
+    if !bytes.starts_with(XZ_MAGIC) {
+        if named {
+            return Err(format!("{name} is not xz-compressed data"));
+        }
+        if bytes.len() > max {
+            return Err(format!("{name} is larger than {} MB: refused", max >> 20));
+        }
+        return Ok(bytes.to_vec());
+    }
+    let mut out = Limited {
+        buf: Vec::new(),
+        max,
+    };
+    let mut input = std::io::BufReader::new(bytes);
+    match lzma_rs::xz_decompress(&mut input, &mut out) {
+        Ok(()) => Ok(out.buf),
+        Err(_) if out.buf.len() >= max => Err(format!(
+            "{name} inflates to more than {} MB: refused",
+            max >> 20
+        )),
+        Err(e) => Err(format!("{name}: corrupt or truncated xz data ({e})")),
+    }
+}
+
+/// A writer that refuses to hold more than `max` bytes.
+struct Limited {
+    buf: Vec<u8>,
+    max: usize,
+}
+
+impl std::io::Write for Limited {
+    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+        if self.buf.len() + b.len() > self.max {
+            let room = self.max - self.buf.len();
+            self.buf.extend_from_slice(&b[..room]);
+            return Err(std::io::Error::other("too large"));
+        }
+        self.buf.extend_from_slice(b);
+        Ok(b.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// A number of PX4's JSON: typed, or a string holding one.
+fn json_number(v: &serde_json::Value) -> Option<f64> {
+    match v {
+        serde_json::Value::Number(n) => n.as_f64().filter(|f| f.is_finite()),
+        serde_json::Value::String(s) => number(s),
+        serde_json::Value::Bool(b) => Some(*b as u8 as f64),
+        _ => None,
+    }
+}
+
+fn json_text(v: Option<&serde_json::Value>) -> Option<String> {
+    non_empty(v.and_then(serde_json::Value::as_str))
+}
+
+fn px4_json_param(p: &serde_json::Value) -> Option<ParamMeta> {
+    let o = p.as_object()?;
+    let name = o.get("name")?.as_str()?.trim();
+    if name.is_empty() {
+        return None;
+    }
+    let get = |keys: &[&str]| keys.iter().find_map(|k| o.get(*k));
+    let mut m = ParamMeta {
+        name: name.to_string(),
+        human_name: json_text(get(&["shortDesc", "shortDescription"])),
+        description: json_text(get(&["longDesc", "longDescription"])).unwrap_or_default(),
+        units: json_text(o.get("units")),
+        default: get(&["default", "defaultValue"]).and_then(json_number),
+        ptype: o.get("type").and_then(|t| t.as_str()).and_then(px4_type),
+        increment: o.get("increment").and_then(json_number),
+        decimals: o
+            .get("decimalPlaces")
+            .and_then(json_number)
+            .filter(|d| (0.0..=20.0).contains(d))
+            .map(|d| d as u8),
+        reboot_required: match o.get("rebootRequired") {
+            Some(serde_json::Value::Bool(b)) => *b,
+            Some(serde_json::Value::String(s)) => truthy(s),
+            _ => false,
+        },
+        user: json_text(o.get("category")),
+        group: json_text(o.get("group")).unwrap_or_default(),
+        ..ParamMeta::default()
+    };
+    let min = get(&["min", "minValue"]).and_then(json_number);
+    let max = get(&["max", "maxValue"]).and_then(json_number);
+    if min.is_some() || max.is_some() {
+        m.range = Some((
+            min.unwrap_or(f64::NEG_INFINITY),
+            max.unwrap_or(f64::INFINITY),
+        ));
+    }
+    for v in o.get("values").and_then(|v| v.as_array()).into_iter().flatten() {
+        if let (Some(code), Some(text)) = (
+            v.get("value").and_then(json_number),
+            v.get("description").and_then(|d| d.as_str()),
+        ) {
+            m.values.push((code, text.trim().to_string()));
+        }
+    }
+    for b in o.get("bitmask").and_then(|v| v.as_array()).into_iter().flatten() {
+        let bit = b
+            .get("index")
+            .and_then(json_number)
+            .filter(|i| i.fract() == 0.0 && (0.0..64.0).contains(i));
+        if let (Some(bit), Some(text)) = (bit, b.get("description").and_then(|d| d.as_str())) {
+            m.bits.push((bit as u32, text.trim().to_string()));
+        }
     }
     Some(m)
 }

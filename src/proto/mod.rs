@@ -4,7 +4,9 @@
 pub mod ack;
 pub mod camera;
 pub mod commands;
+pub mod comp_meta;
 pub mod gimbal;
+pub mod ftp_file;
 pub mod loss;
 pub mod machine;
 pub mod mav_cmds;
