@@ -717,7 +717,7 @@ pub fn inflate(name: &str, bytes: &[u8], max: usize) -> Result<Vec<u8>, String> 
             return Err(format!("{name} is not xz-compressed data"));
         }
         if bytes.len() > max {
-            return Err(format!("{name} is larger than {} MB: refused", max >> 20));
+            return Err(format!("{name} is larger than {}: refused", size_text(max)));
         }
         return Ok(bytes.to_vec());
     }
@@ -729,10 +729,18 @@ pub fn inflate(name: &str, bytes: &[u8], max: usize) -> Result<Vec<u8>, String> 
     match lzma_rs::xz_decompress(&mut input, &mut out) {
         Ok(()) => Ok(out.buf),
         Err(_) if out.buf.len() >= max => Err(format!(
-            "{name} inflates to more than {} MB: refused",
-            max >> 20
+            "{name} inflates to more than {}: refused",
+            size_text(max)
         )),
         Err(e) => Err(format!("{name}: corrupt or truncated xz data ({e})")),
+    }
+}
+
+fn size_text(n: usize) -> String {
+    if n >= 1 << 20 {
+        format!("{} MB", n >> 20)
+    } else {
+        format!("{} kB", n >> 10)
     }
 }
 
@@ -923,6 +931,103 @@ mod tests {
         assert_eq!((e.line, e.column), (2, 1));
         assert!(MetaSet::parse("").is_err());
         assert!(MetaSet::parse("not xml at all").is_err());
+    }
+
+    /// Made by tests/py/make_px4_metadata.py with Python's json and lzma modules.
+    const PX4_JSON: &[u8] = include_bytes!("../../tests/data/param-meta/px4/parameters.json");
+    const PX4_XZ: &[u8] = include_bytes!("../../tests/data/param-meta/px4/parameters.json.xz");
+
+    #[test]
+    fn px4_json_maps_to_the_metadata_model() {
+        let json = inflate("etc/extras/parameters.json.xz", PX4_XZ, MAX_JSON).unwrap();
+        assert_eq!(json, PX4_JSON, "Python's lzma stream inflates to its JSON");
+        let set = MetaSet::parse_px4_json(&json).unwrap();
+        assert_eq!(set.format, MetaFormat::Px4);
+        assert_eq!(set.len(), 5);
+        let v = set.get("MPC_XY_VEL_MAX", Variant::Multicopter).unwrap();
+        assert_eq!(v.human_name.as_deref(), Some("Maximum horizontal velocity"));
+        assert_eq!(
+            v.description,
+            "Absolute maximum for all velocity controlled modes."
+        );
+        assert_eq!(v.units.as_deref(), Some("m/s"));
+        assert_eq!(v.range, Some((0.0, 20.0)));
+        assert_eq!(v.default, Some(12.0));
+        assert_eq!(v.decimals, Some(1));
+        assert_eq!(v.increment, Some(1.0));
+        assert_eq!(v.ptype, Some(ParamType::Real32));
+        assert_eq!(v.group, "Multicopter Position Control");
+        assert_eq!(v.user.as_deref(), Some("Standard"));
+        assert!(!v.reboot_required);
+        let e = set.get("COM_RC_IN_MODE", Variant::Unknown).unwrap();
+        assert_eq!(e.ptype, Some(ParamType::Int32));
+        assert_eq!(e.value_name(3.0), Some("RC or Joystick keep first"));
+        assert_eq!(e.values.len(), 5);
+        assert_eq!(e.units, None, "no units key");
+        let b = set.get("SDLOG_PROFILE", Variant::Unknown).unwrap();
+        assert!(b.reboot_required);
+        assert_eq!(
+            b.bits_set(3.0),
+            vec!["Default set (general log analysis)", "Estimator replay (EKF2)"]
+        );
+        // jsonout.py writes the numbers of types other than Float and Int32 as strings.
+        let u = set.get("UAVCAN_NODE_ID", Variant::Unknown).unwrap();
+        assert_eq!(u.ptype, Some(ParamType::Uint8));
+        assert_eq!((u.default, u.range), (Some(1.0), Some((1.0, 125.0))));
+        assert_eq!(u.user.as_deref(), Some("System"));
+        // The older generator's keys.
+        let old = MetaSet::parse_px4_json(
+            br#"{"version":1,"parameters":[{"name":"A","shortDescription":"s","longDescription":"l","defaultValue":2,"minValue":1,"maxValue":3},{"noname":1},{"name":""}]}"#,
+        )
+        .unwrap();
+        assert_eq!(old.len(), 1);
+        let a = old.get("A", Variant::Unknown).unwrap();
+        assert_eq!(
+            (a.human_name.as_deref(), a.description.as_str()),
+            (Some("s"), "l")
+        );
+        assert_eq!((a.default, a.range), (Some(2.0), Some((1.0, 3.0))));
+    }
+
+    #[test]
+    fn px4_json_that_is_not_metadata_is_an_error() {
+        let e = |b: &[u8]| MetaSet::parse_px4_json(b).unwrap_err();
+        assert!(e(b"").starts_with("not JSON: "));
+        assert!(e(b"[1]").contains("not an object"));
+        assert!(e(br#"{"parameters":[]}"#).contains("no \"version\""));
+        assert_eq!(
+            e(br#"{"version":2,"parameters":[]}"#),
+            "parameter metadata version 2 is not known (1 is)"
+        );
+        assert!(e(br#"{"version":1}"#).contains("no \"parameters\" list"));
+    }
+
+    #[test]
+    fn truncated_or_corrupt_xz_is_told_never_a_panic() {
+        let name = "parameters.json.xz";
+        for cut in [6, 12, 40, PX4_XZ.len() / 2, PX4_XZ.len() - 1] {
+            let e = inflate(name, &PX4_XZ[..cut], MAX_JSON).unwrap_err();
+            assert!(
+                e.starts_with("parameters.json.xz: corrupt or truncated xz data"),
+                "{cut}: {e}"
+            );
+        }
+        for at in [20, PX4_XZ.len() / 2, PX4_XZ.len() - 6] {
+            let mut bad = PX4_XZ.to_vec();
+            bad[at] ^= 0x55;
+            let e = inflate(name, &bad, MAX_JSON).unwrap_err();
+            assert!(e.contains("corrupt or truncated"), "{at}: {e}");
+        }
+        // Not xz at all, though named so; and plain JSON passes as it is.
+        assert_eq!(
+            inflate(name, b"{}", MAX_JSON).unwrap_err(),
+            "parameters.json.xz is not xz-compressed data"
+        );
+        assert_eq!(inflate("p.json", b"{}", MAX_JSON).unwrap(), b"{}");
+        // A stream that inflates past the limit stops there, and says so.
+        let e = inflate(name, PX4_XZ, 1024).unwrap_err();
+        assert_eq!(e, "parameters.json.xz inflates to more than 1 kB: refused");
+        assert!(inflate("p.json", &[b' '; 2000], 1000).is_err());
     }
 
     #[test]

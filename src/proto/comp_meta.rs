@@ -109,6 +109,8 @@ pub struct CompMeta {
     /// The operator asked (`param meta fetch`): outcomes are told on the status bar, the
     /// traffic goes on the operator's route.
     operator: bool,
+    /// The next MAVFTP sequence number: reads go on from the last one's.
+    ftp_seq: u16,
 }
 
 /// Is this (command, params) the request this machine sends (its outcome stays quiet)?
@@ -185,6 +187,7 @@ impl CompMeta {
             auto_done: false,
             held: false,
             operator: false,
+            ftp_seq: 0,
         }
     }
 
@@ -238,7 +241,8 @@ impl CompMeta {
         };
         match parse_mftp(&uri, self.key.1) {
             Some(Ok((comp, path))) => {
-                let (read, o) = FileRead::start(now, &path, MAX_GENERAL);
+                let (read, o) = FileRead::start(now, &path, MAX_GENERAL, self.ftp_seq);
+                self.ftp_seq = read.seq();
                 self.step = Step::General {
                     crc,
                     comp,
@@ -315,7 +319,9 @@ impl CompMeta {
                 let fallback: Vec<String> = fallback.into_iter().filter(|u| is_web(u)).collect();
                 match parse_mftp(&uri, self.key.1) {
                     Some(Ok((comp, path))) => {
-                        let (read, o) = FileRead::start(now, &path, MAX_PARAM_FILE);
+                        let (read, o) =
+                            FileRead::start(now, &path, MAX_PARAM_FILE, self.ftp_seq);
+                        self.ftp_seq = read.seq();
                         self.step = Step::Param {
                             crc,
                             comp,
@@ -483,6 +489,7 @@ impl Machine for CompMeta {
                 let n = body.len().min(PAYLOAD_LEN);
                 buf[..n].copy_from_slice(&body[..n]);
                 let o = read.on_packet(m.now, &FtpPacket::parse(&buf));
+                self.ftp_seq = read.seq();
                 self.ftp_out(m.now, comp, o, out);
             }
             _ => {}
@@ -515,6 +522,7 @@ impl Machine for CompMeta {
             Step::General { comp, read, .. } | Step::Param { comp, read, .. } => {
                 let comp = *comp;
                 let o = read.poll(now);
+                self.ftp_seq = read.seq();
                 self.ftp_out(now, comp, o, out);
             }
             _ => {}

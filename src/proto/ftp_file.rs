@@ -70,13 +70,16 @@ pub struct FileRead {
 }
 
 impl FileRead {
-    /// Start reading `path` (at most `max` bytes): the packets to send now.
-    pub fn start(now: Micros, path: &str, max: usize) -> (FileRead, Vec<FileOut>) {
+    /// Start reading `path` (at most `max` bytes), numbering requests from `seq` (go on from
+    /// the last read's [`FileRead::seq`]: PX4 answers a request whose number follows its last
+    /// answer's with that answer again, so a new read must not start over at 0): the packets to
+    /// send now.
+    pub fn start(now: Micros, path: &str, max: usize, seq: u16) -> (FileRead, Vec<FileOut>) {
         let mut r = FileRead {
             path: path.to_string(),
             phase: Phase::Opening,
             session: 0,
-            seq: 0,
+            seq,
             open_seq: 0,
             data: Vec::new(),
             size: None,
@@ -88,6 +91,11 @@ impl FileRead {
         };
         let out = r.open(now);
         (r, out)
+    }
+
+    /// The sequence number of the next request.
+    pub fn seq(&self) -> u16 {
+        self.seq
     }
 
     pub fn path(&self) -> &str {
@@ -205,6 +213,12 @@ impl FileRead {
 
     /// A packet from the server (already known to be from the component read from).
     pub fn on_packet(&mut self, now: Micros, p: &FtpPacket) -> Vec<FileOut> {
+        // The next request is numbered past every answer heard: PX4 keeps its last small
+        // answer (a burst's closing NAK EOF too) and answers a request numbered right before it
+        // with it again instead of carrying the request out.
+        if p.seq.wrapping_sub(self.seq) < 0x8000 {
+            self.seq = p.seq.wrapping_add(1);
+        }
         let nak = p.opcode == op::NAK;
         let code = p.data.first().copied().unwrap_or(0);
         match (self.phase, p.req_opcode) {
@@ -369,6 +383,9 @@ mod tests {
         chunk: usize,
         burst: bool,
         opens: Vec<Vec<u8>>,
+        /// PX4's last small answer's number, and the requests numbered right before it.
+        last_small: Option<u16>,
+        collisions: u32,
     }
 
     impl Px4 {
@@ -379,10 +396,23 @@ mod tests {
                 chunk: 35_000,
                 burst: true,
                 opens: Vec::new(),
+                last_small: None,
+                collisions: 0,
             }
         }
 
         fn answer(&mut self, req: &FtpPacket) -> Vec<FtpPacket> {
+            if self.last_small == Some(req.seq.wrapping_add(1)) {
+                self.collisions += 1;
+            }
+            let out = self.carry_out(req);
+            if let Some(p) = out.iter().rev().find(|p| p.data.len() <= 4) {
+                self.last_small = Some(p.seq);
+            }
+            out
+        }
+
+        fn carry_out(&mut self, req: &FtpPacket) -> Vec<FtpPacket> {
             let mut r = FtpPacket::reply_to(req);
             match req.opcode {
                 op::TERMINATE_SESSION if self.open && req.session == 0 => {
@@ -451,7 +481,7 @@ mod tests {
         mut lose: impl FnMut(usize) -> bool,
     ) -> (Result<Vec<u8>, String>, u32) {
         let mut now = 0;
-        let (mut r, mut out) = FileRead::start(now, "etc/extras/parameters.json.xz", max);
+        let (mut r, mut out) = FileRead::start(now, "etc/extras/parameters.json.xz", max, 0);
         let mut n = 0;
         for _ in 0..100_000 {
             let mut replies = Vec::new();
@@ -490,6 +520,7 @@ mod tests {
         assert_eq!(got.unwrap(), f);
         // terminate + open, three bursts (35 kB each, the last ends at the size), terminate.
         assert_eq!(requests, 6);
+        assert!(v.collisions == 0, "no request numbered right before PX4's last answer");
         assert_eq!(v.opens, vec![b"etc/extras/parameters.json.xz".to_vec()]);
         assert!(!v.open, "the session is closed");
     }
@@ -536,11 +567,12 @@ mod tests {
 
     #[test]
     fn a_missing_file_is_its_nak() {
-        let (mut r, out) = FileRead::start(0, "etc/nope", 100);
+        let (mut r, out) = FileRead::start(0, "etc/nope", 100, 7);
         let FileOut::Send(open) = &out[1] else {
             panic!()
         };
         assert_eq!(open.opcode, op::OPEN_FILE_RO);
+        assert_eq!(open.seq, 8, "numbered on from the start given");
         assert_eq!(open.data, b"etc/nope");
         assert_eq!(open.size, 8);
         let nak = FtpPacket::reply_to(open).nak(err::FILE_NOT_FOUND);
@@ -555,7 +587,7 @@ mod tests {
 
     #[test]
     fn silence_fails_after_the_open_tries() {
-        let (mut r, _) = FileRead::start(0, "x", 100);
+        let (mut r, _) = FileRead::start(0, "x", 100, 0);
         let mut sends = 0;
         loop {
             let d = r.next_deadline().unwrap();
