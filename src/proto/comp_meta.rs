@@ -561,3 +561,144 @@ impl Requests for CompMeta {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::proto::streams::LinkProfile;
+
+    #[test]
+    fn mftp_uris_as_the_mavlink_ftp_url_scheme_writes_them() {
+        assert_eq!(
+            parse_mftp("mftp://etc/extras/component_general.json.xz", 1),
+            Some(Ok((1, "etc/extras/component_general.json.xz".into())))
+        );
+        assert_eq!(
+            parse_mftp("MFTP://[;comp=100]/fs/x.json", 1),
+            Some(Ok((100, "/fs/x.json".into())))
+        );
+        assert!(parse_mftp("mftp://[;comp=256]x", 1).unwrap().is_err());
+        assert!(parse_mftp("mftp://[;comp=1x", 1).unwrap().is_err());
+        assert!(parse_mftp("mftp://", 1).unwrap().is_err());
+        assert_eq!(parse_mftp("https://px4.io/p.json.xz", 1), None);
+        assert!(is_web("HTTPS://a") && is_web("http://a") && !is_web("mftp://a"));
+    }
+
+    #[test]
+    fn the_general_file_gives_the_parameter_entry() {
+        // As PX4's generate_component_general.py writes it.
+        let g = br#"{"version": 1, "metadataTypes": [{"type": 1, "uri": "mftp://etc/extras/parameters.json.xz", "fileCrc": 1, "uriFallback": "https://px4-travis.s3.amazonaws.com/Firmware/v1.15.0/px4_fmu-v6x_default/parameters.json.xz"}, {"type": 4, "uri": "mftp://etc/extras/all_events.json.xz", "fileCrc": 2, "uriFallback": ""}]}"#;
+        assert_eq!(
+            general_entry(g, TYPE_PARAMETER).unwrap(),
+            Some((
+                "mftp://etc/extras/parameters.json.xz".into(),
+                Some("https://px4-travis.s3.amazonaws.com/Firmware/v1.15.0/px4_fmu-v6x_default/parameters.json.xz".into())
+            ))
+        );
+        assert_eq!(
+            general_entry(g, 4).unwrap(),
+            Some(("mftp://etc/extras/all_events.json.xz".into(), None))
+        );
+        assert_eq!(general_entry(g, 5).unwrap(), None);
+        assert!(general_entry(b"{}", 1).is_err());
+        assert!(general_entry(b"xz?", 1).is_err());
+    }
+
+    fn incoming(now: Micros, id: u32, payload: &[u8]) -> Incoming<'_> {
+        Incoming {
+            now,
+            from: (1, 1),
+            link: 0,
+            profile: LinkProfile::default(),
+            id,
+            payload,
+            msg: None,
+            ack: None,
+        }
+    }
+
+    fn request() -> [f64; 7] {
+        [COMPONENT_METADATA as f64, 0., 0., 0., 0., 0., 0.]
+    }
+
+    #[test]
+    fn asked_once_at_connect_then_the_deprecated_message_then_given_up() {
+        let key = VehicleKey(1, 1);
+        let mut m = CompMeta::new(key, true);
+        let mut out = Vec::new();
+        // Heard: due a second later, not before.
+        m.on_message(&incoming(10, 0, &[]), &mut out);
+        assert_eq!(m.next_deadline(), Some(10 + AUTO_DELAY));
+        assert!(m.requests().is_empty());
+        m.poll(10 + AUTO_DELAY, &mut out);
+        let r = m.requests();
+        assert_eq!(r, vec![(1, 512, request())]);
+        m.taken(&r[0]);
+        assert!(m.requests().is_empty(), "asked once");
+        // UNSUPPORTED: COMPONENT_INFORMATION next.
+        m.on_finished(2 * SECOND, (1, 1), 512, &request(), State::Done(3), &mut out);
+        let r = m.requests();
+        assert_eq!(r[0].2[0], COMPONENT_INFORMATION as f64);
+        m.taken(&r[0]);
+        let mut p = request();
+        p[0] = COMPONENT_INFORMATION as f64;
+        m.on_finished(3 * SECOND, (1, 1), 512, &p, State::Done(3), &mut out);
+        assert_eq!(
+            out,
+            vec![Out::Event(MachineEvent::CompMeta(CompMetaEvent::Failed {
+                why: "1:1 serves no component metadata (REQUEST_MESSAGE UNSUPPORTED)".into(),
+                operator: false
+            }))]
+        );
+        // Nothing more on its own, however long.
+        m.on_message(&incoming(4 * SECOND, 0, &[]), &mut out);
+        assert_eq!(m.next_deadline(), None);
+        assert!(m.requests().is_empty());
+        assert!(!m.busy());
+    }
+
+    #[test]
+    fn the_announcement_and_the_general_file_lead_to_the_parameter_file() {
+        let key = VehicleKey(1, 1);
+        let mut m = CompMeta::new(key, false);
+        let mut out = Vec::new();
+        m.start(true).unwrap();
+        assert!(m.start(true).is_err(), "one at a time");
+        let r = m.requests();
+        m.taken(&r[0]);
+        // COMPONENT_METADATA as PX4 sends it, before its ACK.
+        let mut p = vec![0u8; 108];
+        p[4..8].copy_from_slice(&0xDEAD_BEEFu32.to_le_bytes());
+        let uri = b"mftp://etc/extras/component_general.json.xz";
+        p[8..8 + uri.len()].copy_from_slice(uri);
+        m.on_message(&incoming(SECOND, COMPONENT_METADATA, &p), &mut out);
+        assert_eq!(
+            out.pop(),
+            Some(Out::Event(MachineEvent::CompMeta(CompMetaEvent::Announced {
+                crc: 0xDEAD_BEEF,
+                uri: String::from_utf8(uri.to_vec()).unwrap()
+            })))
+        );
+        // The late ACK changes nothing.
+        m.on_finished(SECOND, (1, 1), 512, &request(), State::Done(0), &mut out);
+        assert!(out.is_empty());
+        // The core has no copy: the general file is opened over MAVFTP, on the operator's route.
+        m.download(SECOND, &mut out);
+        let sent: Vec<FtpPacket> = out
+            .drain(..)
+            .map(|o| match o {
+                Out::Send {
+                    route: Route::Vehicle,
+                    msg: MavMessage::FILE_TRANSFER_PROTOCOL(f),
+                } => {
+                    assert_eq!((f.target_system, f.target_component), (1, 1));
+                    FtpPacket::parse(&f.payload)
+                }
+                o => panic!("{o:?}"),
+            })
+            .collect();
+        assert_eq!(sent[1].opcode, crate::wire::mavftp::op::OPEN_FILE_RO);
+        assert_eq!(sent[1].data, b"etc/extras/component_general.json.xz");
+        assert!(m.busy());
+    }
+}
