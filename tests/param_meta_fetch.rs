@@ -293,10 +293,7 @@ fn px4_is_asked_by_component_metadata_and_vehicles_without_published_metadata_ar
         assert_eq!(asks.len(), 1, "{sent:?}");
         assert_eq!(asks[0].command, MavCmd::MAV_CMD_REQUEST_MESSAGE);
         assert_eq!(asks[0].param1, 397.0, "COMPONENT_METADATA");
-        assert_eq!(
-            (asks[0].target_system, asks[0].target_component),
-            (1, 1)
-        );
+        assert_eq!((asks[0].target_system, asks[0].target_component), (1, 1));
     }
     let (m, fetched, _) = fetch_on(
         MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,

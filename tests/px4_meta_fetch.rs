@@ -28,7 +28,10 @@ fn make_files(dir: &Path, extra: &[&str]) -> u32 {
 /// Start the stand-in; its log goes to `dir/log.json`.
 fn fake(port: u16, files: &Path, dir: &Path, crc: u32, extra: &[&str]) -> common::ChildGuard {
     let mut a: Vec<std::ffi::OsString> = vec!["--port".into(), port.to_string().into()];
-    a.extend(["--general".into(), files.join("component_general.json.xz").into()]);
+    a.extend([
+        "--general".into(),
+        files.join("component_general.json.xz").into(),
+    ]);
     a.extend(["--params".into(), files.join("parameters.json.xz").into()]);
     a.extend(["--crc".into(), crc.to_string().into()]);
     a.extend(["--log-out".into(), dir.join("log.json").into()]);
@@ -71,7 +74,10 @@ impl Run {
                 return;
             }
         }
-        panic!("{what}: not within {secs} s; messages: {:?}", self.messages());
+        panic!(
+            "{what}: not within {secs} s; messages: {:?}",
+            self.messages()
+        );
     }
 
     fn keys(&mut self, names: &[&str]) {
@@ -93,7 +99,12 @@ impl Run {
     }
 
     fn messages(&self) -> Vec<String> {
-        self.r.app().notices.iter().map(|n| n.text.clone()).collect()
+        self.r
+            .app()
+            .notices
+            .iter()
+            .map(|n| n.text.clone())
+            .collect()
     }
 
     /// The Parameters screen at 80x24 with `name` selected.
@@ -138,7 +149,9 @@ fn px4_metadata_read_over_mavftp_at_connect_shown_and_cached() {
     // 150 more parameters: a parameter file of several of PX4's bursts (chunks of 500 bytes
     // here), the 3rd packet of each file's first burst lost.
     let crc = make_files(&files, &["--pad", "150"]);
-    let xz_len = std::fs::metadata(files.join("parameters.json.xz")).unwrap().len();
+    let xz_len = std::fs::metadata(files.join("parameters.json.xz"))
+        .unwrap()
+        .len();
     assert!(xz_len > 2000, "{xz_len}");
     let want = entry(&files, "MPC_XY_VEL_MAX");
 
@@ -165,7 +178,10 @@ fn px4_metadata_read_over_mavftp_at_connect_shown_and_cached() {
     assert_eq!(&ops[..3], &[1, 4, 15], "{ops:?}");
     assert_eq!(*ops.last().unwrap(), 1, "the session is closed: {ops:?}");
     let bursts = ops.iter().filter(|o| **o == 15).count();
-    assert!(bursts as u64 > xz_len / 500, "{bursts} bursts for {xz_len} bytes");
+    assert!(
+        bursts as u64 > xz_len / 500,
+        "{bursts} bursts for {xz_len} bytes"
+    );
 
     // The inflated JSON is the cache, keyed by the CRC of the general file.
     assert_eq!(
@@ -198,8 +214,11 @@ fn px4_metadata_read_over_mavftp_at_connect_shown_and_cached() {
     let m = run.messages();
     let path = cache_file(&cache, crc);
     assert!(
-        m.iter()
-            .any(|t| *t == format!("parameter metadata: 155 parameters, from {}", path.display())),
+        m.iter().any(|t| *t
+            == format!(
+                "parameter metadata: 155 parameters, from {}",
+                path.display()
+            )),
         "{m:?}"
     );
     let s = run.parameter_screen("MPC_XY_VEL_MAX");
@@ -278,8 +297,9 @@ fn a_missing_file_on_the_vehicle_falls_back_to_the_web() {
     );
     let m = run.messages();
     assert!(
-        m.iter().any(|t| *t
-            == format!("parameter metadata: 5 parameters described, from 1:1's {fallback}")),
+        m.iter()
+            .any(|t| *t
+                == format!("parameter metadata: 5 parameters described, from 1:1's {fallback}")),
         "{m:?}"
     );
     let want = entry(&files, "COM_RC_IN_MODE");
@@ -298,7 +318,13 @@ fn a_vehicle_without_component_metadata_is_told_plainly() {
     std::fs::create_dir_all(&files).unwrap();
     let crc = make_files(&files, &[]);
     let port = common::free_tcp_port();
-    let _v = fake(port, &files, tmp.path(), crc, &["--metadata", "unsupported"]);
+    let _v = fake(
+        port,
+        &files,
+        tmp.path(),
+        crc,
+        &["--metadata", "unsupported"],
+    );
     let mut run = start(port, &tmp.path().join("cache"));
     let auto = "parameter metadata from the vehicle: 1:1 serves no component metadata (REQUEST_MESSAGE UNSUPPORTED) (param meta fetch tries again)";
     run.until(20.0, "the automatic request told", |a| {

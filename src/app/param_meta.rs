@@ -199,7 +199,9 @@ pub fn component_cache_file(dir: Option<&std::path::Path>, crc: u32) -> PathBuf 
 /// The CRC a [`component_cache_file`] is named after.
 pub fn component_crc(path: &std::path::Path) -> Option<u32> {
     let n = path.file_name()?.to_str()?;
-    let hex = n.strip_prefix("component-")?.strip_suffix(".parameters.json")?;
+    let hex = n
+        .strip_prefix("component-")?
+        .strip_suffix(".parameters.json")?;
     (hex.len() == 8).then(|| u32::from_str_radix(hex, 16).ok())?
 }
 
@@ -556,8 +558,12 @@ impl App {
         if self.target == Some(key) || self.cfg.param_meta.is_none() {
             self.use_meta(Some(MetaKey::Component(crc)), meta);
         } else {
-            self.meta.sets.retain(|(k, _)| *k != MetaKey::Component(crc));
-            self.meta.sets.push((MetaKey::Component(crc), Arc::new(meta)));
+            self.meta
+                .sets
+                .retain(|(k, _)| *k != MetaKey::Component(crc));
+            self.meta
+                .sets
+                .push((MetaKey::Component(crc), Arc::new(meta)));
         }
         if let Some(dir) = dir {
             fx.push(Effect::WriteFile {
@@ -597,7 +603,9 @@ impl App {
                         if self.target == Some(key) || self.cfg.param_meta.is_none() {
                             self.use_meta(Some(MetaKey::Component(crc)), meta);
                         } else {
-                            self.meta.sets.push((MetaKey::Component(crc), Arc::new(meta)));
+                            self.meta
+                                .sets
+                                .push((MetaKey::Component(crc), Arc::new(meta)));
                         }
                         self.comp_finish(key);
                         self.meta.comp_fetch = self.meta.comp_fetch.filter(|k| *k != key);

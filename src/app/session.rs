@@ -766,6 +766,7 @@ impl Session {
     pub fn on_reboot(&mut self) {
         self.streams.on_reboot();
         self.mission.on_reboot();
+        self.comp_meta.on_reboot();
     }
 
     /// `link` came back after being down.

@@ -422,7 +422,11 @@ impl MetaSet {
             .ok_or("not parameter metadata: the JSON is not an object")?;
         match root.get("version").and_then(serde_json::Value::as_u64) {
             Some(1) => {}
-            Some(v) => return Err(format!("parameter metadata version {v} is not known (1 is)")),
+            Some(v) => {
+                return Err(format!(
+                    "parameter metadata version {v} is not known (1 is)"
+                ))
+            }
             None => return Err("not parameter metadata: no \"version\"".into()),
         }
         let params = root
@@ -816,7 +820,12 @@ fn px4_json_param(p: &serde_json::Value) -> Option<ParamMeta> {
             max.unwrap_or(f64::INFINITY),
         ));
     }
-    for v in o.get("values").and_then(|v| v.as_array()).into_iter().flatten() {
+    for v in o
+        .get("values")
+        .and_then(|v| v.as_array())
+        .into_iter()
+        .flatten()
+    {
         if let (Some(code), Some(text)) = (
             v.get("value").and_then(json_number),
             v.get("description").and_then(|d| d.as_str()),
@@ -824,7 +833,12 @@ fn px4_json_param(p: &serde_json::Value) -> Option<ParamMeta> {
             m.values.push((code, text.trim().to_string()));
         }
     }
-    for b in o.get("bitmask").and_then(|v| v.as_array()).into_iter().flatten() {
+    for b in o
+        .get("bitmask")
+        .and_then(|v| v.as_array())
+        .into_iter()
+        .flatten()
+    {
         let bit = b
             .get("index")
             .and_then(json_number)
@@ -968,7 +982,10 @@ mod tests {
         assert!(b.reboot_required);
         assert_eq!(
             b.bits_set(3.0),
-            vec!["Default set (general log analysis)", "Estimator replay (EKF2)"]
+            vec![
+                "Default set (general log analysis)",
+                "Estimator replay (EKF2)"
+            ]
         );
         // jsonout.py writes the numbers of types other than Float and Int32 as strings.
         let u = set.get("UAVCAN_NODE_ID", Variant::Unknown).unwrap();

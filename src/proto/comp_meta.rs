@@ -191,6 +191,15 @@ impl CompMeta {
         }
     }
 
+    /// The vehicle rebooted (maybe into other firmware): it is asked again on its own, as at
+    /// connect.
+    pub fn on_reboot(&mut self) {
+        if self.auto && !self.busy() {
+            self.auto_done = false;
+            self.step = Step::Idle;
+        }
+    }
+
     /// Nothing starts on its own while the system is heard on high-latency links only.
     pub fn hold_auto(&mut self, held: bool) {
         self.held = held;
@@ -301,11 +310,11 @@ impl CompMeta {
     fn read_done(&mut self, now: Micros, bytes: Vec<u8>, out: &mut Vec<Out>) {
         match std::mem::replace(&mut self.step, Step::Idle) {
             Step::General { crc, read, .. } => {
-                let json =
-                    match crate::params::meta::inflate(read.path(), &bytes, MAX_GENERAL * 16) {
-                        Ok(j) => j,
-                        Err(e) => return self.failed(format!("general metadata: {e}"), out),
-                    };
+                let json = match crate::params::meta::inflate(read.path(), &bytes, MAX_GENERAL * 16)
+                {
+                    Ok(j) => j,
+                    Err(e) => return self.failed(format!("general metadata: {e}"), out),
+                };
                 let (uri, fallback) = match general_entry(&json, TYPE_PARAMETER) {
                     Ok(Some(e)) => e,
                     Ok(None) => {
@@ -319,8 +328,7 @@ impl CompMeta {
                 let fallback: Vec<String> = fallback.into_iter().filter(|u| is_web(u)).collect();
                 match parse_mftp(&uri, self.key.1) {
                     Some(Ok((comp, path))) => {
-                        let (read, o) =
-                            FileRead::start(now, &path, MAX_PARAM_FILE, self.ftp_seq);
+                        let (read, o) = FileRead::start(now, &path, MAX_PARAM_FILE, self.ftp_seq);
                         self.ftp_seq = read.seq();
                         self.step = Step::Param {
                             crc,
@@ -395,7 +403,10 @@ impl CompMeta {
         if target != (self.key.0, self.key.1) || !is_request(command, params) {
             return;
         }
-        let Step::Ask { msg, taken: true, .. } = self.step else {
+        let Step::Ask {
+            msg, taken: true, ..
+        } = self.step
+        else {
             return;
         };
         if params[0] != msg as f64 {
@@ -411,10 +422,7 @@ impl CompMeta {
                     until: Some(now + MESSAGE_WAIT),
                 };
             }
-            State::Done(r) if msg == COMPONENT_METADATA => {
-                let _ = r;
-                self.ask(COMPONENT_INFORMATION);
-            }
+            State::Done(_) if msg == COMPONENT_METADATA => self.ask(COMPONENT_INFORMATION),
             State::Done(r) => self.failed(
                 format!(
                     "{} serves no component metadata (REQUEST_MESSAGE {})",
@@ -465,7 +473,7 @@ impl Machine for CompMeta {
     ]);
 
     fn on_message(&mut self, m: &Incoming, out: &mut Vec<Out>) {
-                if self.auto && !self.auto_done && matches!(self.step, Step::Idle) {
+        if self.auto && !self.auto_done && matches!(self.step, Step::Idle) {
             self.auto_done = true;
             self.step = Step::Due(m.now + AUTO_DELAY);
         }
@@ -636,7 +644,14 @@ mod tests {
         m.taken(&r[0]);
         assert!(m.requests().is_empty(), "asked once");
         // UNSUPPORTED: COMPONENT_INFORMATION next.
-        m.on_finished(2 * SECOND, (1, 1), 512, &request(), State::Done(3), &mut out);
+        m.on_finished(
+            2 * SECOND,
+            (1, 1),
+            512,
+            &request(),
+            State::Done(3),
+            &mut out,
+        );
         let r = m.requests();
         assert_eq!(r[0].2[0], COMPONENT_INFORMATION as f64);
         m.taken(&r[0]);
@@ -674,10 +689,12 @@ mod tests {
         m.on_message(&incoming(SECOND, COMPONENT_METADATA, &p), &mut out);
         assert_eq!(
             out.pop(),
-            Some(Out::Event(MachineEvent::CompMeta(CompMetaEvent::Announced {
-                crc: 0xDEAD_BEEF,
-                uri: String::from_utf8(uri.to_vec()).unwrap()
-            })))
+            Some(Out::Event(MachineEvent::CompMeta(
+                CompMetaEvent::Announced {
+                    crc: 0xDEAD_BEEF,
+                    uri: String::from_utf8(uri.to_vec()).unwrap()
+                }
+            )))
         );
         // The late ACK changes nothing.
         m.on_finished(SECOND, (1, 1), 512, &request(), State::Done(0), &mut out);

@@ -208,7 +208,10 @@ impl FileRead {
 
     /// Whether the file is whole: at the announced size, or after a short block.
     fn whole(&self, last: usize) -> bool {
-        last < DATA_LEN || self.size.is_some_and(|s| self.data.len() as u64 >= s as u64)
+        last < DATA_LEN
+            || self
+                .size
+                .is_some_and(|s| self.data.len() as u64 >= s as u64)
     }
 
     /// A packet from the server (already known to be from the component read from).
@@ -501,7 +504,10 @@ mod tests {
                 }
             }
             if out.is_empty() {
-                now = r.next_deadline().expect("a deadline while not done").max(now);
+                now = r
+                    .next_deadline()
+                    .expect("a deadline while not done")
+                    .max(now);
                 out = r.poll(now);
             }
         }
@@ -520,7 +526,10 @@ mod tests {
         assert_eq!(got.unwrap(), f);
         // terminate + open, three bursts (35 kB each, the last ends at the size), terminate.
         assert_eq!(requests, 6);
-        assert!(v.collisions == 0, "no request numbered right before PX4's last answer");
+        assert!(
+            v.collisions == 0,
+            "no request numbered right before PX4's last answer"
+        );
         assert_eq!(v.opens, vec![b"etc/extras/parameters.json.xz".to_vec()]);
         assert!(!v.open, "the session is closed");
     }
@@ -528,8 +537,16 @@ mod tests {
     #[test]
     fn an_exact_multiple_of_the_block_ends_at_the_size() {
         let f = file(DATA_LEN * 5);
-        assert_eq!(run(&mut Px4::new(f.clone()), 1 << 20, |_| false).0.unwrap(), f);
-        assert_eq!(run(&mut Px4::new(Vec::new()), 1 << 20, |_| false).0.unwrap(), b"");
+        assert_eq!(
+            run(&mut Px4::new(f.clone()), 1 << 20, |_| false).0.unwrap(),
+            f
+        );
+        assert_eq!(
+            run(&mut Px4::new(Vec::new()), 1 << 20, |_| false)
+                .0
+                .unwrap(),
+            b""
+        );
     }
 
     #[test]
