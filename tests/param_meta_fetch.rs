@@ -207,11 +207,11 @@ fn the_binary_caches_under_xdg_cache_home() {
 }
 
 /// A HEARTBEAT of `autopilot` (a quadrotor) from 1:1, into a core on link "x"; then
-/// `param meta fetch`: what it says, and whether it asked for a download.
+/// `param meta fetch`: what it says, whether it asked for a download, and what it sent.
 fn fetch_on(
     autopilot: mavterm::dialect::MavAutopilot,
     mavtype: mavterm::dialect::MavType,
-) -> (String, bool) {
+) -> (String, bool, Vec<mavterm::dialect::MavMessage>) {
     use mavterm::app::{App, Effect, Event};
     use mavterm::dialect::{self, MavMessage};
     use mavterm::link::{FrameParser, ParserStats};
@@ -264,27 +264,44 @@ fn fetch_on(
     let fetched = fx
         .iter()
         .any(|e| matches!(e, Effect::FetchParamMeta { .. }));
-    (app.ui.message.clone().unwrap().1, fetched)
+    let sent = common::sent_messages(&fx);
+    (app.ui.message.clone().unwrap().1, fetched, sent)
 }
 
 #[test]
-fn px4_and_vehicles_without_published_metadata_are_told_so() {
-    use mavterm::dialect::{MavAutopilot, MavType};
-    let (m, fetched) = fetch_on(MavAutopilot::MAV_AUTOPILOT_PX4, MavType::MAV_TYPE_QUADROTOR);
-    assert!(!fetched);
-    assert!(
-        m.starts_with(
-            "param meta fetch: PX4's metadata (component information) is not supported yet"
-        ),
-        "{m}"
-    );
-    let (m, fetched) = fetch_on(
+fn px4_is_asked_by_component_metadata_and_vehicles_without_published_metadata_are_told_so() {
+    use mavterm::dialect::{MavAutopilot, MavCmd, MavMessage, MavType};
+    // PX4 (and any autopilot but ArduPilot): the vehicle is asked where its metadata is
+    // (tests/px4_meta_fetch.rs follows it to the end).
+    for autopilot in [
+        MavAutopilot::MAV_AUTOPILOT_PX4,
+        MavAutopilot::MAV_AUTOPILOT_GENERIC,
+    ] {
+        let (m, fetched, sent) = fetch_on(autopilot, MavType::MAV_TYPE_QUADROTOR);
+        assert!(!fetched);
+        assert_eq!(
+            m,
+            "param meta fetch: asking 1:1 for its parameter metadata (component metadata protocol)"
+        );
+        let asks: Vec<_> = sent
+            .iter()
+            .filter_map(|m| match m {
+                MavMessage::COMMAND_LONG(c) => Some(c),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(asks.len(), 1, "{sent:?}");
+        assert_eq!(asks[0].command, MavCmd::MAV_CMD_REQUEST_MESSAGE);
+        assert_eq!(asks[0].param1, 397.0, "COMPONENT_METADATA");
+        assert_eq!((asks[0].target_system, asks[0].target_component), (1, 1));
+    }
+    let (m, fetched, _) = fetch_on(
         MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
         MavType::MAV_TYPE_FLAPPING_WING,
     );
     assert!(!fetched);
     assert!(m.contains("ArduPilot publishes no metadata for a"), "{m}");
-    let (m, fetched) = fetch_on(
+    let (m, fetched, _) = fetch_on(
         MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
         MavType::MAV_TYPE_FIXED_WING,
     );

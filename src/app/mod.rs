@@ -578,6 +578,7 @@ impl App {
                     self.sequence_outcome(key, sev, &text);
                     self.notice(sev, Some(key), text)
                 }
+                SessionOut::CompMeta(e) => self.on_comp_meta(key, e, fx),
             }
         }
         self.follow_sequence(key);

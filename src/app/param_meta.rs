@@ -8,6 +8,15 @@
 //! later, a vehicle of that type heard with no metadata loaded gets it from there
 //! ([`Effect::ReadParamMeta`]).
 //!
+//! **PX4** (and any autopilot that is not ArduPilot) says where its metadata is itself, by the
+//! component metadata protocol ([`crate::proto::comp_meta`]): automatically once a PX4 vehicle
+//! is heard (as QGroundControl does at connect), and on `param meta fetch`. The vehicle's
+//! COMPONENT_METADATA carries the CRC of its general metadata file, which keys the cache
+//! (`component-CRC.parameters.json`, the inflated `parameters.json`): a vehicle whose CRC has a
+//! cached file is not read again. Otherwise its files come over MAVLink FTP (or HTTPS where the
+//! general file says so), are inflated (xz, bounded by [`MAX_JSON`]) and read
+//! ([`MetaSet::parse_px4_json`]) into the same metadata ArduPilot's XML gives.
+//!
 //! `param show NAME` (or a glob: `param show BATT_*`) lists values in the message log.
 
 use std::path::PathBuf;
@@ -15,7 +24,8 @@ use std::sync::Arc;
 
 use super::{App, Effect};
 use crate::dialect::{MavAutopilot, MavMessage, MavType};
-use crate::params::meta::MetaSet;
+use crate::params::meta::{inflate, MetaSet, MAX_JSON};
+use crate::proto::comp_meta::CompMetaEvent;
 use crate::proto::vehicles::VehicleKey;
 use crate::wire::Severity;
 
@@ -45,21 +55,36 @@ pub enum MetaOrigin {
     Url(String),
     /// Read from the cache.
     Cache,
+    /// The cache has no such file.
+    Missing,
+}
+
+/// Which metadata a set is: an ArduPilot vehicle's (`ArduCopter`), or the one a vehicle
+/// announced by the component metadata protocol (its general file's CRC).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MetaKey {
+    ArduPilot(&'static str),
+    Component(u32),
 }
 
 /// The metadata loaded automatically or fetched, and the cache files already tried.
 #[derive(Debug, Clone, Default)]
 pub struct MetaState {
-    /// The vehicle name (`ArduCopter`) of the metadata in use, when it came from here (not
-    /// from `--param-meta`).
-    pub loaded_for: Option<&'static str>,
+    /// Which metadata is in use, when it came from here (not from `--param-meta`).
+    pub loaded_for: Option<MetaKey>,
     /// Each vehicle type's metadata read or fetched this run (at most one per type), so a
     /// target of another type switches to its own.
-    sets: Vec<(&'static str, Arc<MetaSet>)>,
+    sets: Vec<(MetaKey, Arc<MetaSet>)>,
     /// Cache files asked for (each once a run).
     tried: Vec<&'static str>,
     /// A download is under way.
     pub fetching: bool,
+    /// The general file CRC each vehicle announced (component metadata).
+    announced: Vec<(VehicleKey, u32)>,
+    /// Cache reads of component metadata under way: for which vehicle, which CRC.
+    comp_reads: Vec<(VehicleKey, u32)>,
+    /// The vehicle whose component metadata the operator asked for (`param meta fetch`).
+    comp_fetch: Option<VehicleKey>,
 }
 
 /// Parse the words after `param` that this module takes (`None`: not one of them).
@@ -161,6 +186,25 @@ pub fn cache_file(dir: &std::path::Path, vehicle: &str) -> PathBuf {
         .join(format!("{vehicle}.apm.pdef.xml"))
 }
 
+/// The cache file of the parameter metadata a vehicle announced with this general file CRC
+/// (a bare name when there is no cache directory: then it is never written).
+pub fn component_cache_file(dir: Option<&std::path::Path>, crc: u32) -> PathBuf {
+    let name = format!("component-{crc:08x}.parameters.json");
+    match dir {
+        Some(d) => d.join("param-meta").join(name),
+        None => PathBuf::from(name),
+    }
+}
+
+/// The CRC a [`component_cache_file`] is named after.
+pub fn component_crc(path: &std::path::Path) -> Option<u32> {
+    let n = path.file_name()?.to_str()?;
+    let hex = n
+        .strip_prefix("component-")?
+        .strip_suffix(".parameters.json")?;
+    (hex.len() == 8).then(|| u32::from_str_radix(hex, 16).ok())?
+}
+
 impl App {
     /// The target's autopilot, type and ArduPilot vehicle name.
     fn meta_vehicle(&self) -> Result<(MavAutopilot, (&'static str, &'static str)), String> {
@@ -175,15 +219,31 @@ impl App {
                         v.type_name()
                     )
                 }),
-            MavAutopilot::MAV_AUTOPILOT_PX4 => Err(
-                "param meta fetch: PX4's metadata (component information) is not supported yet; use --param-meta FILE (PX4's parameters.xml)"
-                    .into(),
-            ),
             _ => Err(format!(
                 "param meta fetch: no published metadata for a {} autopilot; use --param-meta FILE",
                 v.autopilot_name()
             )),
         }
+    }
+
+    /// `param meta fetch` for an autopilot that is not ArduPilot: ask it by the component
+    /// metadata protocol.
+    fn fetch_component_meta(&mut self, fx: &mut Vec<Effect>) -> Result<Option<String>, String> {
+        let key = self.target.ok_or("no target vehicle")?;
+        let now = self.now;
+        let s = self
+            .sessions
+            .get_mut(&key)
+            .ok_or_else(|| format!("{key} has no session"))?;
+        s.comp_meta
+            .start(true)
+            .map_err(|e| format!("param meta fetch: {e}"))?;
+        self.meta.comp_fetch = Some(key);
+        let out = s.poll(now);
+        self.session_out(key, out, fx);
+        Ok(Some(format!(
+            "param meta fetch: asking {key} for its parameter metadata (component metadata protocol)"
+        )))
     }
 
     /// The target's official firmware version, from its AUTOPILOT_VERSION, if heard.
@@ -204,6 +264,14 @@ impl App {
         match cmd {
             MetaCmd::Show(pattern) => self.param_show(&pattern),
             MetaCmd::Fetch => {
+                let autopilot = self
+                    .target
+                    .and_then(|k| self.vehicles.get(k))
+                    .map(|v| v.autopilot)
+                    .ok_or("no target vehicle")?;
+                if autopilot != MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA {
+                    return self.fetch_component_meta(fx);
+                }
                 let (_, vehicle) = self.meta_vehicle()?;
                 let dir = self
                     .cfg
@@ -276,6 +344,12 @@ impl App {
         if matches!(origin, MetaOrigin::Url(_)) {
             self.meta.fetching = false;
         }
+        if let Some(crc) = component_crc(&cache_path) {
+            return self.on_component_bytes(origin, crc, cache_path, result, fx);
+        }
+        if origin == MetaOrigin::Missing {
+            return; // no cached copy: nothing to tell
+        }
         let vehicle = cache_path
             .file_name()
             .and_then(|n| n.to_str())
@@ -289,7 +363,7 @@ impl App {
         let (severity, text) = match (origin, parsed) {
             (MetaOrigin::Url(url), Ok((meta, bytes))) => {
                 let n = meta.len();
-                self.use_meta(vehicle, meta);
+                self.use_meta(vehicle.map(MetaKey::ArduPilot), meta);
                 fx.push(Effect::WriteFile {
                     path: cache_path,
                     contents: bytes,
@@ -300,9 +374,9 @@ impl App {
                 )
             }
             (MetaOrigin::Url(_), Err(e)) => (Severity::ERROR, format!("param meta fetch: {e}")),
-            (MetaOrigin::Cache, Ok((meta, _))) => {
+            (MetaOrigin::Cache | MetaOrigin::Missing, Ok((meta, _))) => {
                 let n = meta.len();
-                self.use_meta(vehicle, meta);
+                self.use_meta(vehicle.map(MetaKey::ArduPilot), meta);
                 (
                     Severity::INFO,
                     format!(
@@ -311,7 +385,7 @@ impl App {
                     ),
                 )
             }
-            (MetaOrigin::Cache, Err(e)) => (
+            (MetaOrigin::Cache | MetaOrigin::Missing, Err(e)) => (
                 Severity::ERROR,
                 format!(
                     "parameter metadata {}: {e} (param meta fetch downloads it again)",
@@ -325,13 +399,258 @@ impl App {
     }
 
     /// Use `meta` from now on, as `vehicle`'s.
-    fn use_meta(&mut self, vehicle: Option<&'static str>, meta: MetaSet) {
+    fn use_meta(&mut self, vehicle: Option<MetaKey>, meta: MetaSet) {
         let meta = Arc::new(meta);
         self.cfg.param_meta = Some(meta.clone());
         self.meta.loaded_for = vehicle;
         if let Some(v) = vehicle {
             self.meta.sets.retain(|(n, _)| *n != v);
             self.meta.sets.push((v, meta));
+        }
+    }
+
+    /// Tell of component metadata: on the status bar when the operator asked for it (or it
+    /// failed), always in the messages.
+    fn comp_notice(&mut self, key: VehicleKey, severity: Severity, text: String, status: bool) {
+        if status {
+            self.ui.message = Some((severity, text.clone()));
+        }
+        self.notice(severity, Some(key), text);
+        self.dirty = true;
+    }
+
+    /// The session of `key` reads its announced metadata from the vehicle after all.
+    fn comp_download(&mut self, key: VehicleKey, fx: &mut Vec<Effect>) {
+        let now = self.now;
+        let Some(s) = self.sessions.get_mut(&key) else {
+            return;
+        };
+        let mut buf = Vec::new();
+        s.comp_meta.download(now, &mut buf);
+        let mut out = Vec::new();
+        s.deliver(now, &mut buf, &mut out);
+        self.session_out(key, out, fx);
+    }
+
+    fn comp_finish(&mut self, key: VehicleKey) {
+        if let Some(s) = self.sessions.get_mut(&key) {
+            s.comp_meta.finish();
+        }
+    }
+
+    /// What the component metadata machine of `key` has to tell.
+    pub(super) fn on_comp_meta(&mut self, key: VehicleKey, e: CompMetaEvent, fx: &mut Vec<Effect>) {
+        let asked = self.meta.comp_fetch == Some(key);
+        match e {
+            CompMetaEvent::Announced { crc, uri } => {
+                self.meta.announced.retain(|(k, _)| *k != key);
+                self.meta.announced.push((key, crc));
+                if !asked && self.cfg.param_meta.is_some() && self.meta.loaded_for.is_none() {
+                    // --param-meta (or the configuration's file) stands.
+                    return self.comp_finish(key);
+                }
+                if let Some((_, set)) = self
+                    .meta
+                    .sets
+                    .iter()
+                    .find(|(k, _)| *k == MetaKey::Component(crc))
+                {
+                    let (set, n) = (set.clone(), set.len());
+                    if self.target == Some(key) {
+                        self.cfg.param_meta = Some(set);
+                        self.meta.loaded_for = Some(MetaKey::Component(crc));
+                    }
+                    self.comp_finish(key);
+                    if asked {
+                        self.meta.comp_fetch = None;
+                        self.comp_notice(
+                            key,
+                            Severity::INFO,
+                            format!("param meta fetch: {n} parameters described (loaded already; {key}'s metadata CRC {crc:08x} is unchanged)"),
+                            true,
+                        );
+                    }
+                    return;
+                }
+                match self.cfg.param_meta_cache.clone() {
+                    Some(dir) => {
+                        self.meta.comp_reads.retain(|(k, _)| *k != key);
+                        self.meta.comp_reads.push((key, crc));
+                        fx.push(Effect::ReadParamMeta {
+                            path: component_cache_file(Some(&dir), crc),
+                        });
+                    }
+                    None => self.comp_download(key, fx),
+                }
+                if asked {
+                    self.ui.message = Some((
+                        Severity::INFO,
+                        format!("param meta fetch: {key} announces {uri}"),
+                    ));
+                }
+            }
+            CompMetaEvent::ParamFile { crc, source, bytes } => {
+                let parsed = inflate(&source, &bytes, MAX_JSON)
+                    .and_then(|json| MetaSet::parse_px4_json(&json).map(|m| (m, json)));
+                self.meta.comp_fetch = self.meta.comp_fetch.filter(|k| *k != key);
+                match parsed {
+                    Ok((meta, json)) => self.comp_loaded(key, crc, meta, json, &source, asked, fx),
+                    Err(e) => self.comp_notice(
+                        key,
+                        Severity::ERROR,
+                        format!("parameter metadata from {key}: {e}"),
+                        true,
+                    ),
+                }
+            }
+            CompMetaEvent::Fetch { crc, urls } => {
+                let dir = self.cfg.param_meta_cache.clone();
+                self.meta.fetching = true;
+                let shown = urls.first().cloned().unwrap_or_default();
+                fx.push(Effect::FetchParamMeta {
+                    urls,
+                    cache_path: component_cache_file(dir.as_deref(), crc),
+                });
+                self.meta.comp_reads.retain(|(k, _)| *k != key);
+                self.meta.comp_reads.push((key, crc));
+                if asked {
+                    self.ui.message = Some((
+                        Severity::INFO,
+                        format!("param meta fetch: downloading {shown}"),
+                    ));
+                }
+            }
+            CompMetaEvent::Failed { why, operator } => {
+                self.meta.comp_fetch = self.meta.comp_fetch.filter(|k| *k != key);
+                if operator {
+                    self.comp_notice(
+                        key,
+                        Severity::ERROR,
+                        format!("param meta fetch: {why}; --param-meta FILE loads a file instead"),
+                        true,
+                    );
+                } else {
+                    self.comp_notice(
+                        key,
+                        Severity::WARNING,
+                        format!("parameter metadata from the vehicle: {why} (param meta fetch tries again)"),
+                        false,
+                    );
+                }
+            }
+        }
+    }
+
+    /// Component metadata read and parsed: used, and kept in the cache.
+    #[allow(clippy::too_many_arguments)]
+    fn comp_loaded(
+        &mut self,
+        key: VehicleKey,
+        crc: u32,
+        meta: MetaSet,
+        json: Vec<u8>,
+        source: &str,
+        asked: bool,
+        fx: &mut Vec<Effect>,
+    ) {
+        let n = meta.len();
+        let dir = self.cfg.param_meta_cache.clone();
+        if self.target == Some(key) || self.cfg.param_meta.is_none() {
+            self.use_meta(Some(MetaKey::Component(crc)), meta);
+        } else {
+            self.meta
+                .sets
+                .retain(|(k, _)| *k != MetaKey::Component(crc));
+            self.meta
+                .sets
+                .push((MetaKey::Component(crc), Arc::new(meta)));
+        }
+        if let Some(dir) = dir {
+            fx.push(Effect::WriteFile {
+                path: component_cache_file(Some(&dir), crc),
+                contents: json,
+            });
+        }
+        let text = if asked {
+            format!("param meta fetch: {n} parameters described, from {source}")
+        } else {
+            format!("parameter metadata: {n} parameters described, from {key}'s {source}")
+        };
+        self.comp_notice(key, Severity::INFO, text, true);
+    }
+
+    /// Component metadata bytes the edge brought: the cached copy (or none), or a download.
+    fn on_component_bytes(
+        &mut self,
+        origin: MetaOrigin,
+        crc: u32,
+        cache_path: PathBuf,
+        result: Result<Vec<u8>, String>,
+        fx: &mut Vec<Effect>,
+    ) {
+        let Some(i) = self.meta.comp_reads.iter().position(|(_, c)| *c == crc) else {
+            return;
+        };
+        let (key, _) = self.meta.comp_reads.remove(i);
+        let asked = self.meta.comp_fetch == Some(key);
+        match origin {
+            MetaOrigin::Missing => self.comp_download(key, fx),
+            MetaOrigin::Cache => {
+                let parsed = result.and_then(|b| MetaSet::parse_px4_json(&b));
+                match parsed {
+                    Ok(meta) => {
+                        let n = meta.len();
+                        if self.target == Some(key) || self.cfg.param_meta.is_none() {
+                            self.use_meta(Some(MetaKey::Component(crc)), meta);
+                        } else {
+                            self.meta
+                                .sets
+                                .push((MetaKey::Component(crc), Arc::new(meta)));
+                        }
+                        self.comp_finish(key);
+                        self.meta.comp_fetch = self.meta.comp_fetch.filter(|k| *k != key);
+                        let text = if asked {
+                            format!(
+                                "param meta fetch: {n} parameters described, from the cache ({key}'s metadata CRC {crc:08x} is unchanged)"
+                            )
+                        } else {
+                            format!(
+                                "parameter metadata: {n} parameters, from {}",
+                                cache_path.display()
+                            )
+                        };
+                        self.comp_notice(key, Severity::INFO, text, asked);
+                    }
+                    Err(e) => {
+                        self.comp_notice(
+                            key,
+                            Severity::WARNING,
+                            format!(
+                                "parameter metadata {}: {e}; reading it from {key} again",
+                                cache_path.display()
+                            ),
+                            asked,
+                        );
+                        self.comp_download(key, fx);
+                    }
+                }
+            }
+            MetaOrigin::Url(url) => {
+                self.meta.comp_fetch = self.meta.comp_fetch.filter(|k| *k != key);
+                let parsed = result.and_then(|bytes| {
+                    let json = inflate(&url, &bytes, MAX_JSON)?;
+                    MetaSet::parse_px4_json(&json).map(|m| (m, json))
+                });
+                match parsed {
+                    Ok((meta, json)) => self.comp_loaded(key, crc, meta, json, &url, asked, fx),
+                    Err(e) => self.comp_notice(
+                        key,
+                        Severity::ERROR,
+                        format!("parameter metadata of {key}: {e}"),
+                        true,
+                    ),
+                }
+            }
         }
     }
 
@@ -348,17 +667,33 @@ impl App {
             return;
         };
         if v.autopilot != MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA {
+            // Its announced metadata, if read this run.
+            let key = self.target.map(|k| (k.0, k.1));
+            let crc = self
+                .meta
+                .announced
+                .iter()
+                .find(|(k, _)| Some((k.0, k.1)) == key)
+                .map(|(_, c)| MetaKey::Component(*c));
+            if let Some(want) = crc.filter(|w| self.meta.loaded_for != Some(*w)) {
+                if let Some((_, set)) = self.meta.sets.iter().find(|(n, _)| *n == want) {
+                    self.cfg.param_meta = Some(set.clone());
+                    self.meta.loaded_for = Some(want);
+                    self.dirty = true;
+                }
+            }
             return;
         }
         let Some((name, _)) = ardupilot_vehicle(v.mavtype) else {
             return;
         };
-        if self.meta.loaded_for == Some(name) {
+        let want = MetaKey::ArduPilot(name);
+        if self.meta.loaded_for == Some(want) {
             return;
         }
-        if let Some((_, set)) = self.meta.sets.iter().find(|(n, _)| *n == name) {
+        if let Some((_, set)) = self.meta.sets.iter().find(|(n, _)| *n == want) {
             self.cfg.param_meta = Some(set.clone());
-            self.meta.loaded_for = Some(name);
+            self.meta.loaded_for = Some(want);
             self.dirty = true;
             return;
         }

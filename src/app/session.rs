@@ -27,6 +27,7 @@ use crate::dialect::{MavAutopilot, MavCmd, MavMessage};
 use crate::link::LinkId;
 use crate::proto::camera::{CameraAction, CameraSet};
 use crate::proto::commands::{self, CmdOut, CommandQueue, CommandSpec, State};
+use crate::proto::comp_meta::CompMeta;
 use crate::proto::gimbal::GimbalSet;
 use crate::proto::machine::{Ids, Incoming, Machine, MachineEvent, Out, Requests, Route};
 use crate::proto::mission::{MissionMachine, Request as MissionRequest};
@@ -65,6 +66,8 @@ pub enum SessionOut {
         sev: crate::wire::Severity,
         text: String,
     },
+    /// The component metadata machine's news, for the core (`app::param_meta`).
+    CompMeta(crate::proto::comp_meta::CompMetaEvent),
     /// Command `command` of the queue to `target` finished, and its notice.
     Command {
         id: u64,
@@ -87,6 +90,7 @@ impl Dispatch {
     pub const SEQUENCE: u16 = 1 << 5;
     pub const CAMERAS: u16 = 1 << 6;
     pub const GIMBALS: u16 = 1 << 7;
+    pub const COMP_META: u16 = 1 << 8;
 }
 
 /// Each machine's bit and the ids it reads.
@@ -99,6 +103,7 @@ pub const TABLE: &[(u16, Ids)] = &[
     (Dispatch::SEQUENCE, Sequence::IDS),
     (Dispatch::CAMERAS, CameraSet::IDS),
     (Dispatch::GIMBALS, GimbalSet::IDS),
+    (Dispatch::COMP_META, CompMeta::IDS),
 ];
 
 /// The machines that read message `id`, from [`TABLE`] (built once).
@@ -163,6 +168,8 @@ pub struct Session {
     pub cameras: CameraSet,
     /// The gimbals of this system, by their managers (the autopilot, or a gimbal component).
     pub gimbals: GimbalSet,
+    /// Parameter metadata asked of the vehicle (component metadata protocol).
+    pub comp_meta: CompMeta,
     /// The custom mode of the autopilot's last heartbeat.
     mode_seen: Option<u32>,
     /// DO_SET_MODEs that may still be resent: (queue id, the mode the heartbeat showed when it
@@ -196,6 +203,10 @@ impl Session {
             mission: MissionMachine::new(key),
             cameras: CameraSet::default(),
             gimbals: GimbalSet::default(),
+            comp_meta: CompMeta::new(
+                key,
+                fetch_params && crate::proto::profile::of(autopilot).component_metadata(),
+            ),
             mode_seen: None,
             mode_asks: Vec::new(),
             quiet: std::collections::BTreeSet::new(),
@@ -259,6 +270,7 @@ impl Session {
             // Nothing starts on its own while the system is heard on high-latency links only.
             let held = self.heard.values().all(|(_, p)| p.hl);
             self.params.hold_auto(held);
+            self.comp_meta.hold_auto(held);
         }
         let w = wants(m.id);
         let mut out = Vec::new();
@@ -276,6 +288,9 @@ impl Session {
             Machine::on_message(&mut self.gimbals, m, &mut buf);
             self.deliver(now, &mut buf, &mut out);
         }
+        // Any message starts its automatic request; files may come from another component.
+        Machine::on_message(&mut self.comp_meta, m, &mut buf);
+        self.deliver(now, &mut buf, &mut out);
         if from != self.key.1 {
             // Another component of this system (a camera, a gimbal): the answers to commands
             // sent to it through this session's queue.
@@ -402,6 +417,7 @@ impl Session {
     fn offer_requests(&mut self, now: Micros, out: &mut Vec<SessionOut>) {
         self.drain_requests(now, |s| &mut s.cameras, out);
         self.drain_requests(now, |s| &mut s.gimbals, out);
+        self.drain_requests(now, |s| &mut s.comp_meta, out);
     }
 
     /// One machine's requests offered to the queue; those taken go out as mavterm's own.
@@ -621,11 +637,15 @@ impl Session {
                 Out::Event(MachineEvent::SequenceDone {
                     notice: (sev, text),
                 }) => out.push(SessionOut::SequenceDone { sev, text }),
+                Out::Event(MachineEvent::CompMeta(e)) => out.push(SessionOut::CompMeta(e)),
                 Out::Event(MachineEvent::CommandDone { id, notice }) => {
                     if let (Some((sev, text)), Some(e)) = (notice, self.commands.get(id)) {
                         // The gimbal discovery asks every autopilot (most have no mount): its
-                        // outcomes stay on the Commands screen instead of a notice each.
-                        if !crate::proto::gimbal::is_discovery(e.spec.command, &e.spec.params) {
+                        // outcomes stay on the Commands screen instead of a notice each; the
+                        // component metadata request tells its own outcome.
+                        if !crate::proto::gimbal::is_discovery(e.spec.command, &e.spec.params)
+                            && !crate::proto::comp_meta::is_request(e.spec.command, &e.spec.params)
+                        {
                             out.push(SessionOut::Command {
                                 id,
                                 target: e.spec.key(),
@@ -654,10 +674,19 @@ impl Session {
             return;
         };
         let (target, cmd, p) = (e.spec.target, e.spec.command, e.spec.params);
-        let accepted = e.state == State::Done(0);
-        let refused = matches!(e.state, State::Done(r) if r != 0);
+        let state = e.state.clone();
+        let accepted = state == State::Done(0);
+        let refused = matches!(state, State::Done(r) if r != 0);
         if target.0 == self.key.0 {
             self.gimbals.on_finished(now, target.1, cmd, &p);
+        }
+        let mut meta = Vec::new();
+        self.comp_meta
+            .on_finished(now, target, cmd, &p, state.clone(), &mut meta);
+        for o in meta {
+            if let Out::Event(MachineEvent::CompMeta(e)) = o {
+                out.push(SessionOut::CompMeta(e));
+            }
         }
         if self.cameras.cameras.contains_key(&target.1) && target.0 == self.key.0 {
             if accepted && cmd == MavCmd::MAV_CMD_STORAGE_FORMAT as u16 && p[2] == 1.0 {
@@ -737,6 +766,7 @@ impl Session {
     pub fn on_reboot(&mut self) {
         self.streams.on_reboot();
         self.mission.on_reboot();
+        self.comp_meta.on_reboot();
     }
 
     /// `link` came back after being down.
@@ -764,6 +794,8 @@ impl Session {
         self.deliver(now, &mut buf, &mut out);
         Machine::poll(&mut self.cameras, now, &mut buf);
         Machine::poll(&mut self.gimbals, now, &mut buf);
+        self.deliver(now, &mut buf, &mut out);
+        Machine::poll(&mut self.comp_meta, now, &mut buf);
         self.deliver(now, &mut buf, &mut out);
         self.offer_requests(now, &mut out);
         self.hold_streams();
@@ -808,6 +840,7 @@ impl Session {
             Machine::next_deadline(&self.mission),
             Machine::next_deadline(&self.cameras),
             Machine::next_deadline(&self.gimbals),
+            Machine::next_deadline(&self.comp_meta),
         ]
         .into_iter()
         .flatten()

@@ -74,11 +74,19 @@ pub fn fetch_param_meta(urls: Vec<String>, cache_path: PathBuf) -> Event {
     }
 }
 
-/// Read the cached copy at `path` (bounded); a missing file is not an error worth telling, so
-/// it comes back as nothing at all.
+/// Read the cached copy at `path` (bounded); a missing file comes back as
+/// [`MetaOrigin::Missing`] (not an error: the core then reads the metadata from the vehicle, or
+/// says nothing), and its directory is made for the core's write of the file once it has it.
 pub fn read_param_meta(path: PathBuf) -> Option<Event> {
     if !path.is_file() {
-        return None;
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            let _ = std::fs::create_dir_all(dir);
+        }
+        return Some(Event::ParamMeta {
+            origin: MetaOrigin::Missing,
+            cache_path: path,
+            result: Err("no such file".into()),
+        });
     }
     let result = crate::fsio::read_file(&path, MAX_BYTES).map_err(|e| e.to_string());
     Some(Event::ParamMeta {

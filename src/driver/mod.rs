@@ -43,7 +43,7 @@ pub trait Links {
     /// [`Event::ParamMeta`], now or later.
     fn fetch_param_meta(&mut self, urls: Vec<String>, cache_path: PathBuf);
     /// Read cached parameter metadata ([`fetch::read_param_meta`]): [`Event::ParamMeta`], now or
-    /// later, unless there is no such file.
+    /// later (`MetaOrigin::Missing` when there is no such file).
     fn read_param_meta(&mut self, path: PathBuf);
     /// Pass a replay control to link `link`'s source; what changes comes back as
     /// [`Event::ReplayStatus`], now or later.

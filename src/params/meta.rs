@@ -69,6 +69,24 @@
 //!
 //! with optional attributes `volatile="true"`, `boolean="true"`, `category="..."`.
 //!
+//! **PX4's JSON** (`parameters.json`, what the component metadata protocol serves:
+//! `src/lib/parameters/px4params/jsonout.py`, read as QGroundControl's `CompInfoParam` reads it):
+//!
+//! ```json
+//! {"version": 1, "parameters": [
+//!   {"name": "MC_ROLL_P", "type": "Float", "default": 6.5, "group": "Multicopter Attitude Control",
+//!    "category": "Standard", "shortDesc": "Roll P gain", "longDesc": "...", "units": "",
+//!    "min": 0.0, "max": 12, "decimalPlaces": 2, "increment": 0.1, "rebootRequired": true,
+//!    "values": [{"value": 0, "description": "Disabled"}],
+//!    "bitmask": [{"index": 0, "description": "..."}]}]}
+//! ```
+//!
+//! Numbers are typed for `Float` and `Int32` and strings for the other types (`jsonout.py`'s
+//! `get_typed_value`): both are read. Older generators wrote `shortDescription`,
+//! `longDescription`, `defaultValue`, `minValue`, `maxValue`: read too. Only version 1 is known
+//! (as QGroundControl); another is refused. The file usually comes xz-compressed
+//! (`parameters.json.xz`): [`inflate`] undoes that, bounded.
+//!
 //! Parsing is one pass over the tree with a hash map keyed by name: linear in the file's size
 //! (the Copter file is ~2.4 MB).
 
@@ -395,6 +413,42 @@ impl MetaSet {
         self.by_name.entry(c.meta.name.clone()).or_default().push(c);
     }
 
+    /// Reads PX4's `parameters.json` (see the module docs).
+    pub fn parse_px4_json(bytes: &[u8]) -> Result<MetaSet, String> {
+        let doc: serde_json::Value =
+            serde_json::from_slice(bytes).map_err(|e| format!("not JSON: {e}"))?;
+        let root = doc
+            .as_object()
+            .ok_or("not parameter metadata: the JSON is not an object")?;
+        match root.get("version").and_then(serde_json::Value::as_u64) {
+            Some(1) => {}
+            Some(v) => {
+                return Err(format!(
+                    "parameter metadata version {v} is not known (1 is)"
+                ))
+            }
+            None => return Err("not parameter metadata: no \"version\"".into()),
+        }
+        let params = root
+            .get("parameters")
+            .and_then(serde_json::Value::as_array)
+            .ok_or("not parameter metadata: no \"parameters\" list")?;
+        let mut set = MetaSet {
+            format: MetaFormat::Px4,
+            by_name: HashMap::with_capacity(params.len()),
+        };
+        for p in params {
+            if let Some(meta) = px4_json_param(p) {
+                set.push(Candidate {
+                    meta,
+                    vehicle: None,
+                    flavor: Flavor::Any,
+                });
+            }
+        }
+        Ok(set)
+    }
+
     fn read_ardupilot(&mut self, root: Node) {
         for section in root.children().filter(Node::is_element) {
             let in_vehicles = match section.tag_name().name() {
@@ -650,6 +704,152 @@ fn px4_param(p: Node, group: &str) -> Option<ParamMeta> {
     Some(m)
 }
 
+/// Decompressed metadata files larger than this are refused (PX4's `parameters.json` is ~1 MB).
+pub const MAX_JSON: usize = 8 * 1024 * 1024;
+
+/// The xz stream magic (`FD 37 7A 58 5A 00`).
+const XZ_MAGIC: &[u8] = &[0xFD, b'7', b'z', b'X', b'Z', 0];
+
+/// A metadata file as it came (`name` is its path or URL): xz-decompressed when it is xz (by its
+/// magic, or its name ending in `.xz`), at most `max` bytes either way. A truncated or corrupt
+/// stream, or one that inflates past `max`, is an error in words (never a panic, never more
+/// than `max` bytes held).
+pub fn inflate(name: &str, bytes: &[u8], max: usize) -> Result<Vec<u8>, String> {
+    let named = name.to_ascii_lowercase().ends_with(".xz");
+    if !bytes.starts_with(XZ_MAGIC) {
+        if named {
+            return Err(format!("{name} is not xz-compressed data"));
+        }
+        if bytes.len() > max {
+            return Err(format!("{name} is larger than {}: refused", size_text(max)));
+        }
+        return Ok(bytes.to_vec());
+    }
+    let mut out = Limited {
+        buf: Vec::new(),
+        max,
+    };
+    let mut input = std::io::BufReader::new(bytes);
+    match lzma_rs::xz_decompress(&mut input, &mut out) {
+        Ok(()) => Ok(out.buf),
+        Err(_) if out.buf.len() >= max => Err(format!(
+            "{name} inflates to more than {}: refused",
+            size_text(max)
+        )),
+        Err(e) => Err(format!("{name}: corrupt or truncated xz data ({e})")),
+    }
+}
+
+fn size_text(n: usize) -> String {
+    if n >= 1 << 20 {
+        format!("{} MB", n >> 20)
+    } else {
+        format!("{} kB", n >> 10)
+    }
+}
+
+/// A writer that refuses to hold more than `max` bytes.
+struct Limited {
+    buf: Vec<u8>,
+    max: usize,
+}
+
+impl std::io::Write for Limited {
+    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+        if self.buf.len() + b.len() > self.max {
+            let room = self.max - self.buf.len();
+            self.buf.extend_from_slice(&b[..room]);
+            return Err(std::io::Error::other("too large"));
+        }
+        self.buf.extend_from_slice(b);
+        Ok(b.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// A number of PX4's JSON: typed, or a string holding one.
+fn json_number(v: &serde_json::Value) -> Option<f64> {
+    match v {
+        serde_json::Value::Number(n) => n.as_f64().filter(|f| f.is_finite()),
+        serde_json::Value::String(s) => number(s),
+        serde_json::Value::Bool(b) => Some(*b as u8 as f64),
+        _ => None,
+    }
+}
+
+fn json_text(v: Option<&serde_json::Value>) -> Option<String> {
+    non_empty(v.and_then(serde_json::Value::as_str))
+}
+
+fn px4_json_param(p: &serde_json::Value) -> Option<ParamMeta> {
+    let o = p.as_object()?;
+    let name = o.get("name")?.as_str()?.trim();
+    if name.is_empty() {
+        return None;
+    }
+    let get = |keys: &[&str]| keys.iter().find_map(|k| o.get(*k));
+    let mut m = ParamMeta {
+        name: name.to_string(),
+        human_name: json_text(get(&["shortDesc", "shortDescription"])),
+        description: json_text(get(&["longDesc", "longDescription"])).unwrap_or_default(),
+        units: json_text(o.get("units")),
+        default: get(&["default", "defaultValue"]).and_then(json_number),
+        ptype: o.get("type").and_then(|t| t.as_str()).and_then(px4_type),
+        increment: o.get("increment").and_then(json_number),
+        decimals: o
+            .get("decimalPlaces")
+            .and_then(json_number)
+            .filter(|d| (0.0..=20.0).contains(d))
+            .map(|d| d as u8),
+        reboot_required: match o.get("rebootRequired") {
+            Some(serde_json::Value::Bool(b)) => *b,
+            Some(serde_json::Value::String(s)) => truthy(s),
+            _ => false,
+        },
+        user: json_text(o.get("category")),
+        group: json_text(o.get("group")).unwrap_or_default(),
+        ..ParamMeta::default()
+    };
+    let min = get(&["min", "minValue"]).and_then(json_number);
+    let max = get(&["max", "maxValue"]).and_then(json_number);
+    if min.is_some() || max.is_some() {
+        m.range = Some((
+            min.unwrap_or(f64::NEG_INFINITY),
+            max.unwrap_or(f64::INFINITY),
+        ));
+    }
+    for v in o
+        .get("values")
+        .and_then(|v| v.as_array())
+        .into_iter()
+        .flatten()
+    {
+        if let (Some(code), Some(text)) = (
+            v.get("value").and_then(json_number),
+            v.get("description").and_then(|d| d.as_str()),
+        ) {
+            m.values.push((code, text.trim().to_string()));
+        }
+    }
+    for b in o
+        .get("bitmask")
+        .and_then(|v| v.as_array())
+        .into_iter()
+        .flatten()
+    {
+        let bit = b
+            .get("index")
+            .and_then(json_number)
+            .filter(|i| i.fract() == 0.0 && (0.0..64.0).contains(i));
+        if let (Some(bit), Some(text)) = (bit, b.get("description").and_then(|d| d.as_str())) {
+            m.bits.push((bit as u32, text.trim().to_string()));
+        }
+    }
+    Some(m)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -745,6 +945,106 @@ mod tests {
         assert_eq!((e.line, e.column), (2, 1));
         assert!(MetaSet::parse("").is_err());
         assert!(MetaSet::parse("not xml at all").is_err());
+    }
+
+    /// Made by tests/py/make_px4_metadata.py with Python's json and lzma modules.
+    const PX4_JSON: &[u8] = include_bytes!("../../tests/data/param-meta/px4/parameters.json");
+    const PX4_XZ: &[u8] = include_bytes!("../../tests/data/param-meta/px4/parameters.json.xz");
+
+    #[test]
+    fn px4_json_maps_to_the_metadata_model() {
+        let json = inflate("etc/extras/parameters.json.xz", PX4_XZ, MAX_JSON).unwrap();
+        assert_eq!(json, PX4_JSON, "Python's lzma stream inflates to its JSON");
+        let set = MetaSet::parse_px4_json(&json).unwrap();
+        assert_eq!(set.format, MetaFormat::Px4);
+        assert_eq!(set.len(), 5);
+        let v = set.get("MPC_XY_VEL_MAX", Variant::Multicopter).unwrap();
+        assert_eq!(v.human_name.as_deref(), Some("Maximum horizontal velocity"));
+        assert_eq!(
+            v.description,
+            "Absolute maximum for all velocity controlled modes."
+        );
+        assert_eq!(v.units.as_deref(), Some("m/s"));
+        assert_eq!(v.range, Some((0.0, 20.0)));
+        assert_eq!(v.default, Some(12.0));
+        assert_eq!(v.decimals, Some(1));
+        assert_eq!(v.increment, Some(1.0));
+        assert_eq!(v.ptype, Some(ParamType::Real32));
+        assert_eq!(v.group, "Multicopter Position Control");
+        assert_eq!(v.user.as_deref(), Some("Standard"));
+        assert!(!v.reboot_required);
+        let e = set.get("COM_RC_IN_MODE", Variant::Unknown).unwrap();
+        assert_eq!(e.ptype, Some(ParamType::Int32));
+        assert_eq!(e.value_name(3.0), Some("RC or Joystick keep first"));
+        assert_eq!(e.values.len(), 5);
+        assert_eq!(e.units, None, "no units key");
+        let b = set.get("SDLOG_PROFILE", Variant::Unknown).unwrap();
+        assert!(b.reboot_required);
+        assert_eq!(
+            b.bits_set(3.0),
+            vec![
+                "Default set (general log analysis)",
+                "Estimator replay (EKF2)"
+            ]
+        );
+        // jsonout.py writes the numbers of types other than Float and Int32 as strings.
+        let u = set.get("UAVCAN_NODE_ID", Variant::Unknown).unwrap();
+        assert_eq!(u.ptype, Some(ParamType::Uint8));
+        assert_eq!((u.default, u.range), (Some(1.0), Some((1.0, 125.0))));
+        assert_eq!(u.user.as_deref(), Some("System"));
+        // The older generator's keys.
+        let old = MetaSet::parse_px4_json(
+            br#"{"version":1,"parameters":[{"name":"A","shortDescription":"s","longDescription":"l","defaultValue":2,"minValue":1,"maxValue":3},{"noname":1},{"name":""}]}"#,
+        )
+        .unwrap();
+        assert_eq!(old.len(), 1);
+        let a = old.get("A", Variant::Unknown).unwrap();
+        assert_eq!(
+            (a.human_name.as_deref(), a.description.as_str()),
+            (Some("s"), "l")
+        );
+        assert_eq!((a.default, a.range), (Some(2.0), Some((1.0, 3.0))));
+    }
+
+    #[test]
+    fn px4_json_that_is_not_metadata_is_an_error() {
+        let e = |b: &[u8]| MetaSet::parse_px4_json(b).unwrap_err();
+        assert!(e(b"").starts_with("not JSON: "));
+        assert!(e(b"[1]").contains("not an object"));
+        assert!(e(br#"{"parameters":[]}"#).contains("no \"version\""));
+        assert_eq!(
+            e(br#"{"version":2,"parameters":[]}"#),
+            "parameter metadata version 2 is not known (1 is)"
+        );
+        assert!(e(br#"{"version":1}"#).contains("no \"parameters\" list"));
+    }
+
+    #[test]
+    fn truncated_or_corrupt_xz_is_told_never_a_panic() {
+        let name = "parameters.json.xz";
+        for cut in [6, 12, 40, PX4_XZ.len() / 2, PX4_XZ.len() - 1] {
+            let e = inflate(name, &PX4_XZ[..cut], MAX_JSON).unwrap_err();
+            assert!(
+                e.starts_with("parameters.json.xz: corrupt or truncated xz data"),
+                "{cut}: {e}"
+            );
+        }
+        for at in [20, PX4_XZ.len() / 2, PX4_XZ.len() - 6] {
+            let mut bad = PX4_XZ.to_vec();
+            bad[at] ^= 0x55;
+            let e = inflate(name, &bad, MAX_JSON).unwrap_err();
+            assert!(e.contains("corrupt or truncated"), "{at}: {e}");
+        }
+        // Not xz at all, though named so; and plain JSON passes as it is.
+        assert_eq!(
+            inflate(name, b"{}", MAX_JSON).unwrap_err(),
+            "parameters.json.xz is not xz-compressed data"
+        );
+        assert_eq!(inflate("p.json", b"{}", MAX_JSON).unwrap(), b"{}");
+        // A stream that inflates past the limit stops there, and says so.
+        let e = inflate(name, PX4_XZ, 1024).unwrap_err();
+        assert_eq!(e, "parameters.json.xz inflates to more than 1 kB: refused");
+        assert!(inflate("p.json", &[b' '; 2000], 1000).is_err());
     }
 
     #[test]

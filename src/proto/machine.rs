@@ -87,6 +87,8 @@ pub enum MachineEvent {
     },
     /// The running sequence ended (done, or stopped), with what to tell of it.
     SequenceDone { notice: (Severity, String) },
+    /// The component metadata machine's news (parameter metadata from the vehicle).
+    CompMeta(crate::proto::comp_meta::CompMetaEvent),
     /// A text the vehicle said (STATUSTEXT, joined): from component `from`. `late`: its last
     /// chunk never came (shown as far as it got, not read as a refusal's reason).
     Text {

@@ -4,6 +4,8 @@
 pub mod ack;
 pub mod camera;
 pub mod commands;
+pub mod comp_meta;
+pub mod ftp_file;
 pub mod gimbal;
 pub mod loss;
 pub mod machine;

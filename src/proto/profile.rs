@@ -135,6 +135,12 @@ pub trait Profile: Sync + std::fmt::Debug {
     fn param_file(&self) -> Option<&'static str> {
         None
     }
+
+    /// Whether parameter metadata is asked of the vehicle by the component metadata protocol
+    /// as soon as it is heard (`proto::comp_meta`), as QGroundControl does at connect.
+    fn component_metadata(&self) -> bool {
+        false
+    }
 }
 
 fn custom_base() -> f64 {
@@ -253,6 +259,10 @@ impl Profile for Px4 {
     /// PX4 serves SET_MESSAGE_INTERVAL only.
     fn group_fallback(&self) -> bool {
         false
+    }
+    /// PX4 announces COMPONENT_METADATA (`streams/COMPONENT_METADATA.hpp`).
+    fn component_metadata(&self) -> bool {
+        true
     }
 }
 
