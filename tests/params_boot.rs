@@ -19,15 +19,15 @@ use mavterm::link::tlog::read_tlog;
 use mavterm::link::{FrameParser, LinkSpec};
 use mavterm::proto::params::Method;
 use mavterm::proto::vehicles::VehicleKey;
-use mavterm::sim::params::{boot_changes, default_as_stored};
+use mavterm::sim::params::{boot_changes, default_as_stored, ParamTable};
 use mavterm::sim::Sim;
 use mavterm::wire::mavftp::{op, FtpPacket, PAYLOAD_LEN};
 use mavterm::wire::param_pck::{self, PckError};
 
 const MS: Micros = 1_000;
 
-/// Run `sim://?QUERY` from boot until the parameter download ends, then on to `until` (after
-/// every boot change). Returns the runner and when the download ended.
+/// Run `sim://?QUERY` from boot until the parameter download ends, then on to `until`. Returns
+/// the runner and when the download ended.
 fn from_boot(query: &str, until: Micros) -> (VirtualRunner, Micros) {
     let spec: LinkSpec = format!("sim://?{query}").parse().unwrap();
     let mut r = VirtualRunner::from_specs(&[spec], AppConfig::default()).unwrap();
@@ -46,8 +46,7 @@ fn from_boot(query: &str, until: Micros) -> (VirtualRunner, Micros) {
 
 /// Download from boot; true when a boot change came while it ran.
 fn check_at_boot(query: &str) -> bool {
-    let until = 6 * SECOND; // past the last boot change (the declination at the GPS fix)
-    let (r, ended) = from_boot(query, until);
+    let (r, ended) = from_boot(query, 0);
     let line = mavterm::headless::params::progress(&r.app).line();
     eprintln!("{query}: {line} (ended by {:.2} s)", ended as f64 / 1e6);
     let s = &r.app.sessions[&VehicleKey(1, 1)];
@@ -60,10 +59,13 @@ fn check_at_boot(query: &str) -> bool {
         .any(|(at, _, _)| st.started < *at && *at <= finished);
     let sim = r.source(0).unwrap().as_any().downcast_ref::<Sim>().unwrap();
     let table = sim.vehicles()[0].params();
-    // The boot changes did happen (the table is not the one it booted with).
-    for (_, name, v) in boot_changes() {
-        assert_eq!(table.value(name).unwrap() as f32, *v as f32, "{name}");
+    // The boot changes due by now did happen (the table is not the one it booted with).
+    for (at, name, v) in boot_changes() {
+        let now = table.value(name).unwrap() as f32;
+        assert_eq!(now == *v as f32, *at <= ended, "{name}");
     }
+    let booted = ParamTable::copter(0);
+    let mut stale = 0;
     let set = s.params.autopilot().unwrap();
     assert!(set.complete(), "{query}: {line}");
     assert_eq!(set.params.len(), table.len(), "{query}");
@@ -71,7 +73,21 @@ fn check_at_boot(query: &str) -> bool {
         let got = set
             .get(&p.name)
             .unwrap_or_else(|| panic!("{query}: {} missing", p.name));
-        assert_eq!(got.value, p.value, "{query}: {}", p.name);
+        if got.value != p.value {
+            // Changed by the vehicle while the file was read, after its block was packed, and
+            // the PARAM_VALUE telling it was lost (ArduPilot sends it once): the value before.
+            let during = boot_changes()
+                .iter()
+                .any(|(at, n, _)| *n == p.name && st.started < *at && *at <= finished);
+            assert!(
+                during && Some(got.value) == booted.value(&p.name),
+                "{query}: {} is {} at the end, the vehicle has {}",
+                p.name,
+                got.value,
+                p.value
+            );
+            stale += 1;
+        }
         // A default the file carried is the firmware's (a misread layout would give others).
         if let Some(d) = got.default {
             assert_eq!(
@@ -82,20 +98,30 @@ fn check_at_boot(query: &str) -> bool {
             );
         }
     }
-    // Defaults came with the file (withdefaults=1): at least those of the parameters that
-    // are away from theirs from the start.
-    assert!(
-        set.params.values().filter(|p| p.default.is_some()).count() >= 30,
-        "{query}: defaults"
-    );
+    // Defaults came with the file (withdefaults=1): at least those of the parameters that are
+    // away from theirs from the start; or none, when the vehicle kept moving values through two
+    // reads and the third was of the file without defaults.
+    let defaults = set.params.values().filter(|p| p.default.is_some()).count();
+    assert!(defaults >= 30 || defaults == 0, "{query}: {defaults} defaults");
+    // 20 % of the notices at most are lost; most of the values changed meanwhile are right.
+    assert!(stale <= 4, "{query}: {stale} values of before a change");
     overlapped
 }
 
 #[test]
 fn at_boot_without_loss() {
-    // Done before the first calibration ends; its PARAM_VALUEs then update the set.
+    // Done before the first calibration ends.
     for seed in 1..=2 {
         assert!(!check_at_boot(&format!("seed={seed}")));
+    }
+    // Its PARAM_VALUEs then update the set: at 6 s (past the declination set at the GPS fix)
+    // every value is the vehicle's.
+    let (r, _) = from_boot("seed=1", 6 * SECOND);
+    let sim = r.source(0).unwrap().as_any().downcast_ref::<Sim>().unwrap();
+    let set = r.app.sessions[&VehicleKey(1, 1)].params.autopilot().unwrap();
+    for (_, name, v) in boot_changes() {
+        assert_eq!(sim.vehicles()[0].param(name).unwrap() as f32, *v as f32);
+        assert_eq!(set.get(name).unwrap().value, sim.vehicles()[0].param(name).unwrap(), "{name}");
     }
 }
 
