@@ -102,7 +102,10 @@ fn check_at_boot(query: &str) -> bool {
     // away from theirs from the start; or none, when the vehicle kept moving values through two
     // reads and the third was of the file without defaults.
     let defaults = set.params.values().filter(|p| p.default.is_some()).count();
-    assert!(defaults >= 30 || defaults == 0, "{query}: {defaults} defaults");
+    assert!(
+        defaults >= 30 || defaults == 0,
+        "{query}: {defaults} defaults"
+    );
     // 20 % of the notices at most are lost; most of the values changed meanwhile are right.
     assert!(stale <= 4, "{query}: {stale} values of before a change");
     overlapped
@@ -118,10 +121,17 @@ fn at_boot_without_loss() {
     // every value is the vehicle's.
     let (r, _) = from_boot("seed=1", 6 * SECOND);
     let sim = r.source(0).unwrap().as_any().downcast_ref::<Sim>().unwrap();
-    let set = r.app.sessions[&VehicleKey(1, 1)].params.autopilot().unwrap();
+    let set = r.app.sessions[&VehicleKey(1, 1)]
+        .params
+        .autopilot()
+        .unwrap();
     for (_, name, v) in boot_changes() {
         assert_eq!(sim.vehicles()[0].param(name).unwrap() as f32, *v as f32);
-        assert_eq!(set.get(name).unwrap().value, sim.vehicles()[0].param(name).unwrap(), "{name}");
+        assert_eq!(
+            set.get(name).unwrap().value,
+            sim.vehicles()[0].param(name).unwrap(),
+            "{name}"
+        );
     }
 }
 

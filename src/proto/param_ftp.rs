@@ -14,7 +14,8 @@
 //!   lost tail, or a vehicle that ends its bursts after a number of packets, as ArduPilot 4.x
 //!   does after 100, flagging `burst_complete` on the last), the gaps are read first and then
 //!   another burst goes on from the highest block received.
-//! - **Done**: TerminateSession, and the whole file handed back. A block that will not come after
+//! - **Done**: TerminateSession, and the whole file handed back. A `param.pck` whose blocks do
+//!   not make a file is read again by the caller with a new read ([`pck_reread_path`]). A block that will not come after
 //!   [`MAX_TRIES`] reads fails the transfer.
 //! - **Left**: a read that failed, or that its caller gave up ([`FtpRead::abandon`]), sends
 //!   TerminateSession; an open ACK that comes after that (the vehicle opened a session we no

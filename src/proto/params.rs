@@ -3,8 +3,11 @@
 //!
 //! **Download** ([`ParamMachine::fetch`], on the first heartbeat and on demand):
 //! - MAVFTP first: `@PARAM/param.pck` read by [`FtpRead`] (burst, gaps re-read). Used unless
-//!   AUTOPILOT_VERSION says the vehicle has no FTP; a NAK, a timeout or a file that does not
-//!   decode falls back to the parameter protocol.
+//!   AUTOPILOT_VERSION says the vehicle has no FTP; a NAK or a timeout falls back to the
+//!   parameter protocol. A file whose blocks do not join (packed at different moments while the
+//!   vehicle's values settle after boot) is read again at once, then without defaults
+//!   ([`crate::proto::param_ftp::pck_reread_path`]), before falling back. PARAM_VALUEs heard
+//!   during the read are applied over the file.
 //! - The parameter protocol: PARAM_REQUEST_LIST, PARAM_VALUE collected by `param_index`. When
 //!   new indices stop arriving for a gap adapted to their measured arrival rate, the missing ones
 //!   are asked for with PARAM_REQUEST_READ, [`READ_WINDOW`] in flight, each retried on a timeout
