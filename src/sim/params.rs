@@ -456,10 +456,7 @@ mod tests {
         let all = s.settle(10 * crate::clock::SECOND, &mut t);
         assert_eq!(all.len(), boot_changes().len() - 5);
         assert_eq!(s.next_due(), None);
-        assert_eq!(
-            t.value("INS_GYR1_CALTEMP"),
-            Some(25.018352508544922f32 as f64)
-        );
+        assert_eq!(t.value("INS_GYR1_CALTEMP"), Some(25.018_353_f32 as f64));
         // Every change but the ground pressure (already away from its default) adds a default.
         let with = t.to_pck_with(true);
         assert_eq!(
