@@ -41,6 +41,7 @@ fn check(query: &str, method: &str) {
         .unwrap();
     assert!(set.complete(), "{query}: {line}");
     assert_eq!(set.params.len(), table.len(), "{query}");
+    let booted = mavterm::sim::params::ParamTable::copter(0);
     for p in table.iter() {
         let got = set
             .get(&p.name)
@@ -57,7 +58,7 @@ fn check(query: &str, method: &str) {
         let boot = mavterm::sim::params::boot_changes()
             .iter()
             .any(|c| c.1 == p.name);
-        let before = mavterm::sim::params::ParamTable::copter(0).value(&p.name);
+        let before = booted.value(&p.name);
         assert!(
             got.value == p.value || (boot && Some(got.value) == before),
             "{query}: {} is {}, the vehicle has {}",
