@@ -14,7 +14,8 @@
 //!   lost tail, or a vehicle that ends its bursts after a number of packets, as ArduPilot 4.x
 //!   does after 100, flagging `burst_complete` on the last), the gaps are read first and then
 //!   another burst goes on from the highest block received.
-//! - **Done**: TerminateSession, and the whole file handed back. A block that will not come after
+//! - **Done**: TerminateSession, and the whole file handed back. A `param.pck` whose blocks do
+//!   not make a file is read again by the caller with a new read ([`pck_reread_path`]). A block that will not come after
 //!   [`MAX_TRIES`] reads fails the transfer.
 //! - **Left**: a read that failed, or that its caller gave up ([`FtpRead::abandon`]), sends
 //!   TerminateSession; an open ACK that comes after that (the vehicle opened a session we no
@@ -52,6 +53,41 @@ const MAX_STALL: Micros = 2 * SECOND;
 pub const NO_PROGRESS: Micros = 10 * SECOND;
 /// A file larger than this is refused (param.pck for 65,535 parameters stays far below).
 pub const MAX_FILE: u32 = 4 * 1024 * 1024;
+
+/// Reads of a `param.pck?withdefaults=1` that did not decode before it is read without its
+/// defaults (see [`pck_reread_path`]).
+pub const PCK_WITH_DEFAULTS_READS: u32 = 2;
+
+/// What to read after `reads` complete reads of the parameter file `path` whose blocks did not
+/// make a file, or `None` when nothing is left to try (the caller falls back to the parameter
+/// protocol).
+///
+/// ArduPilot generates `param.pck` as it is read (`AP_Filesystem_Param::read`): a block read
+/// again after a loss is packed from the first parameter with the values of that moment, and
+/// with `withdefaults=1` a parameter's default is packed only while its value differs from it.
+/// The calibrations of the first seconds after boot move values off their defaults, so blocks
+/// read again after one do not join the blocks of the burst: the file does not decode, though
+/// every block came. The file is then read again whole, with a new open (the end the first read
+/// found is kept by the open file, and the file has grown since), as MAVProxy does, but at once
+/// rather than at its next once-a-second check: by then the calibrations are over and the read
+/// decodes. If the vehicle keeps moving values, the third read is of the file without defaults,
+/// whose layout depends only on names and types: any mix of blocks joins, each value as it was
+/// when its block was packed (and the vehicle notifies every value it saves since with
+/// PARAM_VALUE).
+pub fn pck_reread_path(path: &str, reads: u32) -> Option<&str> {
+    let plain = path.split('?').next().unwrap_or(path);
+    if plain == path {
+        // Already without defaults: a file that does not decode is not a matter of timing.
+        return None;
+    }
+    if reads < PCK_WITH_DEFAULTS_READS {
+        Some(path)
+    } else if reads == PCK_WITH_DEFAULTS_READS {
+        Some(plain)
+    } else {
+        None
+    }
+}
 
 #[derive(Debug, Clone, PartialEq)]
 pub enum FtpOut {
@@ -773,5 +809,14 @@ mod tests {
         }
         // One more try of terminate + open.
         assert_eq!(sends, 2);
+    }
+
+    #[test]
+    fn a_param_pck_that_does_not_decode_is_read_again_then_without_defaults() {
+        let p = "@PARAM/param.pck?withdefaults=1";
+        assert_eq!(pck_reread_path(p, 1), Some(p));
+        assert_eq!(pck_reread_path(p, 2), Some("@PARAM/param.pck"));
+        assert_eq!(pck_reread_path(p, 3), None);
+        assert_eq!(pck_reread_path("@PARAM/param.pck", 1), None);
     }
 }

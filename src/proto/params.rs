@@ -3,8 +3,11 @@
 //!
 //! **Download** ([`ParamMachine::fetch`], on the first heartbeat and on demand):
 //! - MAVFTP first: `@PARAM/param.pck` read by [`FtpRead`] (burst, gaps re-read). Used unless
-//!   AUTOPILOT_VERSION says the vehicle has no FTP; a NAK, a timeout or a file that does not
-//!   decode falls back to the parameter protocol.
+//!   AUTOPILOT_VERSION says the vehicle has no FTP; a NAK or a timeout falls back to the
+//!   parameter protocol. A file whose blocks do not join (packed at different moments while the
+//!   vehicle's values settle after boot) is read again at once, then without defaults
+//!   ([`crate::proto::param_ftp::pck_reread_path`]), before falling back. PARAM_VALUEs heard
+//!   during the read are applied over the file.
 //! - The parameter protocol: PARAM_REQUEST_LIST, PARAM_VALUE collected by `param_index`. When
 //!   new indices stop arriving for a gap adapted to their measured arrival rate, the missing ones
 //!   are asked for with PARAM_REQUEST_READ, [`READ_WINDOW`] in flight, each retried on a timeout
@@ -290,6 +293,9 @@ struct ListDownload {
     stream_front: Option<u16>,
 }
 
+/// PARAM_VALUEs kept while MAVFTP reads (a vehicle notifies what it saves: a few dozen at boot).
+const MAX_HEARD: usize = 4096;
+
 /// List passes at most (the first and two more).
 pub const LIST_PASSES: u32 = 3;
 /// Reads answered per second before any is measured: ArduPilot answers at most 5 per 100 ms.
@@ -325,6 +331,12 @@ struct Download {
     comp: u8,
     phase: Phase,
     stats: DownloadStats,
+    /// The MAVFTP file being read, and the complete reads of it that did not decode.
+    ftp_path: &'static str,
+    ftp_reads: u32,
+    /// PARAM_VALUEs heard while MAVFTP reads (values the vehicle saved meanwhile, newer than the
+    /// file's blocks packed before): applied over the file once it decodes.
+    heard: Vec<(String, ParamType, f32, f64)>,
 }
 
 /// What the machine wants done.
@@ -594,6 +606,7 @@ impl ParamMachine {
         // Only the autopilot serves param.pck; a component answers the parameter protocol.
         let file = self.param_file.filter(|_| comp == self.key.1);
         let try_ftp = file.is_some() && self.ftp_capable != Some(false);
+        let ftp_path = file.unwrap_or_default();
         let phase = if let Some(path) = file.filter(|_| try_ftp) {
             let (f, o) = FtpRead::start(now, path);
             out.extend(self.ftp_out(comp, o));
@@ -615,7 +628,14 @@ impl ParamMachine {
             stats.requests += 1;
         }
         self.sets.entry(comp).or_default();
-        self.download = Some(Download { comp, phase, stats });
+        self.download = Some(Download {
+            comp,
+            phase,
+            stats,
+            ftp_path,
+            ftp_reads: 0,
+            heard: Vec::new(),
+        });
         out
     }
 
@@ -657,6 +677,11 @@ impl ParamMachine {
                 FtpOut::Done(bytes) => match param_pck::decode(&bytes) {
                     Ok(file) if file.num_params == file.total_params => {
                         self.take_ftp_stats();
+                        let heard = self
+                            .download
+                            .as_mut()
+                            .map(|d| std::mem::take(&mut d.heard))
+                            .unwrap_or_default();
                         let set = self.sets.entry(comp).or_default();
                         *set = ParamSet::default();
                         set.resize(file.total_params);
@@ -665,6 +690,11 @@ impl ParamMachine {
                             set.record(&p.name, Some(i as u16), t, None, p.value, true);
                             if let Some(prm) = set.params.get_mut(&p.name) {
                                 prm.default = p.default;
+                            }
+                        }
+                        for (name, t, raw, v) in heard {
+                            if set.params.contains_key(&name) {
+                                set.record(&name, None, t, Some(raw), v, false);
                             }
                         }
                         out.extend(self.check_done(now));
@@ -676,7 +706,7 @@ impl ParamMachine {
                         );
                         out.extend(self.fall_back(now, why));
                     }
-                    Err(e) => out.extend(self.fall_back(now, e.to_string())),
+                    Err(e) => out.extend(self.read_pck_again(now, e.to_string())),
                 },
                 FtpOut::Failed(why) => out.extend(self.fall_back(now, why)),
             }
@@ -706,6 +736,30 @@ impl ParamMachine {
         let o = f.abandon();
         let f = f.clone();
         self.ftp_closed = Some((comp, f));
+        self.ftp_out(comp, o)
+    }
+
+    /// Every block of param.pck came but they do not make a file (blocks packed at different
+    /// moments, see [`crate::proto::param_ftp::pck_reread_path`]): read it again, or fall back.
+    fn read_pck_again(&mut self, now: Micros, why: String) -> Vec<ParamOut> {
+        let Some(d) = self.download.as_mut() else {
+            return Vec::new();
+        };
+        d.ftp_reads += 1;
+        let Some(path) = crate::proto::param_ftp::pck_reread_path(d.ftp_path, d.ftp_reads) else {
+            return self.fall_back(now, why);
+        };
+        self.take_ftp_stats();
+        let Some(d) = self.download.as_mut() else {
+            return Vec::new();
+        };
+        d.ftp_path = path;
+        d.stats.retries += 1;
+        let comp = d.comp;
+        let (mut f, o) = FtpRead::start(now, path);
+        f.set_open_tries(crate::proto::param_ftp::OPEN_TRIES_ANNOUNCED);
+        d.phase = Phase::Ftp(Box::new(f));
+        tracing::debug!("parameters: {why}; reading {path} again");
         self.ftp_out(comp, o)
     }
 
@@ -892,6 +946,15 @@ impl ParamMachine {
             .download
             .as_ref()
             .is_some_and(|d| d.comp == from && matches!(d.phase, Phase::List(_)));
+        if let Some(d) = self
+            .download
+            .as_mut()
+            .filter(|d| d.comp == from && matches!(d.phase, Phase::Ftp(_)) && !m.refused)
+        {
+            if d.heard.len() < MAX_HEARD {
+                d.heard.push((m.name.clone(), ptype, m.raw, v));
+            }
+        }
         let set = self.sets.entry(from).or_default();
         let index = (m.index != u16::MAX).then_some(m.index);
         if index.is_some() && m.count != u16::MAX {

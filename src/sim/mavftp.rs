@@ -20,6 +20,12 @@
 //! - `param.pck` takes one read size per open (another size fails with EINVAL); the padding that
 //!   keeps values inside one read block depends on it. `?withdefaults=1` adds the default of
 //!   every parameter not at it (magic 0x671C); `?start=N&count=C` sends part of the table.
+//! - `param.pck` is generated as it is read (`AP_Filesystem_Param::read`): each read packs the
+//!   parameters as they are at that moment, going on from one of two cursors, or from the first
+//!   parameter when the read goes back, as a block read again after a loss does. With
+//!   `withdefaults=1` a value that leaves its default (the calibrations of the first seconds
+//!   after boot) moves every later entry, so such a block comes from a later layout than its
+//!   neighbours. The end found by the first read that reached it is kept for the open file.
 //! - Opening `@PARAM/param.pck` makes the vehicle send its banner after the ACK.
 //! - NAKs carry GCS_FTP's codes: Fail, FailErrno (+ errno; ENOENT becomes FileNotFound),
 //!   InvalidDataSize, InvalidSession, EndOfFile; unknown opcodes are Fail (4.5/4.6; later
@@ -305,19 +311,99 @@ pub fn crc_crc32(mut crc: u32, buf: &[u8]) -> u32 {
     crc
 }
 
-/// The open `param.pck`.
+/// `AP_Filesystem_Param`'s cursors per open file (`num_cursors`).
+const NUM_CURSORS: usize = 2;
+/// The packed header: magic, num_params, total_params.
+const HEADER_LEN: u32 = 6;
+
+/// `AP_Filesystem_Param::cursor`: where a pass over the table stands, in the table and in the
+/// file (data offsets, the header not counted).
+#[derive(Debug, Clone, Default)]
+struct Cursor {
+    /// Table index of the parameter packed last (`c.token`).
+    token: usize,
+    /// Parameters packed since the first (`c.idx`).
+    idx: usize,
+    token_ofs: u32,
+    last_name: String,
+    /// The part of the last packed entry that did not fit the read before.
+    trailer: Vec<u8>,
+}
+
+/// The open `param.pck`, generated as it is read, like ArduPilot's: each read packs parameters
+/// with their values at that moment, going on from the cursor nearest below it, or from the
+/// first parameter when the read goes back (a block read again after a loss). A parameter's
+/// default is packed only while its value differs from it, so a value leaving its default moves
+/// every later entry: a block read again after that comes from a later layout than the blocks
+/// read before it.
 #[derive(Debug, Clone)]
 struct OpenFile {
     query: PckQuery,
     /// Fixed by the first read (`r.read_size`).
     read_size: Option<usize>,
-    /// Packed at the first read (ArduPilot packs as it goes; values do not change under a
-    /// download here).
-    bytes: Option<Vec<u8>>,
+    /// Where the file ended when a read first reached its end (`r.file_size`): later reads stop
+    /// there, even if the file has grown since.
+    file_size: Option<u32>,
+    cursors: [Cursor; NUM_CURSORS],
 }
 
 impl OpenFile {
-    /// `AP_Filesystem_Param::read` of `count` bytes at `ofs`: the bytes, or an errno.
+    fn new(query: PckQuery) -> OpenFile {
+        OpenFile {
+            query,
+            read_size: None,
+            file_size: None,
+            cursors: Default::default(),
+        }
+    }
+
+    /// `pack_param`: the next entry of cursor `c`, `None` past the last one.
+    fn pack(&self, params: &ParamTable, c: &mut Cursor, read_size: usize) -> Option<Vec<u8>> {
+        if c.token_ofs == 0 {
+            c.idx = 0;
+            c.token = self.query.start as usize;
+            c.last_name.clear();
+        } else {
+            c.idx += 1;
+            c.token += 1;
+        }
+        if self.query.count > 0 && c.idx >= self.query.count as usize {
+            return None;
+        }
+        let p = params.pck_entry(c.token, self.query.with_defaults)?;
+        let mut b = Vec::with_capacity(32);
+        let at = (c.token_ofs + HEADER_LEN) as usize;
+        param_pck::encode_entry(&p, &c.last_name, at, read_size, &mut b);
+        c.last_name = p.name;
+        Some(b)
+    }
+
+    /// `token_seek`: bring cursor `c` to data offset `to`, from the start if it is beyond.
+    fn seek(&self, params: &ParamTable, c: &mut Cursor, to: u32, read_size: usize) -> bool {
+        if to == 0 || c.token_ofs > to {
+            *c = Cursor::default();
+        }
+        if !c.trailer.is_empty() {
+            let n = c.trailer.len().min((to - c.token_ofs) as usize);
+            c.trailer.drain(..n);
+            c.token_ofs += n as u32;
+        }
+        while c.token_ofs != to {
+            let available = (to - c.token_ofs) as usize;
+            let Some(b) = self.pack(params, c, read_size) else {
+                break;
+            };
+            let n = b.len().min(available);
+            if b.len() > available {
+                c.trailer = b[n..].to_vec();
+            }
+            c.token_ofs += n as u32;
+        }
+        c.token_ofs == to
+    }
+
+    /// `AP_Filesystem_Param::read` of `count` bytes at `ofs` (after GCS_FTP's `lseek`): the
+    /// bytes, or an errno.
     fn read(&mut self, params: &ParamTable, ofs: u32, count: usize) -> Result<Vec<u8>, u8> {
         if self.read_size.is_none() && count > 0 {
             self.read_size = Some(count);
@@ -325,17 +411,99 @@ impl OpenFile {
         if self.read_size.is_some_and(|r| r != count) {
             return Err(EINVAL);
         }
-        if ofs < 6 && params.len() <= self.query.start as usize {
-            return Err(EINVAL);
+        let read_size = count;
+        let mut count = count as u32;
+        if let Some(size) = self.file_size {
+            count = if ofs > size { 0 } else { count.min(size - ofs) };
+        }
+        let mut out = Vec::with_capacity(count as usize);
+        let mut file_ofs = ofs;
+        if file_ofs < HEADER_LEN {
+            let total = params.len().min(u16::MAX as usize) as u16;
+            if total <= self.query.start {
+                return Err(EINVAL);
+            }
+            let mut num = total - self.query.start;
+            if self.query.count > 0 && num > self.query.count {
+                num = self.query.count;
+            }
+            let magic = if self.query.with_defaults {
+                param_pck::MAGIC_WITH_DEFAULTS
+            } else {
+                param_pck::MAGIC
+            };
+            let mut hdr = Vec::with_capacity(6);
+            hdr.extend_from_slice(&magic.to_le_bytes());
+            hdr.extend_from_slice(&num.to_le_bytes());
+            hdr.extend_from_slice(&total.to_le_bytes());
+            let n = (HEADER_LEN - file_ofs).min(count);
+            out.extend_from_slice(&hdr[file_ofs as usize..(file_ofs + n) as usize]);
+            count -= n;
+            file_ofs += n;
+            if count == 0 {
+                return Ok(out);
+            }
+        }
+        let data_ofs = file_ofs - HEADER_LEN;
+        // "find the first cursor that is positioned after the file offset", as ArduPilot
+        // does it: cursor 0 unless another stands at or after the offset, before cursor 0.
+        let mut best = 0;
+        let mut best_ofs = self.cursors[0].token_ofs;
+        for (i, c) in self.cursors.iter().enumerate().skip(1) {
+            if c.token_ofs >= data_ofs && c.token_ofs < best_ofs {
+                best = i;
+                best_ofs = c.token_ofs;
+            }
+        }
+        let mut c = std::mem::take(&mut self.cursors[best]);
+        let result = self.read_from(params, &mut c, data_ofs, count, read_size, file_ofs, out);
+        self.cursors[best] = c;
+        Ok(result)
+    }
+
+    /// The data part of [`OpenFile::read`], with cursor `c` taken out of the file.
+    #[allow(clippy::too_many_arguments)]
+    fn read_from(
+        &mut self,
+        params: &ParamTable,
+        c: &mut Cursor,
+        data_ofs: u32,
+        mut count: u32,
+        read_size: usize,
+        file_ofs: u32,
+        mut out: Vec<u8>,
+    ) -> Vec<u8> {
+        if data_ofs != c.token_ofs && !self.seek(params, c, data_ofs, read_size) {
+            return out; // must be EOF
         }
         if count == 0 {
-            return Ok(Vec::new());
+            return out;
         }
-        let (q, rs) = (self.query, count);
-        let bytes = self.bytes.get_or_insert_with(|| pck_file(params, q, rs));
-        let start = (ofs as usize).min(bytes.len());
-        let end = (start + count).min(bytes.len());
-        Ok(bytes[start..end].to_vec())
+        let mut total = 0u32;
+        if !c.trailer.is_empty() {
+            let n = c.trailer.len().min(count as usize);
+            out.extend(c.trailer.drain(..n));
+            count -= n as u32;
+            total += n as u32;
+            c.token_ofs += n as u32;
+        }
+        while count > 0 {
+            let Some(b) = self.pack(params, c, read_size) else {
+                // No more parameters: later reads end here.
+                let size = file_ofs + total;
+                self.file_size = Some(self.file_size.map_or(size, |s| s.min(size)));
+                break;
+            };
+            let n = b.len().min(count as usize);
+            if b.len() > count as usize {
+                c.trailer = b[n..].to_vec();
+            }
+            out.extend_from_slice(&b[..n]);
+            count -= n as u32;
+            total += n as u32;
+            c.token_ofs += n as u32;
+        }
+        out
     }
 }
 
@@ -617,11 +785,7 @@ impl FtpServer {
         match open_param(&path) {
             Err(e) => reply.nak_errno(e),
             Ok(query) => {
-                self.file = Some(OpenFile {
-                    query,
-                    read_size: None,
-                    bytes: None,
-                });
+                self.file = Some(OpenFile::new(query));
                 self.current_session = Some(req.session);
                 reply.ack();
                 reply.size = 4;
@@ -1115,5 +1279,99 @@ mod tests {
         assert_eq!(crc_crc32(0, &[1]), 0x7707_3096);
         let r = one(&ftp.receive(0, req(2, 1, op::CALC_FILE_CRC32, 4, 0, b"/foo"), &params));
         assert_eq!(nak_code(&r), (1, vec![err::FILE_NOT_FOUND]));
+    }
+
+    /// ReadFile of `ofs` on session 1 with sequence `seq`: the data.
+    fn read_at(ftp: &mut FtpServer, params: &ParamTable, seq: u16, ofs: u32) -> Vec<u8> {
+        let r = one(&ftp.receive(0, req(seq, 1, op::READ_FILE, 239, ofs, &[]), params));
+        assert_eq!(r.opcode, op::ACK, "{r:?}");
+        r.data[..r.size as usize].to_vec()
+    }
+
+    const WITH_DEFAULTS: &[u8] = b"@PARAM/param.pck?withdefaults=1";
+
+    #[test]
+    fn blocks_read_in_any_order_make_the_file_while_nothing_changes() {
+        let params = ParamTable::copter(0);
+        let q = open_param(WITH_DEFAULTS).unwrap();
+        let whole = pck_file(&params, q, 239);
+        let mut ftp = FtpServer::default();
+        ftp.receive(0, open(0, 1, WITH_DEFAULTS), &params);
+        let blocks = whole.len().div_ceil(239);
+        // Backwards, then every third, then the rest: each read goes back or skips ahead.
+        let mut order: Vec<usize> = (0..blocks).rev().collect();
+        order.extend((0..blocks).step_by(3));
+        let mut file = vec![0u8; whole.len()];
+        for (k, b) in order.into_iter().chain(0..blocks).enumerate() {
+            let got = read_at(&mut ftp, &params, 2 * k as u16 + 1, (b * 239) as u32);
+            file[b * 239..b * 239 + got.len()].copy_from_slice(&got);
+        }
+        assert_eq!(file, whole);
+    }
+
+    #[test]
+    fn a_block_read_again_after_a_value_left_its_default_comes_from_the_later_layout() {
+        let mut params = ParamTable::copter(0);
+        let q = open_param(WITH_DEFAULTS).unwrap();
+        let mut ftp = FtpServer::default();
+        ftp.receive(0, open(0, 1, WITH_DEFAULTS), &params);
+        let out = ftp.receive(0, req(1, 1, op::BURST_READ_FILE, 239, 0, &[]), &params);
+        let burst: Vec<u8> = drain(&mut ftp, &params, out)
+            .iter()
+            .filter(|p| p.opcode == op::ACK)
+            .flat_map(|p| p.data[..p.size as usize].to_vec())
+            .collect();
+        let before = pck_file(&params, q, 239);
+        assert_eq!(burst, before, "one pass: the file as it stood");
+        // The gyro calibration at boot: INS_GYROFFS_X (offset ~1574) leaves its default 0, so
+        // the file gains its default (4 bytes) and every later entry moves.
+        params.set("INS_GYROFFS_X", 2.3449767468264326e-05);
+        let after = pck_file(&params, q, 239);
+        assert!(after.len() > before.len());
+        let ofs = 239 * 20;
+        let again = read_at(&mut ftp, &params, 600, ofs);
+        assert_eq!(again, after[ofs as usize..ofs as usize + 239]);
+        assert_ne!(again, before[ofs as usize..ofs as usize + 239]);
+        // Joined to the blocks of the burst, it does not make a file.
+        let mut mixed = before.clone();
+        mixed[ofs as usize..ofs as usize + 239].copy_from_slice(&again);
+        assert!(
+            param_pck::decode(&mixed).is_err()
+                || param_pck::decode(&mixed) != param_pck::decode(&before)
+        );
+        // A block before the change is as it was.
+        assert_eq!(read_at(&mut ftp, &params, 602, 239 * 2), before[478..717]);
+        // The end the burst found stays the end of this open file: the last block read again
+        // stops there, though the file has grown since.
+        let last = (before.len() / 239 * 239) as u32;
+        let tail = read_at(&mut ftp, &params, 604, last);
+        assert_eq!(last as usize + tail.len(), before.len());
+        assert_eq!(tail, after[last as usize..before.len()]);
+        // A new open reads the file as it is now.
+        ftp.receive(0, req(606, 1, op::TERMINATE_SESSION, 0, 0, &[]), &params);
+        ftp.receive(0, open(608, 1, WITH_DEFAULTS), &params);
+        let out = ftp.receive(0, req(609, 1, op::BURST_READ_FILE, 239, 0, &[]), &params);
+        let fresh: Vec<u8> = drain(&mut ftp, &params, out)
+            .iter()
+            .filter(|p| p.opcode == op::ACK)
+            .flat_map(|p| p.data[..p.size as usize].to_vec())
+            .collect();
+        assert_eq!(fresh, after);
+    }
+
+    #[test]
+    fn without_defaults_a_change_keeps_the_layout() {
+        let mut params = ParamTable::copter(0);
+        let q = PckQuery::default();
+        let mut ftp = FtpServer::default();
+        ftp.receive(0, open(0, 1, PCK), &params);
+        let first = read_at(&mut ftp, &params, 1, 239 * 20);
+        params.set("INS_GYROFFS_X", 2.3449767468264326e-05);
+        let again = read_at(&mut ftp, &params, 3, 239 * 20);
+        assert_eq!(first, again);
+        assert_eq!(
+            pck_file(&params, q, 239).len(),
+            pck_file(&ParamTable::copter(0), q, 239).len()
+        );
     }
 }

@@ -7,6 +7,7 @@
 //! PARAM_VALUE indices and types and the packed file are what a GCS sees from ArduPilot, not
 //! guesses.
 
+use crate::clock::Micros;
 use crate::dialect::MavParamType;
 use crate::wire::param_pck::{PckParam, PckType};
 use std::collections::BTreeMap;
@@ -87,6 +88,71 @@ pub fn default_as_stored(t: PckType, default: f64) -> f64 {
         PckType::Int16 => i as i16 as f64,
         PckType::Int32 => i as i32 as f64,
         PckType::Float => default as f32 as f64,
+    }
+}
+
+/// When, after its first heartbeat, ArduCopter's barometer calibration at boot completes
+/// (`AP_Baro::calibrate`: "Barometer N calibration complete"), and with it the inertial sensors'
+/// device ids are saved (`AP_InertialSensor::_save_gyro_calibration` of the ids found at init).
+pub const BARO_CAL_AT: Micros = 910_000;
+/// When the gyro calibration at boot (`AP_InertialSensor::init_gyro`) saves its offsets and
+/// calibration temperatures ("ArduPilot Ready" follows).
+pub const GYRO_CAL_AT: Micros = 1_430_000;
+
+/// The parameters ArduCopter sets itself during its first seconds, and when (from the vehicle's
+/// boot): the calibration results its boot saves, each saved with `AP_Param::save`, so each
+/// notified to every GCS with PARAM_VALUE index -1 (`save_sync(.., send_to_gcs = true)`).
+/// Values and order from a real ArduCopter 4.7-dev SITL booting while a GCS read its
+/// `param.pck?withdefaults=1` (`tests/data/copter-mavftp-lossy.gcs.tlog`: the PARAM_VALUEs of
+/// its boot, and the file read 80 s later). Each one leaves its default (the table's boot value),
+/// so the file gains that default: every later entry moves, as on the real vehicle. The compass
+/// declination is set from the first GPS fix (`AP_Compass` with COMPASS_AUTODEC).
+pub fn boot_changes() -> &'static [(Micros, &'static str, f64)] {
+    const GPS_FIX_AT: Micros = crate::sim::vehicle::GPS_FIX_AT;
+    &[
+        (BARO_CAL_AT, "BARO2_GND_PRESS", 94502.5390625),
+        (BARO_CAL_AT, "INS_GYR_ID", 2752772.0),
+        (BARO_CAL_AT, "INS_ACC_ID", 2753028.0),
+        (BARO_CAL_AT, "INS_GYR2_ID", 2752780.0),
+        (BARO_CAL_AT, "INS_ACC2_ID", 2753036.0),
+        (GYRO_CAL_AT, "INS_GYROFFS_X", 2.3449767468264326e-05),
+        (GYRO_CAL_AT, "INS_GYROFFS_Y", 2.5720373741933145e-05),
+        (GYRO_CAL_AT, "INS_GYROFFS_Z", 2.9012084269197658e-05),
+        (GYRO_CAL_AT, "INS_GYR1_CALTEMP", 25.018352508544922),
+        (GYRO_CAL_AT, "INS_GYR2OFFS_X", 2.015327481785789e-05),
+        (GYRO_CAL_AT, "INS_GYR2OFFS_Y", 2.7733694878406823e-05),
+        (GYRO_CAL_AT, "INS_GYR2OFFS_Z", 1.705062277324032e-05),
+        (GYRO_CAL_AT, "INS_GYR2_CALTEMP", 25.018352508544922),
+        (GPS_FIX_AT, "COMPASS_DEC", 0.2233572155237198),
+    ]
+}
+
+/// The boot changes still to come, in order: [`ParamTable::settle`] applies those due.
+#[derive(Debug, Clone, Default)]
+pub struct BootSettle {
+    next: usize,
+}
+
+impl BootSettle {
+    /// When the next change is due, if any is left.
+    pub fn next_due(&self) -> Option<Micros> {
+        boot_changes().get(self.next).map(|c| c.0)
+    }
+
+    /// Apply the changes due by `now` (time since boot) to `params`; returns the table indices
+    /// changed, in order, for their PARAM_VALUE notices.
+    pub fn settle(&mut self, now: Micros, params: &mut ParamTable) -> Vec<usize> {
+        let mut changed = Vec::new();
+        while let Some(&(at, name, value)) = boot_changes().get(self.next) {
+            if at > now {
+                break;
+            }
+            self.next += 1;
+            if let Some(i) = params.set(name, value) {
+                changed.push(i);
+            }
+        }
+        changed
     }
 }
 
@@ -207,16 +273,21 @@ impl ParamTable {
     /// from its default carries the default (`pack_param`: `!is_equal(value, default_val)`,
     /// compared as floats).
     pub fn to_pck_with(&self, with_defaults: bool) -> Vec<PckParam> {
-        self.params
-            .iter()
-            .map(|p| PckParam {
-                name: p.name.clone(),
-                ptype: p.ptype,
-                value: p.value,
-                default: (with_defaults && !is_equal(p.value as f32, p.default as f32))
-                    .then(|| default_as_stored(p.ptype, p.default)),
-            })
+        (0..self.params.len())
+            .filter_map(|i| self.pck_entry(i, with_defaults))
             .collect()
+    }
+
+    /// Entry `i` as `param.pck` packs it now (see [`ParamTable::to_pck_with`]).
+    pub fn pck_entry(&self, i: usize, with_defaults: bool) -> Option<PckParam> {
+        let p = self.params.get(i)?;
+        Some(PckParam {
+            name: p.name.clone(),
+            ptype: p.ptype,
+            value: p.value,
+            default: (with_defaults && !is_equal(p.value as f32, p.default as f32))
+                .then(|| default_as_stored(p.ptype, p.default)),
+        })
     }
 
     /// Apply a `NAME VALUE` file (MAVProxy/Mission Planner `.parm` format; `#` comments and
@@ -365,5 +436,34 @@ mod tests {
             1
         );
         assert_eq!(u.value("RTL_ALT"), Some(100.0));
+    }
+
+    #[test]
+    fn boot_changes_leave_their_defaults_in_order() {
+        let mut t = ParamTable::copter(0);
+        let before = t
+            .to_pck_with(true)
+            .iter()
+            .filter(|p| p.default.is_some())
+            .count();
+        let mut s = BootSettle::default();
+        assert_eq!(s.next_due(), Some(BARO_CAL_AT));
+        assert!(s.settle(BARO_CAL_AT - 1, &mut t).is_empty());
+        let baro = s.settle(BARO_CAL_AT, &mut t);
+        assert_eq!(baro.len(), 5);
+        assert_eq!(t.value("INS_GYR_ID"), Some(2752772.0));
+        assert_eq!(s.next_due(), Some(GYRO_CAL_AT));
+        let all = s.settle(10 * crate::clock::SECOND, &mut t);
+        assert_eq!(all.len(), boot_changes().len() - 5);
+        assert_eq!(s.next_due(), None);
+        assert_eq!(t.value("INS_GYR1_CALTEMP"), Some(25.018_353_f32 as f64));
+        // Every change but the ground pressure (already away from its default) adds a default.
+        let with = t.to_pck_with(true);
+        assert_eq!(
+            with.iter().filter(|p| p.default.is_some()).count(),
+            before + boot_changes().len() - 1
+        );
+        let gyro = with.iter().find(|p| p.name == "INS_GYROFFS_X").unwrap();
+        assert_eq!(gyro.default, Some(0.0));
     }
 }

@@ -287,10 +287,26 @@ fn boots_with_heartbeat_and_banner_streams_off() {
     assert_eq!(texts[0], "ArduCopter V4.7.0-dev (sim)");
     assert!(texts.contains(&"Frame: QUAD/PLUS".to_string()));
     assert!(texts.contains(&"ArduPilot Ready".to_string()));
-    assert!(g.frames.iter().all(|f| matches!(
-        f.message,
-        Some(MavMessage::HEARTBEAT(_)) | Some(MavMessage::STATUSTEXT(_))
-    )));
+    // And the calibrations of the boot, each result notified as it is saved, in order.
+    let notices: Vec<(String, f32)> = g
+        .frames
+        .iter()
+        .filter_map(|f| match &f.message {
+            Some(MavMessage::PARAM_VALUE(p)) => {
+                assert!(is_boot_notice(p), "{p:?}");
+                Some((p.param_id.to_str().unwrap().to_string(), p.param_value))
+            }
+            Some(MavMessage::HEARTBEAT(_)) | Some(MavMessage::STATUSTEXT(_)) => None,
+            m => panic!("{m:?}"),
+        })
+        .collect();
+    let due: Vec<(String, f32)> = crate::sim::params::boot_changes()
+        .iter()
+        .filter(|c| c.0 <= 3_500_000)
+        .map(|c| (c.1.to_string(), c.2 as f32))
+        .collect();
+    assert_eq!(notices, due);
+    assert_eq!(due.len(), 13);
     // Sequence numbers count up from 0 without gaps; all frames MAVLink 2 from 1:1.
     for (i, f) in g.frames.iter().enumerate() {
         assert_eq!(
@@ -532,11 +548,28 @@ fn retransmission_acked_but_not_executed_twice() {
     assert!(g.v().armed());
 }
 
+/// PARAM_VALUEs since frame `from`, but for the notices of the calibrations of the boot.
 fn param_values_since(g: &Gcs, from: usize) -> Vec<PARAM_VALUE_DATA> {
+    g.msgs_since(from, |m| match m {
+        MavMessage::PARAM_VALUE(p) if !is_boot_notice(p) => Some(p.clone()),
+        _ => None,
+    })
+}
+
+/// Every PARAM_VALUE since frame `from`.
+fn every_param_value_since(g: &Gcs, from: usize) -> Vec<PARAM_VALUE_DATA> {
     g.msgs_since(from, |m| match m {
         MavMessage::PARAM_VALUE(p) => Some(p.clone()),
         _ => None,
     })
+}
+
+fn is_boot_notice(p: &PARAM_VALUE_DATA) -> bool {
+    let name = p.param_id.to_str().unwrap_or_default();
+    p.param_index == u16::MAX
+        && crate::sim::params::boot_changes()
+            .iter()
+            .any(|c| c.1 == name)
 }
 
 fn param_set_msg(name: &str, v: f32) -> MavMessage {
@@ -1252,7 +1285,9 @@ fn mavftp_download_through_the_sim() {
 #[test]
 fn mavftp_over_a_lossy_link_fills_gaps() {
     let mut g = Gcs::new("loss=0.3&seed=11");
-    g.run_until(100_000);
+    // After the calibrations of the boot (blocks read at different times then hold the same
+    // values).
+    g.run_until(4_500_000);
     let path = b"@PARAM/param.pck";
     let mut seq = 0u16;
     let ask = |g: &mut Gcs, seq: &mut u16, op: u8, size: u8, ofs: u32, data: &[u8]| {
@@ -1303,7 +1338,7 @@ fn mavftp_over_a_lossy_link_fills_gaps() {
     assert!(missing > 5, "{missing} holes");
     let file: Vec<u8> = blocks.values().flatten().copied().collect();
     let d = param_pck::decode(&file).unwrap();
-    assert_eq!(d.params, ParamTable::copter(0).to_pck());
+    assert_eq!(d.params, g.v().params().to_pck());
 }
 
 /// `ftp=0`: a build without MAVFTP. FILE_TRANSFER_PROTOCOL gets no answer at all and
@@ -1445,13 +1480,13 @@ fn baro_calibration_notifies_ground_pressures() {
     let n = g.frames.len();
     g.command(MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION, baro, 0);
     assert!(
-        param_values_since(&g, n).is_empty(),
+        every_param_value_since(&g, n).is_empty(),
         "not in the first 10 s"
     );
     g.run_until(10_500_000);
     let n = g.frames.len();
     g.command(MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION, baro, 0);
-    let pv = param_values_since(&g, n);
+    let pv = every_param_value_since(&g, n);
     let names: Vec<&str> = pv.iter().map(|p| p.param_id.to_str().unwrap()).collect();
     assert_eq!(names, vec!["BARO1_GND_PRESS", "BARO2_GND_PRESS"]);
     assert!(pv.iter().all(|p| p.param_index == 65535));
@@ -1460,7 +1495,7 @@ fn baro_calibration_notifies_ground_pressures() {
     let n = g.frames.len();
     g.command(MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION, baro, 0);
     assert!(
-        param_values_since(&g, n).is_empty(),
+        every_param_value_since(&g, n).is_empty(),
         "within 10 s of the last"
     );
 }

@@ -334,6 +334,8 @@ pub struct SimVehicle {
     pub(super) next_param_run: Micros,
     /// When `AP_Baro::update_calibration` last sent the ground pressures (`_last_notify_ms`).
     pub(super) baro_notified: Micros,
+    /// The calibration results the boot still has to save.
+    pub(super) settle: super::params::BootSettle,
     /// The firmware has MAVFTP (`ftp=1`).
     pub(super) ftp_built: bool,
     pub(super) ftp: FtpServer,
@@ -423,6 +425,7 @@ impl SimVehicle {
             param_send: ParamSender::default(),
             next_param_run: 0,
             baro_notified: 0,
+            settle: Default::default(),
             ftp_built: true,
             ftp: FtpServer::default(),
             last_command: None,
@@ -590,6 +593,10 @@ impl SimVehicle {
             self.banner();
             self.text(MavSeverity::MAV_SEVERITY_INFO, "ArduPilot Ready");
         }
+        for i in self.settle.settle(now, &mut self.params) {
+            let m = super::telemetry::param_value_notify(&self.params, i);
+            self.push(m);
+        }
         if !self.gps_fix && now >= GPS_FIX_AT {
             self.gps_fix = true;
             self.text(MavSeverity::MAV_SEVERITY_INFO, "GPS 1: detected u-blox");
@@ -670,6 +677,9 @@ impl SimVehicle {
             t = t.min(self.next_param_run);
         }
         if let Some(d) = self.ftp.next_due() {
+            t = t.min(d);
+        }
+        if let Some(d) = self.settle.next_due() {
             t = t.min(d);
         }
         if let Some(d) = self.mission.next_due() {

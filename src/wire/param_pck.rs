@@ -222,40 +222,58 @@ pub fn encode(params: &[PckParam], total_params: u16, read_size: usize) -> Vec<u
     out.extend_from_slice(&total_params.to_le_bytes());
     let mut last: &str = "";
     for p in usable {
-        let name = p.name.as_bytes();
-        let mut common = name
-            .iter()
-            .zip(last.as_bytes())
-            .take_while(|(a, b)| a == b)
-            .count()
-            .min(15);
-        if common == name.len() {
-            // The name is a prefix of (or equal to) the previous: send at least one byte.
-            common -= 1;
-        }
-        let suffix = &name[common..];
-        let vsize = p.ptype.size();
-        let packed_len = 2 + suffix.len() + vsize * if p.default.is_some() { 2 } else { 1 };
-        // ArduPilot's rule: if the entry would end just past a block boundary by less than one
-        // value, pad so the value starts in the next block.
-        if vsize > 1 {
-            let ofs_mod = (out.len() + packed_len) % read_size;
-            if ofs_mod > 0 && ofs_mod < vsize {
-                let pad = vsize - ofs_mod;
-                out.extend(std::iter::repeat_n(0u8, pad));
-            }
-        }
-        let flags = if p.default.is_some() { 0x10 } else { 0 };
-        out.push(p.ptype as u8 | flags);
-        out.push(common as u8 | (((suffix.len() - 1) as u8) << 4));
-        out.extend_from_slice(suffix);
-        p.ptype.write(p.value, &mut out);
-        if let Some(d) = p.default {
-            p.ptype.write(d, &mut out);
-        }
+        let at = out.len();
+        encode_entry(p, last, at, read_size, &mut out);
         last = &p.name;
     }
     out
+}
+
+/// Append one entry (`AP_Filesystem_Param::pack_param`) for a parameter that follows `last`,
+/// starting at file offset `at` (the 6-byte header counted) of a file read `read_size` bytes at
+/// a time: zero padding first if a multi-byte value would otherwise straddle a block boundary.
+/// Returns the bytes appended. `p.name` must be 1 to 16 ASCII bytes.
+pub fn encode_entry(
+    p: &PckParam,
+    last: &str,
+    at: usize,
+    read_size: usize,
+    out: &mut Vec<u8>,
+) -> usize {
+    let read_size = read_size.max(1);
+    let before = out.len();
+    let name = p.name.as_bytes();
+    let mut common = name
+        .iter()
+        .zip(last.as_bytes())
+        .take_while(|(a, b)| a == b)
+        .count()
+        .min(15);
+    if common == name.len() {
+        // The name is a prefix of (or equal to) the previous: send at least one byte.
+        common -= 1;
+    }
+    let suffix = &name[common..];
+    let vsize = p.ptype.size();
+    let packed_len = 2 + suffix.len() + vsize * if p.default.is_some() { 2 } else { 1 };
+    // ArduPilot's rule: if the entry would end just past a block boundary by less than one
+    // value, pad so the value starts in the next block.
+    if vsize > 1 {
+        let ofs_mod = (at + packed_len) % read_size;
+        if ofs_mod > 0 && ofs_mod < vsize {
+            let pad = vsize - ofs_mod;
+            out.extend(std::iter::repeat_n(0u8, pad));
+        }
+    }
+    let flags = if p.default.is_some() { 0x10 } else { 0 };
+    out.push(p.ptype as u8 | flags);
+    out.push(common as u8 | (((suffix.len() - 1) as u8) << 4));
+    out.extend_from_slice(suffix);
+    p.ptype.write(p.value, out);
+    if let Some(d) = p.default {
+        p.ptype.write(d, out);
+    }
+    out.len() - before
 }
 
 #[cfg(test)]
