@@ -107,12 +107,21 @@ pub const TABLE: &[(u16, Ids)] = &[
 ];
 
 /// The machines that read message `id`, from [`TABLE`] (built once).
+#[inline]
 pub fn wants(id: u32) -> u16 {
     wants_in(table(), id)
 }
 
-/// A dispatch table: the bits of the machines reading every message, and (id, bits) by id.
-type Built = (u16, Vec<(u32, u16)>);
+/// Ids below this are looked up directly in [`Built::small`]; the rest by binary search.
+const SMALL_IDS: usize = 512;
+
+/// A dispatch table: the bits of the machines reading every message, (id, bits) by id, and the
+/// bits of every id below [`SMALL_IDS`] (almost every message heard), read in one load.
+struct Built {
+    all: u16,
+    by_id: Vec<(u32, u16)>,
+    small: [u16; SMALL_IDS],
+}
 
 fn build(table: &[(u16, Ids)]) -> Built {
     let mut all = 0;
@@ -131,7 +140,13 @@ fn build(table: &[(u16, Ids)]) -> Built {
         }
     }
     by_id.sort_unstable();
-    (all, by_id)
+    let mut small = [all; SMALL_IDS];
+    for &(id, bits) in &by_id {
+        if let Some(b) = small.get_mut(id as usize) {
+            *b |= bits;
+        }
+    }
+    Built { all, by_id, small }
 }
 
 fn table() -> &'static Built {
@@ -139,10 +154,14 @@ fn table() -> &'static Built {
     T.get_or_init(|| build(TABLE))
 }
 
-fn wants_in((all, by_id): &Built, id: u32) -> u16 {
-    match by_id.binary_search_by_key(&id, |(i, _)| *i) {
-        Ok(i) => all | by_id[i].1,
-        Err(_) => *all,
+#[inline]
+fn wants_in(t: &Built, id: u32) -> u16 {
+    if let Some(&bits) = t.small.get(id as usize) {
+        return bits;
+    }
+    match t.by_id.binary_search_by_key(&id, |(i, _)| *i) {
+        Ok(i) => t.all | t.by_id[i].1,
+        Err(_) => t.all,
     }
 }
 
@@ -266,13 +285,22 @@ impl Session {
     /// the ACKs of commands from any component of the system).
     pub fn on_message(&mut self, m: &Incoming) -> Vec<SessionOut> {
         let (now, from) = (m.now, m.from.1);
-        if self.heard.insert(m.link, (now, m.profile)).is_none() {
-            // Nothing starts on its own while the system is heard on high-latency links only.
-            let held = self.heard.values().all(|(_, p)| p.hl);
-            self.params.hold_auto(held);
-            self.comp_meta.hold_auto(held);
+        match self.heard.get_mut(&m.link) {
+            Some(h) => *h = (now, m.profile),
+            None => {
+                self.heard.insert(m.link, (now, m.profile));
+                // Nothing starts on its own while the system is heard on high-latency links
+                // only.
+                let held = self.heard.values().all(|(_, p)| p.hl);
+                self.params.hold_auto(held);
+                self.comp_meta.hold_auto(held);
+            }
         }
         let w = wants(m.id);
+        // The queue's requests (cameras, gimbals) can only have become takeable when one of
+        // those machines or the queue read this message, or something came out of it (a
+        // command finished, a sequence's next step); otherwise the next poll offers them.
+        let offers = Dispatch::CAMERAS | Dispatch::GIMBALS | Dispatch::COMMANDS;
         let mut out = Vec::new();
         let mut buf = Vec::new();
         if w & Dispatch::PARAMS != 0 {
@@ -298,7 +326,9 @@ impl Session {
                 Machine::on_message(&mut self.commands, m, &mut buf);
                 self.deliver(now, &mut buf, &mut out);
             }
-            self.offer_requests(now, &mut out);
+            if w & offers != 0 || !out.is_empty() || self.sequence.is_some() {
+                self.offer_requests(now, &mut out);
+            }
             self.hold_streams();
             return out;
         }
@@ -331,7 +361,9 @@ impl Session {
             Machine::on_message(seq, m, &mut buf);
             self.deliver(now, &mut buf, &mut out);
         }
-        self.offer_requests(now, &mut out);
+        if w & offers != 0 || !out.is_empty() || self.sequence.is_some() {
+            self.offer_requests(now, &mut out);
+        }
         self.hold_streams();
         out
     }
@@ -610,10 +642,15 @@ impl Session {
     /// policy ([`Route`] to [`SessionOut`]), notices, typed outcomes for the UI, and finished
     /// commands handed on to the cameras, gimbals and the sequence (which then submits its next
     /// command when it is time). Drains `outs`.
+    #[inline]
     pub fn deliver(&mut self, now: Micros, outs: &mut Vec<Out>, out: &mut Vec<SessionOut>) {
         if outs.is_empty() && self.sequence.is_none() {
             return;
         }
+        self.deliver_all(now, outs, out);
+    }
+
+    fn deliver_all(&mut self, now: Micros, outs: &mut Vec<Out>, out: &mut Vec<SessionOut>) {
         let mut seq_events = Vec::new();
         for o in outs.drain(..) {
             match o {

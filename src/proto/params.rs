@@ -206,6 +206,24 @@ impl ParamSet {
                 }
             }
         }
+        let apply = |p: &mut Param| {
+            let before = p.value;
+            let had = p.fetched.is_some() || p.edit.is_some() || index.is_none();
+            p.value = v;
+            p.ptype = ptype;
+            p.raw = raw;
+            if index.is_some() {
+                p.index = index;
+            }
+            if download && p.fetched.is_none() {
+                p.fetched = Some(v);
+            }
+            had.then_some(before)
+        };
+        // A name heard before (every value after the first) is found without making a String.
+        if let Some(p) = self.params.get_mut(name) {
+            return apply(p);
+        }
         let p = self.params.entry(name.to_string()).or_insert(Param {
             value: v,
             ptype,
@@ -215,18 +233,7 @@ impl ParamSet {
             default: None,
             edit: None,
         });
-        let before = p.value;
-        let had = p.fetched.is_some() || p.edit.is_some() || index.is_none();
-        p.value = v;
-        p.ptype = ptype;
-        p.raw = raw;
-        if index.is_some() {
-            p.index = index;
-        }
-        if download && p.fetched.is_none() {
-            p.fetched = Some(v);
-        }
-        had.then_some(before)
+        apply(p)
     }
 }
 

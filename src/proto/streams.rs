@@ -719,17 +719,21 @@ impl StreamMachine {
         heartbeat: Option<&dialect::HEARTBEAT_DATA>,
     ) {
         self.seen = self.seen.max(now);
-        let entry = self.links.entry(link).or_insert_with(|| LinkStreams {
-            profile,
-            due: !profile.hl,
-            last_heartbeat: now,
-            quiet_since: None,
-            items: Vec::new(),
-            watch: Vec::new(),
-            queue: VecDeque::new(),
-            requests: 0,
-            load: (0.0, None),
-        });
+        // A link heard before (every message after its first) is found without an entry.
+        let entry = match self.links.get_mut(&link) {
+            Some(e) => e,
+            None => self.links.entry(link).or_insert_with(|| LinkStreams {
+                profile,
+                due: !profile.hl,
+                last_heartbeat: now,
+                quiet_since: None,
+                items: Vec::new(),
+                watch: Vec::new(),
+                queue: VecDeque::new(),
+                requests: 0,
+                load: (0.0, None),
+            }),
+        };
         if let Some(hb) = heartbeat {
             self.autopilot = hb.autopilot;
             // Heartbeats with no telemetry, without the link going silent in between (a fade
