@@ -300,7 +300,7 @@ impl Session {
         // The queue's requests (cameras, gimbals) can only have become takeable when one of
         // those machines or the queue read this message, or something came out of it (a
         // command finished, a sequence's next step); otherwise the next poll offers them.
-        let offers = Dispatch::CAMERAS | Dispatch::GIMBALS | Dispatch::COMMANDS;
+        let offers = Dispatch::CAMERAS | Dispatch::GIMBALS | Dispatch::COMMANDS | Dispatch::COMP_META;
         let mut out = Vec::new();
         let mut buf = Vec::new();
         if w & Dispatch::PARAMS != 0 {
@@ -316,9 +316,12 @@ impl Session {
             Machine::on_message(&mut self.gimbals, m, &mut buf);
             self.deliver(now, &mut buf, &mut out);
         }
-        // Any message starts its automatic request; files may come from another component.
-        Machine::on_message(&mut self.comp_meta, m, &mut buf);
-        self.deliver(now, &mut buf, &mut out);
+        // The first message starts its automatic request; files may come from another
+        // component.
+        if w & Dispatch::COMP_META != 0 || self.comp_meta.waits_to_start() {
+            Machine::on_message(&mut self.comp_meta, m, &mut buf);
+            self.deliver(now, &mut buf, &mut out);
+        }
         if from != self.key.1 {
             // Another component of this system (a camera, a gimbal): the answers to commands
             // sent to it through this session's queue.

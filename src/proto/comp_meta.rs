@@ -177,6 +177,12 @@ pub fn general_entry(json: &[u8], kind: u64) -> Result<Option<(String, Option<St
 }
 
 impl CompMeta {
+    /// Whether the next message heard starts the automatic request (the session hands this
+    /// machine other ids only while it waits).
+    pub fn waits_to_start(&self) -> bool {
+        self.auto && !self.auto_done && matches!(self.step, Step::Idle)
+    }
+
     /// `auto`: ask on its own once the vehicle is heard (the profile's choice, and the core's
     /// automatic traffic allowed).
     pub fn new(key: VehicleKey, auto: bool) -> CompMeta {
@@ -473,7 +479,7 @@ impl Machine for CompMeta {
     ]);
 
     fn on_message(&mut self, m: &Incoming, out: &mut Vec<Out>) {
-        if self.auto && !self.auto_done && matches!(self.step, Step::Idle) {
+        if self.waits_to_start() {
             self.auto_done = true;
             self.step = Step::Due(m.now + AUTO_DELAY);
         }
