@@ -46,6 +46,7 @@ fn app_config(cli: &Cli, file: &FileConfig, wall_clock: bool) -> Result<AppConfi
     Ok(AppConfig {
         param_meta: load_param_meta(cli)?,
         param_meta_cache: mavterm::paths::cache_dir(),
+        logs_dir: mavterm::paths::logs_dir(),
         param_meta_url: std::env::var("MAVTERM_PARAM_META_URL")
             .ok()
             .filter(|u| !u.trim().is_empty()),

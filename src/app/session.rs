@@ -28,6 +28,7 @@ use crate::link::LinkId;
 use crate::proto::camera::{CameraAction, CameraSet};
 use crate::proto::commands::{self, CmdOut, CommandQueue, CommandSpec, State};
 use crate::proto::gimbal::GimbalSet;
+use crate::proto::logs::LogMachine;
 use crate::proto::machine::{Ids, Incoming, Machine, MachineEvent, Out, Requests, Route};
 use crate::proto::mission::{MissionMachine, Request as MissionRequest};
 use crate::proto::params::{ParamMachine, ParamOut};
@@ -87,6 +88,7 @@ impl Dispatch {
     pub const SEQUENCE: u16 = 1 << 5;
     pub const CAMERAS: u16 = 1 << 6;
     pub const GIMBALS: u16 = 1 << 7;
+    pub const LOGS: u16 = 1 << 8;
 }
 
 /// Each machine's bit and the ids it reads.
@@ -99,6 +101,7 @@ pub const TABLE: &[(u16, Ids)] = &[
     (Dispatch::SEQUENCE, Sequence::IDS),
     (Dispatch::CAMERAS, CameraSet::IDS),
     (Dispatch::GIMBALS, GimbalSet::IDS),
+    (Dispatch::LOGS, LogMachine::IDS),
 ];
 
 /// The machines that read message `id`, from [`TABLE`] (built once).
@@ -163,6 +166,8 @@ pub struct Session {
     pub cameras: CameraSet,
     /// The gimbals of this system, by their managers (the autopilot, or a gimbal component).
     pub gimbals: GimbalSet,
+    /// The onboard logs: the list, the download and its queue.
+    pub logs: LogMachine,
     /// The custom mode of the autopilot's last heartbeat.
     mode_seen: Option<u32>,
     /// DO_SET_MODEs that may still be resent: (queue id, the mode the heartbeat showed when it
@@ -196,6 +201,7 @@ impl Session {
             mission: MissionMachine::new(key),
             cameras: CameraSet::default(),
             gimbals: GimbalSet::default(),
+            logs: LogMachine::new(key),
             mode_seen: None,
             mode_asks: Vec::new(),
             quiet: std::collections::BTreeSet::new(),
@@ -289,6 +295,10 @@ impl Session {
         }
         if w & Dispatch::MISSION != 0 {
             Machine::on_message(&mut self.mission, m, &mut buf);
+            self.deliver(now, &mut buf, &mut out);
+        }
+        if w & Dispatch::LOGS != 0 {
+            Machine::on_message(&mut self.logs, m, &mut buf);
             self.deliver(now, &mut buf, &mut out);
         }
         // A SET_MESSAGE_INTERVAL's ACK is the stream machine's while one of its own waits,
@@ -731,6 +741,7 @@ impl Session {
         self.sequence.is_some()
             || self.params.busy()
             || self.mission.busy()
+            || self.logs.busy()
             || self.commands.entries().any(|e| e.open())
     }
 
@@ -765,9 +776,24 @@ impl Session {
         Machine::poll(&mut self.cameras, now, &mut buf);
         Machine::poll(&mut self.gimbals, now, &mut buf);
         self.deliver(now, &mut buf, &mut out);
+        Machine::poll(&mut self.logs, now, &mut buf);
+        self.deliver(now, &mut buf, &mut out);
         self.offer_requests(now, &mut out);
         self.hold_streams();
         out
+    }
+
+    /// An operator's action on the log machine, its output delivered.
+    pub fn logs_do<T>(
+        &mut self,
+        now: Micros,
+        f: impl FnOnce(&mut LogMachine, &mut Vec<Out>) -> T,
+    ) -> (T, Vec<SessionOut>) {
+        let mut buf = Vec::new();
+        let r = f(&mut self.logs, &mut buf);
+        let mut out = Vec::new();
+        self.deliver(now, &mut buf, &mut out);
+        (r, out)
     }
 
     /// The operator fetches the parameters of component `comp`.
@@ -808,6 +834,7 @@ impl Session {
             Machine::next_deadline(&self.mission),
             Machine::next_deadline(&self.cameras),
             Machine::next_deadline(&self.gimbals),
+            Machine::next_deadline(&self.logs),
         ]
         .into_iter()
         .flatten()

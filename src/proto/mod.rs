@@ -5,6 +5,7 @@ pub mod ack;
 pub mod camera;
 pub mod commands;
 pub mod gimbal;
+pub mod logs;
 pub mod loss;
 pub mod machine;
 pub mod mav_cmds;
