@@ -345,7 +345,7 @@ impl Transfer {
                 let per = self.per_chunk.unwrap_or(20_000);
                 let left = (r.end.saturating_sub(at)).div_ceil(CHUNK) as u64;
                 // The rest at the measured pace, and slack of a few chunks and the jitter.
-                t + per * left + (3 * per).max(4 * self.rttvar).max(30_000)
+                t + per * left + (4 * per).max(4 * self.rttvar).max(100_000)
             }
         })
     }
