@@ -265,6 +265,9 @@ fn run_on(cli: Cli, rt: &tokio::runtime::Runtime) -> Result<()> {
         if let Some(out) = &cli.params_out {
             return params_out(&cli, cfg, out, &links, &edge, rt.handle());
         }
+        if let Some(dir) = &cli.logs_out {
+            return logs_out(&cli, cfg, dir, &links, &edge, rt.handle());
+        }
         if let Some(script) = &script {
             return replay(&cli, cfg, script, &links, &edge, keymap, rt.handle());
         }
@@ -340,6 +343,66 @@ fn not_recording(why: &str) -> mavterm::app::Event {
         dropped: 0,
         error: Some(why.to_string()),
     })
+}
+
+/// `--headless --logs-out DIR`: the first autopilot's onboard logs, progress on stderr.
+fn logs_out(
+    cli: &Cli,
+    cfg: AppConfig,
+    dir: &std::path::Path,
+    links: &[LinkSpec],
+    edge: &Edge,
+    rt: &tokio::runtime::Handle,
+) -> Result<()> {
+    use mavterm::headless::logs::{drive, Progress, StopWhenDone};
+    let limit = (cli.duration.unwrap_or(3600.0) * SECOND as f64) as u64;
+    let (app, p) = if all_virtual(links) && edge.outs.is_empty() {
+        let mut r = VirtualRunner::from_specs(links, cfg)?;
+        edge.start_virtual(&mut r);
+        let (mut t, mut asked, mut last) = (0, false, String::new());
+        let mut p = Progress::NoVehicle;
+        while t < limit && !p.ended() {
+            t += SECOND / 4;
+            r.advance_to(t);
+            p = drive(&mut r.app, dir, &cli.log_ids, &mut asked);
+            let line = format!("{p:?}");
+            if line != last {
+                eprintln!("{line}");
+                last = line;
+            }
+        }
+        r.finish_recording();
+        (r.app, p)
+    } else {
+        let mut runner = RealTimeRunner::start(rt.clone(), links, cfg);
+        {
+            let _in_rt = rt.enter();
+            edge.start_real(&mut runner.inner);
+        }
+        let start = runner.inner.now();
+        let mut front = StopWhenDone {
+            dir: dir.to_path_buf(),
+            ids: cli.log_ids.clone(),
+            asked: false,
+            last: String::new(),
+            progress: None,
+        };
+        let _ = rt.block_on(runner.inner.run(Some(start + limit), &mut front));
+        runner.inner.finish();
+        (runner.inner.app, front.progress.unwrap_or(Progress::NoVehicle))
+    };
+    save_signing(&app)?;
+    match p {
+        Progress::Done(saved) => {
+            for (id, path) in saved {
+                eprintln!("log {id}: wrote {}", path.display());
+            }
+            Ok(())
+        }
+        Progress::Failed(why) => bail!("{why}"),
+        Progress::NoVehicle => bail!("no autopilot heard"),
+        Progress::Running(at) => bail!("not complete in the time given: {at}"),
+    }
 }
 
 /// `--headless --params-out FILE`: the first autopilot's parameters, progress on stderr.

@@ -245,3 +245,54 @@ fn the_logs_screen_at_80x24() {
     insta::assert_snapshot!(screen);
 }
 
+
+#[test]
+fn headless_logs_out_exits_0_only_when_every_log_is_whole() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = std::process::Command::new(common::mavterm())
+        .args(["--link", "sim://?log_size=20000", "--headless", "--logs-out"])
+        .arg(dir.path())
+        .args(["--log-ids", "1,3"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for (id, (size, _)) in [(1u16, catalogue(3, 20_000)[0]), (3, catalogue(3, 20_000)[2])] {
+        let found: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.to_string_lossy().ends_with(&format!("log{id}.bin")) || p.to_string_lossy().ends_with(&format!("log{id}_no-time.bin")))
+            .collect();
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert!(std::fs::read(&found[0]).unwrap() == content(id, size));
+    }
+    // A log the vehicle does not have: not 0.
+    let out = std::process::Command::new(common::mavterm())
+        .args(["--link", "sim://", "--headless", "--logs-out"])
+        .arg(dir.path())
+        .args(["--log-ids", "9"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no log 9"));
+    // Not whole in the time given: not 0, the partial kept.
+    let slow = tempfile::tempdir().unwrap();
+    let out = std::process::Command::new(common::mavterm())
+        .args([
+            "--link",
+            "sim://?baud=57600&log_size=200000",
+            "--headless",
+            "--duration",
+            "8",
+            "--logs-out",
+        ])
+        .arg(slow.path())
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not complete"));
+    let partials = std::fs::read_dir(slow.path())
+        .unwrap()
+        .filter(|e| e.as_ref().unwrap().path().to_string_lossy().ends_with(".partial"))
+        .count();
+    assert_eq!(partials, 1);
+}
