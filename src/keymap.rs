@@ -576,7 +576,11 @@ impl Action {
             "log_download",
             "logs: download the selected log (queued behind the one running)",
         ),
-        (Action::LogLatest, "log_latest", "logs: download the newest log"),
+        (
+            Action::LogLatest,
+            "log_latest",
+            "logs: download the newest log",
+        ),
         (
             Action::LogCancel,
             "log_cancel",

@@ -389,7 +389,10 @@ fn logs_out(
         };
         let _ = rt.block_on(runner.inner.run(Some(start + limit), &mut front));
         runner.inner.finish();
-        (runner.inner.app, front.progress.unwrap_or(Progress::NoVehicle))
+        (
+            runner.inner.app,
+            front.progress.unwrap_or(Progress::NoVehicle),
+        )
     };
     save_signing(&app)?;
     match p {

@@ -81,8 +81,7 @@ fn download(loss: f64, baud: u32) -> (f64, u32) {
     // In its vehicle's directory, named by its time (log 3: BASE_TIME + 3 h, UTC).
     assert_eq!(
         t.path,
-        dir.path()
-            .join("vehicle/1/2025-11-24_19-00-00_log3.bin")
+        dir.path().join("vehicle/1/2025-11-24_19-00-00_log3.bin")
     );
     // The vehicle stopped logging for it and was told the end.
     let s = sim(&r).vehicle(1).unwrap();
@@ -126,7 +125,10 @@ fn a_list_with_lost_entries_is_completed_by_asking_the_missing_ids() {
     let asked = &sim(&r).vehicle(1).unwrap().logs.list_requests;
     assert_eq!(asked[0], (0, 0xFFFF));
     // Asked again by range, never the whole list again while ids were known missing.
-    assert!(asked[1..].iter().all(|&(a, b)| a >= 1 && b <= 40 && a <= b), "{asked:?}");
+    assert!(
+        asked[1..].iter().all(|&(a, b)| a >= 1 && b <= 40 && a <= b),
+        "{asked:?}"
+    );
     for (i, (size, time)) in catalogue(40, 60_000).into_iter().enumerate() {
         let e = l.entries[&(i as u16 + 1)];
         assert_eq!((e.size, e.time_utc), (size, time));
@@ -245,22 +247,37 @@ fn the_logs_screen_at_80x24() {
     insta::assert_snapshot!(screen);
 }
 
-
 #[test]
 fn headless_logs_out_exits_0_only_when_every_log_is_whole() {
     let dir = tempfile::tempdir().unwrap();
     let out = std::process::Command::new(common::mavterm())
-        .args(["--link", "sim://?log_size=20000", "--headless", "--logs-out"])
+        .args([
+            "--link",
+            "sim://?log_size=20000",
+            "--headless",
+            "--logs-out",
+        ])
         .arg(dir.path())
         .args(["--log-ids", "1,3"])
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    for (id, (size, _)) in [(1u16, catalogue(3, 20_000)[0]), (3, catalogue(3, 20_000)[2])] {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for (id, (size, _)) in [
+        (1u16, catalogue(3, 20_000)[0]),
+        (3, catalogue(3, 20_000)[2]),
+    ] {
         let found: Vec<_> = std::fs::read_dir(dir.path())
             .unwrap()
             .map(|e| e.unwrap().path())
-            .filter(|p| p.to_string_lossy().ends_with(&format!("log{id}.bin")) || p.to_string_lossy().ends_with(&format!("log{id}_no-time.bin")))
+            .filter(|p| {
+                p.to_string_lossy().ends_with(&format!("log{id}.bin"))
+                    || p.to_string_lossy()
+                        .ends_with(&format!("log{id}_no-time.bin"))
+            })
             .collect();
         assert_eq!(found.len(), 1, "{found:?}");
         assert!(std::fs::read(&found[0]).unwrap() == content(id, size));
@@ -292,7 +309,13 @@ fn headless_logs_out_exits_0_only_when_every_log_is_whole() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("not complete"));
     let partials = std::fs::read_dir(slow.path())
         .unwrap()
-        .filter(|e| e.as_ref().unwrap().path().to_string_lossy().ends_with(".partial"))
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .path()
+                .to_string_lossy()
+                .ends_with(".partial")
+        })
         .count();
     assert_eq!(partials, 1);
 }

@@ -26,7 +26,9 @@ pub enum Which {
 /// A `log` command.
 #[derive(Debug, Clone, PartialEq)]
 pub enum LogCmd {
-    List { hl: bool },
+    List {
+        hl: bool,
+    },
     Get {
         which: Which,
         file: Option<PathBuf>,
@@ -42,7 +44,7 @@ pub const USAGE: &str =
 /// `log …` after the word `log`.
 pub fn parse(rest: &str) -> Result<LogCmd, String> {
     let mut words: Vec<&str> = rest.split_whitespace().collect();
-    let hl = words.iter().any(|w| *w == "--hl");
+    let hl = words.contains(&"--hl");
     words.retain(|w| *w != "--hl");
     match words.as_slice() {
         ["list"] | ["ls"] => Ok(LogCmd::List { hl }),

@@ -4,7 +4,6 @@
 //! same state and the same effects, in the terminal, in headless replay and in tests.
 
 pub mod camera;
-pub mod logs;
 mod confirm;
 mod editor;
 pub mod files;
@@ -13,6 +12,7 @@ pub mod input;
 pub mod inspector;
 mod keys;
 pub mod links;
+pub mod logs;
 pub mod messages;
 pub mod mission;
 pub mod notices;

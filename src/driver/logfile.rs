@@ -129,7 +129,10 @@ mod tests {
             path: path.clone(),
             size: 6,
         });
-        assert!(matches!(finish, Some(LogIoDone::Failed { .. })), "{finish:?}");
+        assert!(
+            matches!(finish, Some(LogIoDone::Failed { .. })),
+            "{finish:?}"
+        );
         assert!(!path.exists());
         // Opened again: resumes from its 3 bytes.
         let again = carry_out(LogIo::Open {

@@ -329,7 +329,10 @@ impl Transfer {
     }
 
     pub fn active(&self) -> bool {
-        matches!(self.state, State::Opening | State::Running | State::Finishing)
+        matches!(
+            self.state,
+            State::Opening | State::Running | State::Finishing
+        )
     }
 
     /// The wait for a request's next chunk: its round trip before the first, the measured time
@@ -499,12 +502,7 @@ impl LogMachine {
 
     /// Download log `id` (or queue it behind the one running) into `path` (default place when
     /// `None`).
-    pub fn get(
-        &mut self,
-        now: Micros,
-        id: u16,
-        path: Option<PathBuf>,
-    ) -> Result<String, Refusal> {
+    pub fn get(&mut self, now: Micros, id: u16, path: Option<PathBuf>) -> Result<String, Refusal> {
         let Some(e) = self.list.entries.get(&id).copied() else {
             return Err(format!("no log {id} in the list (refresh it first)"));
         };
@@ -665,15 +663,14 @@ impl LogMachine {
                     t.entry.size,
                     t.retries
                 );
-                self.history
-                    .push((t.entry, t.path.clone(), State::Done));
+                self.history.push((t.entry, t.path.clone(), State::Done));
                 out.push(Out::notice(Severity::INFO, text));
                 self.next_in_queue(now);
             }
-            LogIoDone::Failed { path, error } if path == t.path || path == t.partial => {
-                if t.active() {
-                    self.fail(now, format!("{}: {error}", path.display()), out);
-                }
+            LogIoDone::Failed { path, error }
+                if (path == t.path || path == t.partial) && t.active() =>
+            {
+                self.fail(now, format!("{}: {error}", path.display()), out);
             }
             _ => {}
         }
@@ -896,7 +893,9 @@ impl Machine for LogMachine {
             // Entries come a few tens of ms apart; a second of silence ends a listing.
             sent.max(last) + SECOND
         });
-        let list_more = (self.list.wanted && self.list.asked.is_none() && !self.list.complete()
+        let list_more = (self.list.wanted
+            && self.list.asked.is_none()
+            && !self.list.complete()
             && self.list.failed.is_none()
             && self.list.num_logs.is_some())
         .then_some(self.list.started);
