@@ -397,6 +397,25 @@ fn logs_out(
     save_signing(&app)?;
     match p {
         Progress::Done(saved) => {
+            if let Some(s) = app.target.and_then(|k| app.sessions.get(&k)) {
+                let l = &s.logs.list;
+                if let Some(done) = l.done {
+                    eprintln!(
+                        "listed {} logs in {:.2} s ({} requests, {} again)",
+                        l.entries.len(),
+                        done.saturating_sub(l.started) as f64 / 1e6,
+                        l.requests,
+                        l.retries
+                    );
+                }
+                for (id, bytes, us, requests, retries) in &s.logs.stats {
+                    let secs = *us as f64 / 1e6;
+                    eprintln!(
+                        "log {id}: {bytes} bytes in {secs:.2} s = {:.0} B/s ({requests} requests, {retries} retries)",
+                        *bytes as f64 / secs.max(1e-6)
+                    );
+                }
+            }
             for (id, path) in saved {
                 eprintln!("log {id}: wrote {}", path.display());
             }

@@ -319,3 +319,124 @@ fn headless_logs_out_exits_0_only_when_every_log_is_whole() {
         .count();
     assert_eq!(partials, 1);
 }
+
+/// `--logs-out` against the pymavlink stand-in (tests/py/fake_log_vehicle.py) over TCP in real
+/// time, at `loss` and with the link dropping for 3 s mid-log when `outage`: the file written
+/// is the bytes the stand-in served, and every request it got was valid.
+fn stand_in_download(loss: &str, outage: bool) {
+    let dir = tempfile::tempdir().unwrap();
+    let port = common::free_tcp_port();
+    let served = dir.path().join("served.bin");
+    let check = dir.path().join("check.json");
+    let mut a: Vec<std::ffi::OsString> = vec![
+        "--port".into(),
+        port.to_string().into(),
+        "--size".into(),
+        "40000".into(),
+        "--loss".into(),
+        loss.into(),
+        "--served-out".into(),
+        served.clone().into(),
+        "--check-out".into(),
+        check.clone().into(),
+    ];
+    if outage {
+        a.extend(["--outage-at".into(), "15000".into()]);
+    }
+    let mut fake = common::stand_in("fake_log_vehicle.py", &a);
+    let out_dir = dir.path().join("logs");
+    let out = std::process::Command::new(common::mavterm())
+        .args([
+            "--link",
+            &format!("tcp:127.0.0.1:{port}"),
+            "--headless",
+            "--duration",
+            "45",
+            "--logs-out",
+        ])
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(out.status.success(), "{stderr}");
+    let _ = fake.0.wait();
+    let path = out_dir.join("2025-11-24_16-00-00_log1.bin");
+    assert!(
+        std::fs::read(&path).unwrap() == std::fs::read(&served).unwrap(),
+        "the file is what the stand-in served"
+    );
+    let c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&check).unwrap()).unwrap();
+    assert_eq!(c["errors"], serde_json::json!([]), "{c}");
+    assert!(c["ends"].as_u64().unwrap() >= 1, "LOG_REQUEST_END sent");
+    let reqs = c["requests"].as_array().unwrap();
+    // The first asks from the start; every one within the log.
+    assert_eq!(reqs[0][1], 0);
+    for r in reqs {
+        let (ofs, count) = (r[1].as_u64().unwrap(), r[2].as_u64().unwrap());
+        assert!(ofs < 40_000 && count > 0 && ofs + count <= 40_000, "{r}");
+    }
+    if outage {
+        assert!(reqs.len() > 2, "asked again after the drop: {reqs:?}");
+    }
+}
+
+#[test]
+fn a_pymavlink_vehicle_serves_a_log_and_checks_every_request() {
+    stand_in_download("0", false);
+    stand_in_download("0.2", false);
+}
+
+#[test]
+fn a_download_goes_on_after_the_link_drops() {
+    stand_in_download("0", true);
+}
+
+#[test]
+fn nothing_goes_on_a_high_latency_link_unless_asked_there() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut r = runner("", dir.path());
+    r.app.links[0].profile.hl = true;
+    keys(&mut r, &["7"]);
+    command(&mut r, "log list");
+    wait(&mut r, 2.0);
+    assert!(
+        sim(&r).vehicle(1).unwrap().logs.list_requests.is_empty(),
+        "neither the screen nor `log list` asked"
+    );
+    let said = r.app.ui.message.clone().unwrap().1;
+    assert!(said.contains("high-latency"), "{said}");
+    command(&mut r, "log list --hl");
+    wait(&mut r, 2.0);
+    assert_eq!(sim(&r).vehicle(1).unwrap().logs.list_requests.len(), 1);
+    command(&mut r, "log get 1");
+    wait(&mut r, 1.0);
+    assert!(sim(&r).vehicle(1).unwrap().logs.data_requests.is_empty());
+    command(&mut r, "log get 1 --hl");
+    wait(&mut r, 1.0);
+    assert!(!sim(&r).vehicle(1).unwrap().logs.data_requests.is_empty());
+}
+
+#[test]
+fn log_rate_caps_the_download() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec: LinkSpec = "sim://?log_size=30000".parse().unwrap();
+    let cfg = AppConfig {
+        logs_dir: Some(dir.path().to_path_buf()),
+        fetch_params: false,
+        log_rate: Some(5000),
+        ..AppConfig::default()
+    };
+    let mut r = VirtualRunner::from_specs(&[spec], cfg).unwrap();
+    r.advance_to(3 * SECOND);
+    list(&mut r);
+    let t0 = r.now();
+    command(&mut r, "log get 3");
+    until_ended(&mut r, 60.0);
+    let t = logs(&r).transfer.as_ref().unwrap();
+    assert_eq!(t.state, State::Done);
+    let secs = (t.finished.unwrap() - t0) as f64 / 1e6;
+    let rate = t.entry.size as f64 / secs;
+    // The network link carries far more; capped at 5000 B/s (one window's burst allowed).
+    assert!(rate <= 5000.0 * 1.1 && rate > 3000.0, "{rate:.0} B/s");
+}

@@ -183,6 +183,8 @@ pub struct Listing {
     pub requests: u32,
     /// Why it stopped short.
     pub failed: Option<String>,
+    /// The listing asked ended (its last id came): what is missing is asked at once.
+    ended: bool,
 }
 
 impl Listing {
@@ -274,6 +276,8 @@ pub struct Transfer {
     last_data: Micros,
     /// When the next request may go (the `log_rate` cap).
     next_allowed: Micros,
+    /// The `log_rate` cap (bytes a second): windows of at most half a second of it.
+    pub rate_cap: Option<u32>,
     /// Recent (time, bytes here) samples for the rate.
     samples: VecDeque<(Micros, u32)>,
 }
@@ -303,6 +307,7 @@ impl Transfer {
             finished: None,
             last_data: now,
             next_allowed: now,
+            rate_cap: None,
             samples: VecDeque::new(),
         }
     }
@@ -392,7 +397,11 @@ impl Transfer {
         if from - self.written >= MAX_AHEAD {
             return None;
         }
-        let n = (self.window * CHUNK).min(size - from);
+        let window = match self.rate_cap {
+            Some(c) => self.window.min((c / 2 / CHUNK).max(MIN_WINDOW)),
+            None => self.window,
+        };
+        let n = (window * CHUNK).min(size - from);
         Some((from, from + n, false))
     }
 }
@@ -418,6 +427,9 @@ pub struct LogMachine {
     pub ext: &'static str,
     /// Downloads finished (done, failed, cancelled) in this session, newest last.
     pub history: Vec<(LogEntry, PathBuf, State)>,
+    /// Downloads saved in this session: (id, bytes, µs from start to saved, requests,
+    /// retries).
+    pub stats: Vec<(u16, u32, Micros, u32, u32)>,
     /// A list asked again after an erase, at this time.
     relist_at: Option<Micros>,
     /// A poll is due now (a request to send).
@@ -436,6 +448,7 @@ impl LogMachine {
             dir: None,
             ext: "bin",
             history: Vec::new(),
+            stats: Vec::new(),
             relist_at: None,
             due: None,
         }
@@ -474,6 +487,7 @@ impl LogMachine {
             _ => 1,
         };
         self.list.asked = Some((start, end, now, now, tries));
+        self.list.ended = false;
         self.list.requests += 1;
         self.send(
             MavMessage::LOG_REQUEST_LIST(LOG_REQUEST_LIST_DATA {
@@ -526,7 +540,8 @@ impl LogMachine {
         let Some(path) = path.or_else(|| self.default_path(&e)) else {
             return;
         };
-        let t = Transfer::new(now, e, path);
+        let mut t = Transfer::new(now, e, path);
+        t.rate_cap = self.rate_cap.filter(|c| *c > 0);
         self.io.push(LogIo::Open {
             partial: t.partial.clone(),
             max: e.size as u64,
@@ -664,6 +679,13 @@ impl LogMachine {
                     t.retries
                 );
                 self.history.push((t.entry, t.path.clone(), State::Done));
+                self.stats.push((
+                    t.entry.id,
+                    t.entry.size - t.resumed,
+                    now - t.started,
+                    t.requests,
+                    t.retries,
+                ));
                 out.push(Out::notice(Severity::INFO, text));
                 self.next_in_queue(now);
             }
@@ -737,8 +759,7 @@ impl LogMachine {
             if m.id >= a.1.min(l.last) {
                 // The last of that listing: anything missing is asked at once (the request
                 // stays known, for counting the tries of the same range).
-                a.2 = 0;
-                a.3 = 0;
+                l.ended = true;
                 self.due = Some(now);
             }
         }
@@ -889,10 +910,14 @@ impl Machine for LogMachine {
     }
 
     fn next_deadline(&self) -> Option<Micros> {
-        let list = self.list.asked.map(|(_, _, sent, last, _)| {
-            // Entries come a few tens of ms apart; a second of silence ends a listing.
-            sent.max(last) + SECOND
-        });
+        let list = self
+            .list
+            .asked
+            .filter(|_| !self.list.ended)
+            .map(|(_, _, sent, last, _)| {
+                // Entries come a few tens of ms apart; a second of silence ends a listing.
+                sent.max(last) + SECOND
+            });
         let list_more = (self.list.wanted
             && self.list.asked.is_none()
             && !self.list.complete()
@@ -920,7 +945,7 @@ impl LogMachine {
             return;
         }
         if let Some((s, e, sent, last, tries)) = l.asked {
-            if now < sent.max(last) + SECOND {
+            if now < sent.max(last) + SECOND && !l.ended {
                 return;
             }
             // Silence: the listing ended, or it (or its request) was lost.
@@ -1058,5 +1083,135 @@ mod tests {
         assert_eq!(r.0, vec![(0, 270), (360, 450)]);
         assert_eq!(r.missing_in(0, 500), 140);
         assert_eq!(r.holes(100, 400), vec![(270, 360)]);
+    }
+
+    use crate::link::LinkId;
+    use crate::proto::machine::LinkProfile;
+
+    fn incoming(now: Micros, msg: &MavMessage) -> Incoming<'_> {
+        Incoming {
+            now,
+            from: (1, 1),
+            link: 0 as LinkId,
+            profile: LinkProfile::default(),
+            id: 0,
+            payload: &[],
+            msg: Some(msg),
+            ack: None,
+        }
+    }
+
+    fn sends(out: &mut Vec<Out>) -> Vec<MavMessage> {
+        out.drain(..)
+            .filter_map(|o| match o {
+                Out::Send { msg, .. } => Some(msg),
+                _ => None,
+            })
+            .collect()
+    }
+
+    fn entry(id: u16, num: u16, last: u16) -> MavMessage {
+        MavMessage::LOG_ENTRY(LOG_ENTRY_DATA {
+            time_utc: 0,
+            size: 900,
+            id,
+            num_logs: num,
+            last_log_num: last,
+        })
+    }
+
+    fn data(ofs: u32, n: u8) -> MavMessage {
+        MavMessage::LOG_DATA(LOG_DATA_DATA {
+            ofs,
+            id: 2,
+            count: n,
+            data: [7; 90],
+        })
+    }
+
+    #[test]
+    fn a_lost_entry_is_asked_by_its_range_when_the_listing_ends() {
+        let mut m = LogMachine::new(VehicleKey(1, 1));
+        let mut out = Vec::new();
+        m.refresh(0, &mut out).unwrap();
+        assert!(
+            matches!(&sends(&mut out)[..], [MavMessage::LOG_REQUEST_LIST(l)] if l.start == 0 && l.end == 0xFFFF)
+        );
+        for id in [1, 3] {
+            m.on_message(&incoming(10_000, &entry(id, 3, 3)), &mut out);
+        }
+        // The last id came: the missing one at once, not after a silence.
+        assert_eq!(m.next_deadline(), Some(10_000));
+        m.poll(10_000, &mut out);
+        assert!(
+            matches!(&sends(&mut out)[..], [MavMessage::LOG_REQUEST_LIST(l)] if l.start == 2 && l.end == 2)
+        );
+        m.on_message(&incoming(20_000, &entry(2, 3, 2)), &mut out);
+        assert!(m.list.complete());
+        assert_eq!(
+            m.list
+                .newest_first()
+                .iter()
+                .map(|e| e.id)
+                .collect::<Vec<_>>(),
+            vec![3, 2, 1]
+        );
+    }
+
+    #[test]
+    fn a_gap_is_asked_as_soon_as_the_request_ends_and_the_file_is_a_prefix() {
+        let mut m = LogMachine::new(VehicleKey(1, 1));
+        m.dir = Some(PathBuf::from("/d"));
+        m.list.entries.insert(
+            2,
+            LogEntry {
+                id: 2,
+                time_utc: 0,
+                size: 900,
+            },
+        );
+        let mut out = Vec::new();
+        m.get(0, 2, None).unwrap();
+        let io = m.take_io();
+        assert_eq!(
+            io,
+            vec![LogIo::Open {
+                partial: PathBuf::from("/d/log2_no-time.bin.partial"),
+                max: 900
+            }]
+        );
+        m.on_io(
+            0,
+            LogIoDone::Opened {
+                partial: PathBuf::from("/d/log2_no-time.bin.partial"),
+                have: 0,
+            },
+            &mut out,
+        );
+        m.poll(0, &mut out);
+        assert!(
+            matches!(&sends(&mut out)[..], [MavMessage::LOG_REQUEST_DATA(r)] if r.id == 2 && r.ofs == 0 && r.count == 900 && r.target_system == 1)
+        );
+        // 90..180 lost.
+        for k in (0..10).filter(|k| *k != 1) {
+            m.on_message(&incoming(1000 * k as u64, &data(90 * k, 90)), &mut out);
+        }
+        // Only the prefix before the gap is written.
+        let io = m.take_io();
+        assert!(matches!(&io[..], [LogIo::Write { ofs: 0, bytes, .. }] if bytes.len() == 90));
+        assert!(m.next_deadline().is_some_and(|d| d <= 9000));
+        m.poll(9000, &mut out);
+        assert!(
+            matches!(&sends(&mut out)[..], [MavMessage::LOG_REQUEST_DATA(r)] if r.ofs == 90 && r.count == 90)
+        );
+        m.on_message(&incoming(20_000, &data(90, 90)), &mut out);
+        let io = m.take_io();
+        assert!(matches!(&io[0], LogIo::Write { ofs: 90, bytes, .. } if bytes.len() == 810));
+        assert!(matches!(&io[1], LogIo::Finish { size: 900, .. }));
+        assert!(matches!(
+            &sends(&mut out)[..],
+            [MavMessage::LOG_REQUEST_END(_)]
+        ));
+        assert_eq!(m.transfer.as_ref().unwrap().retries, 1);
     }
 }
