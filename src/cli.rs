@@ -68,6 +68,16 @@ pub struct Cli {
     #[arg(long, value_name = "FILE")]
     pub params_out: Option<PathBuf>,
 
+    /// Headless: download the first autopilot's onboard logs into DIR (the newest, or those of
+    /// --log-ids), named by their time; exits 0 only when every one is whole. `--duration`
+    /// limits the wait (default 3600 s).
+    #[arg(long, value_name = "DIR")]
+    pub logs_out: Option<PathBuf>,
+
+    /// Headless, with --logs-out: the ids of the logs to download (comma-separated).
+    #[arg(long, value_name = "IDS", value_delimiter = ',', requires = "logs_out")]
+    pub log_ids: Vec<u16>,
+
     /// Parameter metadata: ArduPilot's `apm.pdef.xml` or PX4's `parameters.xml` (default:
     /// `param-meta.xml` in mavterm's config directory, when there is one).
     #[arg(long, value_name = "FILE")]

@@ -64,6 +64,8 @@ pub struct FileConfig {
     pub signing_allow_unsigned_heartbeat: Option<bool>,
     /// `utc`: show times in UTC, not local time.
     pub utc: Option<bool>,
+    /// `log_rate`: onboard log downloads at most this many bytes a second.
+    pub log_rate: Option<u32>,
 }
 
 impl FileConfig {
@@ -83,6 +85,9 @@ impl FileConfig {
         }
         if let Some(v) = self.nudge_deadman {
             cfg.nudge_deadman = seconds_to_micros(v);
+        }
+        if let Some(v) = self.log_rate {
+            cfg.log_rate = Some(v);
         }
         self.apply_streams(&mut cfg.streams);
     }
@@ -234,7 +239,7 @@ impl Found {
 }
 
 const KEYS: &str = "sysid, compid, lost_timeout, takeoff_alt, nudge_deadman, links, signing_key, \
-                    signing_allow_unsigned_heartbeat, utc, [streams]";
+                    signing_allow_unsigned_heartbeat, utc, log_rate, [streams]";
 
 /// Check a config file's `text`; `path` names it in errors. Every key is optional; unknown keys
 /// and bad values are refused, all of them at once, each with its line and column.
@@ -317,6 +322,18 @@ pub fn load(path: &Path, text: &str) -> Result<FileConfig, ConfigError> {
                 )
             }
             "utc" => cfg.utc = found.check("utc", value, "true or false", |v| v.as_bool()),
+            "log_rate" => {
+                cfg.log_rate = found.check(
+                    "log_rate",
+                    value,
+                    "bytes a second from 100 to 100000000",
+                    |v| {
+                        integer(v)
+                            .filter(|r| (100..=100_000_000).contains(r))
+                            .map(|r| r as u32)
+                    },
+                )
+            }
             "streams" => streams(value, &mut found, &mut cfg),
             other => found.add(
                 key.span().start,

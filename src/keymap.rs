@@ -287,6 +287,16 @@ pub enum Action {
     GimbalLeft,
     GimbalRight,
     GimbalCenter,
+    /// Logs screen: download the selected log (queued behind the one running).
+    LogDownload,
+    /// Logs screen: download the newest log.
+    LogLatest,
+    /// Logs screen: cancel the download and the queue (LOG_REQUEST_END).
+    LogCancel,
+    /// Logs screen: erase every log on the vehicle (asks first; LOG_ERASE).
+    LogErase,
+    /// Logs screen: ask the vehicle for its list again.
+    LogRefresh,
     /// Messages pane: show only more severe messages (all, INFO+, NOTICE+, WARN+, ERROR+).
     MsgSeverity,
     /// Messages pane: the severity filter's step back.
@@ -567,6 +577,31 @@ impl Action {
             Action::GimbalCenter,
             "gimbal_center",
             "gimbal: level, straight ahead",
+        ),
+        (
+            Action::LogDownload,
+            "log_download",
+            "logs: download the selected log (queued behind the one running)",
+        ),
+        (
+            Action::LogLatest,
+            "log_latest",
+            "logs: download the newest log",
+        ),
+        (
+            Action::LogCancel,
+            "log_cancel",
+            "logs: cancel the download and the queue (LOG_REQUEST_END)",
+        ),
+        (
+            Action::LogErase,
+            "log_erase",
+            "logs: erase every log on the vehicle (asks first)",
+        ),
+        (
+            Action::LogRefresh,
+            "log_refresh",
+            "logs: ask the vehicle for its list again",
         ),
         (
             Action::MsgSeverity,

@@ -46,6 +46,7 @@ fn app_config(cli: &Cli, file: &FileConfig, wall_clock: bool) -> Result<AppConfi
     Ok(AppConfig {
         param_meta: load_param_meta(cli)?,
         param_meta_cache: mavterm::paths::cache_dir(),
+        logs_dir: mavterm::paths::logs_dir(),
         param_meta_url: std::env::var("MAVTERM_PARAM_META_URL")
             .ok()
             .filter(|u| !u.trim().is_empty()),
@@ -264,6 +265,9 @@ fn run_on(cli: Cli, rt: &tokio::runtime::Runtime) -> Result<()> {
         if let Some(out) = &cli.params_out {
             return params_out(&cli, cfg, out, &links, &edge, rt.handle());
         }
+        if let Some(dir) = &cli.logs_out {
+            return logs_out(&cli, cfg, dir, &links, &edge, rt.handle());
+        }
         if let Some(script) = &script {
             return replay(&cli, cfg, script, &links, &edge, keymap, rt.handle());
         }
@@ -339,6 +343,88 @@ fn not_recording(why: &str) -> mavterm::app::Event {
         dropped: 0,
         error: Some(why.to_string()),
     })
+}
+
+/// `--headless --logs-out DIR`: the first autopilot's onboard logs, progress on stderr.
+fn logs_out(
+    cli: &Cli,
+    cfg: AppConfig,
+    dir: &std::path::Path,
+    links: &[LinkSpec],
+    edge: &Edge,
+    rt: &tokio::runtime::Handle,
+) -> Result<()> {
+    use mavterm::headless::logs::{drive, Progress, StopWhenDone};
+    let limit = (cli.duration.unwrap_or(3600.0) * SECOND as f64) as u64;
+    let (app, p) = if all_virtual(links) && edge.outs.is_empty() {
+        let mut r = VirtualRunner::from_specs(links, cfg)?;
+        edge.start_virtual(&mut r);
+        let (mut t, mut asked, mut last) = (0, false, String::new());
+        let mut p = Progress::NoVehicle;
+        while t < limit && !p.ended() {
+            t += SECOND / 4;
+            r.advance_to(t);
+            p = drive(&mut r.app, dir, &cli.log_ids, &mut asked);
+            let line = format!("{p:?}");
+            if line != last {
+                eprintln!("{line}");
+                last = line;
+            }
+        }
+        r.finish_recording();
+        (r.app, p)
+    } else {
+        let mut runner = RealTimeRunner::start(rt.clone(), links, cfg);
+        {
+            let _in_rt = rt.enter();
+            edge.start_real(&mut runner.inner);
+        }
+        let start = runner.inner.now();
+        let mut front = StopWhenDone {
+            dir: dir.to_path_buf(),
+            ids: cli.log_ids.clone(),
+            asked: false,
+            last: String::new(),
+            progress: None,
+        };
+        let _ = rt.block_on(runner.inner.run(Some(start + limit), &mut front));
+        runner.inner.finish();
+        (
+            runner.inner.app,
+            front.progress.unwrap_or(Progress::NoVehicle),
+        )
+    };
+    save_signing(&app)?;
+    match p {
+        Progress::Done(saved) => {
+            if let Some(s) = app.target.and_then(|k| app.sessions.get(&k)) {
+                let l = &s.logs.list;
+                if let Some(done) = l.done {
+                    eprintln!(
+                        "listed {} logs in {:.2} s ({} requests, {} again)",
+                        l.entries.len(),
+                        done.saturating_sub(l.started) as f64 / 1e6,
+                        l.requests,
+                        l.retries
+                    );
+                }
+                for (id, bytes, us, requests, retries) in &s.logs.stats {
+                    let secs = *us as f64 / 1e6;
+                    eprintln!(
+                        "log {id}: {bytes} bytes in {secs:.2} s = {:.0} B/s ({requests} requests, {retries} retries)",
+                        *bytes as f64 / secs.max(1e-6)
+                    );
+                }
+            }
+            for (id, path) in saved {
+                eprintln!("log {id}: wrote {}", path.display());
+            }
+            Ok(())
+        }
+        Progress::Failed(why) => bail!("{why}"),
+        Progress::NoVehicle => bail!("no autopilot heard"),
+        Progress::Running(at) => bail!("not complete in the time given: {at}"),
+    }
 }
 
 /// `--headless --params-out FILE`: the first autopilot's parameters, progress on stderr.

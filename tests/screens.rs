@@ -17,6 +17,7 @@ const EXPECTED: &[(char, &str, &str)] = &[
     ('4', "inspector", "MAVLink Inspector"),
     ('5', "mission", "Mission"),
     ('6', "camera", "Camera"),
+    ('7', "logs", "Logs"),
 ];
 
 #[test]
@@ -48,7 +49,7 @@ fn every_listed_screen_has_its_keymap_section_and_no_other_name_does() {
             );
         }
     }
-    let e = Keymap::from_toml("[normal.logs]\nhelp = [\"f5\"]\n", "t.toml").unwrap_err();
+    let e = Keymap::from_toml("[normal.nosuch]\nhelp = [\"f5\"]\n", "t.toml").unwrap_err();
     let text = e.to_string();
     for (_, name, _) in EXPECTED {
         assert!(text.contains(name), "{text}");
@@ -77,7 +78,7 @@ fn every_listed_screen_has_its_number_key_and_its_help() {
             .iter()
             .map(|r| r.0.as_str())
             .collect();
-        assert_eq!(keys, ["1", "2", "3", "4", "5", "6"], "on {name}");
+        assert_eq!(keys, ["1", "2", "3", "4", "5", "6", "7"], "on {name}");
         let own = !app
             .keymap
             .section(Section::Screen(usize::from(n - 1)))

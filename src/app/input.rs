@@ -323,6 +323,11 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
         "mode, shoot [N [S]], stop, video start|stop, zoom, focus, format",
     ),
     (
+        "log",
+        "SUB …",
+        "onboard logs: list; get ID|latest [FILE] [--hl]; erase; cancel",
+    ),
+    (
         "gimbal",
         "PITCH YAW",
         "point the gimbal (degrees; DO_GIMBAL_MANAGER_PITCHYAW)",
@@ -380,6 +385,8 @@ pub enum Command {
     Replay(crate::link::replay::ReplayCmd),
     /// Operate the target's camera or gimbal.
     Camera(super::camera::CameraCmd),
+    /// The target's onboard logs.
+    Log(super::logs::LogCmd),
     /// Missions, fence, rally points; guided go-to and altitude.
     Mission(super::mission::MissionCmd),
     /// Change to the flight mode of this number in the target's mode table (`mode 4`).
@@ -559,6 +566,7 @@ pub fn parse_command(line: &str, takeoff_alt: f64) -> Result<Command, String> {
         }
         "replay" => super::replay::parse(rest).map(Command::Replay),
         "camera" => super::camera::parse(rest).map(Command::Camera),
+        "log" => super::logs::parse(rest).map(Command::Log),
         "gimbal" => super::camera::parse_gimbal(rest).map(Command::Camera),
         "mode" if rest.is_empty() || rest.contains(' ') => Err(
             "usage: mode NAME or NUMBER, e.g. mode guided or mode 4 (tab lists the modes)".into(),

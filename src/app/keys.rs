@@ -390,6 +390,7 @@ impl App {
             Command::Mission(cmd) => self.run_mission(cmd, fx),
             Command::Signing(cmd) => self.run_signing(cmd),
             Command::Camera(cmd) => self.run_camera(cmd, fx),
+            Command::Log(cmd) => self.run_log(cmd, fx),
             Command::ParamMeta(cmd) => self.run_param_meta(cmd, fx),
             Command::ModeNumber(n) => self.run_mode_number(n, fx),
             Command::Route(link) => {
@@ -528,6 +529,11 @@ impl App {
             | Action::GimbalLeft
             | Action::GimbalRight
             | Action::GimbalCenter => self.on_camera_action(action, fx),
+            Action::LogDownload
+            | Action::LogLatest
+            | Action::LogCancel
+            | Action::LogErase
+            | Action::LogRefresh => self.on_log_action(action, fx),
             Action::MissionList
             | Action::MissionSource
             | Action::MissionDownload

@@ -12,6 +12,7 @@ pub mod input;
 pub mod inspector;
 mod keys;
 pub mod links;
+pub mod logs;
 pub mod messages;
 pub mod mission;
 pub mod notices;
@@ -82,6 +83,12 @@ pub struct AppConfig {
     /// Fly mode's deadman: a nudge stops when no key of it has come for this long
     /// (config `nudge_deadman`, seconds).
     pub nudge_deadman: Micros,
+    /// Where onboard logs go (`logs` in mavterm's data directory); `None`: `log get` needs a
+    /// file.
+    pub logs_dir: Option<std::path::PathBuf>,
+    /// Onboard log downloads at most this many bytes a second (config `log_rate`); `None`: as
+    /// fast as the link goes.
+    pub log_rate: Option<u32>,
 }
 
 impl Default for AppConfig {
@@ -102,6 +109,8 @@ impl Default for AppConfig {
             param_meta_url: None,
             signing: None,
             nudge_deadman: nudge::DEADMAN,
+            logs_dir: None,
+            log_rate: None,
         }
     }
 }
@@ -174,6 +183,11 @@ pub enum Event {
         link: LinkId,
         status: ReplayStatus,
     },
+    /// What came of an onboard log's file work ([`Effect::LogFile`]).
+    LogFile {
+        key: VehicleKey,
+        done: crate::proto::logs::LogIoDone,
+    },
 }
 
 /// What the core wants done.
@@ -206,6 +220,12 @@ pub enum Effect {
     /// Read cached parameter metadata; the bytes come back as [`Event::ParamMeta`].
     ReadParamMeta {
         path: std::path::PathBuf,
+    },
+    /// File work of an onboard log download of vehicle `key` (the edge carries it out in
+    /// order); what came of it returns as [`Event::LogFile`].
+    LogFile {
+        key: VehicleKey,
+        io: crate::proto::logs::LogIo,
     },
     /// Open another link, whose id is `link` (the next free one).
     OpenLink {
@@ -282,6 +302,8 @@ pub struct UiState {
     pub inspector: inspector::InspectorView,
     /// The Camera screen's selected camera (row among the target's cameras).
     pub camera_sel: usize,
+    /// The Logs screen's selection (a row of the list, newest first).
+    pub logs: logs::LogsView,
     /// The gimbal the gimbal keys and `gimbal` point (index among the target's gimbals).
     pub gimbal_sel: usize,
     /// The Mission screen and the mission files loaded.
@@ -329,6 +351,7 @@ impl Default for UiState {
             params: params::ParamView::default(),
             inspector: inspector::InspectorView::default(),
             camera_sel: 0,
+            logs: logs::LogsView::default(),
             gimbal_sel: 0,
             mission: mission::MissionView::default(),
             mode_picker: None,
@@ -708,6 +731,7 @@ impl App {
             Event::Recording(st) => self.on_recording(st),
             Event::Output { out, status } => self.on_output(out, status),
             Event::ReplayStatus { link, status } => self.on_replay_status(link, status),
+            Event::LogFile { key, done } => self.on_log_file(key, done, &mut fx),
         }
         self.poll_confirm();
         self.poll_nudge(&mut fx);
@@ -715,6 +739,7 @@ impl App {
         self.follow_reason();
         self.poll_param_meta(&mut fx);
         self.follow_selected_command();
+        self.follow_logs(&mut fx);
         fx
     }
 
@@ -1008,6 +1033,7 @@ impl App {
                 self.cfg.streams.clone(),
             );
             s.mission.gcs = (self.cfg.sysid, self.cfg.compid);
+            self.setup_logs(&mut s, hb.autopilot);
             self.sessions.insert(key, s);
             if alone && self.target.is_none() && !self.target_held {
                 self.target = Some(key);

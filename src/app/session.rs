@@ -29,6 +29,7 @@ use crate::proto::camera::{CameraAction, CameraSet};
 use crate::proto::commands::{self, CmdOut, CommandQueue, CommandSpec, State};
 use crate::proto::comp_meta::CompMeta;
 use crate::proto::gimbal::GimbalSet;
+use crate::proto::logs::LogMachine;
 use crate::proto::machine::{Ids, Incoming, Machine, MachineEvent, Out, Requests, Route};
 use crate::proto::mission::{MissionMachine, Request as MissionRequest};
 use crate::proto::params::{ParamMachine, ParamOut};
@@ -91,6 +92,7 @@ impl Dispatch {
     pub const CAMERAS: u16 = 1 << 6;
     pub const GIMBALS: u16 = 1 << 7;
     pub const COMP_META: u16 = 1 << 8;
+    pub const LOGS: u16 = 1 << 9;
 }
 
 /// Each machine's bit and the ids it reads.
@@ -104,6 +106,7 @@ pub const TABLE: &[(u16, Ids)] = &[
     (Dispatch::CAMERAS, CameraSet::IDS),
     (Dispatch::GIMBALS, GimbalSet::IDS),
     (Dispatch::COMP_META, CompMeta::IDS),
+    (Dispatch::LOGS, LogMachine::IDS),
 ];
 
 /// The machines that read message `id`, from [`TABLE`] (built once).
@@ -189,6 +192,8 @@ pub struct Session {
     pub gimbals: GimbalSet,
     /// Parameter metadata asked of the vehicle (component metadata protocol).
     pub comp_meta: CompMeta,
+    /// The onboard logs: the list, the download and its queue.
+    pub logs: LogMachine,
     /// The custom mode of the autopilot's last heartbeat.
     mode_seen: Option<u32>,
     /// DO_SET_MODEs that may still be resent: (queue id, the mode the heartbeat showed when it
@@ -226,6 +231,7 @@ impl Session {
                 key,
                 fetch_params && crate::proto::profile::of(autopilot).component_metadata(),
             ),
+            logs: LogMachine::new(key),
             mode_seen: None,
             mode_asks: Vec::new(),
             quiet: std::collections::BTreeSet::new(),
@@ -337,6 +343,10 @@ impl Session {
         }
         if w & Dispatch::MISSION != 0 {
             Machine::on_message(&mut self.mission, m, &mut buf);
+            self.deliver(now, &mut buf, &mut out);
+        }
+        if w & Dispatch::LOGS != 0 {
+            Machine::on_message(&mut self.logs, m, &mut buf);
             self.deliver(now, &mut buf, &mut out);
         }
         // A SET_MESSAGE_INTERVAL's ACK is the stream machine's while one of its own waits,
@@ -800,6 +810,7 @@ impl Session {
         self.sequence.is_some()
             || self.params.busy()
             || self.mission.busy()
+            || self.logs.busy()
             || self.commands.entries().any(|e| e.open())
     }
 
@@ -836,10 +847,24 @@ impl Session {
         Machine::poll(&mut self.gimbals, now, &mut buf);
         self.deliver(now, &mut buf, &mut out);
         Machine::poll(&mut self.comp_meta, now, &mut buf);
+        Machine::poll(&mut self.logs, now, &mut buf);
         self.deliver(now, &mut buf, &mut out);
         self.offer_requests(now, &mut out);
         self.hold_streams();
         out
+    }
+
+    /// An operator's action on the log machine, its output delivered.
+    pub fn logs_do<T>(
+        &mut self,
+        now: Micros,
+        f: impl FnOnce(&mut LogMachine, &mut Vec<Out>) -> T,
+    ) -> (T, Vec<SessionOut>) {
+        let mut buf = Vec::new();
+        let r = f(&mut self.logs, &mut buf);
+        let mut out = Vec::new();
+        self.deliver(now, &mut buf, &mut out);
+        (r, out)
     }
 
     /// The operator fetches the parameters of component `comp`.
@@ -881,6 +906,7 @@ impl Session {
             Machine::next_deadline(&self.cameras),
             Machine::next_deadline(&self.gimbals),
             Machine::next_deadline(&self.comp_meta),
+            Machine::next_deadline(&self.logs),
         ]
         .into_iter()
         .flatten()

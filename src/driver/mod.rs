@@ -14,6 +14,7 @@
 
 pub mod fetch;
 pub mod forward;
+pub mod logfile;
 pub mod real_time;
 pub mod record;
 pub mod virtual_time;
@@ -99,6 +100,7 @@ fn run_events(app: &mut App, links: &mut impl Links, now: Micros, mut queue: Vec
             if let Event::Frames { link, frames, .. } = &ev {
                 links.heard(wall, *link, frames);
             }
+            let mut log_done = Vec::new();
             for e in app.update(now, ev) {
                 match e {
                     Effect::Send { link, frame, .. } => {
@@ -115,9 +117,16 @@ fn run_events(app: &mut App, links: &mut impl Links, now: Micros, mut queue: Vec
                     Effect::ReadParamMeta { path } => links.read_param_meta(path),
                     Effect::OpenLink { link, spec } => links.open(now, link, spec),
                     Effect::ReplayControl { link, cmd } => links.replay_control(now, link, cmd),
+                    // In order, here: a write is small, and the rename must follow the writes.
+                    Effect::LogFile { key, io } => {
+                        if let Some(done) = logfile::carry_out(io) {
+                            log_done.push(Event::LogFile { key, done });
+                        }
+                    }
                     Effect::Quit => {}
                 }
             }
+            queue.extend(log_done.into_iter().rev());
         }
         queue = links.end_step(now);
         queue.reverse(); // taken from the back: in the order given

@@ -7,6 +7,7 @@ pub mod commands;
 pub mod comp_meta;
 pub mod ftp_file;
 pub mod gimbal;
+pub mod logs;
 pub mod loss;
 pub mod machine;
 pub mod mav_cmds;

@@ -102,6 +102,16 @@ pub const OPTIONS: &[(&str, &str, &str)] = &[
         "0",
         "ArduPilot's mount on each autopilot, device 1 [default: as camera]",
     ),
+    (
+        "logs",
+        "5",
+        "onboard logs each vehicle has, 0 to 500 [default: 3]",
+    ),
+    (
+        "log_size",
+        "200000",
+        "bytes of the newest onboard log (older ones smaller) [default: 60000]",
+    ),
 ];
 
 /// The option names, comma-separated, for messages.
@@ -174,6 +184,10 @@ pub struct SimConfig {
     /// `gimbal=1`: each autopilot has a mount (AP_Mount, gimbal manager on its own component,
     /// [`super::gimbal`]); `None`: as `camera` (a camera on a gimbal), `gimbal=0` none.
     pub gimbal: Option<bool>,
+    /// `logs=N`: onboard logs each vehicle has ([`super::logs`]).
+    pub logs: u16,
+    /// `log_size=BYTES`: the newest log's size; log `i` of `n` is `i/n` of it.
+    pub log_size: u32,
 }
 
 impl Default for SimConfig {
@@ -197,6 +211,8 @@ impl Default for SimConfig {
             camera: false,
             camera_drop: None,
             gimbal: None,
+            logs: 3,
+            log_size: 60_000,
         }
     }
 }
@@ -337,6 +353,14 @@ impl SimConfig {
                     c.mission_boot_ms = num(key, value, "milliseconds (a whole number)")?
                 }
                 "camera" => c.camera = flag(key, value)?,
+                "logs" => {
+                    let n: u16 = num(key, value, "a log count from 0 to 500")?;
+                    if n > 500 {
+                        return Err(bad(key, value, "expected a log count from 0 to 500"));
+                    }
+                    c.logs = n;
+                }
+                "log_size" => c.log_size = num(key, value, "bytes (a whole number)")?,
                 "gimbal" => c.gimbal = Some(flag(key, value)?),
                 "camera_drop" => {
                     c.camera_drop = Some(

@@ -180,10 +180,34 @@ impl SimVehicle {
             }
             MavMessage::SET_POSITION_TARGET_LOCAL_NED(m) => self.set_position_target_local_ned(m),
             MavMessage::SET_POSITION_TARGET_GLOBAL_INT(m) => self.set_position_target_global_int(m),
+            MavMessage::LOG_REQUEST_LIST(m) if self.for_me(m.target_system, m.target_component) => {
+                self.log_message(msg)
+            }
+            MavMessage::LOG_REQUEST_DATA(m) if self.for_me(m.target_system, m.target_component) => {
+                self.log_message(msg)
+            }
+            MavMessage::LOG_ERASE(m) if self.for_me(m.target_system, m.target_component) => {
+                self.log_message(msg)
+            }
+            MavMessage::LOG_REQUEST_END(m) if self.for_me(m.target_system, m.target_component) => {
+                self.log_message(msg)
+            }
             // ArduPilot has no handler for COMMAND_CANCEL (GCS_MAVLINK::handle_message has no
             // case for it): it is ignored, nothing is cancelled, nothing is acknowledged.
             MavMessage::COMMAND_CANCEL(_) => {}
             _ => {}
+        }
+    }
+
+    /// `AP_Logger::handle_log_message`: refused while armed, with the reason once.
+    fn log_message(&mut self, msg: &MavMessage) {
+        if let Err(text) = self.logs.handle(self.armed, msg) {
+            let sev = if text.starts_with("Disarm") {
+                MavSeverity::MAV_SEVERITY_ERROR
+            } else {
+                MavSeverity::MAV_SEVERITY_INFO
+            };
+            self.text(sev, text);
         }
     }
 

@@ -158,6 +158,11 @@ impl Impairer {
         out
     }
 
+    /// When the radio has sent everything queued (the UART's backlog ends).
+    pub fn busy_until(&self) -> Micros {
+        self.busy_until
+    }
+
     /// When the next queued frame is due.
     pub fn next_due(&self) -> Option<Micros> {
         self.queue.front().map(|(d, _)| *d)

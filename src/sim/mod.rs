@@ -31,6 +31,7 @@ pub mod gimbal;
 pub mod guided;
 pub mod handlers;
 pub mod impair;
+pub mod logs;
 pub mod mavftp;
 pub mod mission;
 pub mod param_send;
@@ -140,6 +141,7 @@ impl Sim {
             let mut v = SimVehicle::new(sysid, i, cfg.seed, params, path);
             v.drop_left = cfg.drop_cmd.clone();
             v.set_link(cfg.baud, cfg.ftp);
+            v.logs = logs::SimLogs::new(cfg.logs, cfg.log_size);
             v.mission.ready_at = cfg.mission_boot_ms.saturating_mul(1000);
             if cfg.gimbal.unwrap_or(cfg.camera) {
                 v.mount = Some(gimbal::SimMount::default());
@@ -312,6 +314,15 @@ impl Sim {
         while self.next_tick <= now {
             let t = self.next_tick;
             for i in 0..self.vehicles.len() {
+                // The UART's room: its buffer less what the radio still has to send.
+                self.vehicles[i].txspace = match self.cfg.baud {
+                    Some(b) => {
+                        let backlog = self.impair.busy_until().saturating_sub(t);
+                        let bytes = backlog * (b as u64 / 10) / 1_000_000;
+                        logs::UART_TXBUF.saturating_sub(bytes)
+                    }
+                    None => param_send::TXSPACE_CAP,
+                };
                 self.vehicles[i].tick(t);
                 self.flush(i, t);
             }

@@ -328,6 +328,10 @@ pub struct SimVehicle {
     pub(super) booted: bool,
     /// The MAVLink port as GCS_MAVLINK sees it (bandwidth, flow control).
     pub(super) link: LinkModel,
+    /// The onboard logs and their transfer ([`super::logs`]).
+    pub logs: super::logs::SimLogs,
+    /// Room in the UART's transmit buffer this tick (bytes), set by the simulator.
+    pub(super) txspace: u64,
     /// PARAM_REQUEST_LIST download and PARAM_REQUEST_READ answers.
     pub(super) param_send: ParamSender,
     /// When `queued_param_send` (MSG_NEXT_PARAM) runs next.
@@ -422,6 +426,8 @@ impl SimVehicle {
             next_heartbeat: 0,
             booted: false,
             link: LinkModel::new(None),
+            logs: super::logs::SimLogs::new(0, 0),
+            txspace: 0,
             param_send: ParamSender::default(),
             next_param_run: 0,
             baro_notified: 0,
@@ -637,6 +643,9 @@ impl SimVehicle {
         }
         let ftp = self.ftp.poll(now, &self.params);
         self.ftp_out(ftp);
+        for m in self.logs.tick(self.txspace, self.link.flow_control) {
+            self.push(m);
+        }
     }
 
     /// Send what the FTP worker produced.
@@ -660,7 +669,8 @@ impl SimVehicle {
         if let Some(b) = &self.blocked {
             return (b.until.div_ceil(TICK) * TICK).max(next_tick);
         }
-        let busy = self.param_send.io_pending()
+        let busy = self.logs.active()
+            || self.param_send.io_pending()
             || self.airspeed_cal.is_some()
             || (self.armed && !self.landed)
             || (self.armed && self.armed_on_ground_since.is_some())

@@ -245,7 +245,13 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             let of = count.map_or("?".into(), |c| c.to_string());
             format!("  params {got}/{of}")
         })
-        .unwrap_or_default();
+        .unwrap_or_default()
+        + &app
+            .target
+            .and_then(|k| app.sessions.get(&k))
+            .and_then(crate::app::logs::status_text)
+            .map(|t| format!("  {t}"))
+            .unwrap_or_default();
     let mut target = target_text(app) + &progress;
     // Fly mode stands first, loud: the keys fly the vehicle.
     let fly = app.fly_text().map(|f| f + "  ").unwrap_or_default();

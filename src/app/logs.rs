@@ -1,0 +1,448 @@
+//! The target's onboard logs, the operator's side: `log list`, `log get ID|latest [FILE]`,
+//! `log erase` (asks first, naming the vehicle), `log cancel`, the Logs screen's keys, and the
+//! file work of downloads handed to the edge ([`Effect::LogFile`]).
+//!
+//! Nothing of it goes on a high-latency link unless the operator asks there explicitly
+//! (`--hl`); one transfer per vehicle (a second `get` is queued); `log_rate` caps the rate.
+
+use std::path::PathBuf;
+
+use super::confirm::{Ask, Confirmed};
+use super::session::Session;
+use super::{App, Effect};
+use crate::dialect::MavAutopilot;
+use crate::keymap::Action;
+use crate::proto::logs::{LogIoDone, State};
+use crate::proto::vehicles::VehicleKey;
+use crate::wire::Severity;
+
+/// Which log.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Which {
+    Id(u16),
+    Latest,
+}
+
+/// A `log` command.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LogCmd {
+    List {
+        hl: bool,
+    },
+    Get {
+        which: Which,
+        file: Option<PathBuf>,
+        hl: bool,
+    },
+    Erase,
+    Cancel,
+}
+
+pub const USAGE: &str =
+    "usage: log list | log get ID|latest [FILE] [--hl] | log erase | log cancel";
+
+/// `log …` after the word `log`.
+pub fn parse(rest: &str) -> Result<LogCmd, String> {
+    let mut words: Vec<&str> = rest.split_whitespace().collect();
+    let hl = words.contains(&"--hl");
+    words.retain(|w| *w != "--hl");
+    match words.as_slice() {
+        ["list"] | ["ls"] => Ok(LogCmd::List { hl }),
+        ["erase"] => Ok(LogCmd::Erase),
+        ["cancel"] => Ok(LogCmd::Cancel),
+        ["get", which, file @ ..] if file.len() <= 1 => {
+            let which = match *which {
+                "latest" | "last" => Which::Latest,
+                n => Which::Id(
+                    n.parse::<u16>()
+                        .map_err(|_| format!("`{n}` is not a log id (or `latest`)"))?,
+                ),
+            };
+            Ok(LogCmd::Get {
+                which,
+                file: file.first().map(|f| crate::paths::expand_home(f)),
+                hl,
+            })
+        }
+        _ => Err(USAGE.into()),
+    }
+}
+
+/// A download asked before the list was whole: started when it is.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Pending {
+    pub key: VehicleKey,
+    pub which: Which,
+    pub file: Option<PathBuf>,
+}
+
+/// The Logs screen's state.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LogsView {
+    /// The selected row (newest first).
+    pub sel: usize,
+    pub pending: Vec<Pending>,
+    /// Lists asked when the screen was first shown, per vehicle.
+    pub listed: std::collections::BTreeSet<VehicleKey>,
+}
+
+impl App {
+    /// A new session's log machine: where its logs go, the rate cap, the file extension.
+    pub(super) fn setup_logs(&self, s: &mut Session, autopilot: MavAutopilot) {
+        s.logs.dir = self
+            .cfg
+            .logs_dir
+            .as_ref()
+            .map(|d| d.join("vehicle").join(s.key.0.to_string()));
+        s.logs.rate_cap = self.cfg.log_rate;
+        s.logs.ext = match autopilot {
+            MavAutopilot::MAV_AUTOPILOT_PX4 => "ulg",
+            _ => "bin",
+        };
+    }
+
+    /// True when what goes to `key` would leave on a high-latency link.
+    fn logs_on_hl(&self, key: VehicleKey) -> bool {
+        self.route(key)
+            .and_then(|l| self.links.get(l))
+            .is_some_and(|l| l.profile.hl)
+    }
+
+    fn logs_target(&self, hl: bool) -> Result<VehicleKey, String> {
+        let key = self.target.ok_or("no target vehicle")?;
+        if !self.sessions.contains_key(&key) {
+            return Err(format!("{key} is not an autopilot"));
+        }
+        if !hl && self.logs_on_hl(key) {
+            return Err(format!(
+                "{key} is reached on a high-latency link only: `log list --hl` / `log get ID --hl` to use it anyway"
+            ));
+        }
+        Ok(key)
+    }
+
+    /// A `log` command.
+    pub(super) fn run_log(
+        &mut self,
+        cmd: LogCmd,
+        fx: &mut Vec<Effect>,
+    ) -> Result<Option<String>, String> {
+        let now = self.now;
+        match cmd {
+            LogCmd::List { hl } => {
+                let key = self.logs_target(hl)?;
+                self.ui.logs.listed.insert(key);
+                self.logs_do(key, fx, |m, o| m.refresh(now, o))?;
+                Ok(Some(format!("asking {key} for its logs")))
+            }
+            LogCmd::Get { which, file, hl } => {
+                let key = self.logs_target(hl)?;
+                self.log_get(key, which, file, fx)
+            }
+            LogCmd::Cancel => {
+                let key = self.target.ok_or("no target vehicle")?;
+                self.ui.logs.pending.retain(|p| p.key != key);
+                self.logs_do(key, fx, |m, o| m.cancel(now, o)).map(Some)
+            }
+            LogCmd::Erase => {
+                let key = self.logs_target(false)?;
+                if self.sessions[&key]
+                    .logs
+                    .transfer
+                    .as_ref()
+                    .is_some_and(|t| t.active())
+                {
+                    return Err("a log download is running: cancel it first".into());
+                }
+                let n = self.sessions[&key].logs.list.entries.len();
+                let count = if self.sessions[&key].logs.list.complete() {
+                    format!("all {n} logs")
+                } else {
+                    "every log".to_string()
+                };
+                self.ask(Ask {
+                    text: format!(
+                        "ERASE {count} on {}? They cannot be downloaded afterwards. \
+                         y = yes, any other key = no",
+                        self.who_is(key)
+                    ),
+                    action: Confirmed::LogErase,
+                    target: key,
+                });
+                Ok(None)
+            }
+        }
+    }
+
+    /// The operator confirmed the erase.
+    pub(super) fn carry_out_log_erase(
+        &mut self,
+        key: VehicleKey,
+        fx: &mut Vec<Effect>,
+    ) -> Result<Option<String>, String> {
+        let now = self.now;
+        self.logs_do(key, fx, |m, o| m.erase(now, o))?;
+        Ok(Some(format!("LOG_ERASE sent to {key}; listing again")))
+    }
+
+    fn log_get(
+        &mut self,
+        key: VehicleKey,
+        which: Which,
+        file: Option<PathBuf>,
+        fx: &mut Vec<Effect>,
+    ) -> Result<Option<String>, String> {
+        let list = &self.sessions[&key].logs.list;
+        let known = match which {
+            Which::Latest => list.complete(),
+            Which::Id(id) => list.entries.contains_key(&id),
+        };
+        if !known {
+            // Asked once the list is whole (`follow_logs` asks for it).
+            self.logs_request(key, which, file);
+            self.follow_logs(fx);
+            return Ok(Some(format!("asking {key} for its logs first")));
+        }
+        let r = self.log_get_now(key, which, file)?;
+        self.follow_logs(fx);
+        Ok(Some(r))
+    }
+
+    /// Download `which` of `key` once its list is whole (the list is asked if it is not):
+    /// headless `--logs-out` and `log get` before the list came.
+    pub fn logs_request(&mut self, key: VehicleKey, which: Which, file: Option<PathBuf>) {
+        self.ui.logs.pending.push(Pending { key, which, file });
+    }
+
+    /// Run `f` on `key`'s log machine; its output is sent and told.
+    fn logs_do<T>(
+        &mut self,
+        key: VehicleKey,
+        fx: &mut Vec<Effect>,
+        f: impl FnOnce(
+            &mut crate::proto::logs::LogMachine,
+            &mut Vec<crate::proto::machine::Out>,
+        ) -> Result<T, String>,
+    ) -> Result<T, String> {
+        let now = self.now;
+        let s = self.sessions.get_mut(&key).ok_or("no such vehicle")?;
+        let (r, out) = s.logs_do(now, f);
+        self.session_out(key, out, fx);
+        self.follow_logs(fx);
+        r
+    }
+
+    /// After every update: file work to the edge, downloads waiting for their list started.
+    pub(super) fn follow_logs(&mut self, fx: &mut Vec<Effect>) {
+        if self.ui.screen == "logs" {
+            self.logs_shown(fx);
+        }
+        let pending = std::mem::take(&mut self.ui.logs.pending);
+        let now = self.now;
+        for p in pending {
+            let Some(s) = self.sessions.get_mut(&p.key) else {
+                continue;
+            };
+            if !s.logs.list.wanted && !s.logs.busy() {
+                self.ui.logs.listed.insert(p.key);
+                let (_, out) = s.logs_do(now, |m, o| m.refresh(now, o));
+                self.session_out(p.key, out, fx);
+            }
+            let Some(list) = self.sessions.get(&p.key).map(|s| &s.logs.list) else {
+                continue;
+            };
+            let ready = match p.which {
+                Which::Latest => list.complete(),
+                Which::Id(id) => list.entries.contains_key(&id) || list.complete(),
+            };
+            let given_up = list.failed.is_some();
+            if !ready && !given_up {
+                self.ui.logs.pending.push(p);
+                continue;
+            }
+            let r = self.log_get_now(p.key, p.which, p.file);
+            match r {
+                Ok(text) => self.notice(Severity::INFO, Some(p.key), text),
+                Err(e) => self.notice(Severity::ERROR, Some(p.key), e),
+            }
+        }
+        for (key, s) in self.sessions.iter_mut() {
+            for io in s.logs.take_io() {
+                fx.push(Effect::LogFile { key: *key, io });
+            }
+        }
+    }
+
+    fn log_get_now(
+        &mut self,
+        key: VehicleKey,
+        which: Which,
+        file: Option<PathBuf>,
+    ) -> Result<String, String> {
+        let now = self.now;
+        let s = self.sessions.get_mut(&key).ok_or("no such vehicle")?;
+        let id = match which {
+            Which::Id(id) => id,
+            Which::Latest => s.logs.latest().ok_or_else(|| format!("{key} has no log"))?,
+        };
+        s.logs.get(now, id, file)
+    }
+
+    /// What came of a log's file work.
+    pub(super) fn on_log_file(&mut self, key: VehicleKey, done: LogIoDone, fx: &mut Vec<Effect>) {
+        let now = self.now;
+        let Some(s) = self.sessions.get_mut(&key) else {
+            return;
+        };
+        let (_, out) = s.logs_do(now, |m, o| m.on_io(now, done, o));
+        self.session_out(key, out, fx);
+        self.dirty = true;
+    }
+
+    /// The Logs screen's keys.
+    pub(super) fn on_log_action(&mut self, action: Action, fx: &mut Vec<Effect>) {
+        let cmd = match action {
+            Action::LogDownload => {
+                let rows = self.log_rows();
+                match rows.get(self.ui.logs.sel) {
+                    Some(e) => LogCmd::Get {
+                        which: Which::Id(e.id),
+                        file: None,
+                        hl: false,
+                    },
+                    None => {
+                        self.ui.message = Some((Severity::WARNING, "no log selected".into()));
+                        return;
+                    }
+                }
+            }
+            Action::LogLatest => LogCmd::Get {
+                which: Which::Latest,
+                file: None,
+                hl: false,
+            },
+            Action::LogCancel => LogCmd::Cancel,
+            Action::LogErase => LogCmd::Erase,
+            _ => LogCmd::List { hl: false },
+        };
+        let r = self.run_log(cmd, fx);
+        self.ui.message = match r {
+            Ok(Some(t)) => Some((Severity::INFO, t)),
+            Ok(None) => None,
+            Err(e) => Some((Severity::ERROR, e)),
+        };
+    }
+
+    /// The target's logs, newest first.
+    pub fn log_rows(&self) -> Vec<crate::proto::logs::LogEntry> {
+        self.target
+            .and_then(|k| self.sessions.get(&k))
+            .map(|s| s.logs.list.newest_first())
+            .unwrap_or_default()
+    }
+
+    /// The Logs screen's selection.
+    pub(super) fn select_logs(&mut self, step: isize) {
+        let n = self.log_rows().len();
+        self.ui.logs.sel = clamp(self.ui.logs.sel, step, n);
+    }
+
+    /// The Logs screen was shown: the target's list is asked the first time (the operator
+    /// opened it), never on a high-latency link.
+    pub(super) fn logs_shown(&mut self, fx: &mut Vec<Effect>) {
+        let Some(key) = self.target.filter(|k| self.sessions.contains_key(k)) else {
+            return;
+        };
+        if self.ui.logs.listed.contains(&key) || self.logs_on_hl(key) {
+            return;
+        }
+        self.ui.logs.listed.insert(key);
+        let now = self.now;
+        let _ = self.logs_do(key, fx, |m, o| m.refresh(now, o));
+    }
+}
+
+fn clamp(v: usize, step: isize, len: usize) -> usize {
+    if len == 0 {
+        return 0;
+    }
+    (v as isize + step).clamp(0, len as isize - 1) as usize
+}
+
+/// The download of `s` as one short line (status bar): `log 3 41% 4.2 kB/s 12 s`.
+pub fn status_text(s: &Session) -> Option<String> {
+    let t = s.logs.transfer.as_ref().filter(|t| t.active())?;
+    let pct = t.got() as u64 * 100 / (t.entry.size.max(1) as u64);
+    let rate = t
+        .rate()
+        .map(|r| format!(" {}/s", human_bytes(r as u64)))
+        .unwrap_or_default();
+    let eta = t
+        .eta()
+        .map(|e| format!(" {}", human_secs(e)))
+        .unwrap_or_default();
+    let queued = if s.logs.queue.is_empty() {
+        String::new()
+    } else {
+        format!(" +{}", s.logs.queue.len())
+    };
+    let state = match t.state {
+        State::Opening => " opening",
+        State::Finishing => " saving",
+        _ => "",
+    };
+    Some(format!(
+        "log {} {pct}%{rate}{eta}{state}{queued}",
+        t.entry.id
+    ))
+}
+
+/// `812 B`, `4.2 kB`, `1.3 MB` (powers of 1000).
+pub fn human_bytes(b: u64) -> String {
+    match b {
+        0..1000 => format!("{b} B"),
+        1000..1_000_000 => format!("{:.1} kB", b as f64 / 1e3),
+        _ => format!("{:.1} MB", b as f64 / 1e6),
+    }
+}
+
+/// `42 s`, `3 min 5 s`, `2 h 4 min`.
+pub fn human_secs(s: f64) -> String {
+    let s = s.max(0.0).round() as u64;
+    match s {
+        0..60 => format!("{s} s"),
+        60..3600 => format!("{} min {} s", s / 60, s % 60),
+        _ => format!("{} h {} min", s / 3600, (s % 3600) / 60),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_log_command_parses() {
+        assert_eq!(parse("list"), Ok(LogCmd::List { hl: false }));
+        assert_eq!(
+            parse("get 3 /tmp/x.bin"),
+            Ok(LogCmd::Get {
+                which: Which::Id(3),
+                file: Some("/tmp/x.bin".into()),
+                hl: false
+            })
+        );
+        assert_eq!(
+            parse("get latest --hl"),
+            Ok(LogCmd::Get {
+                which: Which::Latest,
+                file: None,
+                hl: true
+            })
+        );
+        assert!(parse("get x").is_err());
+        assert!(parse("get 1 a b").is_err());
+        assert_eq!(parse("erase"), Ok(LogCmd::Erase));
+        assert_eq!(parse("cancel"), Ok(LogCmd::Cancel));
+        assert_eq!(parse(""), Err(USAGE.into()));
+    }
+}
