@@ -25,9 +25,11 @@ use std::collections::BTreeMap;
 use crate::clock::Micros;
 use crate::dialect::{MavAutopilot, MavCmd, MavMessage};
 use crate::link::LinkId;
+use crate::proto::calibration::Calibration;
 use crate::proto::camera::{CameraAction, CameraSet};
 use crate::proto::commands::{self, CmdOut, CommandQueue, CommandSpec, State};
 use crate::proto::gimbal::GimbalSet;
+use crate::proto::health::PrearmReasons;
 use crate::proto::machine::{Ids, Incoming, Machine, MachineEvent, Out, Requests, Route};
 use crate::proto::mission::{MissionMachine, Request as MissionRequest};
 use crate::proto::params::{ParamMachine, ParamOut};
@@ -87,6 +89,8 @@ impl Dispatch {
     pub const SEQUENCE: u16 = 1 << 5;
     pub const CAMERAS: u16 = 1 << 6;
     pub const GIMBALS: u16 = 1 << 7;
+    pub const PREARM: u16 = 1 << 8;
+    pub const CALIBRATION: u16 = 1 << 9;
 }
 
 /// Each machine's bit and the ids it reads.
@@ -99,6 +103,8 @@ pub const TABLE: &[(u16, Ids)] = &[
     (Dispatch::SEQUENCE, Sequence::IDS),
     (Dispatch::CAMERAS, CameraSet::IDS),
     (Dispatch::GIMBALS, GimbalSet::IDS),
+    (Dispatch::PREARM, PrearmReasons::IDS),
+    (Dispatch::CALIBRATION, Calibration::IDS),
 ];
 
 /// The machines that read message `id`, from [`TABLE`] (built once).
@@ -163,6 +169,10 @@ pub struct Session {
     pub cameras: CameraSet,
     /// The gimbals of this system, by their managers (the autopilot, or a gimbal component).
     pub gimbals: GimbalSet,
+    /// The reasons the vehicle gives now for not arming (Health screen).
+    pub prearm: PrearmReasons,
+    /// The calibration running, or the last one and its result.
+    pub calibration: Calibration,
     /// The custom mode of the autopilot's last heartbeat.
     mode_seen: Option<u32>,
     /// DO_SET_MODEs that may still be resent: (queue id, the mode the heartbeat showed when it
@@ -196,6 +206,8 @@ impl Session {
             mission: MissionMachine::new(key),
             cameras: CameraSet::default(),
             gimbals: GimbalSet::default(),
+            prearm: PrearmReasons::default(),
+            calibration: Calibration::new(key),
             mode_seen: None,
             mode_asks: Vec::new(),
             quiet: std::collections::BTreeSet::new(),
@@ -289,6 +301,13 @@ impl Session {
         }
         if w & Dispatch::MISSION != 0 {
             Machine::on_message(&mut self.mission, m, &mut buf);
+            self.deliver(now, &mut buf, &mut out);
+        }
+        if w & Dispatch::PREARM != 0 {
+            Machine::on_message(&mut self.prearm, m, &mut buf);
+        }
+        if w & Dispatch::CALIBRATION != 0 {
+            Machine::on_message(&mut self.calibration, m, &mut buf);
             self.deliver(now, &mut buf, &mut out);
         }
         // A SET_MESSAGE_INTERVAL's ACK is the stream machine's while one of its own waits,
@@ -402,6 +421,7 @@ impl Session {
     fn offer_requests(&mut self, now: Micros, out: &mut Vec<SessionOut>) {
         self.drain_requests(now, |s| &mut s.cameras, out);
         self.drain_requests(now, |s| &mut s.gimbals, out);
+        self.drain_requests(now, |s| &mut s.calibration, out);
     }
 
     /// One machine's requests offered to the queue; those taken go out as mavterm's own.
@@ -447,6 +467,8 @@ impl Session {
     pub fn on_text(&mut self, now: Micros, text: &str) {
         self.commands.on_statustext(now, self.key.0, text);
         self.mission.on_text(now, text);
+        self.prearm.on_text(now, text);
+        self.calibration.on_text(now, text);
     }
 
     /// Start (or queue) a mission, fence or rally point transfer.
@@ -765,6 +787,9 @@ impl Session {
         Machine::poll(&mut self.cameras, now, &mut buf);
         Machine::poll(&mut self.gimbals, now, &mut buf);
         self.deliver(now, &mut buf, &mut out);
+        Machine::poll(&mut self.prearm, now, &mut buf);
+        Machine::poll(&mut self.calibration, now, &mut buf);
+        self.deliver(now, &mut buf, &mut out);
         self.offer_requests(now, &mut out);
         self.hold_streams();
         out
@@ -808,6 +833,8 @@ impl Session {
             Machine::next_deadline(&self.mission),
             Machine::next_deadline(&self.cameras),
             Machine::next_deadline(&self.gimbals),
+            Machine::next_deadline(&self.prearm),
+            Machine::next_deadline(&self.calibration),
         ]
         .into_iter()
         .flatten()

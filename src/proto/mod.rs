@@ -2,9 +2,11 @@
 //! needs to be woken. Nothing here reads a clock or touches a socket.
 
 pub mod ack;
+pub mod calibration;
 pub mod camera;
 pub mod commands;
 pub mod gimbal;
+pub mod health;
 pub mod loss;
 pub mod machine;
 pub mod mav_cmds;
