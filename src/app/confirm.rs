@@ -142,6 +142,8 @@ pub enum Confirmed {
     Mission(MissionAction),
     /// Quitting while a vehicle is armed (the question names them; `target` is the first).
     Quit,
+    /// A calibration of the target.
+    Calibration(crate::proto::calibration::Kind),
 }
 
 /// A second Ctrl-C this soon after the quit question appeared quits without an answer.
@@ -352,6 +354,7 @@ impl App {
                     Confirmed::Signing(a) => self.carry_out_signing(c.target, a, fx),
                     Confirmed::Mission(a) => self.carry_out_mission(c.target, a, fx),
                     Confirmed::Camera(compid, a) => self.camera_act(c.target, compid, a, fx),
+                    Confirmed::Calibration(k) => self.carry_out_cal(c.target, k, fx),
                     Confirmed::Quit => {
                         self.quit_now(fx);
                         Ok(None)
