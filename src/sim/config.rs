@@ -102,6 +102,11 @@ pub const OPTIONS: &[(&str, &str, &str)] = &[
         "0",
         "ArduPilot's mount on each autopilot, device 1 [default: as camera]",
     ),
+    (
+        "uncal",
+        "1",
+        "accelerometers and compasses not calibrated: pre-arm fails until they are",
+    ),
 ];
 
 /// The option names, comma-separated, for messages.
@@ -174,6 +179,10 @@ pub struct SimConfig {
     /// `gimbal=1`: each autopilot has a mount (AP_Mount, gimbal manager on its own component,
     /// [`super::gimbal`]); `None`: as `camera` (a camera on a gimbal), `gimbal=0` none.
     pub gimbal: Option<bool>,
+    /// `uncal=1`: a vehicle fresh from the box: its accelerometers and compasses are not
+    /// calibrated, so its pre-arm checks fail (and SYS_STATUS reports the pre-arm bit) until
+    /// they are ([`super::calibration`]).
+    pub uncal: bool,
 }
 
 impl Default for SimConfig {
@@ -197,6 +206,7 @@ impl Default for SimConfig {
             camera: false,
             camera_drop: None,
             gimbal: None,
+            uncal: false,
         }
     }
 }
@@ -338,6 +348,7 @@ impl SimConfig {
                 }
                 "camera" => c.camera = flag(key, value)?,
                 "gimbal" => c.gimbal = Some(flag(key, value)?),
+                "uncal" => c.uncal = flag(key, value)?,
                 "camera_drop" => {
                     c.camera_drop = Some(
                         value
