@@ -37,9 +37,13 @@ impl Screen {
         Action::Screen(self.number - 1)
     }
 
-    /// Its keymap section, `[normal.NAME]`.
+    /// Its keymap section, `[normal.NAME]`: by its place in the list (a number may be missing).
     pub fn section(&self) -> Section {
-        Section::Screen(usize::from(self.number - 1))
+        let i = crate::keymap::SCREENS
+            .iter()
+            .position(|n| *n == self.name)
+            .unwrap_or(usize::from(self.number - 1));
+        Section::Screen(i)
     }
 }
 
