@@ -63,6 +63,11 @@ pub fn parse_cal(rest: &str) -> Result<CalCmd, String> {
     }
 }
 
+/// The status bar's line follows the vehicle's texts this long after the answer.
+pub const NOTE_WINDOW: crate::clock::Micros = 3 * crate::clock::SECOND;
+/// What starts the reasons added to a refusal's line.
+const PREARM_NOTE: &str = "; pre-arm: ";
+
 /// COMMAND_LONG `command` to `key`.
 fn spec(key: VehicleKey, command: u16, params: [f64; 7]) -> CommandSpec {
     CommandSpec {
@@ -247,37 +252,82 @@ impl App {
         }
     }
 
-    /// For command `id` of `session`'s queue, refused and an arm or a take-off (or an answered
-    /// RUN_PREARM_CHECKS): the reasons the vehicle gives now, as `; pre-arm: A; B (screen 8)`.
-    pub(super) fn prearm_note(&self, session: Option<VehicleKey>, id: u64) -> Option<String> {
-        let s = self.sessions.get(&session?)?;
-        let e = s.commands.get(id)?;
-        let refused = matches!(e.state, State::Done(r) if r != 0);
-        if e.spec.command == MavCmd::MAV_CMD_RUN_PREARM_CHECKS as u16 && e.state == State::Done(0)
-        {
-            let reasons = s.prearm.others(None);
-            return Some(match reasons.len() {
-                0 => ": no failing check stated".into(),
-                n => format!(": {n} failing: {}", reasons.join("; ")),
-            });
+    /// After every update: the status bar follows the calibration running and the reasons of a
+    /// refusal.
+    pub(super) fn follow_before_flight(&mut self) {
+        if let Some(ActionKind::Calibration(k)) = self.ui.action.as_ref().map(|a| a.kind.clone()) {
+            self.follow_calibration(k);
         }
-        if !refused || !explained_by_prearm(e.spec.command, &e.spec.params) {
-            return None;
-        }
-        let others = s.prearm.others(e.reason.as_deref());
-        (!others.is_empty()).then(|| format!("; pre-arm: {} (screen 8)", others.join("; ")))
+        self.follow_prearm();
     }
 
-    /// For the sequence of `key` that ended with `text`: the reasons not in the text already.
-    pub(super) fn prearm_note_for(&self, key: VehicleKey, text: &str) -> Option<String> {
-        let s = self.sessions.get(&key)?;
-        let others: Vec<String> = s
-            .prearm
-            .reasons()
-            .filter(|r| !text.contains(r.text.as_str()))
-            .map(|r| r.line())
-            .collect();
-        (!others.is_empty()).then(|| format!("; pre-arm: {} (screen 8)", others.join("; ")))
+    /// The status bar's line of a refused arm or take-off (or of an answered
+    /// RUN_PREARM_CHECKS) ends in the reasons the vehicle gives now. ArduPilot sends the ACK as
+    /// its handler returns and its texts after it, so the line is brought up to date for
+    /// [`NOTE_WINDOW`] after the answer, as the texts come.
+    pub(super) fn follow_prearm(&mut self) {
+        let Some(a) = self.ui.action.as_ref().filter(|a| a.done) else {
+            return;
+        };
+        let (Some(key), Some(&id)) = (a.session, a.ids.last()) else {
+            return;
+        };
+        let Some(s) = self.sessions.get(&key) else {
+            return;
+        };
+        let Some(e) = s.commands.get(id) else {
+            return;
+        };
+        if self.now.saturating_sub(e.changed) > NOTE_WINDOW {
+            return;
+        }
+        let note = if e.spec.command == MavCmd::MAV_CMD_RUN_PREARM_CHECKS as u16 {
+            if e.state != State::Done(0) {
+                return;
+            }
+            let reasons = s.prearm.others(None);
+            match reasons.len() {
+                0 => ": no failing check stated".to_string(),
+                n => format!(": {n} failing: {}", reasons.join("; ")),
+            }
+        } else {
+            let refused = matches!(e.state, State::Done(r) if r != 0);
+            if !refused || !explained_by_prearm(e.spec.command, &e.spec.params) {
+                return;
+            }
+            // The refusal's own reason first (it comes with the texts, after the ACK).
+            if e.reason.is_none()
+                && self.now.saturating_sub(e.changed) <= crate::proto::commands::EXPLAIN_WINDOW
+            {
+                return;
+            }
+            let others = s.prearm.others(e.reason.as_deref());
+            if others.is_empty() {
+                String::new()
+            } else {
+                format!("{PREARM_NOTE}{} (screen 8)", others.join("; "))
+            }
+        };
+        let Some(a) = self.ui.action.as_mut() else {
+            return;
+        };
+        let base = a
+            .text
+            .find(PREARM_NOTE)
+            .or_else(|| a.text.find(": no failing check stated"))
+            .map_or(a.text.as_str(), |i| &a.text[..i]);
+        let base = match base.find(": ACCEPTED: ") {
+            Some(i) => &base[..i + ": ACCEPTED".len()],
+            None => base,
+        };
+        let text = format!("{base}{note}");
+        if text != a.text {
+            a.text = text.clone();
+            if let Some(last) = self.ui.outcomes.back_mut() {
+                last.text = text;
+            }
+            self.dirty = true;
+        }
     }
 
     /// RADIO_STATUS on `link`, from whichever system sent it.

@@ -717,6 +717,7 @@ impl App {
         self.poll_nudge(&mut fx);
         self.poll_sessions(&mut fx);
         self.follow_reason();
+        self.follow_before_flight();
         self.poll_param_meta(&mut fx);
         self.follow_selected_command();
         fx

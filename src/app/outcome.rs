@@ -128,12 +128,7 @@ impl App {
         // A sequence goes on after a step's answer, a calibration after its start's; their end
         // is their own word.
         let last = !matches!(a.kind, ActionKind::Sequence(_) | ActionKind::Calibration(_));
-        // A refused arm or take-off: the other reasons the vehicle gives now for not arming.
-        let text = match self.prearm_note(a.session, id) {
-            Some(note) => format!("{text}{note}"),
-            None => text.to_string(),
-        };
-        self.action_moves(sev, text, last);
+        self.action_moves(sev, text.to_string(), last);
     }
 
     /// The sequence of vehicle `key` ended, well (`ok`) or not, with this notice.
@@ -144,11 +139,7 @@ impl App {
             .as_ref()
             .is_some_and(|a| !a.done && a.kind == ActionKind::Sequence(key))
         {
-            let note = (sev.0 <= Severity::WARNING.0)
-                .then(|| self.prearm_note_for(key, text))
-                .flatten();
-            let text = format!("{text}{}", note.unwrap_or_default());
-            self.action_moves(sev, text, true);
+            self.action_moves(sev, text.to_string(), true);
         }
     }
 

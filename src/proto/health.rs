@@ -29,6 +29,8 @@ pub const PREARM_PERIOD: Micros = 30 * SECOND;
 /// A reason not stated again in this long is dropped: two periods and a margin, so one lost
 /// repetition does not drop it.
 pub const KEEP: Micros = 2 * PREARM_PERIOD + 5 * SECOND;
+/// How long after RUN_PREARM_CHECKS's ACK its texts may still come.
+pub const SETTLE: Micros = SECOND;
 /// Reasons kept at most (a vehicle stating more is counted, not stored).
 pub const MAX_REASONS: usize = 32;
 /// What starts a pre-arm or arm failure: ArduPilot's, then PX4's.
@@ -89,6 +91,8 @@ pub struct PrearmReasons {
     pub overflow: u64,
     /// The pre-arm checks pass by SYS_STATUS (when the vehicle reports the bit).
     pub passing: Option<bool>,
+    /// After an answered ask: at `.0`, the reasons not stated since `.1` go.
+    drop_at: Option<(Micros, Micros)>,
 }
 
 impl PrearmReasons {
@@ -188,20 +192,29 @@ impl Machine for PrearmReasons {
             if ack.command == MavCmd::MAV_CMD_RUN_PREARM_CHECKS as u16 {
                 self.asked = None;
                 if ack.result == MavResult::MAV_RESULT_ACCEPTED as u8 {
-                    // The vehicle stated every failing check before this ACK.
+                    // The vehicle states every failing check as it answers (ArduPilot queues
+                    // the texts in the handler and sends them after the ACK): those not
+                    // stated again by SETTLE after the ACK go.
                     self.answered = Some(m.now);
-                    self.drop_before(asked);
+                    self.drop_at = Some((m.now + SETTLE, asked));
                 }
             }
         }
     }
 
     fn poll(&mut self, now: Micros, _: &mut Vec<Out>) {
+        if let Some((at, since)) = self.drop_at {
+            if now >= at {
+                self.drop_at = None;
+                self.drop_before(since);
+            }
+        }
         self.expire(now);
     }
 
     fn next_deadline(&self) -> Option<Micros> {
-        self.reasons.iter().map(|r| r.last + KEEP).min()
+        let expiry = self.reasons.iter().map(|r| r.last + KEEP).min();
+        [expiry, self.drop_at.map(|d| d.0)].into_iter().flatten().min()
     }
 }
 
