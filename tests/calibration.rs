@@ -298,3 +298,92 @@ fn no_calibration_while_armed() {
     wait(&mut r, 1.0);
     assert!(sent(&frames(&mut r), 241).is_empty());
 }
+
+/// `fake_calibration_vehicle.py` with `extra` arguments against mavterm headless running
+/// `script` (100x30): the COMMAND_LONGs the vehicle received ([command, p1..p7, confirmation])
+/// of the calibrations, and the `health` snapshot.
+fn against_stand_in(extra: &[&str], script: &str) -> (Vec<Vec<f64>>, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let port = common::free_udp_port();
+    let log = dir.path().join("commands.json");
+    let script_path = dir.path().join("script.txt");
+    std::fs::write(&script_path, script).unwrap();
+    let screens = dir.path().join("screens");
+    let mut a: Vec<std::ffi::OsString> = vec![
+        "--port".into(),
+        port.to_string().into(),
+        "--log-out".into(),
+        log.clone().into(),
+        "--duration".into(),
+        "30".into(),
+    ];
+    a.extend(extra.iter().map(|s| s.into()));
+    let _v = common::stand_in("fake_calibration_vehicle.py", &a);
+    let out = common::succeed(
+        std::process::Command::new(common::mavterm())
+            .args([
+                "--link",
+                &format!("udpin:127.0.0.1:{port}"),
+                "--headless",
+                "--input",
+            ])
+            .arg(&script_path)
+            .arg("--screens")
+            .arg(&screens)
+            .args(["--size", "100x30"]),
+    );
+    let _ = out;
+    let got: Vec<Vec<f64>> = std::fs::read_to_string(&log)
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok())
+        .unwrap_or_default();
+    let cal = [241.0, 42429.0, 42424.0, 42425.0, 42426.0, 42006.0];
+    let got = got.into_iter().filter(|c| cal.contains(&c[0])).collect();
+    let screen = std::fs::read_to_string(screens.join("health.txt")).unwrap_or_default();
+    (got, screen)
+}
+
+/// ArduPilot's six-position sequence from pymavlink, its start ACK lost: the first position
+/// request shows it started; each position answered once with itself, confirmation 0.
+#[test]
+fn stand_in_accel_cal_with_its_start_ack_lost() {
+    let mut script = String::from(
+        "1.5 key 8\n2 key :\n2.1 text \"cal accel\"\n2.2 key enter\n2.8 key y\n",
+    );
+    for i in 0..7 {
+        script.push_str(&format!("{} key enter\n", 4.0 + 1.5 * i as f64));
+    }
+    script.push_str("14.5 snapshot health\n15 quit\n");
+    let (got, screen) = against_stand_in(&["--lose-start-ack"], &script);
+    let mut want = vec![vec![241.0, 0., 0., 0., 0., 1., 0., 0., 0.]];
+    for p in 1..=6 {
+        want.push(vec![42429.0, p as f64, 0., 0., 0., 0., 0., 0., 0.]);
+    }
+    assert_eq!(got, want, "{screen}");
+    assert!(
+        screen.contains("accelerometer calibration: successful"),
+        "{screen}"
+    );
+}
+
+/// Refusals as ArduPilot gives them: DO_START_MAG_CAL FAILED with its reason after the ACK;
+/// a compass that ends in BAD_RADIUS.
+#[test]
+fn stand_in_compass_refused_and_bad_radius() {
+    let script = "1.5 key 8\n2 key :\n2.1 text \"cal compass\"\n2.2 key enter\n2.8 key y\n\
+                  5 snapshot health\n5.5 quit\n";
+    let (got, screen) = against_stand_in(&["--refuse-mag"], script);
+    assert_eq!(got, vec![vec![42424.0, 0., 1., 0., 0., 0., 0., 0., 0.]]);
+    assert!(
+        screen.contains("compass calibration refused: FAILED (Compass cal requires GPS lock)"),
+        "{screen}"
+    );
+    let script = "1.5 key 8\n2 key :\n2.1 text \"cal compass\"\n2.2 key enter\n2.8 key y\n\
+                  8 snapshot health\n8.5 quit\n";
+    let (got, screen) = against_stand_in(&["--mag-bad-radius", "--lose-start-ack"], script);
+    assert_eq!(got, vec![vec![42424.0, 0., 1., 0., 0., 0., 0., 0., 0.]]);
+    assert!(
+        screen.contains("compass calibration FAILED: mag 0 BAD_RADIUS fitness 45.2"),
+        "{screen}"
+    );
+}

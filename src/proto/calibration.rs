@@ -216,6 +216,8 @@ pub struct Run {
     /// Sends of the commands of this run, all told (starts, resends, positions, accept).
     pub sends: u32,
     pending: Option<Pending>,
+    /// Refused at this time, its reason not heard yet (ArduPilot sends it after the ACK).
+    refused_at: Option<Micros>,
 }
 
 impl Run {
@@ -333,6 +335,7 @@ impl Calibration {
                 answered: false,
                 resend: false,
             }),
+            refused_at: None,
         });
         Ok((command, params))
     }
@@ -414,8 +417,19 @@ impl Calibration {
         Ok(Some((command, params)))
     }
 
-    /// A text the vehicle said: kept a moment to explain a refusal.
+    /// A text the vehicle said: kept a moment to explain a refusal, or the reason of the one
+    /// that just came.
     pub fn on_text(&mut self, now: Micros, text: &str) {
+        if let Some(run) = self.run.as_mut() {
+            if let (Some(at), Phase::Done { ok: false, text: t }) = (run.refused_at, &mut run.phase)
+            {
+                run.refused_at = None;
+                if now.saturating_sub(at) <= EXPLAIN {
+                    t.push_str(&format!(" ({text})"));
+                    return;
+                }
+            }
+        }
         if self.texts.len() == 8 {
             self.texts.pop_front();
         }
@@ -466,6 +480,7 @@ impl Calibration {
             } else {
                 let text = format!("{name}: accept {}{why}", result_name(result));
                 run.done(false, text, out);
+                run.refused_at = why.is_empty().then_some(now);
             }
             return;
         }
@@ -487,6 +502,7 @@ impl Calibration {
         if !accepted {
             let text = format!("{name} refused: {}{why}", result_name(result));
             run.done(false, text, out);
+            run.refused_at = why.is_empty().then_some(now);
             return;
         }
         if run.kind.by_ack() {
