@@ -278,10 +278,6 @@ impl SimVehicle {
                     onboard_control_sensors_present: present,
                     onboard_control_sensors_enabled: present,
                     onboard_control_sensors_health: health,
-                    // ArduPilot sends no extended sensors (the crate's default is a flag).
-                    onboard_control_sensors_present_extended: MavSysStatusSensorExtended::empty(),
-                    onboard_control_sensors_enabled_extended: MavSysStatusSensorExtended::empty(),
-                    onboard_control_sensors_health_extended: MavSysStatusSensorExtended::empty(),
                     load: 150,
                     voltage_battery: (self.voltage() * 1000.0) as u16,
                     current_battery: self.current_ca(),
