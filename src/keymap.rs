@@ -605,7 +605,11 @@ impl Action {
             "cal_next",
             "calibration: the vehicle is at the position asked",
         ),
-        (Action::CalGyro, "cal_gyro", "calibrate the gyros (asks first)"),
+        (
+            Action::CalGyro,
+            "cal_gyro",
+            "calibrate the gyros (asks first)",
+        ),
         (
             Action::CalBaro,
             "cal_baro",

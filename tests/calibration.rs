@@ -87,14 +87,22 @@ fn all_as(cmds: &[serde_json::Value], want: [f64; 7]) {
     for c in cmds {
         assert_eq!(params(c), want, "{c}");
         assert_eq!(c["confirmation"], 0, "{c}");
-        assert_eq!((c["target_system"].as_u64(), c["target_component"].as_u64()), (Some(1), Some(1)));
+        assert_eq!(
+            (c["target_system"].as_u64(), c["target_component"].as_u64()),
+            (Some(1), Some(1))
+        );
     }
 }
 
 /// `cal WORD`, asked and confirmed.
 fn start(r: &mut VirtualRunner, word: &str) {
     command(r, &format!("cal {word}"));
-    let q = r.app.ui.confirm.as_ref().expect("the calibration asks first");
+    let q = r
+        .app
+        .ui
+        .confirm
+        .as_ref()
+        .expect("the calibration asks first");
     assert!(q.text.contains("CALIBRATION"), "{}", q.text);
     yes(r);
 }
@@ -109,7 +117,11 @@ fn gyro_baro_level_and_simple_accel_from_start_to_result_at_0_and_20_percent_los
         ("level", [0., 0., 0., 0., 2., 0., 0.]),
         ("simple-accel", [0., 0., 0., 0., 4., 0., 0.]),
     ];
-    for query in ["seed=3", "loss=0.2&impair_in=1&seed=5", "loss=0.2&impair_in=1&seed=11"] {
+    for query in [
+        "seed=3",
+        "loss=0.2&impair_in=1&seed=5",
+        "loss=0.2&impair_in=1&seed=11",
+    ] {
         let mut r = runner(query);
         for (word, want) in cases {
             start(&mut r, word);
@@ -137,7 +149,10 @@ fn a_lost_start_is_sent_again() {
     let mut r = runner("drop_cmd=241:1");
     start(&mut r, "gyro");
     until_done(&mut r, 30.0);
-    assert!(matches!(run(&r).unwrap().phase, Phase::Done { ok: true, .. }));
+    assert!(matches!(
+        run(&r).unwrap().phase,
+        Phase::Done { ok: true, .. }
+    ));
     let f = frames(&mut r);
     let cmds = sent(&f, 241);
     assert_eq!(cmds.len(), 2, "the first lost, the second answered");
@@ -149,7 +164,11 @@ fn a_lost_start_is_sent_again() {
 /// its pre-arm failure about the accelerometers goes.
 #[test]
 fn accelerometer_six_positions_at_0_and_20_percent_loss() {
-    for query in ["uncal=1", "uncal=1&loss=0.2&impair_in=1&seed=2", "uncal=1&loss=0.2&impair_in=1&seed=9"] {
+    for query in [
+        "uncal=1",
+        "uncal=1&loss=0.2&impair_in=1&seed=2",
+        "uncal=1&loss=0.2&impair_in=1&seed=9",
+    ] {
         let mut r = runner(query);
         keys(&mut r, &["8"]);
         start(&mut r, "accel");
@@ -205,14 +224,21 @@ fn accelerometer_six_positions_at_0_and_20_percent_loss() {
 /// needs (the vehicle's pre-arm check says so).
 #[test]
 fn compass_progress_reports_accept_and_reboot_at_0_and_20_percent_loss() {
-    for query in ["uncal=1", "uncal=1&loss=0.2&impair_in=1&seed=4", "uncal=1&loss=0.2&impair_in=1&seed=8"] {
+    for query in [
+        "uncal=1",
+        "uncal=1&loss=0.2&impair_in=1&seed=4",
+        "uncal=1&loss=0.2&impair_in=1&seed=8",
+    ] {
         let mut r = runner(query);
         keys(&mut r, &["8"]);
         start(&mut r, "compass");
         wait(&mut r, 4.0);
         let run1 = run(&r).unwrap();
         assert_eq!(run1.phase, Phase::Running, "{query}");
-        assert_eq!(run1.compasses.keys().copied().collect::<Vec<_>>(), vec![0, 1]);
+        assert_eq!(
+            run1.compasses.keys().copied().collect::<Vec<_>>(),
+            vec![0, 1]
+        );
         let screen = common::screen(&r, 120, 40);
         assert!(screen.contains("mag 0 █"), "{screen}");
         let end = r.now() + 40 * SECOND;
@@ -224,7 +250,11 @@ fn compass_progress_reports_accept_and_reboot_at_0_and_20_percent_loss() {
         assert_eq!(run2.reports[&0].status, 4);
         assert!((run2.reports[&0].fitness - 6.5).abs() < 1e-3);
         assert_eq!(run2.reports[&1].offsets, [15.0, -12.0, 53.0]);
-        assert!(action(&r).contains("`cal accept` saves it"), "{}", action(&r));
+        assert!(
+            action(&r).contains("`cal accept` saves it"),
+            "{}",
+            action(&r)
+        );
         command(&mut r, "cal accept");
         until_done(&mut r, 30.0);
         let run3 = run(&r).unwrap();
@@ -250,9 +280,11 @@ fn compass_progress_reports_accept_and_reboot_at_0_and_20_percent_loss() {
             let asked = r.now();
             command(&mut r, "prearm");
             wait(&mut r, 3.0);
-            let answered = r.app.sessions[&KEY].prearm.answered.is_some_and(|t| t > asked);
-            if answered && reasons(&r).contains(&"Compass calibrated requires reboot".to_string())
-            {
+            let answered = r.app.sessions[&KEY]
+                .prearm
+                .answered
+                .is_some_and(|t| t > asked);
+            if answered && reasons(&r).contains(&"Compass calibrated requires reboot".to_string()) {
                 break;
             }
         }
@@ -347,9 +379,8 @@ fn against_stand_in(extra: &[&str], script: &str) -> (Vec<Vec<f64>>, String) {
 /// request shows it started; each position answered once with itself, confirmation 0.
 #[test]
 fn stand_in_accel_cal_with_its_start_ack_lost() {
-    let mut script = String::from(
-        "1.5 key 8\n2 key :\n2.1 text \"cal accel\"\n2.2 key enter\n2.8 key y\n",
-    );
+    let mut script =
+        String::from("1.5 key 8\n2 key :\n2.1 text \"cal accel\"\n2.2 key enter\n2.8 key y\n");
     for i in 0..7 {
         script.push_str(&format!("{} key enter\n", 4.0 + 1.5 * i as f64));
     }

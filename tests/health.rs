@@ -76,7 +76,11 @@ fn a_reason_no_longer_stated_ages_out() {
     command(&mut r, "cal compass-fixed 0");
     yes(&mut r);
     wait(&mut r, 2.0);
-    assert!(action(&r).contains("large-vehicle compass calibration: done"), "{}", action(&r));
+    assert!(
+        action(&r).contains("large-vehicle compass calibration: done"),
+        "{}",
+        action(&r)
+    );
     // Stated at about 4 s; the vehicle states only the accelerometer at 34 s and 64 s.
     r.advance_to(4 * SECOND + KEEP - SECOND);
     assert_eq!(reasons(&r).len(), 2, "{:?}", reasons(&r));
@@ -123,7 +127,10 @@ fn a_refused_arm_shows_its_reasons_on_the_status_bar() {
          Arm: Compass not calibrated (screen 8)"
     );
     let bar = common::screen(&r, 200, 60);
-    assert!(bar.contains("pre-arm: Arm: Compass not calibrated (screen 8)"), "{bar}");
+    assert!(
+        bar.contains("pre-arm: Arm: Compass not calibrated (screen 8)"),
+        "{bar}"
+    );
     // A take-off from the ground stops at its arm step, with the same reasons.
     command(&mut r, "takeoff 5");
     yes(&mut r);

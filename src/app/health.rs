@@ -167,8 +167,7 @@ impl App {
                 let s = self.sessions.get_mut(&key).ok_or("no session")?;
                 match s.calibration.cancel(now)? {
                     Some((command, params)) => {
-                        let (_, out) =
-                            s.submit(now, spec(key, command, params))?;
+                        let (_, out) = s.submit(now, spec(key, command, params))?;
                         self.session_out(key, out, fx);
                         Ok(Some("DO_CANCEL_MAG_CAL: sent".into()))
                     }
@@ -186,10 +185,7 @@ impl App {
     /// A calibration is never started on an armed vehicle.
     fn refuse_armed(&self, key: VehicleKey, kind: Kind) -> Result<(), String> {
         if self.vehicles.get(key).is_some_and(|v| v.armed()) {
-            return Err(format!(
-                "{key} is armed: no {} (disarm first)",
-                kind.name()
-            ));
+            return Err(format!("{key} is armed: no {} (disarm first)", kind.name()));
         }
         Ok(())
     }
@@ -234,7 +230,11 @@ impl App {
         else {
             return;
         };
-        let Some(run) = self.sessions.get(&key).and_then(|s| s.calibration.run.as_ref()) else {
+        let Some(run) = self
+            .sessions
+            .get(&key)
+            .and_then(|s| s.calibration.run.as_ref())
+        else {
             return;
         };
         // The start's own answer stands until the calibration says more.
@@ -331,7 +331,11 @@ impl App {
     }
 
     /// RADIO_STATUS on `link`, from whichever system sent it.
-    pub(super) fn on_radio_status(&mut self, link: crate::link::LinkId, r: &crate::dialect::RADIO_STATUS_DATA) {
+    pub(super) fn on_radio_status(
+        &mut self,
+        link: crate::link::LinkId,
+        r: &crate::dialect::RADIO_STATUS_DATA,
+    ) {
         let value = crate::proto::telemetry::Radio {
             rssi: r.rssi,
             remrssi: r.remrssi,

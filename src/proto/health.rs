@@ -172,7 +172,10 @@ impl Machine for PrearmReasons {
 
     fn on_message(&mut self, m: &Incoming, _: &mut Vec<Out>) {
         if let Some(hb) = m.heartbeat() {
-            if hb.base_mode.contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED) {
+            if hb
+                .base_mode
+                .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED)
+            {
                 self.reasons.clear();
             }
             return;
@@ -214,7 +217,10 @@ impl Machine for PrearmReasons {
 
     fn next_deadline(&self) -> Option<Micros> {
         let expiry = self.reasons.iter().map(|r| r.last + KEEP).min();
-        [expiry, self.drop_at.map(|d| d.0)].into_iter().flatten().min()
+        [expiry, self.drop_at.map(|d| d.0)]
+            .into_iter()
+            .flatten()
+            .min()
     }
 }
 
@@ -451,7 +457,10 @@ mod tests {
         };
         assert!(!ekf_over_threshold(&v(0.79, 0.79, 0.79), 0.8));
         assert!(ekf_over_threshold(&v(0.8, 0.0, 0.8), 0.8));
-        assert!(ekf_over_threshold(&v(1.6, 0.0, 0.0), 0.8), "twice: counts 2");
+        assert!(
+            ekf_over_threshold(&v(1.6, 0.0, 0.0), 0.8),
+            "twice: counts 2"
+        );
         assert!(!ekf_over_threshold(&v(1.59, 0.0, 0.0), 0.8));
         assert!(ekf_over_threshold(&v(0.0, 0.8, 0.8), 0.8));
         assert!(!ekf_over_threshold(&v(9.0, 9.0, 9.0), 0.0), "disabled");

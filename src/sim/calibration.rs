@@ -284,7 +284,10 @@ impl SimVehicle {
             }
             MavCmd::MAV_CMD_FIXED_MAG_CAL_YAW => {
                 if !self.gps_fix {
-                    self.text(MavSeverity::MAV_SEVERITY_ERROR, "Mag: no position available");
+                    self.text(
+                        MavSeverity::MAV_SEVERITY_ERROR,
+                        "Mag: no position available",
+                    );
                     return MAV_RESULT_FAILED;
                 }
                 self.cal.compass_calibrated = true;
@@ -492,5 +495,265 @@ impl SimVehicle {
             at(self.cal.last_display + wait + 1);
         }
         t
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! The sequences as ArduPilot's code runs them (see the module doc), frame by frame.
+
+    use super::super::{Sim, SimConfig};
+    use crate::clock::{Micros, SECOND};
+    use crate::dialect::*;
+    use crate::wire::frame::{encode, Frame, Header, Version};
+    use crate::wire::parser::FrameParser;
+    use mavlink::MessageData;
+
+    struct Gcs {
+        sim: Sim,
+        now: Micros,
+        parser: FrameParser,
+        frames: Vec<(Micros, Frame)>,
+    }
+
+    impl Gcs {
+        fn new(q: &str) -> Gcs {
+            Gcs {
+                sim: Sim::new(SimConfig::from_query(q).unwrap()),
+                now: 0,
+                parser: FrameParser::new(),
+                frames: Vec::new(),
+            }
+        }
+        fn run_until(&mut self, until: Micros) {
+            loop {
+                let next = self.sim.next_deadline().min(until);
+                self.now = next.max(self.now);
+                let out = self.sim.poll(self.now);
+                let now = self.now;
+                let frames = &mut self.frames;
+                self.parser.push(&out, |f| frames.push((now, f)));
+                if self.now >= until {
+                    break;
+                }
+            }
+        }
+        fn long(&mut self, command: MavCmd, p1: f32, p5: f32) {
+            let msg = MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+                param1: p1,
+                param5: p5,
+                command,
+                target_system: 1,
+                target_component: 1,
+                ..Default::default()
+            });
+            let h = Header {
+                sysid: 255,
+                compid: 190,
+                seq: 0,
+            };
+            self.sim.receive(self.now, &encode(Version::V2, h, &msg));
+        }
+        /// What came since `from`: ACKs as (command, result), texts, position requests.
+        fn since(&self, from: Micros) -> Vec<String> {
+            self.frames
+                .iter()
+                .filter(|(t, _)| *t >= from)
+                .filter_map(|(_, f)| match &f.message {
+                    Some(MavMessage::COMMAND_ACK(a)) => {
+                        Some(format!("ack {} {}", a.command as u32, a.result as u8))
+                    }
+                    Some(MavMessage::STATUSTEXT(t)) => {
+                        Some(t.text.to_str().unwrap_or("").to_string())
+                    }
+                    Some(MavMessage::COMMAND_LONG(c)) => Some(format!(
+                        "pos {} to {}:{}",
+                        c.param1, c.target_system, c.target_component
+                    )),
+                    _ => None,
+                })
+                .collect()
+        }
+    }
+
+    #[test]
+    fn prearm_failures_are_stated_4_s_after_they_start_then_every_30_s_and_when_asked() {
+        let mut g = Gcs::new("uncal=1");
+        g.run_until(40 * SECOND);
+        let at = |g: &Gcs, text: &str| -> Vec<Micros> {
+            g.frames
+                .iter()
+                .filter(|(_, f)| {
+                    matches!(&f.message, Some(MavMessage::STATUSTEXT(t))
+                        if t.text.to_str().unwrap_or("") == text
+                            && t.severity == MavSeverity::MAV_SEVERITY_CRITICAL)
+                })
+                .map(|(t, _)| *t / (SECOND / 10))
+                .collect()
+        };
+        // Failing from the first check at boot: reported once 4 s passed, then 30 s later.
+        assert_eq!(at(&g, "PreArm: 3D Accel calibration needed"), vec![40, 340]);
+        assert_eq!(at(&g, "PreArm: Compass not calibrated"), vec![40, 340]);
+        let from = g.now;
+        g.long(MavCmd::MAV_CMD_RUN_PREARM_CHECKS, 0.0, 0.0);
+        g.run_until(from + SECOND);
+        assert_eq!(
+            g.since(from),
+            vec![
+                "ack 401 0",
+                "PreArm: 3D Accel calibration needed",
+                "PreArm: Compass not calibrated"
+            ]
+        );
+        // A calibrated vehicle states nothing.
+        let mut g = Gcs::new("seed=1");
+        g.run_until(70 * SECOND);
+        assert!(!g.since(0).iter().any(|t| t.starts_with("PreArm")));
+    }
+
+    #[test]
+    fn six_positions_as_ap_accelcal_asks_them() {
+        let mut g = Gcs::new("uncal=1");
+        g.run_until(6 * SECOND);
+        let from = g.now;
+        g.long(MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION, 0.0, 1.0);
+        g.run_until(from + 2 * SECOND + SECOND / 2);
+        // The gyros first (the vehicle quiet), ACCEPTED, then position 1 every second.
+        assert_eq!(
+            g.since(from),
+            vec![
+                "ack 241 0",
+                "Place vehicle level and press any key.",
+                "pos 1 to 0:0",
+                "pos 1 to 0:0",
+            ]
+        );
+        // Not the position asked: FAILED.
+        let from = g.now;
+        g.long(MavCmd::MAV_CMD_ACCELCAL_VEHICLE_POS, 2.0, 0.0);
+        g.run_until(from + SECOND / 10);
+        assert_eq!(g.since(from), vec!["ack 42429 4"]);
+        for n in 1..=6 {
+            let from = g.now;
+            g.long(MavCmd::MAV_CMD_ACCELCAL_VEHICLE_POS, n as f32, 0.0);
+            g.run_until(from + SECOND);
+            let got = g.since(from);
+            assert_eq!(got[0], "ack 42429 0", "{n}: {got:?}");
+            if n < 6 {
+                assert!(
+                    got.iter().any(|t| t.starts_with("Place vehicle")),
+                    "{got:?}"
+                );
+                assert!(got.contains(&format!("pos {} to 0:0", n + 1)), "{got:?}");
+            } else {
+                assert_eq!(
+                    &got[1..],
+                    &["Calibration successful", "pos 16777215 to 0:0"]
+                );
+            }
+        }
+        // The result is repeated every second, and the accelerometers no longer fail.
+        let from = g.now;
+        g.run_until(from + 2 * SECOND + SECOND / 2);
+        assert_eq!(
+            g.since(from)
+                .iter()
+                .filter(|t| *t == "pos 16777215 to 0:0")
+                .count(),
+            2
+        );
+        let from = g.now;
+        g.long(MavCmd::MAV_CMD_RUN_PREARM_CHECKS, 0.0, 0.0);
+        g.run_until(from + SECOND / 10);
+        assert_eq!(
+            g.since(from),
+            vec!["ack 401 0", "PreArm: Compass not calibrated"]
+        );
+    }
+
+    #[test]
+    fn compass_progress_reports_accept_and_the_reboot_it_needs() {
+        let mut g = Gcs::new("uncal=1");
+        g.run_until(6 * SECOND);
+        let from = g.now;
+        g.long(MavCmd::MAV_CMD_DO_START_MAG_CAL, 0.0, 0.0);
+        g.run_until(from + 14 * SECOND);
+        let progress: Vec<(u8, u8, u8)> = g
+            .frames
+            .iter()
+            .filter_map(|(_, f)| match &f.message {
+                Some(MavMessage::MAG_CAL_PROGRESS(p)) => {
+                    Some((p.compass_id, p.cal_status as u8, p.completion_pct))
+                }
+                _ => None,
+            })
+            .collect();
+        assert!(progress.iter().any(|p| p.0 == 0) && progress.iter().any(|p| p.0 == 1));
+        let pct0: Vec<u8> = progress.iter().filter(|p| p.0 == 0).map(|p| p.2).collect();
+        assert!(pct0.windows(2).all(|w| w[0] <= w[1]), "{pct0:?}");
+        let reports: Vec<(u8, u8, u8)> = g
+            .frames
+            .iter()
+            .filter_map(|(_, f)| match &f.message {
+                Some(MavMessage::MAG_CAL_REPORT(r)) => {
+                    Some((r.compass_id, r.cal_status as u8, r.autosaved))
+                }
+                _ => None,
+            })
+            .collect();
+        assert!(
+            reports.contains(&(0, 4, 0)) && reports.contains(&(1, 4, 0)),
+            "{reports:?}"
+        );
+        let from = g.now;
+        g.long(MavCmd::MAV_CMD_DO_ACCEPT_MAG_CAL, 0.0, 0.0);
+        g.run_until(from + 2 * SECOND);
+        let got = g.since(from);
+        assert_eq!(got[0], "ack 42425 0");
+        let after = g
+            .frames
+            .iter()
+            .filter(|(t, f)| *t > from + SECOND / 10 && f.msgid == MAG_CAL_REPORT_DATA::ID)
+            .count();
+        assert_eq!(after, 0, "reports stop once accepted");
+        let from = g.now;
+        g.long(MavCmd::MAV_CMD_RUN_PREARM_CHECKS, 0.0, 0.0);
+        g.run_until(from + SECOND / 10);
+        assert_eq!(
+            g.since(from),
+            vec![
+                "ack 401 0",
+                "PreArm: 3D Accel calibration needed",
+                "PreArm: Compass calibrated requires reboot"
+            ]
+        );
+    }
+
+    #[test]
+    fn refused_as_arducopter_refuses() {
+        // Fixed-yaw before a GPS fix: no position.
+        let mut g = Gcs::new("seed=1");
+        g.run_until(SECOND);
+        let from = g.now;
+        g.long(MavCmd::MAV_CMD_FIXED_MAG_CAL_YAW, 90.0, 0.0);
+        g.run_until(from + SECOND / 10);
+        assert_eq!(
+            g.since(from),
+            vec!["ack 42006 4", "Mag: no position available"]
+        );
+        // Arm refused with every failing check as "Arm: ".
+        let mut g = Gcs::new("uncal=1");
+        g.run_until(6 * SECOND);
+        let from = g.now;
+        g.long(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, 1.0, 0.0);
+        g.run_until(from + SECOND / 10);
+        assert_eq!(
+            g.since(from),
+            vec![
+                "ack 400 4",
+                "Arm: 3D Accel calibration needed",
+                "Arm: Compass not calibrated"
+            ]
+        );
     }
 }
