@@ -305,6 +305,20 @@ pub enum Action {
     MsgVehicle,
     /// Messages pane: the vehicle filter's step back.
     MsgVehicleBack,
+    /// Health screen: ask the vehicle to run its pre-arm checks now (RUN_PREARM_CHECKS).
+    HealthPrearm,
+    /// Health screen: the vehicle is at the accelerometer position it asked for.
+    CalNext,
+    /// Health screen: start a calibration (each asks first).
+    CalGyro,
+    CalBaro,
+    CalLevel,
+    CalAccel,
+    CalSimpleAccel,
+    CalCompass,
+    /// Health screen: accept (save) a finished compass calibration, or cancel the running one.
+    CalAccept,
+    CalCancel,
 }
 
 impl Action {
@@ -622,6 +636,56 @@ impl Action {
             Action::MsgVehicleBack,
             "msg_vehicle_back",
             "messages: the vehicle filter's step back",
+        ),
+        (
+            Action::HealthPrearm,
+            "health_prearm",
+            "health: ask the vehicle for its pre-arm checks now",
+        ),
+        (
+            Action::CalNext,
+            "cal_next",
+            "calibration: the vehicle is at the position asked",
+        ),
+        (
+            Action::CalGyro,
+            "cal_gyro",
+            "calibrate the gyros (asks first)",
+        ),
+        (
+            Action::CalBaro,
+            "cal_baro",
+            "calibrate the barometer (asks first)",
+        ),
+        (
+            Action::CalLevel,
+            "cal_level",
+            "calibrate level (asks first)",
+        ),
+        (
+            Action::CalAccel,
+            "cal_accel",
+            "calibrate the accelerometers, 6 positions (asks first)",
+        ),
+        (
+            Action::CalSimpleAccel,
+            "cal_simple_accel",
+            "simple accelerometer calibration (asks first)",
+        ),
+        (
+            Action::CalCompass,
+            "cal_compass",
+            "calibrate the compasses onboard (asks first)",
+        ),
+        (
+            Action::CalAccept,
+            "cal_accept",
+            "calibration: accept (save) the compass result",
+        ),
+        (
+            Action::CalCancel,
+            "cal_cancel",
+            "calibration: cancel the one running",
         ),
     ];
 

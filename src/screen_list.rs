@@ -27,6 +27,7 @@ macro_rules! for_each_screen {
             5 mission "Mission" "show the mission screen" select = select_mission;
             6 camera "Camera" "show the camera screen";
             7 logs "Logs" "show the onboard logs screen" select = select_logs;
+            8 health "Health" "show the health screen: pre-arm, sensors, calibrations";
         }
     };
 }

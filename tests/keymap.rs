@@ -420,6 +420,7 @@ fn keys_for_and_bindings_list_what_applies_in_file_order() {
         ("screen_5", "5"),
         ("screen_6", "6"),
         ("screen_7", "7"),
+        ("screen_8", "8"),
         ("up", "up"),
         ("down", "down"),
         ("page_up", "pageup"),
@@ -463,6 +464,28 @@ fn keys_for_and_bindings_list_what_applies_in_file_order() {
     assert_eq!(
         names(km.bindings(Mode::Normal, "overview")),
         pairs(&overview)
+    );
+    // The Health screen's own keys, in file order after the keys of every screen.
+    let health = names(km.bindings(Mode::Normal, "health"));
+    let own: Vec<(String, String)> = health
+        .iter()
+        .filter(|(a, _)| a.starts_with("cal_") || a.starts_with("health_"))
+        .cloned()
+        .collect();
+    assert_eq!(
+        own,
+        pairs(&[
+            ("health_prearm", "c"),
+            ("cal_next", "enter"),
+            ("cal_gyro", "i"),
+            ("cal_baro", "b"),
+            ("cal_level", "l"),
+            ("cal_accel", "a"),
+            ("cal_simple_accel", "s"),
+            ("cal_compass", "m"),
+            ("cal_accept", "S"),
+            ("cal_cancel", "x"),
+        ])
     );
     let mut parameters = common.to_vec();
     parameters.extend([("next_vehicle", "n"), ("prev_vehicle", "p")]);
@@ -894,7 +917,15 @@ fn unknown_actions_and_keys_list_the_valid_names() {
     // Each list once, after the problems, sorted, wrapped.
     let normal = &e.hints[0];
     assert!(
-        normal.starts_with("the actions of [normal] and [normal.SCREEN]: arm, bottom, camera_"),
+        normal
+            .split_whitespace()
+            .collect::<Vec<_>>()
+            .join(" ")
+            .starts_with(
+                "the actions of [normal] and [normal.SCREEN]: arm, bottom, cal_accel, \
+                 cal_accept, cal_baro, cal_cancel, cal_compass, cal_gyro, cal_level, cal_next, \
+                 cal_simple_accel, camera_"
+            ),
         "{normal}"
     );
     for name in ["quit", "next_vehicle", "mission_goto", "screen_6", "cancel"] {

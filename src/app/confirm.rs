@@ -144,6 +144,8 @@ pub enum Confirmed {
     Quit,
     /// LOG_ERASE: every onboard log of the target.
     LogErase,
+    /// A calibration of the target.
+    Calibration(crate::proto::calibration::Kind),
 }
 
 /// A second Ctrl-C this soon after the quit question appeared quits without an answer.
@@ -355,6 +357,7 @@ impl App {
                     Confirmed::Mission(a) => self.carry_out_mission(c.target, a, fx),
                     Confirmed::Camera(compid, a) => self.camera_act(c.target, compid, a, fx),
                     Confirmed::LogErase => self.carry_out_log_erase(c.target, fx),
+                    Confirmed::Calibration(k) => self.carry_out_cal(c.target, k, fx),
                     Confirmed::Quit => {
                         self.quit_now(fx);
                         Ok(None)

@@ -276,6 +276,16 @@ pub const COMMANDS: &[(&str, &str, &str)] = &[
     ),
     ("land", "", "land"),
     (
+        "prearm",
+        "",
+        "ask the target for its pre-arm checks now (reasons on screen 8)",
+    ),
+    (
+        "cal",
+        "KIND|next|accept|cancel",
+        "calibrate: gyro, baro, level, accel, simple-accel, compass, compass-fixed YAW",
+    ),
+    (
         "goto",
         "LAT LON [ALT]",
         "GUIDED: fly to a point (DO_REPOSITION; ALT above home, default current)",
@@ -393,6 +403,10 @@ pub enum Command {
     ModeNumber(u32),
     /// Parameter metadata and lookups: `param show`, `param meta fetch`.
     ParamMeta(super::param_meta::MetaCmd),
+    /// Ask the target for its pre-arm checks now (RUN_PREARM_CHECKS).
+    Prearm,
+    /// Calibrations of the target.
+    Cal(super::health::CalCmd),
 }
 
 /// Completions of the aliases and the `param` words, offered after the first word (with the
@@ -537,6 +551,8 @@ pub fn parse_command(line: &str, takeoff_alt: f64) -> Result<Command, String> {
         "land" => no_args(Command::Flight(FlightAction::Land)),
         "rtl" => no_args(Command::Flight(FlightAction::Rtl)),
         "reboot" => no_args(Command::Flight(FlightAction::Reboot)),
+        "prearm" => no_args(Command::Prearm),
+        "cal" => super::health::parse_cal(rest).map(Command::Cal),
         "param" => match super::param_meta::parse(rest) {
             Some(r) => r.map(Command::ParamMeta),
             None => super::params::parse(rest).map(Command::Param).map_err(|e| {

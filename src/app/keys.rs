@@ -393,6 +393,8 @@ impl App {
             Command::Log(cmd) => self.run_log(cmd, fx),
             Command::ParamMeta(cmd) => self.run_param_meta(cmd, fx),
             Command::ModeNumber(n) => self.run_mode_number(n, fx),
+            Command::Prearm => self.run_prearm(fx),
+            Command::Cal(cmd) => self.run_cal(cmd, fx),
             Command::Route(link) => {
                 let key = self.target.ok_or("no target vehicle")?;
                 if let Some(l) = link.filter(|&l| l >= self.links.len()) {
@@ -534,6 +536,16 @@ impl App {
             | Action::LogCancel
             | Action::LogErase
             | Action::LogRefresh => self.on_log_action(action, fx),
+            Action::HealthPrearm
+            | Action::CalNext
+            | Action::CalGyro
+            | Action::CalBaro
+            | Action::CalLevel
+            | Action::CalAccel
+            | Action::CalSimpleAccel
+            | Action::CalCompass
+            | Action::CalAccept
+            | Action::CalCancel => self.on_health_action(action, fx),
             Action::MissionList
             | Action::MissionSource
             | Action::MissionDownload

@@ -8,6 +8,7 @@ mod confirm;
 mod editor;
 pub mod files;
 mod flight;
+pub mod health;
 pub mod input;
 pub mod inspector;
 mod keys;
@@ -411,6 +412,8 @@ pub struct App {
     /// The operator asked to suspend (Ctrl-Z): the terminal front end takes it, gives the
     /// terminal back and stops the process until `fg`.
     pub suspend: bool,
+    /// RADIO_STATUS heard on each link (a telemetry radio speaks as its own system).
+    pub radio: BTreeMap<LinkId, crate::proto::telemetry::Timed<crate::proto::telemetry::Radio>>,
 }
 
 impl App {
@@ -449,6 +452,7 @@ impl App {
             auto_starts: std::collections::VecDeque::new(),
             auto_held: 0,
             suspend: false,
+            radio: BTreeMap::new(),
         };
         app.signing_start();
         app
@@ -606,6 +610,7 @@ impl App {
         }
         self.follow_sequence(key);
         self.follow_mission(key);
+        self.follow_calibration(key);
     }
 
     /// Poll the sessions that have work due at `now`.
@@ -737,6 +742,7 @@ impl App {
         self.poll_nudge(&mut fx);
         self.poll_sessions(&mut fx);
         self.follow_reason();
+        self.follow_before_flight();
         self.poll_param_meta(&mut fx);
         self.follow_selected_command();
         self.follow_logs(&mut fx);
@@ -957,6 +963,7 @@ impl App {
             Some(MavMessage::STATUSTEXT(_)) => {
                 self.on_statustext_frame(link, frame, msg);
             }
+            Some(MavMessage::RADIO_STATUS(r)) => self.on_radio_status(link, r),
             _ => {}
         }
         if self.for_us(msg, ack.as_ref()) {

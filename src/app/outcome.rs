@@ -26,6 +26,8 @@ pub enum ActionKind {
     Sequence(VehicleKey),
     /// `param save`: `count` parameters into `path`.
     ParamSave { path: PathBuf, count: usize },
+    /// A calibration of this vehicle: its start command, then the calibration's own result.
+    Calibration(VehicleKey),
     /// An upload of `count` items of list `t` to vehicle `key`, asked at `at`.
     MissionUpload {
         key: VehicleKey,
@@ -82,7 +84,7 @@ impl App {
     }
 
     /// The action's line moves on to `text`; `last` ends it (and records it).
-    fn action_moves(&mut self, sev: Severity, text: String, last: bool) {
+    pub(super) fn action_moves(&mut self, sev: Severity, text: String, last: bool) {
         let Some(a) = self.ui.action.as_mut() else {
             return;
         };
@@ -123,8 +125,9 @@ impl App {
         if !a.ids.contains(&id) {
             return;
         }
-        // A sequence goes on after a step's answer; its end is its own word.
-        let last = !matches!(a.kind, ActionKind::Sequence(_));
+        // A sequence goes on after a step's answer, a calibration after its start's; their end
+        // is their own word.
+        let last = !matches!(a.kind, ActionKind::Sequence(_) | ActionKind::Calibration(_));
         self.action_moves(sev, text.to_string(), last);
     }
 

@@ -25,11 +25,13 @@ use std::collections::BTreeMap;
 use crate::clock::Micros;
 use crate::dialect::{MavAutopilot, MavCmd, MavMessage};
 use crate::link::LinkId;
+use crate::proto::calibration::Calibration;
 use crate::proto::camera::{CameraAction, CameraSet};
 use crate::proto::commands::{self, CmdOut, CommandQueue, CommandSpec, State};
 use crate::proto::comp_meta::CompMeta;
 use crate::proto::gimbal::GimbalSet;
 use crate::proto::logs::LogMachine;
+use crate::proto::health::PrearmReasons;
 use crate::proto::machine::{Ids, Incoming, Machine, MachineEvent, Out, Requests, Route};
 use crate::proto::mission::{MissionMachine, Request as MissionRequest};
 use crate::proto::params::{ParamMachine, ParamOut};
@@ -93,6 +95,8 @@ impl Dispatch {
     pub const GIMBALS: u16 = 1 << 7;
     pub const COMP_META: u16 = 1 << 8;
     pub const LOGS: u16 = 1 << 9;
+    pub const PREARM: u16 = 1 << 10;
+    pub const CALIBRATION: u16 = 1 << 11;
 }
 
 /// Each machine's bit and the ids it reads.
@@ -107,6 +111,8 @@ pub const TABLE: &[(u16, Ids)] = &[
     (Dispatch::GIMBALS, GimbalSet::IDS),
     (Dispatch::COMP_META, CompMeta::IDS),
     (Dispatch::LOGS, LogMachine::IDS),
+    (Dispatch::PREARM, PrearmReasons::IDS),
+    (Dispatch::CALIBRATION, Calibration::IDS),
 ];
 
 /// The machines that read message `id`, from [`TABLE`] (built once).
@@ -194,6 +200,10 @@ pub struct Session {
     pub comp_meta: CompMeta,
     /// The onboard logs: the list, the download and its queue.
     pub logs: LogMachine,
+    /// The reasons the vehicle gives now for not arming (Health screen).
+    pub prearm: PrearmReasons,
+    /// The calibration running, or the last one and its result.
+    pub calibration: Calibration,
     /// The custom mode of the autopilot's last heartbeat.
     mode_seen: Option<u32>,
     /// DO_SET_MODEs that may still be resent: (queue id, the mode the heartbeat showed when it
@@ -232,6 +242,8 @@ impl Session {
                 fetch_params && crate::proto::profile::of(autopilot).component_metadata(),
             ),
             logs: LogMachine::new(key),
+            prearm: PrearmReasons::default(),
+            calibration: Calibration::new(key),
             mode_seen: None,
             mode_asks: Vec::new(),
             quiet: std::collections::BTreeSet::new(),
@@ -306,7 +318,11 @@ impl Session {
         // The queue's requests (cameras, gimbals) can only have become takeable when one of
         // those machines or the queue read this message, or something came out of it (a
         // command finished, a sequence's next step); otherwise the next poll offers them.
-        let offers = Dispatch::CAMERAS | Dispatch::GIMBALS | Dispatch::COMMANDS | Dispatch::COMP_META;
+        let offers = Dispatch::CAMERAS
+            | Dispatch::GIMBALS
+            | Dispatch::COMMANDS
+            | Dispatch::COMP_META
+            | Dispatch::CALIBRATION;
         let mut out = Vec::new();
         let mut buf = Vec::new();
         if w & Dispatch::PARAMS != 0 {
@@ -347,6 +363,13 @@ impl Session {
         }
         if w & Dispatch::LOGS != 0 {
             Machine::on_message(&mut self.logs, m, &mut buf);
+            self.deliver(now, &mut buf, &mut out);
+        }
+        if w & Dispatch::PREARM != 0 {
+            Machine::on_message(&mut self.prearm, m, &mut buf);
+        }
+        if w & Dispatch::CALIBRATION != 0 {
+            Machine::on_message(&mut self.calibration, m, &mut buf);
             self.deliver(now, &mut buf, &mut out);
         }
         // A SET_MESSAGE_INTERVAL's ACK is the stream machine's while one of its own waits,
@@ -463,6 +486,7 @@ impl Session {
         self.drain_requests(now, |s| &mut s.cameras, out);
         self.drain_requests(now, |s| &mut s.gimbals, out);
         self.drain_requests(now, |s| &mut s.comp_meta, out);
+        self.drain_requests(now, |s| &mut s.calibration, out);
     }
 
     /// One machine's requests offered to the queue; those taken go out as mavterm's own.
@@ -508,6 +532,8 @@ impl Session {
     pub fn on_text(&mut self, now: Micros, text: &str) {
         self.commands.on_statustext(now, self.key.0, text);
         self.mission.on_text(now, text);
+        self.prearm.on_text(now, text);
+        self.calibration.on_text(now, text);
     }
 
     /// Start (or queue) a mission, fence or rally point transfer.
@@ -848,6 +874,8 @@ impl Session {
         self.deliver(now, &mut buf, &mut out);
         Machine::poll(&mut self.comp_meta, now, &mut buf);
         Machine::poll(&mut self.logs, now, &mut buf);
+        Machine::poll(&mut self.prearm, now, &mut buf);
+        Machine::poll(&mut self.calibration, now, &mut buf);
         self.deliver(now, &mut buf, &mut out);
         self.offer_requests(now, &mut out);
         self.hold_streams();
@@ -907,6 +935,8 @@ impl Session {
             Machine::next_deadline(&self.gimbals),
             Machine::next_deadline(&self.comp_meta),
             Machine::next_deadline(&self.logs),
+            Machine::next_deadline(&self.prearm),
+            Machine::next_deadline(&self.calibration),
         ]
         .into_iter()
         .flatten()

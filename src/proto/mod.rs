@@ -2,12 +2,14 @@
 //! needs to be woken. Nothing here reads a clock or touches a socket.
 
 pub mod ack;
+pub mod calibration;
 pub mod camera;
 pub mod commands;
 pub mod comp_meta;
 pub mod ftp_file;
 pub mod gimbal;
 pub mod logs;
+pub mod health;
 pub mod loss;
 pub mod machine;
 pub mod mav_cmds;

@@ -44,6 +44,8 @@ pub mod id {
     pub const EKF_STATUS_REPORT: u32 = crate::dialect::EKF_STATUS_REPORT_DATA::ID;
     pub const HOME_POSITION: u32 = crate::dialect::HOME_POSITION_DATA::ID;
     pub const EXTENDED_SYS_STATE: u32 = crate::dialect::EXTENDED_SYS_STATE_DATA::ID;
+    pub const VIBRATION: u32 = crate::dialect::VIBRATION_DATA::ID;
+    pub const RADIO_STATUS: u32 = crate::dialect::RADIO_STATUS_DATA::ID;
 }
 
 /// MAV_SYS_STATUS_PREARM_CHECK in SYS_STATUS's sensor bits.
@@ -179,6 +181,8 @@ pub struct Gps {
     pub fix_type: u8,
     /// `None` when the autopilot does not know (UINT8_MAX).
     pub satellites: Option<u8>,
+    /// HDOP × 100 (`eph`); `None` when unknown (UINT16_MAX).
+    pub hdop_e2: Option<u16>,
 }
 
 /// `3D`, `RTK fixed`, ... (GPS_FIX_TYPE); a value our dialect does not know stays a number.
@@ -358,6 +362,86 @@ pub struct FlightTelemetry {
     pub home_requests: u32,
     /// EXTENDED_SYS_STATE's `landed_state` (MAV_LANDED_STATE) and when it was heard.
     pub landed_state: Option<Timed<u8>>,
+    /// SYS_STATUS's sensor bits, as sent (bits newer than the dialect kept).
+    pub sensors: Option<Timed<Sensors>>,
+    /// EKF_STATUS_REPORT's variances.
+    pub ekf_variances: Option<Timed<EkfVariances>>,
+    /// VIBRATION.
+    pub vibration: Option<Timed<Vibration>>,
+    /// RADIO_STATUS (from the radio, any component of the system).
+    pub radio: Option<Timed<Radio>>,
+}
+
+/// SYS_STATUS's onboard control sensors: present, enabled and healthy bits (MAV_SYS_STATUS_SENSOR),
+/// and the extended ones (MAV_SYS_STATUS_SENSOR_EXTENDED) when sent.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Sensors {
+    pub present: u32,
+    pub enabled: u32,
+    pub health: u32,
+    pub present_ext: u32,
+    pub enabled_ext: u32,
+    pub health_ext: u32,
+    /// Communication drop rate, centi-percent, and errors (SYS_STATUS `drop_rate_comm`,
+    /// `errors_comm`).
+    pub drop_rate_comm: u16,
+    pub errors_comm: u16,
+    /// CPU load, per mille.
+    pub load: u16,
+}
+
+impl Sensors {
+    /// SYS_STATUS's payload. Wire order: present, enabled, health u32 (0, 4, 8), load u16 (12),
+    /// voltage_battery u16, current_battery i16, drop_rate_comm u16 (18), errors_comm u16 (20),
+    /// errors_count1..4, battery_remaining i8 (30); extensions: present, enabled, health
+    /// extended u32 (31, 35, 39).
+    pub fn from_payload(payload: &[u8]) -> Sensors {
+        let p = crate::wire::payload::Payload(payload);
+        Sensors {
+            present: p.u32(0),
+            enabled: p.u32(4),
+            health: p.u32(8),
+            load: p.u16(12),
+            drop_rate_comm: p.u16(18),
+            errors_comm: p.u16(20),
+            present_ext: p.u32(31),
+            enabled_ext: p.u32(35),
+            health_ext: p.u32(39),
+        }
+    }
+}
+
+/// EKF_STATUS_REPORT's variances (as ArduPilot sends them: velocity, horizontal and vertical
+/// position, the length of the compass variance, terrain altitude).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct EkfVariances {
+    pub velocity: f32,
+    pub pos_horiz: f32,
+    pub pos_vert: f32,
+    pub compass: f32,
+    pub terrain_alt: f32,
+}
+
+/// VIBRATION: the vibration levels (m/s²) and the accelerometer clipping counts.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Vibration {
+    pub x: f32,
+    pub y: f32,
+    pub z: f32,
+    pub clipping: [u32; 3],
+}
+
+/// RADIO_STATUS, as sent by a telemetry radio (SiK: RSSI and noise in its own units, 0..254;
+/// `txbuf` the percentage of its buffer free; `rxerrors` and `fixed` counters).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Radio {
+    pub rssi: u8,
+    pub remrssi: u8,
+    pub noise: u8,
+    pub remnoise: u8,
+    pub txbuf: u8,
+    pub rxerrors: u16,
+    pub fixed: u16,
 }
 
 impl FlightTelemetry {
@@ -378,6 +462,10 @@ impl FlightTelemetry {
             next_home_request: None,
             home_requests: 0,
             landed_state: None,
+            sensors: None,
+            ekf_variances: None,
+            vibration: None,
+            radio: None,
         }
     }
 
@@ -482,7 +570,36 @@ impl FlightTelemetry {
                 self.motion = Some(Timed { value, at: now });
                 self.vfr_hud_at = Some(now);
             }
-            (id::SYS_STATUS, Some(MavMessage::SYS_STATUS(s))) => {
+            (id::VIBRATION, Some(MavMessage::VIBRATION(v))) => {
+                let value = Vibration {
+                    x: v.vibration_x,
+                    y: v.vibration_y,
+                    z: v.vibration_z,
+                    clipping: [v.clipping_0, v.clipping_1, v.clipping_2],
+                };
+                self.vibration = Some(Timed { value, at: now });
+            }
+            (id::RADIO_STATUS, Some(MavMessage::RADIO_STATUS(r))) => {
+                let value = Radio {
+                    rssi: r.rssi,
+                    remrssi: r.remrssi,
+                    noise: r.noise,
+                    remnoise: r.remnoise,
+                    txbuf: r.txbuf,
+                    rxerrors: r.rxerrors,
+                    fixed: r.fixed,
+                };
+                self.radio = Some(Timed { value, at: now });
+            }
+            (id::SYS_STATUS, msg) => {
+                // The sensor bits from the payload: bits newer than the dialect are kept.
+                self.sensors = Some(Timed {
+                    value: Sensors::from_payload(payload),
+                    at: now,
+                });
+                let Some(MavMessage::SYS_STATUS(s)) = msg else {
+                    return;
+                };
                 let b = Battery::from_sys_status(
                     s.voltage_battery,
                     s.current_battery,
@@ -521,6 +638,7 @@ impl FlightTelemetry {
                         fix_type: g.fix_type as u8,
                         satellites: (g.satellites_visible != u8::MAX)
                             .then_some(g.satellites_visible),
+                        hdop_e2: (g.eph != u16::MAX).then_some(g.eph),
                     },
                     _ => gps_from_payload(payload),
                 };
@@ -531,6 +649,14 @@ impl FlightTelemetry {
                     value: e.flags.bits(),
                     at: now,
                 });
+                let value = EkfVariances {
+                    velocity: e.velocity_variance,
+                    pos_horiz: e.pos_horiz_variance,
+                    pos_vert: e.pos_vert_variance,
+                    compass: e.compass_variance,
+                    terrain_alt: e.terrain_alt_variance,
+                };
+                self.ekf_variances = Some(Timed { value, at: now });
             }
             (id::HOME_POSITION, Some(MavMessage::HOME_POSITION(h))) => {
                 let value = Home {
@@ -575,13 +701,15 @@ impl FlightTelemetry {
 }
 
 /// GPS_RAW_INT's fix type and satellites from its payload. Wire order: time_usec u64, lat,
-/// lon, alt i32, eph, epv, vel, cog u16, fix_type u8, satellites_visible u8 (bytes 28 and 29).
+/// lon, alt i32, eph (20), epv, vel, cog u16, fix_type u8, satellites_visible u8 (bytes 28 and 29).
 fn gps_from_payload(payload: &[u8]) -> Gps {
     let p = crate::wire::payload::Payload(payload);
     let satellites = p.u8(29);
+    let eph = p.u16(20);
     Gps {
         fix_type: p.u8(28),
         satellites: (satellites != u8::MAX).then_some(satellites),
+        hdop_e2: (eph != u16::MAX).then_some(eph),
     }
 }
 

@@ -111,6 +111,9 @@ pub const OPTIONS: &[(&str, &str, &str)] = &[
         "log_size",
         "200000",
         "bytes of the newest onboard log (older ones smaller) [default: 60000]",
+        "uncal",
+        "1",
+        "accelerometers and compasses not calibrated: pre-arm fails until they are",
     ),
 ];
 
@@ -188,6 +191,10 @@ pub struct SimConfig {
     pub logs: u16,
     /// `log_size=BYTES`: the newest log's size; log `i` of `n` is `i/n` of it.
     pub log_size: u32,
+    /// `uncal=1`: a vehicle fresh from the box: its accelerometers and compasses are not
+    /// calibrated, so its pre-arm checks fail (and SYS_STATUS reports the pre-arm bit) until
+    /// they are ([`super::calibration`]).
+    pub uncal: bool,
 }
 
 impl Default for SimConfig {
@@ -213,6 +220,7 @@ impl Default for SimConfig {
             gimbal: None,
             logs: 3,
             log_size: 60_000,
+            uncal: false,
         }
     }
 }
@@ -362,6 +370,7 @@ impl SimConfig {
                 }
                 "log_size" => c.log_size = num(key, value, "bytes (a whole number)")?,
                 "gimbal" => c.gimbal = Some(flag(key, value)?),
+                "uncal" => c.uncal = flag(key, value)?,
                 "camera_drop" => {
                     c.camera_drop = Some(
                         value

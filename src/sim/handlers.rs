@@ -379,6 +379,12 @@ impl SimVehicle {
                 MAV_RESULT_ACCEPTED
             }
             MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION => self.preflight_calibration(cmd),
+            MavCmd::MAV_CMD_ACCELCAL_VEHICLE_POS
+            | MavCmd::MAV_CMD_DO_START_MAG_CAL
+            | MavCmd::MAV_CMD_DO_ACCEPT_MAG_CAL
+            | MavCmd::MAV_CMD_DO_CANCEL_MAG_CAL
+            | MavCmd::MAV_CMD_FIXED_MAG_CAL_YAW
+            | MavCmd::MAV_CMD_RUN_PREARM_CHECKS => self.cal_command(cmd),
             // GCS_MAVLINK::set_message_interval: FAILED for an id with no ap_message, which
             // set_mavlink_message_id_interval tells the GCS of in a STATUSTEXT.
             MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => {
@@ -515,6 +521,14 @@ impl SimVehicle {
             if !mode::armable(self.custom_mode) {
                 let why = format!("{} mode not armable", mode::name(self.custom_mode));
                 return refuse(self, &why);
+            }
+            // The pre-arm checks, each failure stated with the "Arm: " prefix.
+            let failing = self.prearm_failures();
+            if let Some((last, first)) = failing.split_last() {
+                for why in first {
+                    self.text(MavSeverity::MAV_SEVERITY_CRITICAL, &format!("Arm: {why}"));
+                }
+                return refuse(self, last);
             }
         }
         self.armed = true;
@@ -779,9 +793,13 @@ impl SimVehicle {
             return MAV_RESULT_IN_PROGRESS;
         }
         match x {
-            // The six-position accel calibration is interactive (ACCELCAL_VEHICLE_POS); not
-            // simulated.
-            1 => MAV_RESULT_UNSUPPORTED,
+            // The six-position accel calibration: the gyros first (in the handler), then
+            // AP_AccelCal asks for each position ([`super::calibration`]).
+            1 => {
+                self.block(GYRO_CAL_TIME, cmd, MAV_RESULT_ACCEPTED);
+                self.accel_cal_start(self.now + GYRO_CAL_TIME);
+                MAV_RESULT_ACCEPTED
+            }
             2 | 4 => {
                 self.block(ACCEL_CAL_TIME, cmd, MAV_RESULT_ACCEPTED);
                 MAV_RESULT_ACCEPTED

@@ -25,6 +25,7 @@ macro_rules! arducopter_version {
 pub const ARDUCOPTER_VERSION: &str = arducopter_version!();
 
 pub mod auto;
+pub mod calibration;
 pub mod camera;
 pub mod config;
 pub mod gimbal;
@@ -145,6 +146,9 @@ impl Sim {
             v.mission.ready_at = cfg.mission_boot_ms.saturating_mul(1000);
             if cfg.gimbal.unwrap_or(cfg.camera) {
                 v.mount = Some(gimbal::SimMount::default());
+            }
+            if cfg.uncal {
+                v.cal = calibration::SimCal::uncalibrated();
             }
             vehicles.push(v);
         }

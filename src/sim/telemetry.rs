@@ -266,10 +266,18 @@ impl SimVehicle {
             }
             id::SYS_STATUS => {
                 let sensors = MavSysStatusSensor::from_bits_truncate(0x0120_FC2F);
+                // `uncal=1`: the pre-arm bit, healthy when the checks pass (ArduPilot's
+                // AP_Arming::get_pre_arm_check).
+                let prearm = MavSysStatusSensor::MAV_SYS_STATUS_PREARM_CHECK;
+                let (present, health) = match (self.cal.reports_prearm, self.prearm_passing()) {
+                    (false, _) => (sensors, sensors),
+                    (true, true) => (sensors | prearm, sensors | prearm),
+                    (true, false) => (sensors | prearm, sensors),
+                };
                 MavMessage::SYS_STATUS(SYS_STATUS_DATA {
-                    onboard_control_sensors_present: sensors,
-                    onboard_control_sensors_enabled: sensors,
-                    onboard_control_sensors_health: sensors,
+                    onboard_control_sensors_present: present,
+                    onboard_control_sensors_enabled: present,
+                    onboard_control_sensors_health: health,
                     load: 150,
                     voltage_battery: (self.voltage() * 1000.0) as u16,
                     current_battery: self.current_ca(),

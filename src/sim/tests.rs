@@ -2073,7 +2073,7 @@ fn preflight_calibration_blocks_then_accepts() {
             text("Barometer calibration complete")
         ]
     );
-    // Nothing asked for (or the 6-position accel calibration, not simulated): UNSUPPORTED.
+    // Nothing asked for: UNSUPPORTED.
     assert_eq!(
         g.command(MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION, [0.0; 7], 0),
         MAV_RESULT_UNSUPPORTED

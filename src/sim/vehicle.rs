@@ -351,6 +351,8 @@ pub struct SimVehicle {
     pub(super) immediate: Vec<Out>,
     /// The mount (`gimbal=1`): AP_Mount as gimbal manager on this component.
     pub(super) mount: Option<super::gimbal::SimMount>,
+    /// Calibrations and pre-arm checks ([`super::calibration`]).
+    pub(super) cal: super::calibration::SimCal,
 }
 
 impl SimVehicle {
@@ -440,6 +442,7 @@ impl SimVehicle {
             out: Vec::new(),
             immediate: Vec::new(),
             mount: None,
+            cal: super::calibration::SimCal::default(),
         }
     }
 
@@ -621,6 +624,7 @@ impl SimVehicle {
             m.step(dt);
         }
         self.airspeed_cal_tick(now);
+        self.cal_tick(now);
         if now >= self.next_heartbeat {
             let hb = self.heartbeat();
             self.push(hb);
@@ -700,6 +704,9 @@ impl SimVehicle {
         }
         if !self.ekf_gps {
             t = t.min(EKF_GPS_AT);
+        }
+        if let Some(d) = self.cal_next_due() {
+            t = t.min(d);
         }
         // Round up to a tick boundary, never before the next tick.
         let t = t.div_ceil(TICK) * TICK;

@@ -179,14 +179,24 @@ pub fn lines(app: &App, width: usize, theme: &Theme) -> Vec<Line<'static>> {
     let ekf = t
         .ekf
         .map(|e| it.value("EKF", Some((ekf_summary(e.value).into(), e.at))));
-    let prearm = t.prearm.map(|p| {
-        let word = match (p.value.enabled, p.value.healthy) {
-            (false, _) => "off",
-            (true, true) => "ok",
-            (true, false) => "FAIL",
-        };
-        it.value("PRE", Some((word.into(), p.at)))
-    });
+    // The reasons the vehicle gives now for not arming (the Health screen lists them).
+    let reasons = app.sessions.get(&key).map_or(0, |s| s.prearm.len());
+    let why = |word: &str| match reasons {
+        0 => word.to_string(),
+        n => format!("{word} ({n}, screen 8)"),
+    };
+    let prearm = match t.prearm {
+        Some(p) => {
+            let word = match (p.value.enabled, p.value.healthy) {
+                (false, _) => "off",
+                (true, true) => "ok",
+                (true, false) => "FAIL",
+            };
+            Some(it.value("PRE", Some((why(word), p.at))))
+        }
+        None if reasons > 0 => Some(it.value("PRE", Some((why("FAIL"), now)))),
+        None => None,
+    };
 
     let bat = it.value(
         "BAT",
