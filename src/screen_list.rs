@@ -26,6 +26,7 @@ macro_rules! for_each_screen {
                 select = select_inspector;
             5 mission "Mission" "show the mission screen" select = select_mission;
             6 camera "Camera" "show the camera screen";
+            9 map "Map" "show the map" select = select_map;
         }
     };
 }

@@ -12,6 +12,7 @@ pub mod input;
 pub mod inspector;
 mod keys;
 pub mod links;
+pub mod map;
 pub mod messages;
 pub mod mission;
 pub mod notices;
@@ -82,6 +83,9 @@ pub struct AppConfig {
     /// Fly mode's deadman: a nudge stops when no key of it has come for this long
     /// (config `nudge_deadman`, seconds).
     pub nudge_deadman: Micros,
+    /// The map's traffic settings (config `adsb_timeout`, `adsb_warn_distance`,
+    /// `adsb_warn_height`).
+    pub map: map::MapConfig,
 }
 
 impl Default for AppConfig {
@@ -102,6 +106,7 @@ impl Default for AppConfig {
             param_meta_url: None,
             signing: None,
             nudge_deadman: nudge::DEADMAN,
+            map: map::MapConfig::default(),
         }
     }
 }
@@ -295,6 +300,8 @@ pub struct UiState {
     pub outcomes: std::collections::VecDeque<outcome::OutcomeEntry>,
     /// The help popup lists the results instead of the keys (`:messages`).
     pub show_outcomes: bool,
+    /// The Map screen's view.
+    pub map: map::MapView,
 }
 
 /// The mode picker: the target's modes, filtered by what is typed; enter asks for the one
@@ -335,6 +342,7 @@ impl Default for UiState {
             action: None,
             outcomes: std::collections::VecDeque::new(),
             show_outcomes: false,
+            map: map::MapView::default(),
         }
     }
 }
@@ -388,6 +396,8 @@ pub struct App {
     /// The operator asked to suspend (Ctrl-Z): the terminal front end takes it, gives the
     /// terminal back and stops the process until `fg`.
     pub suspend: bool,
+    /// ADS-B traffic, the vehicles' tracks and the proximity warning (the Map screen's).
+    pub air: map::Air,
 }
 
 impl App {
@@ -400,6 +410,7 @@ impl App {
         let vehicles = Registry::new(VehicleKey(cfg.sysid, cfg.compid), cfg.lost_timeout);
         let signing = signing::SigningState::new(cfg.signing.as_ref());
         let nudge = nudge::Nudge::new(cfg.nudge_deadman);
+        let air = map::Air::new(cfg.map);
         let mut app = Self {
             cfg,
             now: 0,
@@ -426,6 +437,7 @@ impl App {
             auto_starts: std::collections::VecDeque::new(),
             auto_held: 0,
             suspend: false,
+            air,
         };
         app.signing_start();
         app
@@ -492,6 +504,7 @@ impl App {
         }
         at(self.nudge.next_deadline());
         at(self.confirm_deadline());
+        at(self.map_deadline());
         t
     }
 
@@ -782,6 +795,7 @@ impl App {
         Machine::poll(&mut self.statustext, self.now, &mut texts);
         self.on_texts(texts);
         self.signing_time(fx);
+        self.map_time();
     }
 
     fn on_link_state(&mut self, link: LinkId, state: LinkState) {
@@ -847,6 +861,7 @@ impl App {
         for frame in &frames {
             self.on_frame(link, frame, fx);
         }
+        self.sample_tracks();
     }
 
     /// One frame from `link`: counted on the link, then handled once however many links carry it.
@@ -931,6 +946,7 @@ impl App {
             Some(MavMessage::STATUSTEXT(_)) => {
                 self.on_statustext_frame(link, frame, msg);
             }
+            Some(MavMessage::ADSB_VEHICLE(_)) => self.on_adsb_frame(link, frame, msg),
             _ => {}
         }
         if self.for_us(msg, ack.as_ref()) {

@@ -37,9 +37,10 @@ impl Screen {
         Action::Screen(self.number - 1)
     }
 
-    /// Its keymap section, `[normal.NAME]`.
+    /// Its keymap section, `[normal.NAME]` (by its place in the list: numbers may skip).
     pub fn section(&self) -> Section {
-        Section::Screen(usize::from(self.number - 1))
+        let i = crate::keymap::SCREENS.iter().position(|n| *n == self.name);
+        Section::Screen(i.unwrap_or(usize::from(self.number - 1)))
     }
 }
 
@@ -83,7 +84,8 @@ mod tests {
     #[test]
     fn the_list_is_in_number_key_order_and_names_the_keymap_sections() {
         for (i, s) in SCREENS.iter().enumerate() {
-            assert_eq!(usize::from(s.number), i + 1, "{}", s.name);
+            // Number keys rise along the list (screens of other builds may leave gaps).
+            assert!(i == 0 || SCREENS[i - 1].number < s.number, "{}", s.name);
             assert_eq!(crate::keymap::SCREENS[i], s.name);
             assert_eq!(s.section().to_string(), format!("[normal.{}]", s.name));
         }

@@ -2,8 +2,10 @@
 //! needs to be woken. Nothing here reads a clock or touches a socket.
 
 pub mod ack;
+pub mod adsb;
 pub mod camera;
 pub mod commands;
+pub mod geo;
 pub mod gimbal;
 pub mod loss;
 pub mod machine;
