@@ -419,6 +419,7 @@ fn keys_for_and_bindings_list_what_applies_in_file_order() {
         ("screen_4", "4"),
         ("screen_5", "5"),
         ("screen_6", "6"),
+        ("screen_9", "9"),
         ("up", "up"),
         ("down", "down"),
         ("page_up", "pageup"),

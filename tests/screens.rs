@@ -17,6 +17,7 @@ const EXPECTED: &[(char, &str, &str)] = &[
     ('4', "inspector", "MAVLink Inspector"),
     ('5', "mission", "Mission"),
     ('6', "camera", "Camera"),
+    ('9', "map", "Map"),
 ];
 
 #[test]
