@@ -121,7 +121,15 @@ fn map_scene() -> ui_fixture::Drive {
     for i in 1..100u16 {
         let a = i as f64 * 0.4;
         let p = home.from_en(600.0 * a.sin(), 20.0 * i as f64 - 1000.0);
-        items.push(MissionItem::at(MissionType::Mission, i, 3, 16, p.lat, p.lon, 20.0));
+        items.push(MissionItem::at(
+            MissionType::Mission,
+            i,
+            3,
+            16,
+            p.lat,
+            p.lon,
+            20.0,
+        ));
     }
     d.app.ui.mission.files[0] = Some(mavterm::app::mission::LoadedList {
         path: "bench.waypoints".into(),

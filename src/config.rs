@@ -326,12 +326,10 @@ pub fn load(path: &Path, text: &str) -> Result<FileConfig, ConfigError> {
                 )
             }
             "adsb_warn_height" => {
-                cfg.adsb_warn_height = found.check(
-                    "adsb_warn_height",
-                    value,
-                    "metres from 0 to 10000",
-                    |v| number(v).filter(|m| m.is_finite() && (0.0..=10_000.0).contains(m)),
-                )
+                cfg.adsb_warn_height =
+                    found.check("adsb_warn_height", value, "metres from 0 to 10000", |v| {
+                        number(v).filter(|m| m.is_finite() && (0.0..=10_000.0).contains(m))
+                    })
             }
             "links" => cfg.links = links(value, &mut found),
             // Refused without showing the value: it may be a secret.

@@ -604,18 +604,46 @@ impl Action {
             "mission_add_at_cursor",
             "file list: add a waypoint at the map's cursor",
         ),
-        (Action::MapZoomIn, "map_zoom_in", "map: zoom in (+ too, without a replay)"),
-        (Action::MapZoomOut, "map_zoom_out", "map: zoom out (- too, without a replay)"),
-        (Action::MapLeft, "map_left", "map: move the view or the cursor left"),
-        (Action::MapRight, "map_right", "map: move the view or the cursor right"),
-        (Action::MapCentre, "map_centre", "map: follow the target again"),
+        (
+            Action::MapZoomIn,
+            "map_zoom_in",
+            "map: zoom in (+ too, without a replay)",
+        ),
+        (
+            Action::MapZoomOut,
+            "map_zoom_out",
+            "map: zoom out (- too, without a replay)",
+        ),
+        (
+            Action::MapLeft,
+            "map_left",
+            "map: move the view or the cursor left",
+        ),
+        (
+            Action::MapRight,
+            "map_right",
+            "map: move the view or the cursor right",
+        ),
+        (
+            Action::MapCentre,
+            "map_centre",
+            "map: follow the target again",
+        ),
         (
             Action::MapFit,
             "map_fit",
             "map: fit the mission, fence, rally, homes and vehicles",
         ),
-        (Action::MapHeadingUp, "map_heading_up", "map: heading up / north up"),
-        (Action::MapCursor, "map_cursor", "map: show / hide the cursor"),
+        (
+            Action::MapHeadingUp,
+            "map_heading_up",
+            "map: heading up / north up",
+        ),
+        (
+            Action::MapCursor,
+            "map_cursor",
+            "map: show / hide the cursor",
+        ),
         (
             Action::MapGoto,
             "map_goto",

@@ -33,9 +33,7 @@ fn runner(q: &str) -> VirtualRunner {
 fn truth(pairs: &[(LatLon, LatLon)]) -> Vec<(f64, f64)> {
     let lines: Vec<String> = pairs
         .iter()
-        .map(|(a, b)| {
-            serde_json::json!({"a": [a.lat, a.lon], "b": [b.lat, b.lon]}).to_string()
-        })
+        .map(|(a, b)| serde_json::json!({"a": [a.lat, a.lon], "b": [b.lat, b.lon]}).to_string())
         .collect();
     common::py_lines("geo_truth.py", &[], &lines)
         .iter()
@@ -111,8 +109,14 @@ fn known_distances_across_the_antimeridian_and_over_the_poles() {
     let plane = Plane::new(LatLon::new(0.0, 180.0));
     let (e1, n1) = plane.to_en(LatLon::new(0.0, 179.9));
     let (e2, n2) = plane.to_en(LatLon::new(0.0, -179.9));
-    assert!((e1 + 0.1 * DEG_M).abs() < 0.01 && n1.abs() < 0.01, "{e1} {n1}");
-    assert!((e2 - 0.1 * DEG_M).abs() < 0.01 && n2.abs() < 0.01, "{e2} {n2}");
+    assert!(
+        (e1 + 0.1 * DEG_M).abs() < 0.01 && n1.abs() < 0.01,
+        "{e1} {n1}"
+    );
+    assert!(
+        (e2 - 0.1 * DEG_M).abs() < 0.01 && n2.abs() < 0.01,
+        "{e2} {n2}"
+    );
     // Across the north pole: 89.95° N on opposite meridians are 0.1° of latitude apart, the far
     // one straight north of the centre.
     let plane = Plane::new(LatLon::new(89.95, 0.0));
@@ -159,7 +163,12 @@ fn mission_file() -> String {
 /// An inclusion polygon around it all, and an exclusion circle of 40 m.
 fn fence_file() -> String {
     let mut s = String::from("QGC WPL 110\n");
-    let corners = [(-0.0016, -0.0025), (0.0016, -0.0025), (0.0016, 0.0035), (-0.0016, 0.0035)];
+    let corners = [
+        (-0.0016, -0.0025),
+        (0.0016, -0.0025),
+        (0.0016, 0.0035),
+        (-0.0016, 0.0035),
+    ];
     for (i, (dn, de)) in corners.iter().enumerate() {
         s += &format!(
             "{i}\t0\t0\t5001\t4\t0\t0\t0\t{:.7}\t{:.7}\t0\t0\n",
@@ -254,7 +263,9 @@ fn a_small_terminal_still_shows_the_vehicle_and_the_next_waypoint(r: &mut Virtua
         "no pointer to wp {seq}: {text}"
     );
     assert!(
-        text.lines().skip(2).any(|l| l.chars().any(|c| arrows.contains(&c))),
+        text.lines()
+            .skip(2)
+            .any(|l| l.chars().any(|c| arrows.contains(&c))),
         "{text}"
     );
     insta::assert_snapshot!("map_small_60x16", text);
@@ -306,7 +317,10 @@ fn follow_pan_zoom_centre_and_fit(mut r: VirtualRunner) {
     assert!(!r.app.ui.map.follow);
     let c = r.app.map_centre().unwrap();
     let (n, e) = ne(own, c);
-    assert!((n - radius / 4.0).abs() < 0.5 && (e - radius / 4.0).abs() < 0.5, "{n} {e}");
+    assert!(
+        (n - radius / 4.0).abs() < 0.5 && (e - radius / 4.0).abs() < 0.5,
+        "{n} {e}"
+    );
     // The view stays there while the vehicle flies on.
     wait(&mut r, 5.0);
     assert_eq!(r.app.map_centre(), Some(c));
@@ -339,17 +353,28 @@ fn follow_pan_zoom_centre_and_fit(mut r: VirtualRunner) {
     let (hw, hh) = r.app.ui.map.fit.unwrap();
     let mut pts: Vec<LatLon> = r.app.map_path().iter().map(|p| p.1).collect();
     for t in [MissionType::Fence, MissionType::Rally] {
-        pts.extend(r.app.map_list(t).iter().filter_map(mavterm::app::map::item_pos));
+        pts.extend(
+            r.app
+                .map_list(t)
+                .iter()
+                .filter_map(mavterm::app::map::item_pos),
+        );
     }
     pts.push(r.app.target_pos().unwrap());
     let (mut me, mut mn) = (0.0f64, 0.0f64);
     for p in &pts {
         let (n, e) = ne(c, *p);
-        assert!(e.abs() <= hw + 0.5 && n.abs() <= hh + 0.5, "{p:?}: {e} {n} in {hw} {hh}");
+        assert!(
+            e.abs() <= hw + 0.5 && n.abs() <= hh + 0.5,
+            "{p:?}: {e} {n} in {hw} {hh}"
+        );
         me = me.max(e.abs());
         mn = mn.max(n.abs());
     }
-    assert!(hw <= me * 1.11 + 1.0 && hh <= mn * 1.11 + 1.0, "{hw} {hh} for {me} {mn}");
+    assert!(
+        hw <= me * 1.11 + 1.0 && hh <= mn * 1.11 + 1.0,
+        "{hw} {hh} for {me} {mn}"
+    );
     // h: heading up, said in the title.
     keys(&mut r, &["c", "h"]);
     let text = screen(&r, 80, 24);
@@ -383,7 +408,10 @@ fn go_to_from_the_cursor_sends_do_reposition_there() {
     keys(&mut r, &["up", "up", "up", "right", "right"]);
     let c = r.app.ui.map.cursor.unwrap();
     let (n, e) = ne(own, c);
-    assert!((n - 3.0 * step).abs() < 0.3 && (e - 2.0 * step).abs() < 0.3, "{n} {e}");
+    assert!(
+        (n - 3.0 * step).abs() < 0.3 && (e - 2.0 * step).abs() < 0.3,
+        "{n} {e}"
+    );
     // The footer: where it is, and its distance and bearing from the vehicle.
     let text = screen(&r, 100, 30);
     let d = (3.0 * step).hypot(2.0 * step);
@@ -413,7 +441,10 @@ fn go_to_from_the_cursor_sends_do_reposition_there() {
     assert_eq!(m["x"], (c.lat * 1e7).round() as i64);
     assert_eq!(m["y"], (c.lon * 1e7).round() as i64);
     assert!((m["z"].as_f64().unwrap() - 10.0).abs() < 0.5, "{m}");
-    assert_eq!((m["target_system"].as_u64(), m["target_component"].as_u64()), (Some(1), Some(1)));
+    assert_eq!(
+        (m["target_system"].as_u64(), m["target_component"].as_u64()),
+        (Some(1), Some(1))
+    );
     // The map marks the go-to's target.
     assert!(r.app.guided_target().is_some());
 }
@@ -425,7 +456,13 @@ fn go_to_from_the_cursor_has_the_checks_of_goto() {
     keys(&mut r, &["9", "enter"]);
     let now = r.now();
     let fx = r.app.update(now, Event::Key(Key::ch('g')));
-    assert!(!fx.iter().any(|e| matches!(e, Effect::Send { msg: MavMessage::COMMAND_INT(_), .. })));
+    assert!(!fx.iter().any(|e| matches!(
+        e,
+        Effect::Send {
+            msg: MavMessage::COMMAND_INT(_),
+            ..
+        }
+    )));
     let m = r.app.ui.message.clone().unwrap().1;
     assert!(m.contains("goto refused") && m.contains("not armed"), "{m}");
 }
@@ -526,7 +563,11 @@ fn stale_traffic_is_dimmed_then_dropped() {
     let own = LatLon::new(-35.0, 149.0);
     let far = Plane::new(own).from_en(0.0, 5000.0);
     // Heard at 1 s, its report one second old.
-    hear(&mut app, SECOND, &aircraft(0xABC123, "QFA12", far, 900.0, 1));
+    hear(
+        &mut app,
+        SECOND,
+        &aircraft(0xABC123, "QFA12", far, 900.0, 1),
+    );
     let a = app.air.traffic.get(0xABC123).unwrap();
     assert!(!a.is_stale(SECOND));
     let t = text(&app);
@@ -550,7 +591,10 @@ fn stale_traffic_is_dimmed_then_dropped() {
     assert_eq!(app.air.traffic.len(), 0);
     assert_eq!(app.air.traffic.expired, 1);
     let t = text(&app);
-    assert!(!t.contains("QFA12") && t.contains("no ADS-B traffic heard"), "{t}");
+    assert!(
+        !t.contains("QFA12") && t.contains("no ADS-B traffic heard"),
+        "{t}"
+    );
 }
 
 #[test]
@@ -563,8 +607,16 @@ fn traffic_near_the_target_warns_once_and_stays_on_the_status_bar() {
     let own = LatLon::new(-35.0, 149.0);
     let plane = Plane::new(own);
     // 3 km away: no warning. 800 m away but 400 m above: none either.
-    hear(&mut app, SECOND, &aircraft(1, "FAR1", plane.from_en(3000.0, 0.0), 650.0, 0));
-    hear(&mut app, SECOND, &aircraft(2, "HIGH2", plane.from_en(800.0, 0.0), 1000.0, 0));
+    hear(
+        &mut app,
+        SECOND,
+        &aircraft(1, "FAR1", plane.from_en(3000.0, 0.0), 650.0, 0),
+    );
+    hear(
+        &mut app,
+        SECOND,
+        &aircraft(2, "HIGH2", plane.from_en(800.0, 0.0), 1000.0, 0),
+    );
     assert!(app.traffic_alert().is_none());
     let warnings = |app: &App| {
         app.notices
@@ -574,7 +626,11 @@ fn traffic_near_the_target_warns_once_and_stays_on_the_status_bar() {
     };
     assert_eq!(warnings(&app), 0);
     // 800 m east, 100 m above: near.
-    hear(&mut app, 2 * SECOND, &aircraft(3, "NEAR3", plane.from_en(800.0, 0.0), 700.0, 0));
+    hear(
+        &mut app,
+        2 * SECOND,
+        &aircraft(3, "NEAR3", plane.from_en(800.0, 0.0), 700.0, 0),
+    );
     let alert = app.traffic_alert().unwrap();
     assert_eq!(alert, "TRAFFIC NEAR3 800 m +100 m");
     let t = text(&app);
@@ -588,11 +644,19 @@ fn traffic_near_the_target_warns_once_and_stays_on_the_status_bar() {
         .collect();
     assert_eq!(n, ["traffic NEAR3 800 m from 1:1 at 090°, +100 m"]);
     // Heard again while near: told once only.
-    hear(&mut app, 3 * SECOND, &aircraft(3, "NEAR3", plane.from_en(700.0, 0.0), 700.0, 0));
+    hear(
+        &mut app,
+        3 * SECOND,
+        &aircraft(3, "NEAR3", plane.from_en(700.0, 0.0), 700.0, 0),
+    );
     app.update(4 * SECOND, Event::Tick);
     assert_eq!(warnings(&app), 1);
     // Gone away: the warning leaves the status bar.
-    hear(&mut app, 5 * SECOND, &aircraft(3, "NEAR3", plane.from_en(4000.0, 0.0), 700.0, 0));
+    hear(
+        &mut app,
+        5 * SECOND,
+        &aircraft(3, "NEAR3", plane.from_en(4000.0, 0.0), 700.0, 0),
+    );
     assert!(app.traffic_alert().is_none());
     let t = text(&app);
     assert!(!t.lines().last().unwrap().contains("TRAFFIC"), "{t}");
@@ -606,7 +670,10 @@ fn the_sims_traffic_is_what_the_map_shows() {
     assert_eq!(r.app.air.traffic.len(), 3);
     for a in &truth {
         let seen = r.app.air.traffic.get(a.icao).expect("every aircraft");
-        assert_eq!(seen.callsign.as_deref(), Some(format!("SIM{}", a.icao).as_str()));
+        assert_eq!(
+            seen.callsign.as_deref(),
+            Some(format!("SIM{}", a.icao).as_str())
+        );
         assert_eq!(seen.squawk, Some(1200));
         assert!(seen.simulated);
         // Reported within the last second at its speed: no farther than that from the truth.

@@ -127,8 +127,15 @@ pub struct MapVehicle {
 /// A fence shape.
 #[derive(Debug, Clone, PartialEq)]
 pub enum FenceShape {
-    Polygon { inclusion: bool, points: Vec<LatLon> },
-    Circle { inclusion: bool, centre: LatLon, radius: f64 },
+    Polygon {
+        inclusion: bool,
+        points: Vec<LatLon>,
+    },
+    Circle {
+        inclusion: bool,
+        centre: LatLon,
+        radius: f64,
+    },
 }
 
 /// True for the frames whose x/y are a latitude and longitude.
@@ -138,8 +145,7 @@ fn is_global(frame: u8) -> bool {
 
 /// The position of a positional item, if it has one (0,0 is "here" on a take-off or land).
 pub fn item_pos(i: &MissionItem) -> Option<LatLon> {
-    if !mission::command_has_position(i.command) || !is_global(i.frame) || (i.x == 0 && i.y == 0)
-    {
+    if !mission::command_has_position(i.command) || !is_global(i.frame) || (i.x == 0 && i.y == 0) {
         return None;
     }
     let p = LatLon::new(i.param5(), i.param6());
@@ -160,7 +166,8 @@ pub fn fence_shapes(items: &[MissionItem]) -> Vec<FenceShape> {
         match i.command {
             cmd::NAV_FENCE_POLYGON_VERTEX_INCLUSION | cmd::NAV_FENCE_POLYGON_VERTEX_EXCLUSION => {
                 let n = (i.params[0].max(0.0) as usize).max(1);
-                let cont = matches!(&run, Some((c, want, pts)) if *c == i.command && pts.len() < *want);
+                let cont =
+                    matches!(&run, Some((c, want, pts)) if *c == i.command && pts.len() < *want);
                 if !cont {
                     if let Some((c, _, pts)) = run.take() {
                         out.push(polygon(c, pts));
@@ -282,9 +289,11 @@ impl App {
                     key: *key,
                     pos: LatLon::new(p.lat(), p.lon()),
                     heading: s.flight.motion.as_ref().map(|m| m.value.heading as f64),
-                    home: s.flight.home.as_ref().map(|h| {
-                        LatLon::from_e7(h.value.lat_e7, h.value.lon_e7)
-                    }),
+                    home: s
+                        .flight
+                        .home
+                        .as_ref()
+                        .map(|h| LatLon::from_e7(h.value.lat_e7, h.value.lon_e7)),
                     target: self.target == Some(*key),
                     lost: self.vehicles.get(*key).is_some_and(|v| v.lost),
                 })
@@ -364,12 +373,15 @@ impl App {
             .collect()
     }
 
-    /// The waypoint flown now, else the first: (seq, where).
+    /// The waypoint flown now (the next with a position), else the first when the vehicle has
+    /// said none: (seq, where).
     pub fn next_waypoint(&self) -> Option<(u16, LatLon)> {
         let path = self.map_path();
-        let cur = self.map_current_seq();
-        cur.and_then(|c| path.iter().find(|(s, _)| *s >= c).copied())
-            .or_else(|| path.first().copied())
+        match self.map_current_seq() {
+            // Past the last one with a position (landing, RTL): none ahead.
+            Some(c) => path.iter().find(|(s, _)| *s >= c).copied(),
+            None => path.first().copied(),
+        }
     }
 
     /// The target of the target's last go-to (DO_REPOSITION not refused): where it was sent.
@@ -397,7 +409,12 @@ impl App {
             .air
             .traffic
             .aircraft()
-            .map(|a| (a, own.map(|(p, alt, vel)| adsb::relative(a, p, Some(alt), vel))))
+            .map(|a| {
+                (
+                    a,
+                    own.map(|(p, alt, vel)| adsb::relative(a, p, Some(alt), vel)),
+                )
+            })
             .collect();
         v.sort_by(|a, b| {
             let d = |x: &Option<Relative>| x.map_or(f64::MAX, |r| r.distance);
@@ -615,7 +632,9 @@ impl App {
     /// `f`: the view holds the mission, fence, rally points, homes and vehicles.
     fn map_fit(&mut self) -> Result<Option<String>, String> {
         let pts = self.fit_points();
-        let first = *pts.first().ok_or("nothing to fit: no position, mission or home yet")?;
+        let first = *pts
+            .first()
+            .ok_or("nothing to fit: no position, mission or home yet")?;
         let plane = Plane::new(first);
         let en: Vec<(f64, f64)> = pts.iter().map(|p| plane.to_en(*p)).collect();
         let (mut e0, mut e1, mut n0, mut n1) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);

@@ -150,7 +150,12 @@ impl Traffic {
                 return;
             }
         } else if self.aircraft.len() >= MAX_AIRCRAFT {
-            if let Some(oldest) = self.aircraft.values().min_by_key(|x| x.seen).map(|x| x.icao) {
+            if let Some(oldest) = self
+                .aircraft
+                .values()
+                .min_by_key(|x| x.seen)
+                .map(|x| x.icao)
+            {
                 self.aircraft.remove(&oldest);
                 self.evicted += 1;
             }

@@ -173,7 +173,10 @@ mod tests {
             let pl = Plane::new(c);
             for (e, n) in [(100.0, 0.0), (-2500.0, 4000.0), (30_000.0, -40_000.0)] {
                 let (e2, n2) = pl.to_en(pl.from_en(e, n));
-                assert!((e - e2).abs() < 1e-3 && (n - n2).abs() < 1e-3, "{c:?} {e} {n}");
+                assert!(
+                    (e - e2).abs() < 1e-3 && (n - n2).abs() < 1e-3,
+                    "{c:?} {e} {n}"
+                );
             }
         }
     }

@@ -195,7 +195,10 @@ mod tests {
         let MavMessage::ADSB_VEHICLE(r) = s.aircraft[0].report() else {
             panic!()
         };
-        assert_eq!(r.callsign.to_str().unwrap(), format!("SIM{}", r.ICAO_address));
+        assert_eq!(
+            r.callsign.to_str().unwrap(),
+            format!("SIM{}", r.ICAO_address)
+        );
         assert_eq!(r.squawk, 1200);
         assert_eq!(r.tslc, 1);
         assert_eq!(r.altitude, ((HOME_ALT_M + 100.0) * 1000.0) as i32);

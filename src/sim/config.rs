@@ -364,7 +364,11 @@ impl SimConfig {
                 "adsb" => {
                     let n: u8 = num(key, value, "a number of aircraft from 0 to 50")?;
                     if n > super::adsb::MAX {
-                        return Err(bad(key, value, "expected a number of aircraft from 0 to 50"));
+                        return Err(bad(
+                            key,
+                            value,
+                            "expected a number of aircraft from 0 to 50",
+                        ));
                     }
                     c.adsb = n;
                 }

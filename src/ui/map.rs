@@ -343,7 +343,13 @@ fn render_footer(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
                     parts.push(format!("{k}: no position yet"));
                 }
             }
-            parts.push(wp.unwrap_or_else(|| "no mission".into()));
+            parts.push(wp.unwrap_or_else(|| {
+                if app.map_path().is_empty() {
+                    "no mission".into()
+                } else {
+                    "no waypoint ahead".into()
+                }
+            }));
             if !app.air.traffic.is_empty() {
                 parts.push(format!("traffic {}", app.air.traffic.len()));
             }
