@@ -686,3 +686,42 @@ fn the_sims_traffic_is_what_the_map_shows() {
     let t = screen(&r, 120, 40);
     assert!(t.contains("Traffic 3"), "{t}");
 }
+
+#[test]
+fn the_traffic_settings_come_from_the_config_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("config.toml");
+    std::fs::write(
+        &path,
+        "adsb_timeout = 12\nadsb_warn_distance = 750.5\nadsb_warn_height = 90\n",
+    )
+    .unwrap();
+    let f = mavterm::config::read(&path).unwrap();
+    let mut cfg = AppConfig::default();
+    f.apply(&mut cfg);
+    assert_eq!(cfg.map.adsb_timeout, 12 * SECOND);
+    assert_eq!((cfg.map.warn_distance, cfg.map.warn_height), (750.5, 90.0));
+    let app = App::new(cfg);
+    assert_eq!(app.air.traffic.timeout, 12 * SECOND);
+    // Out of range: refused, each where it stands.
+    std::fs::write(
+        &path,
+        "adsb_timeout = 0\nadsb_warn_distance = -1\nadsb_warn_height = \"high\"\n",
+    )
+    .unwrap();
+    let e = mavterm::config::read(&path).unwrap_err().to_string();
+    let lines: Vec<&str> = e.lines().collect();
+    assert_eq!(lines.len(), 3, "{e}");
+    assert!(
+        lines[0].ends_with(":1:16: adsb_timeout: expected seconds from 1 to 3600, found 0"),
+        "{e}"
+    );
+    assert!(
+        lines[1].contains(":2:22: adsb_warn_distance: expected metres from 0 to 100000"),
+        "{e}"
+    );
+    assert!(
+        lines[2].contains(":3:20: adsb_warn_height: expected metres from 0 to 10000"),
+        "{e}"
+    );
+}
