@@ -725,3 +725,23 @@ fn the_traffic_settings_come_from_the_config_file() {
         "{e}"
     );
 }
+
+#[test]
+fn the_traffic_deadline_never_stays_in_the_past() {
+    let mut app = app_with(mavterm::app::map::MapConfig {
+        adsb_timeout: 10 * SECOND,
+        ..Default::default()
+    });
+    let p = Plane::new(LatLon::new(-35.0, 149.0)).from_en(0.0, 9000.0);
+    hear(
+        &mut app,
+        SECOND + 300_000,
+        &aircraft(9, "LATE9", p, 900.0, 0),
+    );
+    // Due just after 11.3 s: woken then, it is gone, and the next deadline is not in the past.
+    let due = app.next_deadline();
+    assert!(due <= 11 * SECOND + 300_001, "{due}");
+    app.update(11 * SECOND + 300_001, Event::Tick);
+    assert!(app.air.traffic.is_empty());
+    assert!(app.next_deadline() > 11 * SECOND + 300_001);
+}

@@ -223,19 +223,26 @@ impl App {
         self.check_traffic();
     }
 
-    /// On every event: old traffic dropped, and once a second the proximity check.
+    /// On every event: old traffic dropped when due (so its deadline never stays in the past),
+    /// and once a second the proximity check (the target moves).
     pub(super) fn map_time(&mut self) {
+        let mut check = false;
+        if self.map_deadline().is_some_and(|d| d <= self.now) {
+            let before = self.air.traffic.len();
+            Machine::poll(&mut self.air.traffic, self.now, &mut Vec::new());
+            if before != self.air.traffic.len() {
+                self.dirty = true;
+                check = true;
+            }
+        }
         let sec = self.now / SECOND;
-        if self.air.checked_sec == Some(sec) {
-            return;
+        if self.air.checked_sec != Some(sec) {
+            self.air.checked_sec = Some(sec);
+            check = true;
         }
-        self.air.checked_sec = Some(sec);
-        let before = self.air.traffic.len();
-        Machine::poll(&mut self.air.traffic, self.now, &mut Vec::new());
-        if before != self.air.traffic.len() {
-            self.dirty = true;
+        if check {
+            self.check_traffic();
         }
-        self.check_traffic();
     }
 
     /// When the traffic table next drops an aircraft.
