@@ -31,17 +31,17 @@ pub const OPTIONS: &[(&str, &str, &str)] = &[
     (
         "adsb",
         "3",
-        "ADS-B aircraft around home on straight tracks, 0 to 50 (SIM_ADSB_COUNT) [default: 0]",
+        "ADS-B aircraft on straight tracks, 0 to 50 (SIM_ADSB_COUNT) [default: 0]",
     ),
     (
         "adsb_radius",
         "5000",
-        "metres from home the aircraft fly within (SIM_ADSB_RADIUS) [default: 10000]",
+        "metres from home they fly within (SIM_ADSB_RADIUS) [default: 10000]",
     ),
     (
         "adsb_alt",
         "300",
-        "the aircraft's altitude above home, metres (SIM_ADSB_ALT) [default: 1000]",
+        "their altitude above home, metres (SIM_ADSB_ALT) [default: 1000]",
     ),
     (
         "vehicles",
