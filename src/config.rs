@@ -64,8 +64,8 @@ pub struct FileConfig {
     pub signing_allow_unsigned_heartbeat: Option<bool>,
     /// `utc`: show times in UTC, not local time.
     pub utc: Option<bool>,
-    /// `log_rate`: onboard log downloads at most this many bytes a second.
-    pub log_rate: Option<u32>,
+                    signing_allow_unsigned_heartbeat, utc, log_rate, adsb_timeout, \
+                    adsb_warn_distance, adsb_warn_height, [streams]";
 }
 
 impl FileConfig {
@@ -88,6 +88,14 @@ impl FileConfig {
         }
         if let Some(v) = self.log_rate {
             cfg.log_rate = Some(v);
+        if let Some(v) = self.adsb_timeout {
+            cfg.map.adsb_timeout = seconds_to_micros(v);
+        }
+        if let Some(v) = self.adsb_warn_distance {
+            cfg.map.warn_distance = v;
+        }
+        if let Some(v) = self.adsb_warn_height {
+            cfg.map.warn_height = v;
         }
         self.apply_streams(&mut cfg.streams);
     }
@@ -240,6 +248,8 @@ impl Found {
 
 const KEYS: &str = "sysid, compid, lost_timeout, takeoff_alt, nudge_deadman, links, signing_key, \
                     signing_allow_unsigned_heartbeat, utc, log_rate, [streams]";
+                    signing_allow_unsigned_heartbeat, utc, adsb_timeout, adsb_warn_distance, \
+                    adsb_warn_height, [streams]";
 
 /// Check a config file's `text`; `path` names it in errors. Every key is optional; unknown keys
 /// and bad values are refused, all of them at once, each with its line and column.
@@ -298,6 +308,26 @@ pub fn load(path: &Path, text: &str) -> Result<FileConfig, ConfigError> {
                 cfg.nudge_deadman =
                     found.check("nudge_deadman", value, "seconds from 0.1 to 5", |v| {
                         number(v).filter(|s| s.is_finite() && (0.1..=5.0).contains(s))
+                    })
+            }
+            "adsb_timeout" => {
+                cfg.adsb_timeout =
+                    found.check("adsb_timeout", value, "seconds from 1 to 3600", |v| {
+                        number(v).filter(|s| s.is_finite() && (1.0..=3600.0).contains(s))
+                    })
+            }
+            "adsb_warn_distance" => {
+                cfg.adsb_warn_distance = found.check(
+                    "adsb_warn_distance",
+                    value,
+                    "metres from 0 to 100000",
+                    |v| number(v).filter(|m| m.is_finite() && (0.0..=100_000.0).contains(m)),
+                )
+            }
+            "adsb_warn_height" => {
+                cfg.adsb_warn_height =
+                    found.check("adsb_warn_height", value, "metres from 0 to 10000", |v| {
+                        number(v).filter(|m| m.is_finite() && (0.0..=10_000.0).contains(m))
                     })
             }
             "links" => cfg.links = links(value, &mut found),

@@ -319,6 +319,24 @@ pub enum Action {
     /// Health screen: accept (save) a finished compass calibration, or cancel the running one.
     CalAccept,
     CalCancel,
+    /// Mission screen, file list: a waypoint at the map's cursor.
+    MissionAddAtCursor,
+    /// Map screen: zoom in / out (twice / half the scale).
+    MapZoomIn,
+    MapZoomOut,
+    /// Map screen: the view (or the cursor) left / right; up and down move it with `up`/`down`.
+    MapLeft,
+    MapRight,
+    /// Map screen: follow the target again.
+    MapCentre,
+    /// Map screen: fit the mission, fence, rally points, homes and vehicles.
+    MapFit,
+    /// Map screen: the target's heading up, or north up.
+    MapHeadingUp,
+    /// Map screen: show / hide the cursor.
+    MapCursor,
+    /// Map screen: GUIDED: fly to the cursor (DO_REPOSITION, as `goto`).
+    MapGoto,
 }
 
 impl Action {
@@ -686,6 +704,56 @@ impl Action {
             Action::CalCancel,
             "cal_cancel",
             "calibration: cancel the one running",
+        ),
+        (
+            Action::MissionAddAtCursor,
+            "mission_add_at_cursor",
+            "file list: add a waypoint at the map's cursor",
+        ),
+        (
+            Action::MapZoomIn,
+            "map_zoom_in",
+            "map: zoom in (+ too, without a replay)",
+        ),
+        (
+            Action::MapZoomOut,
+            "map_zoom_out",
+            "map: zoom out (- too, without a replay)",
+        ),
+        (
+            Action::MapLeft,
+            "map_left",
+            "map: move the view or the cursor left",
+        ),
+        (
+            Action::MapRight,
+            "map_right",
+            "map: move the view or the cursor right",
+        ),
+        (
+            Action::MapCentre,
+            "map_centre",
+            "map: follow the target again",
+        ),
+        (
+            Action::MapFit,
+            "map_fit",
+            "map: fit the mission, fence, rally, homes and vehicles",
+        ),
+        (
+            Action::MapHeadingUp,
+            "map_heading_up",
+            "map: heading up / north up",
+        ),
+        (
+            Action::MapCursor,
+            "map_cursor",
+            "map: show / hide the cursor",
+        ),
+        (
+            Action::MapGoto,
+            "map_goto",
+            "map: GUIDED: fly to the cursor (DO_REPOSITION, as goto)",
         ),
     ];
 

@@ -28,6 +28,7 @@ macro_rules! for_each_screen {
             6 camera "Camera" "show the camera screen";
             7 logs "Logs" "show the onboard logs screen" select = select_logs;
             8 health "Health" "show the health screen: pre-arm, sensors, calibrations";
+            9 map "Map" "show the map" select = select_map;
         }
     };
 }

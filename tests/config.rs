@@ -38,6 +38,7 @@ fn assert_same(a: &AppConfig, b: &AppConfig) {
     assert_eq!(a.compid, b.compid);
     assert_eq!(a.lost_timeout, b.lost_timeout);
     assert_eq!(a.takeoff_alt, b.takeoff_alt);
+    assert_eq!(a.map, b.map);
     assert_eq!(a.streams, b.streams);
 }
 
@@ -128,7 +129,8 @@ GLOBAL_POSITION_INT = nan
     let want_starts = [
         "config.toml:1:9: sysid: expected a system id from 1 to 255, found 0",
         "config.toml:3:1: unknown key \"rate\" (the keys are sysid, compid, lost_timeout, \
-         takeoff_alt, nudge_deadman, links, signing_key, signing_allow_unsigned_heartbeat, utc, log_rate, [streams])",
+         takeoff_alt, nudge_deadman, links, signing_key, signing_allow_unsigned_heartbeat, utc, \
+         log_rate, adsb_timeout, adsb_warn_distance, adsb_warn_height, [streams])",
         "config.toml:4:16: lost_timeout: expected seconds from 0.1 to 3600, found \"5\"",
         "config.toml:5:15: takeoff_alt: expected metres above home, more than 0 and at most \
          10000, found -1",

@@ -157,7 +157,7 @@ fn every_unknown_action_and_key_is_listed_by_name() {
 
 #[test]
 fn unknown_sections_screens_and_shapes_are_listed_all_at_once() {
-    let text = "[colours]\nx = 1\n[normal.map]\nquit = [\"q\"]\n[normal]\ndive = [\"f\"]\n\
+    let text = "[colours]\nx = 1\n[normal.radar]\nquit = [\"q\"]\n[normal]\ndive = [\"f\"]\n\
                 [normal.overview]\nhelp = [\"hyper-h\"]\n[edit]\nsubmit = \"enter\"\n\
                 [prompt.more]\nsubmit = [\"enter\"]\n";
     let e = invalid(text);
@@ -169,7 +169,7 @@ fn unknown_sections_screens_and_shapes_are_listed_all_at_once() {
     );
     let m: Vec<&str> = e.problems.iter().map(|p| p.message.as_str()).collect();
     assert!(m[0].contains("unknown section `colours`"), "{}", m[0]);
-    assert!(m[1].contains("unknown screen `map`"), "{}", m[1]);
+    assert!(m[1].contains("unknown screen `radar`"), "{}", m[1]);
     assert!(m[1].contains("overview, parameters, commands"), "{}", m[1]);
     assert!(m[2].contains("unknown action `dive`"), "{}", m[2]);
     assert!(m[3].contains("unknown key `hyper-h`"), "{}", m[3]);
@@ -421,6 +421,7 @@ fn keys_for_and_bindings_list_what_applies_in_file_order() {
         ("screen_6", "6"),
         ("screen_7", "7"),
         ("screen_8", "8"),
+        ("screen_9", "9"),
         ("up", "up"),
         ("down", "down"),
         ("page_up", "pageup"),
@@ -840,7 +841,7 @@ fn a_user_key_that_the_default_binds_to_another_action_is_an_error() {
     assert!(e.actions.is_empty() && e.keys.is_empty() && e.hints.is_empty());
     // A key of [normal] that a screen of the default binds: on that screen only.
     let e = layering_error("[normal]\nhelp = [\"g\", \"?\"]\n");
-    assert_eq!(e.dups, ["g (help, mission_goto)"]);
+    assert_eq!(e.dups, ["g (help, mission_goto)", "g (help, map_goto)"]);
     assert!(
         e.msg.contains(
             "to `mission_goto` by the default keymap in [normal.mission]: on the mission screen"
@@ -883,7 +884,8 @@ fn a_user_key_that_the_default_binds_to_another_action_is_an_error() {
         "[normal]\nnext_vehicle = [\"n\", \"j\"]\n",
         "[help]\ncancel = [\"n\"]\n",
         "[normal.overview]\ntoggle_expand = [\"g\"]\n",
-        "[normal.mission]\nmission_goto = [\"o\"]\n[normal]\ntop = [\"g\"]\n",
+        "[normal.mission]\nmission_goto = [\"o\"]\n[normal.map]\nmap_goto = [\"o\"]\n\
+         [normal]\ntop = [\"g\"]\n",
     ] {
         let user = Keymap::from_toml(ok, "ok.toml").unwrap_or_else(|e| panic!("{e}"));
         let km = Keymap::default()

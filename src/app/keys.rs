@@ -553,6 +553,19 @@ impl App {
             | Action::MissionStart
             | Action::MissionSetCurrent
             | Action::MissionGoto => self.on_mission_action(action, fx),
+            Action::ReplaySlower | Action::ReplayFaster if self.map_takes_speed_keys() => {
+                self.on_map_action(action, fx)
+            }
+            Action::MissionAddAtCursor
+            | Action::MapZoomIn
+            | Action::MapZoomOut
+            | Action::MapLeft
+            | Action::MapRight
+            | Action::MapCentre
+            | Action::MapFit
+            | Action::MapHeadingUp
+            | Action::MapCursor
+            | Action::MapGoto => self.on_map_action(action, fx),
             Action::ReplayPause
             | Action::ReplayStep
             | Action::ReplayBack

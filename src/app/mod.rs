@@ -14,6 +14,7 @@ pub mod inspector;
 mod keys;
 pub mod links;
 pub mod logs;
+pub mod map;
 pub mod messages;
 pub mod mission;
 pub mod notices;
@@ -90,6 +91,9 @@ pub struct AppConfig {
     /// Onboard log downloads at most this many bytes a second (config `log_rate`); `None`: as
     /// fast as the link goes.
     pub log_rate: Option<u32>,
+    /// The map's traffic settings (config `adsb_timeout`, `adsb_warn_distance`,
+    /// `adsb_warn_height`).
+    pub map: map::MapConfig,
 }
 
 impl Default for AppConfig {
@@ -112,6 +116,7 @@ impl Default for AppConfig {
             nudge_deadman: nudge::DEADMAN,
             logs_dir: None,
             log_rate: None,
+            map: map::MapConfig::default(),
         }
     }
 }
@@ -318,6 +323,8 @@ pub struct UiState {
     pub outcomes: std::collections::VecDeque<outcome::OutcomeEntry>,
     /// The help popup lists the results instead of the keys (`:messages`).
     pub show_outcomes: bool,
+    /// The Map screen's view.
+    pub map: map::MapView,
 }
 
 /// The mode picker: the target's modes, filtered by what is typed; enter asks for the one
@@ -359,6 +366,7 @@ impl Default for UiState {
             action: None,
             outcomes: std::collections::VecDeque::new(),
             show_outcomes: false,
+            map: map::MapView::default(),
         }
     }
 }
@@ -414,6 +422,8 @@ pub struct App {
     pub suspend: bool,
     /// RADIO_STATUS heard on each link (a telemetry radio speaks as its own system).
     pub radio: BTreeMap<LinkId, crate::proto::telemetry::Timed<crate::proto::telemetry::Radio>>,
+    /// ADS-B traffic, the vehicles' tracks and the proximity warning (the Map screen's).
+    pub air: map::Air,
 }
 
 impl App {
@@ -426,6 +436,7 @@ impl App {
         let vehicles = Registry::new(VehicleKey(cfg.sysid, cfg.compid), cfg.lost_timeout);
         let signing = signing::SigningState::new(cfg.signing.as_ref());
         let nudge = nudge::Nudge::new(cfg.nudge_deadman);
+        let air = map::Air::new(cfg.map);
         let mut app = Self {
             cfg,
             now: 0,
@@ -453,6 +464,7 @@ impl App {
             auto_held: 0,
             suspend: false,
             radio: BTreeMap::new(),
+            air,
         };
         app.signing_start();
         app
@@ -519,6 +531,7 @@ impl App {
         }
         at(self.nudge.next_deadline());
         at(self.confirm_deadline());
+        at(self.map_deadline());
         t
     }
 
@@ -814,6 +827,7 @@ impl App {
         Machine::poll(&mut self.statustext, self.now, &mut texts);
         self.on_texts(texts);
         self.signing_time(fx);
+        self.map_time();
     }
 
     fn on_link_state(&mut self, link: LinkId, state: LinkState) {
@@ -879,6 +893,7 @@ impl App {
         for frame in &frames {
             self.on_frame(link, frame, fx);
         }
+        self.sample_tracks();
     }
 
     /// One frame from `link`: counted on the link, then handled once however many links carry it.
@@ -964,6 +979,7 @@ impl App {
                 self.on_statustext_frame(link, frame, msg);
             }
             Some(MavMessage::RADIO_STATUS(r)) => self.on_radio_status(link, r),
+            Some(MavMessage::ADSB_VEHICLE(_)) => self.on_adsb_frame(link, frame, msg),
             _ => {}
         }
         if self.for_us(msg, ack.as_ref()) {

@@ -2,11 +2,13 @@
 //! needs to be woken. Nothing here reads a clock or touches a socket.
 
 pub mod ack;
+pub mod adsb;
 pub mod calibration;
 pub mod camera;
 pub mod commands;
 pub mod comp_meta;
 pub mod ftp_file;
+pub mod geo;
 pub mod gimbal;
 pub mod logs;
 pub mod health;

@@ -29,6 +29,21 @@ pub enum SimError {
 /// unknown-option error and by `mavterm sim --help`; a unit test parses every example.
 pub const OPTIONS: &[(&str, &str, &str)] = &[
     (
+        "adsb",
+        "3",
+        "ADS-B aircraft on straight tracks, 0 to 50 (SIM_ADSB_COUNT) [default: 0]",
+    ),
+    (
+        "adsb_radius",
+        "5000",
+        "metres from home they fly within (SIM_ADSB_RADIUS) [default: 10000]",
+    ),
+    (
+        "adsb_alt",
+        "300",
+        "their altitude above home, metres (SIM_ADSB_ALT) [default: 1000]",
+    ),
+    (
         "vehicles",
         "3",
         "vehicles, 1 to 250, system ids sysid, sysid+1, ... [default: 1]",
@@ -195,6 +210,12 @@ pub struct SimConfig {
     /// calibrated, so its pre-arm checks fail (and SYS_STATUS reports the pre-arm bit) until
     /// they are ([`super::calibration`]).
     pub uncal: bool,
+    /// `adsb=N`: N ADS-B aircraft ([`super::adsb`]), forwarded by the first vehicle.
+    pub adsb: u8,
+    /// `adsb_radius=M`: they fly within M metres of home.
+    pub adsb_radius: f64,
+    /// `adsb_alt=M`: their altitude above home.
+    pub adsb_alt: f64,
 }
 
 impl Default for SimConfig {
@@ -221,6 +242,9 @@ impl Default for SimConfig {
             logs: 3,
             log_size: 60_000,
             uncal: false,
+            adsb: 0,
+            adsb_radius: super::adsb::DEFAULT_RADIUS_M,
+            adsb_alt: super::adsb::DEFAULT_ALT_M,
         }
     }
 }
@@ -369,6 +393,31 @@ impl SimConfig {
                     c.logs = n;
                 }
                 "log_size" => c.log_size = num(key, value, "bytes (a whole number)")?,
+                "adsb" => {
+                    let n: u8 = num(key, value, "a number of aircraft from 0 to 50")?;
+                    if n > super::adsb::MAX {
+                        return Err(bad(
+                            key,
+                            value,
+                            "expected a number of aircraft from 0 to 50",
+                        ));
+                    }
+                    c.adsb = n;
+                }
+                "adsb_radius" => {
+                    let m: f64 = num(key, value, "metres from 100 to 100000")?;
+                    if !(100.0..=100_000.0).contains(&m) {
+                        return Err(bad(key, value, "expected metres from 100 to 100000"));
+                    }
+                    c.adsb_radius = m;
+                }
+                "adsb_alt" => {
+                    let m: f64 = num(key, value, "metres from -500 to 20000")?;
+                    if !(-500.0..=20_000.0).contains(&m) {
+                        return Err(bad(key, value, "expected metres from -500 to 20000"));
+                    }
+                    c.adsb_alt = m;
+                }
                 "gimbal" => c.gimbal = Some(flag(key, value)?),
                 "uncal" => c.uncal = flag(key, value)?,
                 "camera_drop" => {

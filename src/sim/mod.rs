@@ -24,6 +24,7 @@ macro_rules! arducopter_version {
 /// [`arducopter_version!`] as a constant: "4.7.0-dev".
 pub const ARDUCOPTER_VERSION: &str = arducopter_version!();
 
+pub mod adsb;
 pub mod auto;
 pub mod calibration;
 pub mod camera;
@@ -72,6 +73,8 @@ pub struct Sim {
     seqs: Vec<u8>,
     /// The camera of each vehicle (`camera=1`), and its sequence numbers.
     cameras: Vec<(camera::SimCamera, u8)>,
+    /// ADS-B traffic (`adsb=N`), forwarded by the first vehicle.
+    adsb: Option<adsb::SimAdsb>,
     parser: FrameParser,
     impair: Impairer,
     in_rng: Rng,
@@ -171,9 +174,12 @@ impl Sim {
         } else {
             Vec::new()
         };
+        let adsb = (cfg.adsb > 0)
+            .then(|| adsb::SimAdsb::new(cfg.adsb, cfg.adsb_radius, cfg.adsb_alt, cfg.seed));
         Sim {
             seqs: vec![0; vehicles.len()],
             cameras,
+            adsb,
             vehicles,
             parser: FrameParser::new(),
             impair,
@@ -292,6 +298,9 @@ impl Sim {
         for (c, _) in &self.cameras {
             t = t.min(c.next_event().max(self.next_tick));
         }
+        if let Some(a) = &self.adsb {
+            t = t.min(a.next_event().max(self.next_tick));
+        }
         if let Some(d) = self.impair.next_due() {
             t = t.min(d);
         }
@@ -343,6 +352,7 @@ impl Sim {
                 self.cameras[i].0.tick(t);
                 self.flush_camera(i, t);
             }
+            self.flush_adsb(t);
             self.next_tick += TICK;
         }
         now
@@ -371,6 +381,26 @@ impl Sim {
                 Out::Msg(m) => encode(Version::V2, h, &m),
                 Out::Raw { msgid, payload } => encode_raw(h, msgid, &payload),
             };
+            self.impair.push(t, sysid, frame);
+        }
+    }
+
+    /// The simulated traffic, if any.
+    pub fn adsb(&self) -> Option<&adsb::SimAdsb> {
+        self.adsb.as_ref()
+    }
+
+    /// The traffic moved on to `t`, and its reports due, from the first vehicle's autopilot.
+    fn flush_adsb(&mut self, t: Micros) {
+        let Some(a) = self.adsb.as_mut() else {
+            return;
+        };
+        a.tick(t);
+        let msgs = a.due(t);
+        let (sysid, compid) = (self.vehicles[0].sysid, self.vehicles[0].compid);
+        for m in msgs {
+            let seq = self.next_seq(0);
+            let frame = encode(Version::V2, Header { sysid, compid, seq }, &m);
             self.impair.push(t, sysid, frame);
         }
     }

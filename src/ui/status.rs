@@ -255,6 +255,8 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let mut target = target_text(app) + &progress;
     // Fly mode stands first, loud: the keys fly the vehicle.
     let fly = app.fly_text().map(|f| f + "  ").unwrap_or_default();
+    // Traffic near the target stands next, as loud (the Map screen's proximity warning).
+    let fly = fly + &app.traffic_alert().map(|t| t + "  ").unwrap_or_default();
     let replay = fly.clone() + &replay_text(app).map(|r| r + "  ").unwrap_or_default();
     // The telemetry log, when there is one: name and size; shortened, then left out, when the
     // bar is short.
