@@ -64,8 +64,14 @@ pub struct FileConfig {
     pub signing_allow_unsigned_heartbeat: Option<bool>,
     /// `utc`: show times in UTC, not local time.
     pub utc: Option<bool>,
-                    signing_allow_unsigned_heartbeat, utc, log_rate, adsb_timeout, \
-                    adsb_warn_distance, adsb_warn_height, [streams]";
+    /// `log_rate`: onboard log downloads at most this many bytes a second.
+    pub log_rate: Option<u32>,
+    /// `adsb_timeout`, seconds: ADS-B traffic not heard for this long leaves the map.
+    pub adsb_timeout: Option<f64>,
+    /// `adsb_warn_distance`, metres: traffic closer than this (and `adsb_warn_height`) warns.
+    pub adsb_warn_distance: Option<f64>,
+    /// `adsb_warn_height`, metres above or below the target.
+    pub adsb_warn_height: Option<f64>,
 }
 
 impl FileConfig {
@@ -88,6 +94,7 @@ impl FileConfig {
         }
         if let Some(v) = self.log_rate {
             cfg.log_rate = Some(v);
+        }
         if let Some(v) = self.adsb_timeout {
             cfg.map.adsb_timeout = seconds_to_micros(v);
         }
@@ -247,9 +254,8 @@ impl Found {
 }
 
 const KEYS: &str = "sysid, compid, lost_timeout, takeoff_alt, nudge_deadman, links, signing_key, \
-                    signing_allow_unsigned_heartbeat, utc, log_rate, [streams]";
-                    signing_allow_unsigned_heartbeat, utc, adsb_timeout, adsb_warn_distance, \
-                    adsb_warn_height, [streams]";
+                    signing_allow_unsigned_heartbeat, utc, log_rate, adsb_timeout, \
+                    adsb_warn_distance, adsb_warn_height, [streams]";
 
 /// Check a config file's `text`; `path` names it in errors. Every key is optional; unknown keys
 /// and bad values are refused, all of them at once, each with its line and column.

@@ -126,6 +126,8 @@ pub const OPTIONS: &[(&str, &str, &str)] = &[
         "log_size",
         "200000",
         "bytes of the newest onboard log (older ones smaller) [default: 60000]",
+    ),
+    (
         "uncal",
         "1",
         "accelerometers and compasses not calibrated: pre-arm fails until they are",
