@@ -232,7 +232,15 @@ fn compass_progress_reports_accept_and_reboot_at_0_and_20_percent_loss() {
         let mut r = runner(query);
         keys(&mut r, &["8"]);
         start(&mut r, "compass");
-        wait(&mut r, 4.0);
+        // Running from its ACK, or from the first progress when the ACK is lost; both
+        // compasses once each has sent its progress.
+        let end = r.now() + 10 * SECOND;
+        wait(&mut r, 1.0);
+        while (run(&r).unwrap().phase != Phase::Running || run(&r).unwrap().compasses.len() < 2)
+            && r.now() < end
+        {
+            wait(&mut r, 0.2);
+        }
         let run1 = run(&r).unwrap();
         assert_eq!(run1.phase, Phase::Running, "{query}");
         assert_eq!(

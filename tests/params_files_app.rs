@@ -24,6 +24,10 @@ fn downloaded() -> VirtualRunner {
             .autopilot()
             .is_some_and(|p| p.complete())
         {
+            // As ArduCopter's, the sim's calibrations save new values in its first seconds
+            // (announced by PARAM_VALUE): let them settle so the files compare with the sim.
+            let settled = r.now().max(6 * SECOND);
+            r.advance_to(settled);
             return r;
         }
     }

@@ -19,6 +19,7 @@ const EXPECTED: &[(char, &str, &str)] = &[
     ('6', "camera", "Camera"),
     ('7', "logs", "Logs"),
     ('8', "health", "Health"),
+    ('9', "map", "Map"),
 ];
 
 #[test]

@@ -29,21 +29,6 @@ pub enum SimError {
 /// unknown-option error and by `mavterm sim --help`; a unit test parses every example.
 pub const OPTIONS: &[(&str, &str, &str)] = &[
     (
-        "adsb",
-        "3",
-        "ADS-B aircraft on straight tracks, 0 to 50 (SIM_ADSB_COUNT) [default: 0]",
-    ),
-    (
-        "adsb_radius",
-        "5000",
-        "metres from home they fly within (SIM_ADSB_RADIUS) [default: 10000]",
-    ),
-    (
-        "adsb_alt",
-        "300",
-        "their altitude above home, metres (SIM_ADSB_ALT) [default: 1000]",
-    ),
-    (
         "vehicles",
         "3",
         "vehicles, 1 to 250, system ids sysid, sysid+1, ... [default: 1]",
@@ -131,6 +116,21 @@ pub const OPTIONS: &[(&str, &str, &str)] = &[
         "uncal",
         "1",
         "accelerometers and compasses not calibrated: pre-arm fails until they are",
+    ),
+    (
+        "adsb",
+        "3",
+        "ADS-B aircraft on straight tracks, 0 to 50 (SIM_ADSB_COUNT) [default: 0]",
+    ),
+    (
+        "adsb_radius",
+        "5000",
+        "metres from home they fly within (SIM_ADSB_RADIUS) [default: 10000]",
+    ),
+    (
+        "adsb_alt",
+        "300",
+        "their altitude above home, metres (SIM_ADSB_ALT) [default: 1000]",
     ),
 ];
 

@@ -67,6 +67,9 @@ while time.time() < deadline and (count is None or len(seen) < count):
     p = m.recv_match(type="PARAM_VALUE", blocking=True, timeout=1)
     if p is None:
         continue
+    if p.param_index == 65535:
+        # A value the vehicle saved on its own (a calibration at boot), not the list.
+        continue
     count = p.param_count
     seen[p.param_index] = p.param_id
 if count is None or len(seen) != count:

@@ -81,6 +81,9 @@ elif MODE == "slow_list":
         p = m.recv_match(type="PARAM_VALUE", blocking=True, timeout=1)
         if p is None:
             continue
+        if p.param_index == 65535:
+            # A value the vehicle saved on its own (a calibration at boot), not the list.
+            continue
         count = p.param_count
         seen.add(p.param_index)
         last = time.time()
