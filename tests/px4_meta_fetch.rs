@@ -183,7 +183,11 @@ fn px4_metadata_read_over_mavftp_at_connect_shown_and_cached() {
         "{bursts} bursts for {xz_len} bytes"
     );
 
-    // The inflated JSON is the cache, keyed by the CRC of the general file.
+    // The inflated JSON is the cache, keyed by the CRC of the general file. The real-time
+    // driver writes it on a blocking task (atomically), so it may land a moment after the
+    // metadata is in use.
+    let cached = cache_file(&cache, crc);
+    run.until(10.0, "the metadata cache written", |_| cached.exists());
     assert_eq!(
         std::fs::read(cache_file(&cache, crc)).unwrap(),
         std::fs::read(files.join("parameters.json")).unwrap()
