@@ -43,6 +43,19 @@ fn log(dir: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(dir.join("log.json")).unwrap()).unwrap()
 }
 
+/// The stand-in's log once `done` holds of it (at most 10 s): mavterm's last frames are on
+/// their way over TCP when the core is done with a file, and the stand-in logs on receipt.
+fn log_when(dir: &Path, done: impl Fn(&serde_json::Value) -> bool) -> serde_json::Value {
+    let end = Instant::now() + Duration::from_secs(10);
+    loop {
+        let l = log(dir);
+        if done(&l) || Instant::now() > end {
+            return l;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
 struct Run {
     r: RealTimeRunner,
     _rt: tokio::runtime::Runtime,
@@ -162,7 +175,14 @@ fn px4_metadata_read_over_mavftp_at_connect_shown_and_cached() {
     let mut run = start(port, &cache);
     run.until(30.0, "metadata read at connect", loaded);
 
-    let l = log(&run1);
+    // Both files read and the session closed after the second (TerminateSession, opcode 1).
+    let l = log_when(&run1, |l| {
+        let ops: Vec<u64> = l["ftp"]
+            .as_array()
+            .map(|a| a.iter().filter_map(|r| r[1].as_u64()).collect())
+            .unwrap_or_default();
+        ops.iter().filter(|o| **o == 4).count() == 2 && ops.last() == Some(&1)
+    });
     assert_eq!(l["errors"], serde_json::json!([]), "{l}");
     assert_eq!(l["requests"], serde_json::json!([397]));
     assert_eq!(
