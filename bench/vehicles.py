@@ -13,6 +13,12 @@ there). Needs only the Python 3 standard library and a release build:
     cargo build --release --bin mavterm
     python3 bench/vehicles.py                       # 1, 10, 100, 250; 20 s warm-up, 60 s
     python3 bench/vehicles.py --counts 1 --warmup 60 --measure 120   # idle cost, one vehicle
+    python3 bench/vehicles.py --counts 1 --client-arg=--no-tlog      # without the telemetry log
+
+Every simulated vehicle streams from boot at --sr Hz a stream group (`sim --options sr=N`,
+ArduPilot with its SRn_ rates set; 0 leaves the streams to what mavterm asks for, which it does
+for the first vehicles only). In TUI mode, after the measuring window, `?` is pressed and the
+time until the help's title is on the terminal is printed (key ms): the UI answering a key.
 """
 
 import argparse
@@ -75,16 +81,35 @@ def start_tui(cmd, env, size):
     fcntl.ioctl(fd, termios.TIOCSWINSZ, struct.pack("HHHH", rows, cols, 0, 0))
     os.kill(pid, signal.SIGWINCH)
 
+    seen = {"buf": b""}
+    lock = threading.Lock()
+
     def drain():
         while True:
             try:
-                if not os.read(fd, 65536):
-                    return
+                data = os.read(fd, 65536)
             except OSError:
                 return
+            if not data:
+                return
+            with lock:
+                seen["buf"] = (seen["buf"] + data)[-65536:]
+
+    def key_ms(key, marker, timeout=5.0):
+        """Press `key`; milliseconds until `marker` is on the terminal (None: not seen)."""
+        with lock:
+            seen["buf"] = b""
+        t0 = time.time()
+        os.write(fd, key)
+        while time.time() - t0 < timeout:
+            with lock:
+                if marker in seen["buf"]:
+                    return 1000.0 * (time.time() - t0)
+            time.sleep(0.001)
+        return None
 
     threading.Thread(target=drain, daemon=True).start()
-    return pid, fd
+    return pid, fd, key_ms
 
 
 def run(binary, n, args):
@@ -93,7 +118,8 @@ def run(binary, n, args):
     env = dict(os.environ, HOME=tmp, XDG_CONFIG_HOME=tmp, XDG_DATA_HOME=tmp,
                XDG_CACHE_HOME=tmp, TERM="xterm-256color")
     sim = subprocess.Popen(
-        [binary, "sim", "--listen", f"tcp:127.0.0.1:{port}", "--vehicles", str(n)],
+        [binary, "sim", "--listen", f"tcp:127.0.0.1:{port}", "--vehicles", str(n),
+         "--options", f"sr={args.sr}"],
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env,
         start_new_session=True)
     fd = None
@@ -101,12 +127,15 @@ def run(binary, n, args):
         if not wait_port(port):
             raise RuntimeError("sim did not listen")
         link = f"tcp:127.0.0.1:{port}"
+        key_ms = None
         if args.mode == "tui":
-            pid, fd = start_tui([binary, "--link", link], env, args.size)
+            pid, fd, key_ms = start_tui([binary, "--link", link] + args.client_arg, env,
+                                        args.size)
         else:
             total = args.warmup + args.measure + 5
             p = subprocess.Popen(
-                [binary, "--headless", "--link", link, "--duration", str(total)],
+                [binary, "--headless", "--link", link, "--duration", str(total)]
+                + args.client_arg,
                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env,
                 start_new_session=True)
             pid = p.pid
@@ -118,7 +147,9 @@ def run(binary, n, args):
             peak = max(peak, rss_kb(pid))
         c1, s1, t1 = cpu_ticks(pid), cpu_ticks(sim.pid), time.time()
         rss = rss_kb(pid)
+        key = key_ms(b"?", b" Keys ") if key_ms else None
         return {
+            "key_ms": key,
             "vehicles": n,
             "cpu_pct": 100.0 * (c1 - c0) / TICK / (t1 - t0),
             "rss_mb": rss / 1024.0,
@@ -146,14 +177,20 @@ def main():
     ap.add_argument("--warmup", type=float, default=20.0)
     ap.add_argument("--measure", type=float, default=60.0)
     ap.add_argument("--mode", choices=["tui", "headless"], default="tui")
+    ap.add_argument("--sr", type=int, default=4,
+                    help="each vehicle's stream rate from boot, Hz a group (0: as asked)")
+    ap.add_argument("--client-arg", action="append", default=[],
+                    help="an argument for the measured mavterm (repeatable)")
     ap.add_argument("--size", type=lambda s: tuple(int(x) for x in s.split("x")),
                     default=(200, 60))
     args = ap.parse_args()
-    print(f"{'vehicles':>8} {'cpu %':>7} {'rss MB':>7} {'peak MB':>8} {'sim cpu %':>9}")
+    print(f"{'vehicles':>8} {'cpu %':>7} {'rss MB':>7} {'peak MB':>8} {'sim cpu %':>9} "
+          f"{'key ms':>7}")
     for n in args.counts:
         r = run(args.binary, n, args)
+        key = "-" if r["key_ms"] is None else f"{r['key_ms']:.0f}"
         print(f"{r['vehicles']:>8} {r['cpu_pct']:>7.2f} {r['rss_mb']:>7.1f} "
-              f"{r['peak_mb']:>8.1f} {r['sim_cpu_pct']:>9.2f}", flush=True)
+              f"{r['peak_mb']:>8.1f} {r['sim_cpu_pct']:>9.2f} {key:>7}", flush=True)
 
 
 if __name__ == "__main__":

@@ -33,7 +33,7 @@ use common::sent_frames as sent;
 fn report_counts_drops_echoes_and_evictions() {
     // The limits the counts below are worked out from.
     assert_eq!(MAX_SOURCES, 256);
-    assert_eq!(MAX_COMPONENTS, 128);
+    assert_eq!(MAX_COMPONENTS, 512);
     let mut a = App::new(AppConfig {
         links: vec!["test".into()],
         request_streams: false,
@@ -56,12 +56,12 @@ fn report_counts_drops_echoes_and_evictions() {
     }
     assert_eq!(rep["vehicles_evicted"], 0, "{rep}");
 
-    // 300 components (sysid 1..=150, compid 1 and 2), one heartbeat each, 10 ms apart: a link
-    // keeps 256 sources (44 evicted), the registry 128 components (172 evicted).
+    // 600 components (sysid 1..=150, compid 1 to 4), one heartbeat each, 5 ms apart: a link
+    // keeps 256 sources (344 evicted), the registry 512 components (88 evicted).
     let mut t = 0;
     for sysid in 1..=150u8 {
-        for compid in 1..=2u8 {
-            t += 10_000;
+        for compid in 1..=4u8 {
+            t += 5_000;
             ours.extend(sent(&feed(&mut a, t, &heartbeat(sysid, compid, 0))));
         }
     }
@@ -87,10 +87,10 @@ fn report_counts_drops_echoes_and_evictions() {
     let link = &rep["links"][0];
     assert_eq!(link["dropped"], 7, "{link}");
     assert_eq!(link["echoes"], 3, "{link}");
-    assert_eq!(link["evicted_sources"], 300 - 256, "{link}");
+    assert_eq!(link["evicted_sources"], 600 - 256, "{link}");
     assert_eq!(link["sources"].as_array().unwrap().len(), 256);
-    assert_eq!(rep["vehicles_evicted"], 300 - 128, "{rep}");
-    assert_eq!(rep["vehicles"].as_array().unwrap().len(), 128);
+    assert_eq!(rep["vehicles_evicted"], 600 - 512, "{rep}");
+    assert_eq!(rep["vehicles"].as_array().unwrap().len(), 512);
     // Echoes are not sources nor vehicles: our own 255:190 is in neither.
     assert!(!link["sources"]
         .as_array()

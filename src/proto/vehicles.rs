@@ -55,8 +55,10 @@ impl From<VehicleKey> for (u8, u8) {
     }
 }
 
-/// Components kept at most; a new one past this evicts the longest silent.
-pub const MAX_COMPONENTS: usize = 128;
+/// Components kept at most; a new one past this evicts the longest silent. Room for a swarm of
+/// 250 vehicles with a companion component each, and still a fixed bound under a flood of
+/// spoofed ids.
+pub const MAX_COMPONENTS: usize = 512;
 
 /// More components than this found within [`FLOOD_WINDOW`] is a flood.
 pub const FLOOD_FOUND: usize = 16;

@@ -113,6 +113,11 @@ pub const OPTIONS: &[(&str, &str, &str)] = &[
         "bytes of the newest onboard log (older ones smaller) [default: 60000]",
     ),
     (
+        "sr",
+        "4",
+        "streams from boot, every group at N Hz, unasked (SRn_ set) [default: 0]",
+    ),
+    (
         "uncal",
         "1",
         "accelerometers and compasses not calibrated: pre-arm fails until they are",
@@ -208,6 +213,9 @@ pub struct SimConfig {
     pub logs: u16,
     /// `log_size=BYTES`: the newest log's size; log `i` of `n` is `i/n` of it.
     pub log_size: u32,
+    /// `sr=N`: every stream group at N Hz from boot without being asked, as ArduPilot does with
+    /// its `SRn_` rates set (0: off until a GCS asks, the default).
+    pub sr: u16,
     /// `uncal=1`: a vehicle fresh from the box: its accelerometers and compasses are not
     /// calibrated, so its pre-arm checks fail (and SYS_STATUS reports the pre-arm bit) until
     /// they are ([`super::calibration`]).
@@ -243,6 +251,7 @@ impl Default for SimConfig {
             gimbal: None,
             logs: 3,
             log_size: 60_000,
+            sr: 0,
             uncal: false,
             adsb: 0,
             adsb_radius: super::adsb::DEFAULT_RADIUS_M,
@@ -421,6 +430,13 @@ impl SimConfig {
                     c.adsb_alt = m;
                 }
                 "gimbal" => c.gimbal = Some(flag(key, value)?),
+                "sr" => {
+                    let hz: u16 = num(key, value, "a rate in Hz from 0 to 50")?;
+                    if hz > 50 {
+                        return Err(bad(key, value, "expected a rate in Hz from 0 to 50"));
+                    }
+                    c.sr = hz;
+                }
                 "uncal" => c.uncal = flag(key, value)?,
                 "camera_drop" => {
                     c.camera_drop = Some(

@@ -153,6 +153,9 @@ impl Sim {
             if cfg.uncal {
                 v.cal = calibration::SimCal::uncalibrated();
             }
+            if cfg.sr > 0 {
+                v.streams.request_stream(0, 0, cfg.sr, true);
+            }
             vehicles.push(v);
         }
         let impair = Impairer::new(
