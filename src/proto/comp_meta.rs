@@ -50,23 +50,9 @@ pub const MAX_GENERAL: usize = 256 * 1024;
 /// The parameter file as it comes (PX4's `parameters.json.xz` is ~100 kB).
 pub const MAX_PARAM_FILE: usize = crate::params::meta::MAX_JSON;
 
-/// What the machine has to tell, for the core.
-#[derive(Debug, Clone, PartialEq)]
-pub enum CompMetaEvent {
-    /// The vehicle announced its general metadata file.
-    Announced { crc: u32, uri: String },
-    /// The parameter metadata file as it came from `source` (its URI), maybe xz-compressed;
-    /// `crc` is the general file's.
-    ParamFile {
-        crc: u32,
-        source: String,
-        bytes: Vec<u8>,
-    },
-    /// The parameter metadata is on the web: the first of `urls` that answers.
-    Fetch { crc: u32, urls: Vec<String> },
-    /// Nothing to be had, and why. `operator`: the operator asked (else it was automatic).
-    Failed { why: String, operator: bool },
-}
+/// What the machine has to tell, for the core (defined with the machine contract, which carries
+/// it).
+pub use crate::proto::machine::CompMetaEvent;
 
 #[derive(Debug, Clone)]
 enum Step {

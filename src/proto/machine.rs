@@ -66,6 +66,24 @@ pub enum Route {
     Link(LinkId),
 }
 
+/// What the component metadata machine (`proto::comp_meta`) has to tell, for the core.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CompMetaEvent {
+    /// The vehicle announced its general metadata file.
+    Announced { crc: u32, uri: String },
+    /// The parameter metadata file as it came from `source` (its URI), maybe xz-compressed;
+    /// `crc` is the general file's.
+    ParamFile {
+        crc: u32,
+        source: String,
+        bytes: Vec<u8>,
+    },
+    /// The parameter metadata is on the web: the first of `urls` that answers.
+    Fetch { crc: u32, urls: Vec<String> },
+    /// Nothing to be had, and why. `operator`: the operator asked (else it was automatic).
+    Failed { why: String, operator: bool },
+}
+
 /// What happened, typed, for the session to route (to another machine, or to the UI).
 #[derive(Debug, Clone, PartialEq)]
 pub enum MachineEvent {
@@ -88,7 +106,7 @@ pub enum MachineEvent {
     /// The running sequence ended (done, or stopped), with what to tell of it.
     SequenceDone { notice: (Severity, String) },
     /// The component metadata machine's news (parameter metadata from the vehicle).
-    CompMeta(crate::proto::comp_meta::CompMetaEvent),
+    CompMeta(CompMetaEvent),
     /// A text the vehicle said (STATUSTEXT, joined): from component `from`. `late`: its last
     /// chunk never came (shown as far as it got, not read as a refusal's reason).
     Text {

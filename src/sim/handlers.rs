@@ -794,7 +794,7 @@ impl SimVehicle {
         }
         match x {
             // The six-position accel calibration: the gyros first (in the handler), then
-            // AP_AccelCal asks for each position ([`super::calibration`]).
+            // AP_AccelCal asks for each position (the calibration module).
             1 => {
                 self.block(GYRO_CAL_TIME, cmd, MAV_RESULT_ACCEPTED);
                 self.accel_cal_start(self.now + GYRO_CAL_TIME);
