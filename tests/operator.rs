@@ -314,3 +314,177 @@ fn wp_start_disarmed_without_a_mission_is_refused() {
     wait(&mut r, 1.0);
     assert!(sent(&mut r).is_empty());
 }
+
+#[test]
+fn our_own_notices_have_their_own_colour_in_the_source_column() {
+    use ratatui::style::{Color, Modifier};
+    let mut app = app_with(false);
+    hear(
+        &mut app,
+        SECOND,
+        &statustext(dialect::MavSeverity::MAV_SEVERITY_INFO, "Arming motors"),
+    );
+    // The cells of the source column (`word`) on the Messages row holding `needle`.
+    let source = |theme: &Theme, needle: &str, word: &str| {
+        let buf = render_to_buffer(&app, 80, 24, theme);
+        let text = buffer_to_text(&buf);
+        let (y, line) = text
+            .lines()
+            .enumerate()
+            .find(|(_, l)| l.contains(needle))
+            .unwrap_or_else(|| panic!("no {needle:?}:\n{text}"));
+        let at = line
+            .find(&format!(" {word} "))
+            .unwrap_or_else(|| panic!("no {word:?} in {line:?}"));
+        let x = line[..at].chars().count() + 1;
+        (x..x + word.chars().count())
+            .map(|x| buf[(x as u16, y as u16)].clone())
+            .collect::<Vec<_>>()
+    };
+    // In colour: ours light blue, a vehicle's key dimmed grey.
+    let colour = Theme::default();
+    let ours = source(&colour, "vehicle 1:1 found", "mavterm");
+    assert!(ours.iter().all(|c| c.fg == Color::LightBlue), "{ours:?}");
+    let theirs = source(&colour, "Arming motors", "1:1");
+    assert!(theirs.iter().all(|c| c.fg == Color::DarkGray), "{theirs:?}");
+    // Under NO_COLOR: ours in italics, no colour; a vehicle's never in italics.
+    let plain = Theme::from_no_color(Some("1".into()));
+    let ours = source(&plain, "vehicle 1:1 found", "mavterm");
+    assert!(
+        ours.iter()
+            .all(|c| c.modifier.contains(Modifier::ITALIC) && c.fg == Color::Reset),
+        "{ours:?}"
+    );
+    let theirs = source(&plain, "Arming motors", "1:1");
+    assert!(
+        theirs
+            .iter()
+            .all(|c| !c.modifier.contains(Modifier::ITALIC) && c.fg == Color::Reset),
+        "{theirs:?}"
+    );
+}
+
+/// PX4 1:1, a quadrotor in HOLD (main mode 4 AUTO, sub mode 3 LOITER), or in `custom_mode`;
+/// armed or not.
+fn px4_heartbeat(armed: bool, custom_mode: u32) -> MavMessage {
+    MavMessage::HEARTBEAT(dialect::HEARTBEAT_DATA {
+        mavtype: dialect::MavType::MAV_TYPE_QUADROTOR,
+        autopilot: dialect::MavAutopilot::MAV_AUTOPILOT_PX4,
+        base_mode: dialect::MavModeFlag::from_bits_truncate(if armed { 129 } else { 1 }),
+        system_status: dialect::MavState::MAV_STATE_STANDBY,
+        mavlink_version: 3,
+        custom_mode,
+    })
+}
+
+const PX4_HOLD: u32 = 0x0304_0000;
+const PX4_MISSION: u32 = 0x0404_0000;
+
+/// The commands (id, param1, param2, param3) among what the core sent.
+fn commands_sent(fx: &[Effect]) -> Vec<(u16, f32, f32, f32)> {
+    common::sent_messages(fx)
+        .into_iter()
+        .filter_map(|m| match m {
+            MavMessage::COMMAND_LONG(c) => Some((c.command as u16, c.param1, c.param2, c.param3)),
+            MavMessage::COMMAND_INT(c) => Some((c.command as u16, c.param1, c.param2, c.param3)),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn wp_start_on_a_disarmed_px4_arms_then_switches_to_mission_mode() {
+    use dialect::{MavCmd, MavResult};
+    let mut app = App::new(AppConfig {
+        links: vec!["x".into()],
+        request_streams: false,
+        fetch_params: false,
+        ..AppConfig::default()
+    });
+    hear(&mut app, 0, &px4_heartbeat(false, PX4_HOLD));
+    // The vehicle's mission, downloaded: two waypoints (PX4 holds no home item).
+    let type_line = |app: &mut App, t: u64, line: &str| {
+        let mut fx = app.update(t, Event::Key(Key::ch(':')));
+        for c in line.chars() {
+            fx.extend(app.update(t, Event::Key(Key::ch(c))));
+        }
+        fx.extend(app.update(t, Event::Key("enter".parse().unwrap())));
+        fx
+    };
+    type_line(&mut app, SECOND, "wp download");
+    hear(
+        &mut app,
+        SECOND + 100_000,
+        &MavMessage::MISSION_COUNT(dialect::MISSION_COUNT_DATA {
+            count: 2,
+            target_system: 255,
+            target_component: 190,
+            ..Default::default()
+        }),
+    );
+    for seq in 0..2u16 {
+        hear(
+            &mut app,
+            SECOND + 200_000 + seq as u64 * 100_000,
+            &MavMessage::MISSION_ITEM_INT(dialect::MISSION_ITEM_INT_DATA {
+                seq,
+                command: MavCmd::MAV_CMD_NAV_WAYPOINT,
+                frame: dialect::MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                x: -353_632_621 + seq as i32 * 1000,
+                y: 1_491_652_374,
+                z: 20.0,
+                autocontinue: 1,
+                target_system: 255,
+                target_component: 190,
+                ..Default::default()
+            }),
+        );
+    }
+    let known = app.sessions[&mavterm::proto::vehicles::VehicleKey(1, 1)]
+        .mission
+        .known(mavterm::mission::MissionType::Mission)
+        .map(|k| k.items.len());
+    assert_eq!(known, Some(2), "{:?}", app.ui.action);
+    hear(&mut app, 2 * SECOND, &px4_heartbeat(false, PX4_HOLD));
+
+    // Asked once, naming PX4's way: arm, then MISSION mode (it starts the mission itself).
+    let fx = type_line(&mut app, 2 * SECOND, "wp start");
+    assert!(commands_sent(&fx).is_empty(), "nothing before the answer");
+    let q = app.ui.confirm.clone().expect("asked");
+    assert_eq!(q.text, "1:1 is disarmed: arm, MISSION? y/n");
+    let fx = app.update(2 * SECOND + SECOND / 2, Event::Key(Key::ch('y')));
+    // COMPONENT_ARM_DISARM (400), param1 1 = arm; nothing else yet.
+    assert_eq!(commands_sent(&fx), vec![(400, 1.0, 0.0, 0.0)]);
+    let mut fx = hear(
+        &mut app,
+        2_700_000,
+        &MavMessage::COMMAND_ACK(dialect::COMMAND_ACK_DATA {
+            command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+            result: MavResult::MAV_RESULT_ACCEPTED,
+            ..Default::default()
+        }),
+    );
+    assert!(
+        commands_sent(&fx).is_empty(),
+        "the mode waits for the heartbeat: {fx:?}"
+    );
+    // Armed: then DO_SET_MODE (176) with PX4's encoding: param1 MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+    // (1), param2 the main mode (4 AUTO), param3 the sub mode (4 MISSION).
+    fx = hear(&mut app, 3 * SECOND, &px4_heartbeat(true, PX4_HOLD));
+    assert_eq!(commands_sent(&fx), vec![(176, 1.0, 4.0, 4.0)]);
+    hear(
+        &mut app,
+        3_100_000,
+        &MavMessage::COMMAND_ACK(dialect::COMMAND_ACK_DATA {
+            command: MavCmd::MAV_CMD_DO_SET_MODE,
+            result: MavResult::MAV_RESULT_ACCEPTED,
+            ..Default::default()
+        }),
+    );
+    let fx = hear(&mut app, 4 * SECOND, &px4_heartbeat(true, PX4_MISSION));
+    // No MISSION_START: PX4 flies the mission once armed in MISSION.
+    assert!(commands_sent(&fx).is_empty(), "{fx:?}");
+    let done = app.action_text().map(|(_, t)| t);
+    assert_eq!(done.as_deref(), Some("mission start: done"));
+    assert!(app.ui.action.as_ref().is_some_and(|a| a.done));
+}

@@ -11,6 +11,7 @@ use mavterm::dialect::{self, MavMessage};
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::keymap::Key;
 use mavterm::link::LinkSpec;
+use mavterm::proto::vehicles::VehicleKey;
 use mavterm::ui::{buffer_to_text, render_to_buffer, Theme};
 
 const SECOND: u64 = 1_000_000;
@@ -312,4 +313,267 @@ fn messages_is_listed_in_help_completes_on_tab_and_has_a_key() {
         assert!(s.contains(&format!("00:00:01 {accepted}")), "{s}");
         key(&mut app, 5 * SECOND, "esc".parse().unwrap());
     }
+}
+
+/// sim:// with its camera (1:100) and gimbal (AP_Mount on 1:1), 6 s in: both discovered.
+fn camera_runner() -> VirtualRunner {
+    let spec: LinkSpec = "sim://?camera=1".parse().unwrap();
+    let mut r = VirtualRunner::from_specs(&[spec], AppConfig::default()).unwrap();
+    r.advance_to(6 * SECOND);
+    r
+}
+
+/// `:messages` on the runner: each of `lines` listed, in this order (a long one wraps in the
+/// popup: its rows are read joined).
+fn listed_in_order(r: &mut VirtualRunner, lines: &[&str]) {
+    command(r, "messages");
+    let s = runner_screen(r);
+    let rows: Vec<Vec<char>> = s.lines().map(|l| l.chars().collect()).collect();
+    let top = rows
+        .iter()
+        .position(|l| l.iter().collect::<String>().contains("┌ Outcomes"))
+        .unwrap_or_else(|| panic!("no Outcomes popup:\n{s}"));
+    let line: String = rows[top].iter().collect();
+    let left = line[..line.find("┌ Outcomes").unwrap()].chars().count();
+    let right = left
+        + 1
+        + rows[top][left + 1..]
+            .iter()
+            .position(|&c| c == '┐')
+            .unwrap();
+    let text = rows[top + 1..]
+        .iter()
+        .take_while(|l| l.get(left) == Some(&'│'))
+        .map(|l| {
+            l[left + 1..right]
+                .iter()
+                .collect::<String>()
+                .trim()
+                .to_string()
+        })
+        .collect::<Vec<_>>()
+        .join(" ");
+    let at = |needle: &str| {
+        text.find(needle)
+            .unwrap_or_else(|| panic!("{needle:?} not listed:\n{s}"))
+    };
+    for w in lines.windows(2) {
+        assert!(at(w[0]) < at(w[1]), "{:?} before {:?}:\n{s}", w[0], w[1]);
+    }
+    common::keys(r, &["esc"]);
+}
+
+#[test]
+fn camera_and_gimbal_commands_end_accepted_refused_or_with_their_images() {
+    let mut r = camera_runner();
+    command(&mut r, "camera mode video");
+    assert_eq!(runner_tail(&r), "camera 1:100 mode video: sent");
+    wait(&mut r, 1.0);
+    let video = "camera 1:100 mode video: ACCEPTED";
+    assert_eq!(runner_tail(&r), video);
+    command(&mut r, "camera mode image");
+    wait(&mut r, 1.0);
+    assert_eq!(runner_tail(&r), "camera 1:100 mode image: ACCEPTED");
+
+    // A capture of three: accepted, then counted to its figure.
+    command(&mut r, "camera shoot 3 1");
+    assert_eq!(runner_tail(&r), "camera 1:100 shoot 3 every 1 s: sent");
+    wait(&mut r, 1.5);
+    let tail = runner_tail(&r);
+    assert!(
+        tail.starts_with("camera 1:100 shoot 3 every 1 s: ")
+            && tail.ends_with(" of 3 images taken"),
+        "{tail}"
+    );
+    wait(&mut r, 3.0);
+    let three = "camera 1:100 shoot 3 every 1 s: 3 images taken";
+    assert_eq!(runner_tail(&r), three);
+
+    // Refused by the camera: a mode change while it takes images.
+    command(&mut r, "camera shoot 0 1");
+    wait(&mut r, 1.0);
+    let endless = "camera 1:100 shoot every 1 s until stopped: ACCEPTED";
+    assert_eq!(runner_tail(&r), endless);
+    command(&mut r, "camera mode video");
+    wait(&mut r, 1.0);
+    let refused = "camera 1:100 mode video: TEMPORARILY_REJECTED";
+    assert_eq!(runner_tail(&r), refused);
+    // Keys that start nothing leave it.
+    common::keys(&mut r, &["j", "k"]);
+    assert_eq!(runner_tail(&r), refused);
+    command(&mut r, "camera stop");
+    wait(&mut r, 1.0);
+    assert_eq!(runner_tail(&r), "camera 1:100 stop images: ACCEPTED");
+
+    // The gimbal: pointed, accepted by its manager.
+    command(&mut r, "gimbal -45 0");
+    assert_eq!(runner_tail(&r), "gimbal 1:1/1 pitch -45° yaw 0°: sent");
+    wait(&mut r, 1.0);
+    let pointed = "gimbal 1:1/1 pitch -45° yaw 0°: ACCEPTED";
+    assert_eq!(runner_tail(&r), pointed);
+
+    listed_in_order(&mut r, &[video, three, endless, refused, pointed]);
+}
+
+/// The sim after its parameters are in.
+fn downloaded_sim() -> VirtualRunner {
+    let mut r = sim_runner();
+    for _ in 0..120 {
+        wait(&mut r, 0.5);
+        let done = r.app.sessions.get(&VehicleKey(1, 1)).is_some_and(|s| {
+            s.params.downloading().is_none() && s.params.autopilot().is_some_and(|p| p.complete())
+        });
+        if done {
+            return r;
+        }
+    }
+    panic!("the download did not finish");
+}
+
+#[test]
+fn a_parameter_edit_and_param_set_end_confirmed_by_the_echo() {
+    let mut r = downloaded_sim();
+    // On the Parameters screen: the value typed in place.
+    common::keys(&mut r, &["2", "/", "ctrl-u"]);
+    common::typed(&mut r, "PILOT_TKOFF_ALT");
+    common::keys(&mut r, &["enter", "enter", "ctrl-u"]);
+    common::typed(&mut r, "250");
+    common::keys(&mut r, &["enter"]);
+    assert_eq!(
+        runner_tail(&r),
+        "PILOT_TKOFF_ALT = 250: sent, waiting for the echo"
+    );
+    wait(&mut r, 1.0);
+    let edited = "PILOT_TKOFF_ALT = 250 confirmed";
+    assert_eq!(runner_tail(&r), edited);
+    // It stays through keys that start nothing.
+    common::keys(&mut r, &["j", "k"]);
+    assert_eq!(runner_tail(&r), edited);
+    // At the prompt.
+    command(&mut r, "param set RTL_ALT 3000");
+    assert_eq!(
+        runner_tail(&r),
+        "RTL_ALT = 3000: sent, waiting for the echo"
+    );
+    wait(&mut r, 1.0);
+    let set = "RTL_ALT = 3000 confirmed";
+    assert_eq!(runner_tail(&r), set);
+    listed_in_order(&mut r, &[edited, set]);
+}
+
+#[test]
+fn wp_download_set_current_and_clear_end_with_what_the_vehicle_did() {
+    let mut r = sim_runner();
+    wait(&mut r, 6.0);
+    // Paths as typed, relative to where mavterm runs (the package, under cargo).
+    command(&mut r, "wp load tests/data/missions/square.waypoints");
+    wait(&mut r, 0.2);
+    let loaded = "6 mission items loaded from tests/data/missions/square.waypoints";
+    assert_eq!(runner_tail(&r), loaded);
+    command(&mut r, "wp upload");
+    if r.app.ui.confirm.is_some() {
+        common::yes(&mut r);
+    }
+    wait(&mut r, 5.0);
+    assert_eq!(runner_tail(&r), "6 mission items uploaded");
+
+    command(&mut r, "wp download");
+    assert_eq!(runner_tail(&r), "downloading the mission of 1:1");
+    wait(&mut r, 3.0);
+    let downloaded = "mission downloaded from 1:1: 6 items";
+    assert_eq!(runner_tail(&r), downloaded);
+
+    command(&mut r, "wp set 2");
+    assert_eq!(runner_tail(&r), "current item 2: sent");
+    wait(&mut r, 3.0);
+    let current = "1:1 is now at mission item 2";
+    assert_eq!(runner_tail(&r), current);
+
+    command(&mut r, "wp clear");
+    common::yes(&mut r);
+    assert_eq!(runner_tail(&r), "clearing the mission of 1:1");
+    wait(&mut r, 3.0);
+    let cleared = "mission cleared on 1:1";
+    assert_eq!(runner_tail(&r), cleared);
+    common::keys(&mut r, &["j", "k"]);
+    assert_eq!(runner_tail(&r), cleared);
+
+    listed_in_order(&mut r, &[loaded, downloaded, current, cleared]);
+}
+
+#[test]
+fn a_file_read_ends_with_what_was_read_or_the_error_and_where() {
+    let mut r = sim_runner();
+    wait(&mut r, 4.0);
+    // A mission file with bad lines: the first, by its line, and how many.
+    command(&mut r, "wp load tests/data/missions/bad-line.waypoints");
+    wait(&mut r, 0.2);
+    let bad_line = "line 4: 10 fields where 12 were expected in \
+                    tests/data/missions/bad-line.waypoints (3 error(s): not uploaded)";
+    assert_eq!(runner_tail(&r), bad_line);
+    // A file that is not there: why, and which.
+    command(&mut r, "param load /nonexistent/dir/x.parm");
+    wait(&mut r, 0.2);
+    let missing = "could not read /nonexistent/dir/x.parm: No such file or directory (os error 2)";
+    assert_eq!(runner_tail(&r), missing);
+    // A parameter file compared: what it holds against the vehicle.
+    wait(&mut r, 20.0);
+    command(&mut r, "param diff tests/data/copter-params.parm");
+    wait(&mut r, 0.2);
+    let diffed = runner_tail(&r);
+    assert!(
+        diffed.starts_with("tests/data/copter-params.parm: ") && diffed.contains(" changed, "),
+        "{diffed}"
+    );
+    listed_in_order(&mut r, &[bad_line, missing, &diffed]);
+}
+
+#[test]
+fn after_a_passing_message_a_key_shows_the_latest_actions_line() {
+    let mut app = app();
+    arm(&mut app, SECOND);
+    hear(
+        &mut app,
+        1_700_000,
+        &ack(
+            dialect::MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+            dialect::MavResult::MAV_RESULT_ACCEPTED,
+        ),
+    );
+    assert_eq!(tail(&app), "COMPONENT_ARM_DISARM to 1:1: ACCEPTED");
+    // A later action (a file read), done.
+    run(&mut app, 2 * SECOND, "wp load /x/a.waypoints");
+    assert_eq!(tail(&app), "reading /x/a.waypoints");
+    app.update(
+        2_100_000,
+        Event::FileRead {
+            path: "/x/a.waypoints".into(),
+            purpose: mavterm::app::files::FileUse::Mission(mavterm::mission::MissionType::Mission),
+            result: Err("No such file or directory (os error 2)".into()),
+        },
+    );
+    let read = "could not read /x/a.waypoints: No such file or directory (os error 2)";
+    assert_eq!(tail(&app), read);
+    // A message that is no action passes with the next key; the line is the latest action's.
+    run(&mut app, 3 * SECOND, "param encoding");
+    assert_ne!(tail(&app), read);
+    key(&mut app, 4 * SECOND, Key::ch('j'));
+    assert_eq!(tail(&app), read);
+}
+
+#[test]
+fn log_list_and_erase_end_with_the_logs_listed() {
+    let mut r = sim_runner();
+    command(&mut r, "log list");
+    assert_eq!(runner_tail(&r), "asking 1:1 for its logs");
+    wait(&mut r, 3.0);
+    let listed = "1:1 has 3 logs";
+    assert_eq!(runner_tail(&r), listed);
+    command(&mut r, "log erase");
+    common::yes(&mut r);
+    assert_eq!(runner_tail(&r), "LOG_ERASE sent to 1:1; listing again");
+    wait(&mut r, 5.0);
+    let erased = "logs erased on 1:1: none left";
+    assert_eq!(runner_tail(&r), erased);
+    listed_in_order(&mut r, &[listed, erased]);
 }

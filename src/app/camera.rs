@@ -256,20 +256,18 @@ impl App {
         match cmd {
             CameraCmd::Gimbal { pitch, yaw } => {
                 let s = self.sessions.get_mut(&key).ok_or("no session")?;
-                let (_, out) = s.gimbal_point(now, sel, pitch, yaw, us)?;
+                let (id, out) = s.gimbal_point(now, sel, pitch, yaw, us)?;
                 let name = s.gimbals.name(sel, key.0);
-                self.session_out(key, out, fx);
-                return Ok(Some(format!(
-                    "gimbal {name} pitch {pitch}° yaw {yaw}°: sent"
-                )));
+                let label = format!("gimbal {name} pitch {pitch}° yaw {yaw}°");
+                return Ok(Some(self.command_action(key, id, label, out, fx)));
             }
             CameraCmd::GimbalControl(take) => {
                 let s = self.sessions.get_mut(&key).ok_or("no session")?;
-                let (_, out) = s.gimbal_configure(now, sel, take, us)?;
+                let (id, out) = s.gimbal_configure(now, sel, take, us)?;
                 let name = s.gimbals.name(sel, key.0);
-                self.session_out(key, out, fx);
                 let what = if take { "take control" } else { "release" };
-                return Ok(Some(format!("gimbal {name} {what}: sent")));
+                let label = format!("gimbal {name} {what}");
+                return Ok(Some(self.command_action(key, id, label, out, fx)));
             }
             CameraCmd::GimbalSelect(n) => {
                 let s = self.sessions.get(&key).ok_or("no session")?;
@@ -331,12 +329,54 @@ impl App {
             .map_err(|e| format!("camera: {e}"))?;
         let now = self.now;
         let s = self.sessions.get_mut(&key).ok_or("no session")?;
-        let (_, out) = s.camera_action(now, compid, &action)?;
+        // Where the camera's images stand before: a capture counts those that come after.
+        let before = s.cameras.cameras.get(&compid).map(|c| {
+            (
+                c.images.keys().next_back().copied(),
+                c.status.map(|st| st.image_count),
+            )
+        });
+        let (id, out) = s.camera_action(now, compid, &action)?;
+        let label = format!("camera {} {}", VehicleKey(key.0, compid), action.describe());
+        let text = match action {
+            CameraAction::Shoot { count, interval } if count >= 1 => {
+                let (from_index, from_count) = before.unwrap_or((None, None));
+                let kind = super::outcome::ActionKind::Capture(super::outcome::Capture {
+                    key,
+                    compid,
+                    label: label.clone(),
+                    count,
+                    interval,
+                    from_index,
+                    from_count,
+                    accepted: false,
+                    taken: 0,
+                    last_at: now,
+                });
+                let text = format!("{label}: sent");
+                self.start_action(Some(key), vec![id], kind, text.clone());
+                self.session_out(key, out, fx);
+                text
+            }
+            _ => self.command_action(key, id, label, out, fx),
+        };
+        Ok(Some(text))
+    }
+
+    /// Command `id` of `key`'s queue, just submitted, as the action `label`: its line goes from
+    /// `LABEL: sent` to `LABEL: RESULT`.
+    fn command_action(
+        &mut self,
+        key: VehicleKey,
+        id: u64,
+        label: String,
+        out: Vec<super::session::SessionOut>,
+        fx: &mut Vec<Effect>,
+    ) -> String {
+        let text = format!("{label}: sent");
+        let kind = super::outcome::ActionKind::Named(label);
+        self.start_action(Some(key), vec![id], kind, text.clone());
         self.session_out(key, out, fx);
-        Ok(Some(format!(
-            "camera {} {}: sent",
-            VehicleKey(key.0, compid),
-            action.describe()
-        )))
+        text
     }
 }

@@ -282,9 +282,6 @@ pub struct InspectorView {
     pub detail_focus: bool,
     /// Lines the fields are scrolled by.
     pub detail_scroll: usize,
-    /// The rate request sent from here: the queue's notice starting with `.0` is its outcome,
-    /// shown as `.1: RESULT` in the status bar.
-    pub awaiting: Option<(String, String)>,
 }
 
 /// The interval param2 of SET_MESSAGE_INTERVAL for a rate typed: Hz (`10`, `0.5`, `4hz`), `0` or
@@ -733,11 +730,12 @@ impl App {
         let command = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
         let params = [msgid as f64, interval, 0., 0., 0., 0., 0.];
         let source = VehicleKey(sysid, compid);
+        let since = self.ui.action_count;
         self.flight_to(source, FlightAction::Command { command, params }, fx)
             .map_err(|e| format!("{name}: {e}"))?;
+        // The line is told in the Inspector's words: `ATTITUDE 10 Hz from 1:1: ACCEPTED`.
         let label = format!("{name} {} from {source}", interval_text(interval));
-        let prefix = format!("{} to {source}: ", crate::proto::ack::command_name(command));
-        self.ui.inspector.awaiting = Some((prefix, label.clone()));
+        self.name_action(since, &label);
         Ok(Some(format!("{label}: sent")))
     }
 
@@ -758,31 +756,6 @@ impl App {
                     && e.spec.params[0] == k.2 as f64
             })
             .map(|e| (e.spec.params[1], e.outcome()))
-    }
-
-    /// Command `command` to `target` finished, with its notice: the outcome of the rate asked
-    /// from the Inspector (its SET_MESSAGE_INTERVAL to that source) shows in the status bar.
-    pub(super) fn inspector_outcome(
-        &mut self,
-        target: (u8, u8),
-        command: u16,
-        sev: Severity,
-        text: &str,
-    ) {
-        let Some((prefix, label)) = &self.ui.inspector.awaiting else {
-            return;
-        };
-        let asked = format!(
-            "{} to {}:{}: ",
-            crate::proto::ack::command_name(command),
-            target.0,
-            target.1
-        );
-        if command == MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16 && asked == *prefix {
-            let rest = text.strip_prefix(prefix.as_str()).unwrap_or(text);
-            self.ui.message = Some((sev, format!("{label}: {rest}")));
-            self.ui.inspector.awaiting = None;
-        }
     }
 }
 

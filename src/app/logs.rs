@@ -133,7 +133,9 @@ impl App {
                 let key = self.logs_target(hl)?;
                 self.ui.logs.listed.insert(key);
                 self.logs_do(key, fx, |m, o| m.refresh(now, o))?;
-                Ok(Some(format!("asking {key} for its logs")))
+                let text = format!("asking {key} for its logs");
+                self.log_list_action(key, false, &text);
+                Ok(Some(text))
             }
             LogCmd::Get { which, file, hl } => {
                 let key = self.logs_target(hl)?;
@@ -182,7 +184,21 @@ impl App {
     ) -> Result<Option<String>, String> {
         let now = self.now;
         self.logs_do(key, fx, |m, o| m.erase(now, o))?;
-        Ok(Some(format!("LOG_ERASE sent to {key}; listing again")))
+        let text = format!("LOG_ERASE sent to {key}; listing again");
+        self.log_list_action(key, true, &text);
+        Ok(Some(text))
+    }
+
+    /// The list of `key` asked (after an erase, `erase`): the line follows it until it is whole
+    /// (its count) or stops short.
+    fn log_list_action(&mut self, key: VehicleKey, erase: bool, text: &str) {
+        let kind = super::outcome::ActionKind::LogList {
+            key,
+            erase,
+            at: self.now,
+        };
+        self.start_action(Some(key), Vec::new(), kind, text.to_string());
+        self.follow_log_list();
     }
 
     fn log_get(

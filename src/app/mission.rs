@@ -302,20 +302,19 @@ impl App {
     ) -> Result<Option<String>, String> {
         let name = t.name();
         match op {
-            MissionOp::Load(path) => {
-                fx.push(Effect::ReadFile {
-                    path: PathBuf::from(&path),
-                    purpose: FileUse::Mission(t),
-                });
-                Ok(Some(format!("reading {path}")))
-            }
+            MissionOp::Load(path) => Ok(Some(self.read_file(
+                PathBuf::from(&path),
+                FileUse::Mission(t),
+                fx,
+            ))),
             MissionOp::Save(path) => self.save_list(t, &path, fx),
             MissionOp::Download => {
                 let key = self.mission_target()?;
-                self.mission_request(key, Request::Download(t), fx)?;
+                let text = format!("downloading the {name} of {key}");
+                self.mission_action(key, Request::Download(t), &text, fx)?;
                 self.ui.mission.list = t.index();
                 self.ui.mission.shown = Shown::Vehicle;
-                Ok(Some(format!("downloading the {name} of {key}")))
+                Ok(Some(text))
             }
             MissionOp::Upload => {
                 let key = self.mission_target()?;
@@ -524,6 +523,27 @@ impl App {
         }
     }
 
+    /// A transfer the operator asked for: its line follows it to its end (with its figure: the
+    /// items downloaded), or to why it stopped.
+    fn mission_action(
+        &mut self,
+        key: VehicleKey,
+        req: Request,
+        text: &str,
+        fx: &mut Vec<Effect>,
+    ) -> Result<(), String> {
+        let ask = crate::proto::mission::MissionAsk::Transfer(req.kind(), req.mission_type());
+        let kind = super::outcome::ActionKind::Mission { key, ask };
+        // Set first: the transfer's end may come with its first answer.
+        let before = self.ui.action.clone();
+        self.start_action(Some(key), Vec::new(), kind, text.to_string());
+        if let Err(e) = self.mission_request(key, req, fx) {
+            self.ui.action = before;
+            return Err(e);
+        }
+        Ok(())
+    }
+
     fn mission_request(
         &mut self,
         key: VehicleKey,
@@ -573,12 +593,17 @@ impl App {
                     .get_mut(&key)
                     .ok_or("no session")?
                     .mission_set_current(now, seq)?;
+                let text = format!("current item {seq}: sent");
+                let ask = crate::proto::mission::MissionAsk::SetCurrent(seq);
+                let kind = super::outcome::ActionKind::Mission { key, ask };
+                self.start_action(Some(key), Vec::new(), kind, text.clone());
                 self.session_out(key, out, fx);
-                Ok(Some(format!("current item {seq}: sent")))
+                Ok(Some(text))
             }
             MissionAction::Clear(t) => {
-                self.mission_request(key, Request::Clear(t), fx)?;
-                Ok(Some(format!("clearing the {} of {key}", t.name())))
+                let text = format!("clearing the {} of {key}", t.name());
+                self.mission_action(key, Request::Clear(t), &text, fx)?;
+                Ok(Some(text))
             }
             MissionAction::Start => {
                 let (autopilot, mavtype) = {
@@ -684,7 +709,13 @@ impl App {
             path: PathBuf::from(path),
             contents: text.into_bytes(),
         });
-        Ok(Some(format!("saving {what} to {path}")))
+        let text = format!("saving {what} to {path}");
+        let kind = super::outcome::ActionKind::Save {
+            path: PathBuf::from(path),
+            what,
+        };
+        self.start_action(None, Vec::new(), kind, text.clone());
+        Ok(Some(text))
     }
 
     /// Home as a mission item 0 (for a PX4 mission saved to a file).
@@ -729,19 +760,23 @@ impl App {
         self.ui.mission.list = t.index();
         self.ui.mission.shown = Shown::File;
         self.ui.mission.sel = 0;
-        if errors > 0 {
-            self.notice(
+        // The action's line: the figure, or the first error and where it is, first (the path
+        // is what an 80-column bar cuts).
+        let (sev, text, line) = if errors > 0 {
+            (
                 Severity::ERROR,
-                None,
                 format!("{shown}: {errors} error(s), it will not be uploaded: {first_error}"),
-            );
+                format!("{first_error} in {shown} ({errors} error(s): not uploaded)"),
+            )
         } else {
-            self.notice(
+            (
                 Severity::INFO,
-                None,
                 format!("loaded {shown}: {} items (not uploaded)", counts.join(", ")),
-            );
-        }
+                format!("{} items loaded from {shown}", counts.join(", ")),
+            )
+        };
+        self.read_outcome(&path, sev, line);
+        self.notice(sev, None, text);
     }
 
     /// DO_REPOSITION to (lat, lon) at `alt` metres above home (else the current altitude).

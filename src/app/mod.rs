@@ -319,6 +319,8 @@ pub struct UiState {
     /// The last action and where it stands: the status bar shows it when no message does,
     /// until the next action.
     pub action: Option<outcome::ActionLine>,
+    /// Actions started so far (a key that started one shows its line, not its own message).
+    pub action_count: u64,
     /// The actions' results, newest last (at most [`outcome::HISTORY`]).
     pub outcomes: std::collections::VecDeque<outcome::OutcomeEntry>,
     /// The help popup lists the results instead of the keys (`:messages`).
@@ -364,6 +366,7 @@ impl Default for UiState {
             mission: mission::MissionView::default(),
             mode_picker: None,
             action: None,
+            action_count: 0,
             outcomes: std::collections::VecDeque::new(),
             show_outcomes: false,
             map: map::MapView::default(),
@@ -532,6 +535,7 @@ impl App {
         at(self.nudge.next_deadline());
         at(self.confirm_deadline());
         at(self.map_deadline());
+        at(self.capture_deadline());
         t
     }
 
@@ -597,21 +601,21 @@ impl App {
                 }
                 SessionOut::Notice(sev, text) => self.notice(sev, Some(key), text),
                 SessionOut::ParamSet {
-                    name, sev, text, ..
-                } => {
-                    self.param_outcome(&name, sev, &text);
-                    self.notice(sev, Some(key), text)
-                }
-                SessionOut::Command {
-                    id,
-                    target,
-                    command,
+                    comp,
+                    name,
+                    confirmed,
                     sev,
                     text,
                 } => {
-                    // The Inspector's own wording of a rate it asked stands over the line.
+                    self.param_outcome(key, comp, &name, confirmed, sev, &text);
+                    self.notice(sev, Some(key), text)
+                }
+                SessionOut::MissionEnd { ask, sev, text, .. } => {
+                    self.mission_outcome(key, ask, sev, &text);
+                    self.notice(sev, Some(key), text)
+                }
+                SessionOut::Command { id, sev, text, .. } => {
                     self.command_outcome(id, sev, &text);
-                    self.inspector_outcome(target.into(), command, sev, &text);
                     self.notice(sev, Some(key), text)
                 }
                 SessionOut::SequenceDone { sev, text } => {
@@ -667,11 +671,9 @@ impl App {
         match result {
             Ok(b) => Some((shown, String::from_utf8_lossy(&b).into_owned())),
             Err(e) => {
-                self.notice(
-                    Severity::ERROR,
-                    None,
-                    format!("could not read {shown}: {e}"),
-                );
+                let text = format!("could not read {shown}: {e}");
+                self.read_outcome(path, Severity::ERROR, text.clone());
+                self.notice(Severity::ERROR, None, text);
                 None
             }
         }
@@ -759,6 +761,8 @@ impl App {
         self.poll_param_meta(&mut fx);
         self.follow_selected_command();
         self.follow_logs(&mut fx);
+        self.follow_log_list();
+        self.follow_capture();
         fx
     }
 

@@ -3,8 +3,10 @@
 //! its figure) until the next action; `:messages` lists the results, newest last.
 //!
 //! An action is known by what identifies it: the command queue's id, the vehicle running a
-//! sequence (each step's command, then the sequence's last word), the file a parameter save
-//! writes. Texts are never matched.
+//! sequence (each step's command, then the sequence's last word), the file a save writes or a
+//! load reads, the (component, name) of each parameter written, the mission request (list and
+//! transfer, or the item made current), the camera and its image indices, the log list asked
+//! at a time. Texts are never matched.
 
 use super::App;
 use crate::clock::Micros;
@@ -24,8 +26,34 @@ pub enum ActionKind {
     Command,
     /// A sequence (take-off, mode change) on this vehicle: its steps' commands, then its end.
     Sequence(VehicleKey),
-    /// `param save`: `count` parameters into `path`.
-    ParamSave { path: PathBuf, count: usize },
+    /// A command of the queue under the operator's wording (`camera 1:100 zoom 50%`, `gimbal
+    /// 1:1/1 pitch -90° yaw 0°`, the Inspector's `ATTITUDE 10 Hz from 1:1`): the line is
+    /// `LABEL: RESULT`.
+    Named(String),
+    /// A capture of images: the command's result, then the images the camera reports.
+    Capture(Capture),
+    /// A file written (`param save`, `wp save`): `what` (`1354 parameters`) into `path`.
+    Save { path: PathBuf, what: String },
+    /// A file read (`wp load`, `param load`, `param diff`).
+    Read(PathBuf),
+    /// Parameter writes to `key`: each (component, name) until its echo, refusal or silence.
+    ParamWrite {
+        key: VehicleKey,
+        waiting: Vec<(u8, String)>,
+        total: usize,
+        confirmed: usize,
+    },
+    /// A mission request to `key`: a transfer, or the item made current.
+    Mission {
+        key: VehicleKey,
+        ask: crate::proto::mission::MissionAsk,
+    },
+    /// The log list of `key` asked at `at` (by `log list`, or after `log erase`).
+    LogList {
+        key: VehicleKey,
+        erase: bool,
+        at: Micros,
+    },
     /// A calibration of this vehicle: its start command, then the calibration's own result.
     Calibration(VehicleKey),
     /// An upload of `count` items of list `t` to vehicle `key`, asked at `at`.
@@ -36,6 +64,28 @@ pub enum ActionKind {
         at: Micros,
     },
 }
+
+/// A capture of `count` images by camera `compid` of `key`, told as `label`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Capture {
+    pub key: VehicleKey,
+    pub compid: u8,
+    pub label: String,
+    pub count: u32,
+    /// Seconds between images.
+    pub interval: f64,
+    /// The highest image index heard, and the camera's count, when it was asked.
+    pub from_index: Option<i32>,
+    pub from_count: Option<i32>,
+    /// Accepted by the camera: the images are counted from then on.
+    pub accepted: bool,
+    /// Images taken so far, and when the last one was heard (or the command accepted).
+    pub taken: u32,
+    pub last_at: Micros,
+}
+
+/// Images a capture waits for past its interval before it is told as stopped short.
+const CAPTURE_SLACK: Micros = 5 * crate::clock::SECOND;
 
 /// The last action and where it stands.
 #[derive(Debug, Clone, PartialEq)]
@@ -71,6 +121,7 @@ impl App {
         kind: ActionKind,
         text: String,
     ) {
+        self.ui.action_count += 1;
         self.ui.action = Some(ActionLine {
             ids,
             kind,
@@ -125,10 +176,276 @@ impl App {
         if !a.ids.contains(&id) {
             return;
         }
-        // A sequence goes on after a step's answer, a calibration after its start's; their end
-        // is their own word.
-        let last = !matches!(a.kind, ActionKind::Sequence(_) | ActionKind::Calibration(_));
-        self.action_moves(sev, text.to_string(), last);
+        let entry = a
+            .session
+            .and_then(|k| self.sessions.get(&k))
+            .and_then(|s| s.commands.get(id));
+        let accepted = entry.is_some_and(|e| e.state == State::Done(0));
+        let result = entry.map_or_else(|| text.to_string(), |e| e.outcome_with_reason());
+        match &a.kind {
+            // A sequence goes on after a step's answer, a calibration after its start's; their
+            // end is their own word.
+            ActionKind::Sequence(_) | ActionKind::Calibration(_) => {
+                self.action_moves(sev, text.to_string(), false)
+            }
+            ActionKind::Named(label) => {
+                let text = format!("{label}: {result}");
+                self.action_moves(sev, text, true)
+            }
+            // Accepted, the images are counted; else that is its end.
+            ActionKind::Capture(c) => {
+                let text = format!("{}: {result}", c.label);
+                if accepted {
+                    let now = self.now;
+                    if let Some(ActionLine {
+                        kind: ActionKind::Capture(c),
+                        ..
+                    }) = self.ui.action.as_mut()
+                    {
+                        c.accepted = true;
+                        c.last_at = now;
+                    }
+                    self.action_moves(sev, text, false);
+                    self.follow_capture();
+                } else {
+                    self.action_moves(sev, text, true);
+                }
+            }
+            _ => self.action_moves(sev, text.to_string(), true),
+        }
+    }
+
+    /// The images of the capture asked: counted from the camera's reports (the images heard
+    /// since, or its image count), done when all are taken; told as stopped short when none
+    /// came for an interval and [`CAPTURE_SLACK`].
+    pub(super) fn follow_capture(&mut self) {
+        let Some(ActionLine {
+            kind: ActionKind::Capture(c),
+            done: false,
+            ..
+        }) = self.ui.action.as_ref()
+        else {
+            return;
+        };
+        if !c.accepted {
+            return;
+        }
+        let Some(cam) = self
+            .sessions
+            .get(&c.key)
+            .and_then(|s| s.cameras.cameras.get(&c.compid))
+        else {
+            return;
+        };
+        let heard = match c.from_index {
+            Some(i) => cam.images.range(i.saturating_add(1)..).count(),
+            None => cam.images.len(),
+        } as u32;
+        let counted = match (cam.status, c.from_count) {
+            (Some(st), Some(from)) => st.image_count.saturating_sub(from).max(0) as u32,
+            _ => 0,
+        };
+        let taken = heard.max(counted).min(c.count);
+        let (label, count, interval) = (c.label.clone(), c.count, c.interval);
+        let images = |n: u32| format!("{n} image{}", if n == 1 { "" } else { "s" });
+        let now = self.now;
+        let mut last_at = c.last_at;
+        if taken > c.taken {
+            last_at = now;
+        }
+        let quiet = (interval.max(0.0) * 1e6) as Micros + CAPTURE_SLACK;
+        let (sev, text, last) = if taken >= count {
+            (
+                Severity::INFO,
+                format!("{label}: {} taken", images(count)),
+                true,
+            )
+        } else if now >= last_at + quiet {
+            let said = match taken {
+                0 => format!("{label}: ACCEPTED; no image reported"),
+                n => format!("{label}: {n} of {} taken; no more reported", images(count)),
+            };
+            (Severity::WARNING, said, true)
+        } else if taken > c.taken {
+            (
+                Severity::INFO,
+                format!("{label}: {taken} of {} taken", images(count)),
+                false,
+            )
+        } else {
+            return;
+        };
+        if let Some(ActionLine {
+            kind: ActionKind::Capture(c),
+            ..
+        }) = self.ui.action.as_mut()
+        {
+            c.taken = taken;
+            c.last_at = last_at;
+        }
+        self.action_moves(sev, text, last);
+    }
+
+    /// When a capture's images are next looked at for silence.
+    pub(super) fn capture_deadline(&self) -> Option<Micros> {
+        match self.ui.action.as_ref()? {
+            ActionLine {
+                kind: ActionKind::Capture(c),
+                done: false,
+                ..
+            } if c.accepted => {
+                Some(c.last_at + (c.interval.max(0.0) * 1e6) as Micros + CAPTURE_SLACK)
+            }
+            _ => None,
+        }
+    }
+
+    /// The outcome of a write of parameter `name` of component `comp` of `key` (confirmed by
+    /// its echo, refused, unanswered): one write's line is its outcome; several count up.
+    pub(super) fn param_outcome(
+        &mut self,
+        key: VehicleKey,
+        comp: u8,
+        name: &str,
+        confirmed: bool,
+        sev: Severity,
+        text: &str,
+    ) {
+        let Some(ActionLine {
+            kind:
+                ActionKind::ParamWrite {
+                    key: k,
+                    waiting,
+                    total,
+                    confirmed: ok,
+                },
+            done: false,
+            ..
+        }) = self.ui.action.as_mut()
+        else {
+            return;
+        };
+        let Some(i) = waiting.iter().position(|(c, n)| *c == comp && n == name) else {
+            return;
+        };
+        if *k != key {
+            return;
+        }
+        waiting.remove(i);
+        *ok += confirmed as usize;
+        let (total, ok, left) = (*total, *ok, waiting.len());
+        let (sev, text, last) = if total == 1 {
+            (sev, text.to_string(), true)
+        } else if left > 0 {
+            (
+                Severity::INFO,
+                format!("{total} parameters sent: {ok} confirmed, {left} waiting"),
+                false,
+            )
+        } else if ok == total {
+            (
+                Severity::INFO,
+                format!("{total} parameters set, each confirmed by its echo"),
+                true,
+            )
+        } else {
+            (
+                Severity::WARNING,
+                format!(
+                    "{ok} of {total} parameters confirmed, {} not (see the messages)",
+                    total - ok
+                ),
+                true,
+            )
+        };
+        self.action_moves(sev, text, last);
+    }
+
+    /// An operator's mission request to `key` ended, done or not, with this notice.
+    pub(super) fn mission_outcome(
+        &mut self,
+        key: VehicleKey,
+        ask: crate::proto::mission::MissionAsk,
+        sev: Severity,
+        text: &str,
+    ) {
+        if self
+            .ui
+            .action
+            .as_ref()
+            .is_some_and(|a| !a.done && a.kind == ActionKind::Mission { key, ask })
+        {
+            self.action_moves(sev, text.to_string(), true);
+        }
+    }
+
+    /// A file asked for was read: the action reading it is done with what was read, or the
+    /// error (with its place: the file, its line).
+    pub(super) fn read_outcome(&mut self, path: &std::path::Path, sev: Severity, text: String) {
+        if self
+            .ui
+            .action
+            .as_ref()
+            .is_some_and(|a| !a.done && a.kind == ActionKind::Read(path.to_path_buf()))
+        {
+            self.action_moves(sev, text, true);
+        }
+    }
+
+    /// The log list asked: done when it is whole (its count), or when it stopped short.
+    pub(super) fn follow_log_list(&mut self) {
+        let Some(ActionLine {
+            kind: ActionKind::LogList { key, erase, at },
+            done: false,
+            ..
+        }) = self.ui.action.as_ref()
+        else {
+            return;
+        };
+        let (key, erase, at) = (*key, *erase, *at);
+        let Some(list) = self.sessions.get(&key).map(|s| &s.logs.list) else {
+            return;
+        };
+        if !list.wanted || list.started < at {
+            return;
+        }
+        let n = list.entries.len();
+        let logs = if n == 1 { "log" } else { "logs" };
+        let (sev, text) = if list.complete() {
+            match erase {
+                true if n == 0 => (Severity::INFO, format!("logs erased on {key}: none left")),
+                true => (
+                    Severity::WARNING,
+                    format!("log erase on {key}: {n} {logs} still listed"),
+                ),
+                false => (Severity::INFO, format!("{key} has {n} {logs}")),
+            }
+        } else if let Some(why) = &list.failed {
+            (
+                Severity::WARNING,
+                format!("log list of {key} incomplete: {why}"),
+            )
+        } else {
+            return;
+        };
+        self.action_moves(sev, text, true);
+    }
+
+    /// Relabel the action started since the count was `since` (a command of the queue) with
+    /// the operator's wording.
+    pub(super) fn name_action(&mut self, since: u64, label: &str) {
+        if self.ui.action_count == since {
+            return;
+        }
+        if let Some(a) = self
+            .ui
+            .action
+            .as_mut()
+            .filter(|a| !a.done && a.kind == ActionKind::Command)
+        {
+            a.kind = ActionKind::Named(label.to_string());
+            a.text = format!("{label}: sent");
+        }
     }
 
     /// The sequence of vehicle `key` ended, well (`ok`) or not, with this notice.
@@ -247,10 +564,10 @@ impl App {
         self.action_moves(sev, text, true);
     }
 
-    /// A file was written (or not): the parameter save that wrote it is done.
+    /// A file was written (or not): the save that wrote it is done.
     pub(super) fn file_outcome(&mut self, path: &std::path::Path, error: Option<&str>) {
         let Some(ActionLine {
-            kind: ActionKind::ParamSave { path: p, count },
+            kind: ActionKind::Save { path: p, what },
             done: false,
             ..
         }) = self.ui.action.as_ref()
@@ -263,7 +580,7 @@ impl App {
         let (sev, text) = match error {
             None => (
                 Severity::INFO,
-                format!("{count} parameters saved to {}", path.display()),
+                format!("{what} saved to {}", path.display()),
             ),
             Some(e) => (
                 Severity::ERROR,

@@ -66,8 +66,6 @@ pub struct ParamView {
     pub editing: Option<ParamEdit>,
     /// Show only the parameters that differ from the loaded file.
     pub only_diff: bool,
-    /// The parameter last sent from the screen: its echo's outcome replaces the status message.
-    pub awaiting: Option<String>,
 }
 
 /// Whether `name` passes the Parameters screen's filter: a case-insensitive substring, except
@@ -279,29 +277,25 @@ impl App {
                 self.start_action(
                     None,
                     Vec::new(),
-                    super::outcome::ActionKind::ParamSave {
+                    super::outcome::ActionKind::Save {
                         path: PathBuf::from(&path),
-                        count: n,
+                        what: format!("{n} parameters"),
                     },
                     text.clone(),
                 );
                 Ok(Some(text))
             }
             ParamCmd::Load(path) | ParamCmd::Diff(path) if path.is_empty() => Err(USAGE.into()),
-            ParamCmd::Load(path) => {
-                fx.push(Effect::ReadFile {
-                    path: PathBuf::from(&path),
-                    purpose: FileUse::Load,
-                });
-                Ok(Some(format!("reading {path}")))
-            }
-            ParamCmd::Diff(path) => {
-                fx.push(Effect::ReadFile {
-                    path: PathBuf::from(&path),
-                    purpose: FileUse::Diff,
-                });
-                Ok(Some(format!("reading {path}")))
-            }
+            ParamCmd::Load(path) => Ok(Some(self.read_file(
+                PathBuf::from(&path),
+                FileUse::Load,
+                fx,
+            ))),
+            ParamCmd::Diff(path) => Ok(Some(self.read_file(
+                PathBuf::from(&path),
+                FileUse::Diff,
+                fx,
+            ))),
         }
     }
 
@@ -410,18 +404,18 @@ impl App {
         let n = changes.len();
         let mut out = Vec::new();
         let mut errors = Vec::new();
+        let mut waiting = Vec::new();
         let s = self.sessions.get_mut(&key).ok_or("vehicle gone")?;
         for (comp, name, v) in &changes {
             match s.params_set(now, *comp, name, *v) {
-                Ok(o) => out.extend(o),
+                Ok(o) => {
+                    out.extend(o);
+                    waiting.push((*comp, name.clone()));
+                }
                 Err(e) => errors.push(format!("{name}: {e}")),
             }
         }
-        self.session_out(key, out, fx);
-        if !errors.is_empty() {
-            return Err(errors.join("; "));
-        }
-        Ok(Some(if n == 1 {
+        let text = if n == 1 {
             let (_, name, v) = &changes[0];
             format!(
                 "{name} = {}: sent, waiting for the echo",
@@ -429,7 +423,22 @@ impl App {
             )
         } else {
             format!("{n} parameters sent, waiting for their echoes")
-        }))
+        };
+        // Each write is followed until its echo, refusal or silence.
+        if !waiting.is_empty() {
+            let kind = super::outcome::ActionKind::ParamWrite {
+                key,
+                total: waiting.len(),
+                waiting,
+                confirmed: 0,
+            };
+            self.start_action(Some(key), Vec::new(), kind, text.clone());
+        }
+        self.session_out(key, out, fx);
+        if !errors.is_empty() {
+            return Err(errors.join("; "));
+        }
+        Ok(Some(text))
     }
 
     /// A file asked for by `param load`/`param diff` came (or did not).
@@ -444,15 +453,15 @@ impl App {
         };
         let parsed = file::parse(&text);
         let Ok((key, comp)) = self.param_target() else {
-            self.notice(Severity::ERROR, None, format!("{shown}: no target vehicle"));
+            let text = format!("{shown}: no target vehicle");
+            self.read_outcome(&path, Severity::ERROR, text.clone());
+            self.notice(Severity::ERROR, None, text);
             return;
         };
         let Some(set) = self.param_set() else {
-            self.notice(
-                Severity::ERROR,
-                None,
-                format!("{shown}: no parameters of {} yet", VehicleKey(key.0, comp)),
-            );
+            let text = format!("{shown}: no parameters of {} yet", VehicleKey(key.0, comp));
+            self.read_outcome(&path, Severity::ERROR, text.clone());
+            self.notice(Severity::ERROR, None, text);
             return;
         };
         let vehicle: Vec<Saved> = saved(comp, set).collect();
@@ -478,6 +487,11 @@ impl App {
             }
         );
         self.notice(Severity::INFO, None, summary.clone());
+        // The action's line: what was read, and the first bad line where it is.
+        let (sev, mut said) = match parsed.errors.first() {
+            None => (Severity::INFO, summary.clone()),
+            Some(e) => (Severity::WARNING, format!("{summary}; {e}")),
+        };
         let changes: Vec<(u8, String, f64)> = diff
             .changed
             .iter()
@@ -491,8 +505,8 @@ impl App {
             diff,
             values,
         });
-        self.ui.message = Some((Severity::INFO, summary));
         if purpose == FileUse::Diff {
+            self.read_outcome(&path, sev, said);
             return;
         }
         // Values out of range for their type, or that the float cannot carry exactly under the
@@ -517,7 +531,10 @@ impl App {
             self.notice(Severity::WARNING, None, text);
         }
         if ok.is_empty() {
-            self.ui.message = Some((Severity::INFO, format!("{shown}: nothing to change")));
+            said.push_str("; nothing to change");
+        }
+        self.read_outcome(&path, sev, said);
+        if ok.is_empty() {
             return;
         }
         let mut list: Vec<String> = ok
@@ -656,9 +673,6 @@ impl App {
                         true => e,
                         false => format!("{name}: {e}"),
                     });
-                    if outcome.is_ok() {
-                        self.ui.params.awaiting = Some(name);
-                    }
                     self.ui.message = match outcome {
                         Ok(t) => t.map(|t| (Severity::INFO, t)),
                         Err(e) => Some((Severity::ERROR, e)),
@@ -696,15 +710,6 @@ impl App {
         if filter && self.ui.params.filter != self.ui.edit.text {
             self.ui.params.filter = self.ui.edit.text.clone();
             self.ui.params.sel = 0;
-        }
-    }
-
-    /// The outcome of an edit of parameter `name` (confirmed, refused, unanswered), with its
-    /// notice: the one sent from the screen shows in the status bar.
-    pub(super) fn param_outcome(&mut self, name: &str, sev: Severity, text: &str) {
-        if self.ui.params.awaiting.as_deref() == Some(name) {
-            self.ui.message = Some((sev, text.to_string()));
-            self.ui.params.awaiting = None;
         }
     }
 

@@ -64,6 +64,13 @@ pub enum SessionOut {
         sev: crate::wire::Severity,
         text: String,
     },
+    /// An operator's mission request ended (`done` or not), and its notice.
+    MissionEnd {
+        ask: crate::proto::mission::MissionAsk,
+        done: bool,
+        sev: crate::wire::Severity,
+        text: String,
+    },
     /// The running sequence ended (done, or stopped), and its notice.
     SequenceDone {
         sev: crate::wire::Severity,
@@ -714,6 +721,16 @@ impl Session {
                     notice: (sev, text),
                 }) => out.push(SessionOut::SequenceDone { sev, text }),
                 Out::Event(MachineEvent::CompMeta(e)) => out.push(SessionOut::CompMeta(e)),
+                Out::Event(MachineEvent::MissionEnd {
+                    ask,
+                    done,
+                    notice: (sev, text),
+                }) => out.push(SessionOut::MissionEnd {
+                    ask,
+                    done,
+                    sev,
+                    text,
+                }),
                 Out::Event(MachineEvent::CommandDone { id, notice }) => {
                     if let (Some((sev, text)), Some(e)) = (notice, self.commands.get(id)) {
                         // The gimbal discovery asks every autopilot (most have no mount): its
@@ -776,10 +793,7 @@ impl Session {
         }
         if let (Some(seq), Some(e)) = (self.sequence.as_mut(), self.commands.get(id)) {
             let accepted = e.state == State::Done(0);
-            let outcome = match &e.reason {
-                Some(r) => format!("{} ({r})", e.outcome()),
-                None => e.outcome(),
-            };
+            let outcome = e.outcome_with_reason();
             sequence::to_out(seq.on_finished(now, id, accepted, &outcome), seq_events);
         }
     }
@@ -1066,7 +1080,13 @@ mod tests {
         let key = VehicleKey(1, 1);
         let mut fx = Vec::new();
         // A parameter edit awaited: a notice worded like its outcome is only a notice.
-        app.ui.params.awaiting = Some("RTL_ALT".into());
+        let kind = crate::app::outcome::ActionKind::ParamWrite {
+            key,
+            waiting: vec![(1, "RTL_ALT".into())],
+            total: 1,
+            confirmed: 0,
+        };
+        app.start_action(Some(key), Vec::new(), kind, "RTL_ALT = 30: sent".into());
         app.session_out(
             key,
             vec![SessionOut::Notice(
@@ -1075,64 +1095,55 @@ mod tests {
             )],
             &mut fx,
         );
-        assert_eq!(app.ui.params.awaiting.as_deref(), Some("RTL_ALT"));
+        assert!(app.ui.action.as_ref().is_some_and(|a| !a.done));
+        // Another component's parameter of the same name is not it.
+        let set = |comp| SessionOut::ParamSet {
+            comp,
+            name: "RTL_ALT".into(),
+            confirmed: true,
+            sev: crate::wire::Severity::INFO,
+            text: "RTL_ALT = 30 confirmed".into(),
+        };
+        app.session_out(key, vec![set(2)], &mut fx);
+        assert!(app.ui.action.as_ref().is_some_and(|a| !a.done));
         // The typed outcome settles it, whatever its wording.
-        app.session_out(
-            key,
-            vec![SessionOut::ParamSet {
-                comp: 1,
-                name: "RTL_ALT".into(),
-                confirmed: true,
-                sev: crate::wire::Severity::INFO,
-                text: "RTL_ALT = 30 confirmed".into(),
-            }],
-            &mut fx,
-        );
-        assert_eq!(app.ui.params.awaiting, None);
+        app.session_out(key, vec![set(1)], &mut fx);
+        assert!(app.ui.action.as_ref().is_some_and(|a| a.done));
         assert_eq!(
-            app.ui.message,
+            app.action_text(),
             Some((crate::wire::Severity::INFO, "RTL_ALT = 30 confirmed".into()))
         );
 
-        // A rate asked from the Inspector: the finished command, not its text.
-        let smi = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
-        let prefix = "SET_MESSAGE_INTERVAL to 1:1: ".to_string();
-        app.ui.inspector.awaiting = Some((prefix.clone(), "ATTITUDE 10 Hz from 1:1".into()));
-        let text = format!("{prefix}ACCEPTED");
-        app.session_out(
-            key,
-            vec![SessionOut::Notice(
-                crate::wire::Severity::INFO,
-                text.clone(),
-            )],
-            &mut fx,
+        // A command of the queue: its id, not a notice worded like its outcome.
+        let kind = crate::app::outcome::ActionKind::Command;
+        app.start_action(
+            Some(key),
+            vec![2],
+            kind,
+            "SET_MESSAGE_INTERVAL: sent".into(),
         );
-        assert!(app.ui.inspector.awaiting.is_some());
-        // Another source's command is not it.
+        let text = "SET_MESSAGE_INTERVAL to 1:1: ACCEPTED".to_string();
+        let notice = SessionOut::Notice(crate::wire::Severity::INFO, text.clone());
+        app.session_out(key, vec![notice], &mut fx);
+        assert!(app.ui.action.as_ref().is_some_and(|a| !a.done));
+        let smi = MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL as u16;
         let other = SessionOut::Command {
             id: 1,
-            target: VehicleKey(1, 2),
+            target: VehicleKey(1, 1),
             command: smi,
             sev: crate::wire::Severity::INFO,
-            text: "SET_MESSAGE_INTERVAL to 1:2: ACCEPTED".into(),
+            text: text.clone(),
         };
         app.session_out(key, vec![other], &mut fx);
-        assert!(app.ui.inspector.awaiting.is_some());
+        assert!(app.ui.action.as_ref().is_some_and(|a| !a.done));
         let done = SessionOut::Command {
             id: 2,
             target: VehicleKey(1, 1),
             command: smi,
             sev: crate::wire::Severity::INFO,
-            text,
+            text: text.clone(),
         };
         app.session_out(key, vec![done], &mut fx);
-        assert_eq!(app.ui.inspector.awaiting, None);
-        assert_eq!(
-            app.ui.message,
-            Some((
-                crate::wire::Severity::INFO,
-                "ATTITUDE 10 Hz from 1:1: ACCEPTED".into()
-            ))
-        );
+        assert_eq!(app.action_text(), Some((crate::wire::Severity::INFO, text)));
     }
 }

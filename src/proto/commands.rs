@@ -204,6 +204,14 @@ impl Entry {
             State::Superseded => "superseded".into(),
         }
     }
+
+    /// [`Entry::outcome`] with the vehicle's reason when it gave one: `FAILED (PreArm: …)`.
+    pub fn outcome_with_reason(&self) -> String {
+        match &self.reason {
+            Some(r) => format!("{} ({r})", self.outcome()),
+            None => self.outcome(),
+        }
+    }
 }
 
 /// What the queue wants done.

@@ -105,6 +105,12 @@ pub enum MachineEvent {
     },
     /// The running sequence ended (done, or stopped), with what to tell of it.
     SequenceDone { notice: (Severity, String) },
+    /// An operator's mission request ended, `done` or not, with what to tell of it.
+    MissionEnd {
+        ask: crate::proto::mission::MissionAsk,
+        done: bool,
+        notice: (Severity, String),
+    },
     /// The component metadata machine's news (parameter metadata from the vehicle).
     CompMeta(CompMetaEvent),
     /// A text the vehicle said (STATUSTEXT, joined): from component `from`. `late`: its last

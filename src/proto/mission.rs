@@ -53,7 +53,7 @@ use num_traits::FromPrimitive;
 use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavCmd, MavFrame, MavMessage, MavMissionResult, MavMissionType};
 use crate::mission::{xy_to_wire, MissionItem, MissionType};
-use crate::proto::machine::{Ids, Incoming, Machine, Out, Route};
+use crate::proto::machine::{Ids, Incoming, Machine, MachineEvent, Out, Route};
 use crate::proto::vehicles::VehicleKey;
 use crate::wire::Severity;
 use mavlink::MessageData;
@@ -370,7 +370,45 @@ pub enum MissionEvent {
     },
 }
 
+/// An operator's request to the mission protocol, as its end names it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MissionAsk {
+    /// A transfer of one list.
+    Transfer(OpKind, MissionType),
+    /// MISSION_SET_CURRENT to this item.
+    SetCurrent(u16),
+}
+
 impl MissionEvent {
+    /// The request this event ends, and whether it was done: a transfer's last word (done,
+    /// refused for good, failed) or MISSION_SET_CURRENT's (taken or not).
+    pub fn ends(&self) -> Option<(MissionAsk, bool)> {
+        use MissionAsk::*;
+        Some(match self {
+            MissionEvent::Downloaded { mission_type, .. } => {
+                (Transfer(OpKind::Download, *mission_type), true)
+            }
+            MissionEvent::Uploaded { mission_type, .. } => {
+                (Transfer(OpKind::Upload, *mission_type), true)
+            }
+            MissionEvent::Cleared { mission_type } => {
+                (Transfer(OpKind::Clear, *mission_type), true)
+            }
+            MissionEvent::Refused {
+                op,
+                mission_type,
+                retry_in: None,
+                ..
+            }
+            | MissionEvent::Failed {
+                op, mission_type, ..
+            } => (Transfer(*op, *mission_type), false),
+            MissionEvent::CurrentSet { seq } => (SetCurrent(*seq), true),
+            MissionEvent::SetCurrentFailed { seq, .. } => (SetCurrent(*seq), false),
+            _ => return None,
+        })
+    }
+
     /// (severity, text) to show the operator, for the events worth a line in the messages.
     pub fn notice(&self, key: VehicleKey) -> Option<(Severity, String)> {
         let v = key.to_string();
@@ -1386,11 +1424,13 @@ impl MissionMachine {
         for o in outs {
             match o {
                 MissionOut::Send(m) => out.push(Out::send(Route::Vehicle, m)),
-                MissionOut::Event(e) => {
-                    if let Some((sev, text)) = e.notice(self.key) {
-                        out.push(Out::notice(sev, text));
+                MissionOut::Event(e) => match (e.ends(), e.notice(self.key)) {
+                    (Some((ask, done)), Some(notice)) => {
+                        out.push(Out::Event(MachineEvent::MissionEnd { ask, done, notice }))
                     }
-                }
+                    (_, Some((sev, text))) => out.push(Out::notice(sev, text)),
+                    (_, None) => {}
+                },
             }
         }
     }
