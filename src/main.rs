@@ -348,19 +348,23 @@ fn not_recording(why: &str) -> mavterm::app::Event {
 /// `--headless --logs-out DIR`: the first autopilot's onboard logs, progress on stderr.
 fn logs_out(
     cli: &Cli,
-    cfg: AppConfig,
+    mut cfg: AppConfig,
     dir: &std::path::Path,
     links: &[LinkSpec],
     edge: &Edge,
     rt: &tokio::runtime::Handle,
 ) -> Result<()> {
     use mavterm::headless::logs::{drive, Progress, StopWhenDone};
+    // Logs only: no parameter or component metadata download shares the link with them.
+    cfg.fetch_params = false;
     let limit = (cli.duration.unwrap_or(3600.0) * SECOND as f64) as u64;
     let (app, p) = if all_virtual(links) && edge.outs.is_empty() {
         let mut r = VirtualRunner::from_specs(links, cfg)?;
         edge.start_virtual(&mut r);
         let (mut t, mut asked, mut last) = (0, false, String::new());
         let mut p = Progress::NoVehicle;
+        // What the links carried (time, bytes heard) while downloads ran: how full they were.
+        let mut carried: Option<((u64, u64), (u64, u64))> = None;
         while t < limit && !p.ended() {
             t += SECOND / 4;
             r.advance_to(t);
@@ -370,7 +374,25 @@ fn logs_out(
                 eprintln!("{line}");
                 last = line;
             }
+            let running = r.app.sessions.values().any(|s| {
+                s.logs
+                    .transfer
+                    .as_ref()
+                    .is_some_and(|t| t.state == mavterm::proto::logs::State::Running)
+            });
+            if running {
+                let heard = (r.now(), r.app.links.iter().map(|l| l.parser.bytes).sum());
+                carried = Some((carried.map_or(heard, |c| c.0), heard));
+            }
         }
+        if let Some(((t0, b0), (t1, b1))) = carried.filter(|c| c.1 .0 > c.0 .0) {
+            eprintln!(
+                "links carried {:.0} B/s while downloading",
+                (b1 - b0) as f64 * 1e6 / (t1 - t0) as f64
+            );
+        }
+        // Time is up with a download running: LOG_REQUEST_END (the vehicle logs again).
+        r.event(mavterm::app::Event::Ending);
         r.finish_recording();
         (r.app, p)
     } else {

@@ -1,15 +1,19 @@
 //! Onboard logs on the simulated vehicle (`sim://`, virtual clock): the list (completed when
 //! LOG_ENTRY frames are lost), downloads at 0, 20 and 40 % loss byte-identical to the sim's
 //! logs, resume from the partial on disk, cancel (LOG_REQUEST_END), erase (asked first), the
-//! Logs screen.
+//! Logs screen, the high-latency link left alone, a partial of another log, the status bar,
+//! LOG_REQUEST_END on quitting.
 
 mod common;
 
 use common::{command, keys, sim, wait};
 
-use mavterm::app::AppConfig;
+use std::sync::{Arc, Mutex};
+
+use mavterm::app::{AppConfig, Event};
 use mavterm::driver::virtual_time::VirtualRunner;
-use mavterm::link::LinkSpec;
+use mavterm::link::source::VirtualSource;
+use mavterm::link::{LinkSpec, LinkState};
 use mavterm::proto::logs::State;
 use mavterm::proto::vehicles::VehicleKey;
 use mavterm::sim::logs::{catalogue, content};
@@ -439,4 +443,356 @@ fn log_rate_caps_the_download() {
     let rate = t.entry.size as f64 / secs;
     // The network link carries far more; capped at 5000 B/s (one window's burst allowed).
     assert!(rate <= 5000.0 * 1.1 && rate > 3000.0, "{rate:.0} B/s");
+}
+
+/// One simulated vehicle heard over two radios (links 0 and 1): what it sends goes out on
+/// both, what either sends reaches it; a radio that is cut passes nothing either way.
+struct Radios {
+    sim: Box<dyn VirtualSource>,
+    out: [Vec<u8>; 2],
+    cut: [bool; 2],
+}
+
+/// One radio of [`Radios`], as a link's source.
+struct Radio {
+    radios: Arc<Mutex<Radios>>,
+    i: usize,
+}
+
+impl VirtualSource for Radio {
+    fn receive(&mut self, now: u64, bytes: &[u8]) {
+        let mut r = self.radios.lock().unwrap();
+        if !r.cut[self.i] {
+            r.sim.receive(now, bytes);
+        }
+    }
+    fn poll(&mut self, now: u64) -> Vec<u8> {
+        let mut r = self.radios.lock().unwrap();
+        let bytes = r.sim.poll(now);
+        for k in 0..2 {
+            if !r.cut[k] {
+                r.out[k].extend_from_slice(&bytes);
+            }
+        }
+        std::mem::take(&mut r.out[self.i])
+    }
+    fn next_deadline(&self) -> u64 {
+        let r = self.radios.lock().unwrap();
+        if r.out[self.i].is_empty() {
+            r.sim.next_deadline()
+        } else {
+            0
+        }
+    }
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+}
+
+/// A runner over one sim (`query`) heard on two links, link 1 high-latency (`?hl=1`) when
+/// `hl`; only link 0 when `two` is false.
+fn radios(query: &str, dir: &std::path::Path, two: bool, hl: bool) -> VirtualRunner {
+    let spec: LinkSpec = format!("sim://?{query}").parse().unwrap();
+    let sim = mavterm::driver::local_source(&spec).unwrap();
+    let shared = Arc::new(Mutex::new(Radios {
+        sim,
+        out: [Vec::new(), Vec::new()],
+        cut: [false, !two],
+    }));
+    let n = if two { 2 } else { 1 };
+    let sources: Vec<Box<dyn VirtualSource>> = (0..n)
+        .map(|i| {
+            Box::new(Radio {
+                radios: shared.clone(),
+                i,
+            }) as Box<dyn VirtualSource>
+        })
+        .collect();
+    let cfg = AppConfig {
+        links: (0..n).map(|_| "sim://".to_string()).collect(),
+        logs_dir: Some(dir.to_path_buf()),
+        fetch_params: false,
+        ..AppConfig::default()
+    };
+    let mut r = VirtualRunner::new(cfg, sources);
+    if two && hl {
+        r.app.links[1].profile.hl = true;
+    }
+    r.advance_to(3 * SECOND);
+    r
+}
+
+fn radios_of(r: &VirtualRunner) -> Arc<Mutex<Radios>> {
+    r.source(0)
+        .unwrap()
+        .as_any()
+        .downcast_ref::<Radio>()
+        .unwrap()
+        .radios
+        .clone()
+}
+
+/// Cut radio `i` (nothing passes) or bring it back.
+fn cut(r: &mut VirtualRunner, i: usize, cut: bool) {
+    radios_of(r).lock().unwrap().cut[i] = cut;
+}
+
+/// `f` of the simulated vehicle behind the radios.
+fn vehicle_logs<T>(r: &VirtualRunner, f: impl FnOnce(&mavterm::sim::logs::SimLogs) -> T) -> T {
+    let rs = radios_of(r);
+    let g = rs.lock().unwrap();
+    let sim = g.sim.as_any().downcast_ref::<mavterm::sim::Sim>().unwrap();
+    f(&sim.vehicle(1).unwrap().logs)
+}
+
+/// The ids of the log protocol's requests among frames sent on `link`.
+fn log_requests_on(sent: &[(u64, usize, Vec<u8>)], link: usize) -> Vec<u32> {
+    // LOG_REQUEST_LIST, LOG_REQUEST_DATA, LOG_ERASE, LOG_REQUEST_END.
+    sent.iter()
+        .filter(|(_, l, _)| *l == link)
+        .map(|(_, _, f)| common::frame_msgid(f))
+        .filter(|id| [117, 119, 121, 122].contains(id))
+        .collect()
+}
+
+#[test]
+fn a_download_pauses_when_only_the_high_latency_link_is_left_and_goes_on_after() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut r = radios("baud=57600&log_size=30000", dir.path(), true, true);
+    r.capture_sent();
+    list(&mut r);
+    command(&mut r, "log get 3");
+    wait(&mut r, 3.0);
+    let had = logs(&r).transfer.as_ref().unwrap().written;
+    assert!(had > 0, "under way");
+    // The normal radio goes: its link is down, the satellite link is all that is left.
+    cut(&mut r, 0, true);
+    r.event(Event::LinkState {
+        link: 0,
+        state: LinkState::Down("gone".into()),
+    });
+    wait(&mut r, 20.0);
+    let t = logs(&r).transfer.as_ref().unwrap();
+    assert_eq!(t.state, State::Running);
+    assert!(t.paused.is_some(), "paused");
+    let bar = common::screen(&r, 120, 24);
+    let bar = bar.lines().last().unwrap().to_string();
+    assert!(bar.contains("paused (high-latency link only)"), "{bar}");
+    assert!(r
+        .app
+        .notices
+        .iter()
+        .any(|n| n.text.contains("paused at") && n.text.contains("high-latency")));
+    // 20 s paused: no give-up, nothing asked anywhere meanwhile.
+    let sent = r.take_sent();
+    assert_eq!(
+        log_requests_on(&sent, 1),
+        Vec::<u32>::new(),
+        "nothing on the hl link"
+    );
+    let paused_at = sent
+        .iter()
+        .filter(|(t, _, _)| *t > 4 * SECOND + r.now() - 20 * SECOND);
+    assert!(
+        log_requests_on(&paused_at.cloned().collect::<Vec<_>>(), 0).is_empty(),
+        "nothing asked while paused"
+    );
+    // The radio is back: it goes on (END first: the vehicle may still be sending into the
+    // radio that went), and ends whole.
+    let ends = vehicle_logs(&r, |l| l.ends);
+    cut(&mut r, 0, false);
+    r.event(Event::LinkState {
+        link: 0,
+        state: LinkState::Up,
+    });
+    until_ended(&mut r, 120.0);
+    // END when it was whole: the vehicle logs again.
+    let (ends_now, paused) = vehicle_logs(&r, |l| (l.ends, l.logging_paused));
+    assert!(ends_now > ends);
+    assert!(!paused);
+    let t = logs(&r).transfer.as_ref().unwrap();
+    assert_eq!(t.state, State::Done, "{:?}", t.state);
+    let size = catalogue(3, 30_000)[2].0;
+    assert!(std::fs::read(&t.path).unwrap() == content(3, size));
+    let sent = r.take_sent();
+    assert_eq!(
+        log_requests_on(&sent, 1),
+        Vec::<u32>::new(),
+        "nothing on the hl link"
+    );
+    assert!(log_requests_on(&sent, 0).contains(&119));
+}
+
+#[test]
+fn a_partial_of_another_log_with_the_same_id_is_started_over() {
+    // Log 1 has no time: its file is `log1_no-time.bin`, the same name for a new log 1 after
+    // an erase. A partial of the old one (other bytes, another size) must not be continued.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("vehicle/1/log1_no-time.bin");
+    let partial = mavterm::proto::logs::partial_of(&path);
+    std::fs::create_dir_all(partial.parent().unwrap()).unwrap();
+    std::fs::write(&partial, vec![0xAA; 4000]).unwrap();
+    let old = mavterm::proto::logs::LogEntry {
+        id: 1,
+        time_utc: 0,
+        size: 9000,
+    };
+    std::fs::write(
+        mavterm::proto::logs::info_of(&partial),
+        mavterm::proto::logs::tag_of(KEY, &old),
+    )
+    .unwrap();
+    let mut r = runner("log_size=30000", dir.path());
+    list(&mut r);
+    command(&mut r, "log get 1");
+    until_ended(&mut r, 60.0);
+    let t = logs(&r).transfer.as_ref().unwrap();
+    assert_eq!(t.state, State::Done, "{:?}", t.state);
+    assert_eq!(t.resumed, 0, "started over");
+    assert_eq!(t.path, path);
+    let size = catalogue(3, 30_000)[0].0;
+    assert!(std::fs::read(&path).unwrap() == content(1, size));
+    assert_eq!(sim(&r).vehicle(1).unwrap().logs.data_requests[0].1, 0);
+    assert!(!mavterm::proto::logs::info_of(&partial).exists());
+}
+
+#[test]
+fn a_download_that_failed_for_silence_goes_on_once_the_vehicle_is_heard_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut r = radios("baud=57600&log_size=30000", dir.path(), false, false);
+    list(&mut r);
+    command(&mut r, "log get 3");
+    wait(&mut r, 3.0);
+    // Out of the radio's range: the link stays up, nothing passes.
+    cut(&mut r, 0, true);
+    wait(&mut r, 62.0);
+    let m = logs(&r);
+    let t = m.transfer.as_ref().unwrap();
+    let had = t.written;
+    match &t.state {
+        State::Failed(why) => assert!(
+            why.contains("not heard") && why.contains("once the vehicle is heard again"),
+            "{why}"
+        ),
+        s => panic!("{s:?}"),
+    }
+    assert!(m.waiting_for_link.is_some());
+    assert_eq!(m.queue.front().map(|q| q.id), Some(3));
+    let bar = common::screen(&r, 120, 24);
+    let bar = bar.lines().last().unwrap().to_string();
+    assert!(
+        bar.contains("log 3 waits for the vehicle to be heard"),
+        "{bar}"
+    );
+    // Back in range: it goes on from the disk by itself.
+    cut(&mut r, 0, false);
+    wait(&mut r, 2.0);
+    until_ended(&mut r, 120.0);
+    let t = logs(&r).transfer.as_ref().unwrap();
+    assert_eq!(t.state, State::Done, "{:?}", t.state);
+    assert_eq!(t.resumed, had);
+    let size = catalogue(3, 30_000)[2].0;
+    assert!(std::fs::read(&t.path).unwrap() == content(3, size));
+}
+
+#[test]
+fn the_status_bar_shows_bytes_rate_eta_and_retries_on_other_screens_and_a_stall() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut r = radios(
+        "baud=57600&log_size=30000&loss=0.2&seed=5",
+        dir.path(),
+        false,
+        false,
+    );
+    list(&mut r);
+    command(&mut r, "log get 3");
+    keys(&mut r, &["2"]);
+    wait(&mut r, 6.0);
+    assert_ne!(r.app.ui.screen, "logs");
+    let bar = |r: &VirtualRunner| {
+        let s = common::screen(r, 120, 24);
+        s.lines().last().unwrap().to_string()
+    };
+    let b = bar(&r);
+    let t = logs(&r).transfer.as_ref().unwrap();
+    assert!(t.retries > 0);
+    assert!(
+        b.contains("log 3 15.2 kB/30.0 kB 50% 2.6 kB/s ETA 6 s retries 11"),
+        "{b}"
+    );
+    // Nothing comes: no rate or ETA frozen at what they were, the stall and its length.
+    cut(&mut r, 0, true);
+    wait(&mut r, 5.0);
+    let b = bar(&r);
+    assert!(b.contains("stalled 5 s"), "{b}");
+    assert!(!b.contains("kB/s") && !b.contains("ETA"), "{b}");
+}
+
+#[test]
+fn quitting_mid_download_sends_log_request_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut r = runner("baud=57600&log_size=30000", dir.path());
+    list(&mut r);
+    command(&mut r, "log get 3");
+    wait(&mut r, 2.0);
+    let ends = sim(&r).vehicle(1).unwrap().logs.ends;
+    assert!(sim(&r).vehicle(1).unwrap().logs.logging_paused);
+    r.capture_sent();
+    keys(&mut r, &["q"]);
+    assert!(r.quit_requested());
+    let sent = r.take_sent();
+    assert_eq!(
+        log_requests_on(&sent, 0),
+        vec![122],
+        "LOG_REQUEST_END on the wire"
+    );
+    let v = sim(&r).vehicle(1).unwrap();
+    assert_eq!(v.logs.ends, ends + 1);
+    assert!(!v.logs.logging_paused, "the vehicle logs again");
+    let t = logs(&r).transfer.as_ref().unwrap();
+    assert!(mavterm::proto::logs::partial_of(&t.path).exists(), "kept");
+}
+
+#[test]
+fn a_headless_run_whose_time_is_up_sends_log_request_end() {
+    // Real time over TCP against the pymavlink stand-in: the run ends at --duration with the
+    // log not whole; the stand-in saw LOG_REQUEST_END.
+    let dir = tempfile::tempdir().unwrap();
+    let port = common::free_tcp_port();
+    let served = dir.path().join("served.bin");
+    let check = dir.path().join("check.json");
+    let a: Vec<std::ffi::OsString> = vec![
+        "--port".into(),
+        port.to_string().into(),
+        "--size".into(),
+        "3000000".into(),
+        "--duration".into(),
+        "8".into(),
+        "--served-out".into(),
+        served.into(),
+        "--check-out".into(),
+        check.clone().into(),
+    ];
+    let mut fake = common::stand_in("fake_log_vehicle.py", &a);
+    let out = std::process::Command::new(common::mavterm())
+        .args([
+            "--link",
+            &format!("tcp:127.0.0.1:{port}"),
+            "--headless",
+            "--duration",
+            "3",
+            "--logs-out",
+        ])
+        .arg(dir.path().join("logs"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(!out.status.success());
+    assert!(stderr.contains("not complete"), "{stderr}");
+    let _ = fake.0.wait();
+    let c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&check).unwrap()).unwrap();
+    assert!(!c["requests"].as_array().unwrap().is_empty(), "{c}");
+    assert_eq!(c["ends"], 1, "LOG_REQUEST_END at the end of the run: {c}");
+    assert_eq!(c["errors"], serde_json::json!([]), "{c}");
 }

@@ -143,7 +143,9 @@ pub enum Confirmed {
     /// Quitting while a vehicle is armed (the question names them; `target` is the first).
     Quit,
     /// LOG_ERASE: every onboard log of the target.
-    LogErase,
+    LogErase {
+        hl: bool,
+    },
     /// A calibration of the target.
     Calibration(crate::proto::calibration::Kind),
 }
@@ -223,6 +225,7 @@ impl App {
     /// Quit now: a nudge in progress ends in its stop first.
     pub(super) fn quit_now(&mut self, fx: &mut Vec<Effect>) {
         self.leave_fly(fx);
+        self.end_log_transfers(fx);
         self.ui.confirm = None;
         self.quit = true;
         fx.push(Effect::Quit);
@@ -356,7 +359,7 @@ impl App {
                     Confirmed::Signing(a) => self.carry_out_signing(c.target, a, fx),
                     Confirmed::Mission(a) => self.carry_out_mission(c.target, a, fx),
                     Confirmed::Camera(compid, a) => self.camera_act(c.target, compid, a, fx),
-                    Confirmed::LogErase => self.carry_out_log_erase(c.target, fx),
+                    Confirmed::LogErase { hl } => self.carry_out_log_erase(c.target, hl, fx),
                     Confirmed::Calibration(k) => self.carry_out_cal(c.target, k, fx),
                     Confirmed::Quit => {
                         self.quit_now(fx);

@@ -10,6 +10,7 @@ use std::path::PathBuf;
 use super::confirm::{Ask, Confirmed};
 use super::session::Session;
 use super::{App, Effect};
+use crate::clock::Micros;
 use crate::dialect::MavAutopilot;
 use crate::keymap::Action;
 use crate::proto::logs::{LogIoDone, State};
@@ -34,12 +35,14 @@ pub enum LogCmd {
         file: Option<PathBuf>,
         hl: bool,
     },
-    Erase,
+    Erase {
+        hl: bool,
+    },
     Cancel,
 }
 
 pub const USAGE: &str =
-    "usage: log list | log get ID|latest [FILE] [--hl] | log erase | log cancel";
+    "usage: log list [--hl] | log get ID|latest [FILE] [--hl] | log erase [--hl] | log cancel";
 
 /// `log …` after the word `log`.
 pub fn parse(rest: &str) -> Result<LogCmd, String> {
@@ -48,7 +51,7 @@ pub fn parse(rest: &str) -> Result<LogCmd, String> {
     words.retain(|w| *w != "--hl");
     match words.as_slice() {
         ["list"] | ["ls"] => Ok(LogCmd::List { hl }),
-        ["erase"] => Ok(LogCmd::Erase),
+        ["erase"] => Ok(LogCmd::Erase { hl }),
         ["cancel"] => Ok(LogCmd::Cancel),
         ["get", which, file @ ..] if file.len() <= 1 => {
             let which = match *which {
@@ -74,6 +77,8 @@ pub struct Pending {
     pub key: VehicleKey,
     pub which: Which,
     pub file: Option<PathBuf>,
+    /// Asked on a high-latency link (`--hl`).
+    pub hl: bool,
 }
 
 /// The Logs screen's state.
@@ -132,22 +137,22 @@ impl App {
             LogCmd::List { hl } => {
                 let key = self.logs_target(hl)?;
                 self.ui.logs.listed.insert(key);
-                self.logs_do(key, fx, |m, o| m.refresh(now, o))?;
+                self.logs_do(key, fx, |m, o| m.refresh(now, hl, o))?;
                 let text = format!("asking {key} for its logs");
                 self.log_list_action(key, false, &text);
                 Ok(Some(text))
             }
             LogCmd::Get { which, file, hl } => {
                 let key = self.logs_target(hl)?;
-                self.log_get(key, which, file, fx)
+                self.log_get(key, which, file, hl, fx)
             }
             LogCmd::Cancel => {
                 let key = self.target.ok_or("no target vehicle")?;
                 self.ui.logs.pending.retain(|p| p.key != key);
                 self.logs_do(key, fx, |m, o| m.cancel(now, o)).map(Some)
             }
-            LogCmd::Erase => {
-                let key = self.logs_target(false)?;
+            LogCmd::Erase { hl } => {
+                let key = self.logs_target(hl)?;
                 if self.sessions[&key]
                     .logs
                     .transfer
@@ -168,7 +173,7 @@ impl App {
                          y = yes, any other key = no",
                         self.who_is(key)
                     ),
-                    action: Confirmed::LogErase,
+                    action: Confirmed::LogErase { hl },
                     target: key,
                 });
                 Ok(None)
@@ -180,10 +185,11 @@ impl App {
     pub(super) fn carry_out_log_erase(
         &mut self,
         key: VehicleKey,
+        hl: bool,
         fx: &mut Vec<Effect>,
     ) -> Result<Option<String>, String> {
         let now = self.now;
-        self.logs_do(key, fx, |m, o| m.erase(now, o))?;
+        self.logs_do(key, fx, |m, o| m.erase(now, hl, o))?;
         let text = format!("LOG_ERASE sent to {key}; listing again");
         self.log_list_action(key, true, &text);
         Ok(Some(text))
@@ -206,6 +212,7 @@ impl App {
         key: VehicleKey,
         which: Which,
         file: Option<PathBuf>,
+        hl: bool,
         fx: &mut Vec<Effect>,
     ) -> Result<Option<String>, String> {
         let list = &self.sessions[&key].logs.list;
@@ -215,11 +222,16 @@ impl App {
         };
         if !known {
             // Asked once the list is whole (`follow_logs` asks for it).
-            self.logs_request(key, which, file);
+            self.ui.logs.pending.push(Pending {
+                key,
+                which,
+                file,
+                hl,
+            });
             self.follow_logs(fx);
             return Ok(Some(format!("asking {key} for its logs first")));
         }
-        let r = self.log_get_now(key, which, file)?;
+        let r = self.log_get_now(key, which, file, hl)?;
         self.follow_logs(fx);
         Ok(Some(r))
     }
@@ -227,7 +239,12 @@ impl App {
     /// Download `which` of `key` once its list is whole (the list is asked if it is not):
     /// headless `--logs-out` and `log get` before the list came.
     pub fn logs_request(&mut self, key: VehicleKey, which: Which, file: Option<PathBuf>) {
-        self.ui.logs.pending.push(Pending { key, which, file });
+        self.ui.logs.pending.push(Pending {
+            key,
+            which,
+            file,
+            hl: false,
+        });
     }
 
     /// Run `f` on `key`'s log machine; its output is sent and told.
@@ -261,7 +278,8 @@ impl App {
             };
             if !s.logs.list.wanted && !s.logs.busy() {
                 self.ui.logs.listed.insert(p.key);
-                let (_, out) = s.logs_do(now, |m, o| m.refresh(now, o));
+                let hl = p.hl;
+                let (_, out) = s.logs_do(now, |m, o| m.refresh(now, hl, o));
                 self.session_out(p.key, out, fx);
             }
             let Some(list) = self.sessions.get(&p.key).map(|s| &s.logs.list) else {
@@ -276,7 +294,7 @@ impl App {
                 self.ui.logs.pending.push(p);
                 continue;
             }
-            let r = self.log_get_now(p.key, p.which, p.file);
+            let r = self.log_get_now(p.key, p.which, p.file, p.hl);
             match r {
                 Ok(text) => self.notice(Severity::INFO, Some(p.key), text),
                 Err(e) => self.notice(Severity::ERROR, Some(p.key), e),
@@ -294,6 +312,7 @@ impl App {
         key: VehicleKey,
         which: Which,
         file: Option<PathBuf>,
+        hl: bool,
     ) -> Result<String, String> {
         let now = self.now;
         let s = self.sessions.get_mut(&key).ok_or("no such vehicle")?;
@@ -301,7 +320,7 @@ impl App {
             Which::Id(id) => id,
             Which::Latest => s.logs.latest().ok_or_else(|| format!("{key} has no log"))?,
         };
-        s.logs.get(now, id, file)
+        s.logs.get(now, id, file, hl)
     }
 
     /// What came of a log's file work.
@@ -338,7 +357,7 @@ impl App {
                 hl: false,
             },
             Action::LogCancel => LogCmd::Cancel,
-            Action::LogErase => LogCmd::Erase,
+            Action::LogErase => LogCmd::Erase { hl: false },
             _ => LogCmd::List { hl: false },
         };
         let r = self.run_log(cmd, fx);
@@ -374,7 +393,7 @@ impl App {
         }
         self.ui.logs.listed.insert(key);
         let now = self.now;
-        let _ = self.logs_do(key, fx, |m, o| m.refresh(now, o));
+        let _ = self.logs_do(key, fx, |m, o| m.refresh(now, false, o));
     }
 }
 
@@ -385,52 +404,51 @@ fn clamp(v: usize, step: isize, len: usize) -> usize {
     (v as isize + step).clamp(0, len as isize - 1) as usize
 }
 
-/// The download of `s` as one short line (status bar): `log 3 41% 4.2 kB/s 12 s`.
-pub fn status_text(s: &Session) -> Option<String> {
-    let t = s.logs.transfer.as_ref().filter(|t| t.active())?;
-    let pct = t.got() as u64 * 100 / (t.entry.size.max(1) as u64);
-    let rate = t
-        .rate()
-        .map(|r| format!(" {}/s", human_bytes(r as u64)))
-        .unwrap_or_default();
-    let eta = t
-        .eta()
-        .map(|e| format!(" {}", human_secs(e)))
-        .unwrap_or_default();
-    let queued = if s.logs.queue.is_empty() {
+/// The download of `s` as one line for the status bar at `now`, as on the Logs screen:
+/// `log 3 12.3 kB/30.0 kB 41% 2.8 kB/s ETA 6 s retries 2 +1` (`+1`: one more queued);
+/// `stalled 4 s` or `paused (high-latency link only)` stand for the rate and ETA when so, and
+/// a download waiting for the vehicle to be heard again says so.
+pub fn status_text(s: &Session, now: Micros) -> Option<String> {
+    let m = &s.logs;
+    let queued = if m.queue.is_empty() {
         String::new()
     } else {
-        format!(" +{}", s.logs.queue.len())
+        format!(" +{}", m.queue.len())
     };
-    let state = match t.state {
-        State::Opening => " opening",
-        State::Finishing => " saving",
-        _ => "",
+    let Some(t) = m.transfer.as_ref().filter(|t| t.active()) else {
+        let q = m.queue.front().filter(|_| m.waiting_for_link.is_some())?;
+        let more = m.queue.len() - 1;
+        let more = if more > 0 {
+            format!(" +{more}")
+        } else {
+            String::new()
+        };
+        return Some(format!(
+            "log {} waits for the vehicle to be heard{more}",
+            q.id
+        ));
     };
-    Some(format!(
-        "log {} {pct}%{rate}{eta}{state}{queued}",
-        t.entry.id
-    ))
+    let how = match t.state {
+        State::Opening => "opening".to_string(),
+        State::Finishing => "saving".to_string(),
+        _ => t.progress_text(now),
+    };
+    Some(format!("log {} {how}{queued}", t.entry.id))
 }
 
-/// `812 B`, `4.2 kB`, `1.3 MB` (powers of 1000).
-pub fn human_bytes(b: u64) -> String {
-    match b {
-        0..1000 => format!("{b} B"),
-        1000..1_000_000 => format!("{:.1} kB", b as f64 / 1e3),
-        _ => format!("{:.1} MB", b as f64 / 1e6),
+/// The log download of the status bar: the target's, else another vehicle's (named).
+pub fn status_bar_text(app: &App) -> Option<String> {
+    let target = app.target.and_then(|k| app.sessions.get(&k));
+    if let Some(t) = target.and_then(|s| status_text(s, app.now)) {
+        return Some(t);
     }
+    app.sessions
+        .iter()
+        .filter(|(k, _)| Some(**k) != app.target)
+        .find_map(|(k, s)| status_text(s, app.now).map(|t| format!("{k} {t}")))
 }
 
-/// `42 s`, `3 min 5 s`, `2 h 4 min`.
-pub fn human_secs(s: f64) -> String {
-    let s = s.max(0.0).round() as u64;
-    match s {
-        0..60 => format!("{s} s"),
-        60..3600 => format!("{} min {} s", s / 60, s % 60),
-        _ => format!("{} h {} min", s / 3600, (s % 3600) / 60),
-    }
-}
+pub use crate::proto::logs::{human_bytes, human_secs};
 
 #[cfg(test)]
 mod tests {
@@ -457,7 +475,8 @@ mod tests {
         );
         assert!(parse("get x").is_err());
         assert!(parse("get 1 a b").is_err());
-        assert_eq!(parse("erase"), Ok(LogCmd::Erase));
+        assert_eq!(parse("erase"), Ok(LogCmd::Erase { hl: false }));
+        assert_eq!(parse("erase --hl"), Ok(LogCmd::Erase { hl: true }));
         assert_eq!(parse("cancel"), Ok(LogCmd::Cancel));
         assert_eq!(parse(""), Err(USAGE.into()));
     }

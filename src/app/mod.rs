@@ -411,6 +411,9 @@ pub struct App {
     dirty: bool,
     last_drawn_sec: u64,
     pub quit: bool,
+    /// LOG_REQUEST_END went to a vehicle because mavterm ends ([`App::end_log_transfers`]): the
+    /// edge gives the links a moment to send it.
+    pub log_end_on_exit: bool,
     /// A target was chosen (the first autopilot heard, or by the operator): no automatic pick
     /// after that.
     target_held: bool,
@@ -461,6 +464,7 @@ impl App {
             dirty: true,
             last_drawn_sec: 0,
             quit: false,
+            log_end_on_exit: false,
             target_held: false,
             meta: param_meta::MetaState::default(),
             auto_starts: std::collections::VecDeque::new(),
@@ -633,6 +637,7 @@ impl App {
     /// Poll the sessions that have work due at `now`.
     fn poll_sessions(&mut self, fx: &mut Vec<Effect>) {
         let now = self.now;
+        self.follow_log_routes(fx);
         let due: Vec<VehicleKey> = self
             .sessions
             .iter()
@@ -645,6 +650,49 @@ impl App {
                 None => continue,
             };
             self.session_out(key, out, fx);
+        }
+    }
+
+    /// Tell each log machine whether a link that is not high-latency reaches its vehicle (and
+    /// when it was last heard on one): log traffic never goes on a high-latency link unless the
+    /// operator asked there.
+    fn follow_log_routes(&mut self, fx: &mut Vec<Effect>) {
+        let now = self.now;
+        let normal: Vec<bool> = self
+            .links
+            .iter()
+            .map(|l| l.state == LinkState::Up && !l.profile.hl)
+            .collect();
+        let mut changed = Vec::new();
+        for (key, s) in self.sessions.iter_mut() {
+            let route = s.last_heard_on(|l| normal.get(l).copied().unwrap_or(false));
+            if route.is_some() != s.logs.route.is_some() || s.logs.waiting_for_link.is_some() {
+                changed.push((*key, route));
+            } else {
+                s.logs.route = route;
+            }
+        }
+        for (key, route) in changed {
+            let Some(s) = self.sessions.get_mut(&key) else {
+                continue;
+            };
+            let (_, out) = s.logs_do(now, |m, o| m.set_route(now, route, o));
+            self.session_out(key, out, fx);
+        }
+    }
+
+    /// mavterm ends: every log download running is cancelled with LOG_REQUEST_END (the vehicle
+    /// logs again); their partials stay for a resume.
+    pub fn end_log_transfers(&mut self, fx: &mut Vec<Effect>) {
+        let now = self.now;
+        let keys: Vec<VehicleKey> = self.sessions.keys().copied().collect();
+        for key in keys {
+            let Some(s) = self.sessions.get_mut(&key) else {
+                continue;
+            };
+            let (ended, out) = s.logs_do(now, |m, o| m.on_exit(now, o));
+            self.session_out(key, out, fx);
+            self.log_end_on_exit |= ended;
         }
     }
 
@@ -710,7 +758,10 @@ impl App {
             Event::KeyRepeat(key) => self.on_key(key, true, &mut fx),
             Event::Paste(text) => self.on_paste(&text),
             Event::KeyRelease(key) => self.on_key_release(key, &mut fx),
-            Event::Ending => self.leave_fly(&mut fx),
+            Event::Ending => {
+                self.leave_fly(&mut fx);
+                self.end_log_transfers(&mut fx);
+            }
             Event::Suspend => self.on_action(crate::keymap::Action::Suspend, &mut fx),
             Event::Resize => self.dirty = true,
             Event::FileWritten { path, error } if self.signing.is_state_file(&path) => {

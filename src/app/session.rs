@@ -300,6 +300,15 @@ impl Session {
         self.heard.get(&link).is_some_and(|(_, p)| p.hl)
     }
 
+    /// When this system was last heard on a link `ok` accepts (`None`: on none).
+    pub fn last_heard_on(&self, ok: impl Fn(LinkId) -> bool) -> Option<Micros> {
+        self.heard
+            .iter()
+            .filter(|(l, _)| ok(**l))
+            .map(|(_, (t, _))| *t)
+            .max()
+    }
+
     /// Links this system has been heard on.
     pub fn links(&self) -> impl Iterator<Item = LinkId> + '_ {
         self.heard.keys().copied()

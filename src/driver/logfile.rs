@@ -7,7 +7,7 @@
 use std::io::{Seek, SeekFrom, Write};
 use std::path::Path;
 
-use crate::proto::logs::{LogIo, LogIoDone};
+use crate::proto::logs::{info_of, LogIo, LogIoDone};
 
 fn regular_or_missing(path: &Path) -> std::io::Result<()> {
     match std::fs::symlink_metadata(path) {
@@ -21,23 +21,33 @@ fn regular_or_missing(path: &Path) -> std::io::Result<()> {
     }
 }
 
-fn open(partial: &Path, max: u64) -> std::io::Result<u64> {
+/// The partial's length, after making sure it is a prefix of the log `tag` names: a partial
+/// whose info (`NAME.partial.info`) is missing or names another log (the same id after an
+/// erase, another vehicle, a log that grew), or that is longer than `max`, is emptied and
+/// tagged anew.
+fn open(partial: &Path, max: u64, tag: &str) -> std::io::Result<u64> {
     if let Some(dir) = partial.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)?;
     }
     regular_or_missing(partial)?;
+    let info = info_of(partial);
+    regular_or_missing(&info)?;
     let f = std::fs::OpenOptions::new()
         .create(true)
         .truncate(false)
         .write(true)
         .open(partial)?;
     let len = f.metadata()?.len();
-    if len > max {
-        // Longer than the log: not this log's prefix; start over.
-        f.set_len(0)?;
-        return Ok(0);
+    let same = std::fs::read(&info).is_ok_and(|b| b == tag.as_bytes());
+    if same && len <= max {
+        return Ok(len);
     }
-    Ok(len)
+    // Not this log's prefix (or nothing says it is): start over. Emptied before the new info
+    // is written, so a crash between leaves an empty partial, never another log's bytes.
+    f.set_len(0)?;
+    f.sync_all()?;
+    std::fs::write(&info, tag)?;
+    Ok(0)
 }
 
 fn write(partial: &Path, ofs: u64, bytes: &[u8]) -> std::io::Result<()> {
@@ -59,13 +69,17 @@ fn finish(partial: &Path, path: &Path, size: u64) -> std::io::Result<()> {
         ));
     }
     f.sync_all()?;
-    std::fs::rename(partial, path)
+    std::fs::rename(partial, path)?;
+    match std::fs::remove_file(info_of(partial)) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
+        _ => Ok(()),
+    }
 }
 
 /// Carry out `io`; what the core must be told (a write that worked tells nothing).
 pub fn carry_out(io: LogIo) -> Option<LogIoDone> {
     match io {
-        LogIo::Open { partial, max } => Some(match open(&partial, max) {
+        LogIo::Open { partial, max, tag } => Some(match open(&partial, max, &tag) {
             Ok(have) => LogIoDone::Opened { partial, have },
             Err(e) => LogIoDone::Failed {
                 path: partial,
@@ -105,9 +119,11 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("a/b/log1.bin");
         let partial = crate::proto::logs::partial_of(&path);
+        let tag = "log 1 of 6 bytes".to_string();
         let opened = carry_out(LogIo::Open {
             partial: partial.clone(),
             max: 6,
+            tag: tag.clone(),
         });
         assert_eq!(
             opened,
@@ -138,6 +154,7 @@ mod tests {
         let again = carry_out(LogIo::Open {
             partial: partial.clone(),
             max: 6,
+            tag: tag.clone(),
         });
         assert_eq!(
             again,
@@ -155,5 +172,53 @@ mod tests {
         assert_eq!(finish, Some(LogIoDone::Finished { path: path.clone() }));
         assert_eq!(std::fs::read(&path).unwrap(), b"abcdef");
         assert!(!partial.exists());
+        assert!(
+            !info_of(&partial).exists(),
+            "the info goes with the partial"
+        );
+    }
+
+    #[test]
+    fn a_partial_of_another_log_is_started_over_never_appended_to() {
+        let dir = tempfile::tempdir().unwrap();
+        let partial = dir.path().join("log1_no-time.bin.partial");
+        let open = |tag: &str, max| {
+            carry_out(LogIo::Open {
+                partial: partial.clone(),
+                max,
+                tag: tag.into(),
+            })
+        };
+        let have = |n| {
+            Some(LogIoDone::Opened {
+                partial: partial.clone(),
+                have: n,
+            })
+        };
+        assert_eq!(open("log 1, 1000 bytes", 1000), have(0));
+        assert_eq!(
+            carry_out(LogIo::Write {
+                partial: partial.clone(),
+                ofs: 0,
+                bytes: vec![1; 500],
+            }),
+            None
+        );
+        // The same log: resumed.
+        assert_eq!(open("log 1, 1000 bytes", 1000), have(500));
+        // Erased, and a new log 1 (no time either) of another size: started over.
+        assert_eq!(open("log 1, 800 bytes", 800), have(0));
+        assert_eq!(std::fs::metadata(&partial).unwrap().len(), 0);
+        assert_eq!(
+            std::fs::read_to_string(info_of(&partial)).unwrap(),
+            "log 1, 800 bytes"
+        );
+        // A partial nothing says the log of (no info: an older mavterm, or lost): started over.
+        std::fs::write(&partial, [2; 300]).unwrap();
+        std::fs::remove_file(info_of(&partial)).unwrap();
+        assert_eq!(open("log 1, 800 bytes", 800), have(0));
+        // Longer than the log: not its prefix.
+        std::fs::write(&partial, [2; 900]).unwrap();
+        assert_eq!(open("log 1, 800 bytes", 800), have(0));
     }
 }

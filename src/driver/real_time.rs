@@ -319,7 +319,19 @@ impl<C: Clock + Clone> RealTime<C> {
         use futures_util::FutureExt;
         let run = std::panic::AssertUnwindSafe(self.run_loop(until, front)).catch_unwind();
         match run.await {
-            Ok(Ok(Ended::Deadline)) => Ok(Ended::Deadline),
+            Ok(Ok(Ended::Deadline)) => {
+                // A headless run's time is up: a log download still running is ended with
+                // LOG_REQUEST_END (the vehicle logs again), sent before this returns.
+                let logs = self
+                    .app
+                    .sessions
+                    .values()
+                    .any(|s| s.logs.transfer.as_ref().is_some_and(|t| t.active()));
+                if logs {
+                    self.wind_down().await;
+                }
+                Ok(Ended::Deadline)
+            }
             Ok(r) => {
                 self.wind_down().await;
                 r
@@ -339,6 +351,10 @@ impl<C: Clock + Clone> RealTime<C> {
     async fn wind_down(&mut self) {
         self.step(Event::Ending);
         if !self.app.nudge.stopping() {
+            if self.app.log_end_on_exit {
+                // LOG_REQUEST_END is on its way to the link tasks: a moment to write it.
+                tokio::time::sleep(Duration::from_millis(50)).await;
+            }
             return;
         }
         let give_up = self.clock.now() + 500_000;

@@ -38,6 +38,11 @@ pub fn drive(app: &mut App, dir: &Path, ids: &[u16], asked: &mut bool) -> Progre
         return Progress::Running("asking for the list".into());
     }
     let s = &app.sessions[&key];
+    if s.logs.route.is_none() {
+        return Progress::Running(format!(
+            "waiting: only a high-latency link reaches {key}, and logs never go there unasked"
+        ));
+    }
     let l = &s.logs.list;
     if let Some(why) = &l.failed {
         return Progress::Failed(format!("log list: {why}"));
@@ -62,6 +67,15 @@ pub fn drive(app: &mut App, dir: &Path, ids: &[u16], asked: &mut bool) -> Progre
     }
     let mut done = Vec::new();
     for &id in &want {
+        // On its way again (queued, or waiting for the vehicle to be heard): not failed yet.
+        let again = s.logs.queue.iter().any(|q| q.id == id)
+            || s.logs
+                .transfer
+                .as_ref()
+                .is_some_and(|t| t.active() && t.entry.id == id);
+        if again {
+            continue;
+        }
         match s.logs.history.iter().rev().find(|(e, _, _)| e.id == id) {
             Some((_, p, State::Done)) => done.push((id, p.clone())),
             Some((_, _, State::Failed(why))) => {
@@ -73,7 +87,7 @@ pub fn drive(app: &mut App, dir: &Path, ids: &[u16], asked: &mut bool) -> Progre
     if done.len() == want.len() {
         return Progress::Done(done);
     }
-    match (&s.logs.transfer, crate::app::logs::status_text(s)) {
+    match (&s.logs.transfer, crate::app::logs::status_text(s, app.now)) {
         (_, Some(t)) => Progress::Running(t),
         _ => Progress::Running(format!("{}/{} logs saved", done.len(), want.len())),
     }

@@ -8,7 +8,7 @@ use ratatui::widgets::{Block, Borders, Paragraph};
 use ratatui::Frame;
 
 use super::Theme;
-use crate::app::logs::{human_bytes, human_secs};
+use crate::app::logs::human_bytes;
 use crate::app::App;
 use crate::proto::logs::State;
 
@@ -54,25 +54,19 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             State::Cancelled => "cancelled".into(),
             State::Failed(why) => format!("failed: {why}"),
         };
-        let pct = t.got() as u64 * 100 / t.entry.size.max(1) as u64;
-        let rate = t
-            .rate()
-            .map(|r| format!("{}/s", human_bytes(r as u64)))
-            .unwrap_or_else(|| "–".into());
-        let eta = t.eta().map(human_secs).unwrap_or_else(|| "–".into());
         let style = match t.state {
             State::Failed(_) => theme.alert(),
             State::Done => theme.good(),
+            _ if t.paused.is_some() || t.stalled(app.now).is_some() => theme.alert(),
             _ => theme.header(),
         };
+        // A download that ended shows how it stood then.
+        let at = match t.finished {
+            Some(f) if !t.active() => f,
+            _ => app.now,
+        };
         lines.push(Line::styled(
-            format!(
-                "log {} {state}: {}/{} ({pct}%)  {rate}  ETA {eta}  retries {}",
-                t.entry.id,
-                human_bytes(t.got() as u64),
-                human_bytes(t.entry.size as u64),
-                t.retries
-            ),
+            format!("log {} {state}: {}", t.entry.id, t.progress_text(at)),
             style,
         ));
         let resumed = if t.resumed > 0 {
@@ -93,9 +87,14 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         ));
     }
     if !s.logs.queue.is_empty() {
-        let ids: Vec<String> = s.logs.queue.iter().map(|(id, _)| id.to_string()).collect();
+        let ids: Vec<String> = s.logs.queue.iter().map(|q| q.id.to_string()).collect();
+        let why = if s.logs.waiting_for_link.is_some() {
+            " (waiting for the vehicle to be heard again)"
+        } else {
+            ""
+        };
         lines.push(Line::styled(
-            format!("queued: {}", ids.join(", ")),
+            format!("queued: {}{why}", ids.join(", ")),
             theme.dim(),
         ));
     }
@@ -127,7 +126,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
                 Some((_, _, State::Done)) => "saved".into(),
                 Some((_, _, State::Cancelled)) => "partial".into(),
                 Some((_, _, State::Failed(_))) => "failed".into(),
-                _ if s.logs.queue.iter().any(|(q, _)| *q == e.id) => "queued".into(),
+                _ if s.logs.queue.iter().any(|q| q.id == e.id) => "queued".into(),
                 _ => String::new(),
             },
         };

@@ -246,10 +246,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             format!("  params {got}/{of}")
         })
         .unwrap_or_default()
-        + &app
-            .target
-            .and_then(|k| app.sessions.get(&k))
-            .and_then(crate::app::logs::status_text)
+        + &crate::app::logs::status_bar_text(app)
             .map(|t| format!("  {t}"))
             .unwrap_or_default();
     let mut target = target_text(app) + &progress;
