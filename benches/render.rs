@@ -145,6 +145,14 @@ fn map_scene() -> ui_fixture::Drive {
 fn render_map(c: &mut Criterion) {
     let d = map_scene();
     assert_eq!(d.app.air.traffic.len(), 50);
+    // Ten vehicles, each with its 3 minutes of track (a point a second).
+    let vehicles = d.app.map_vehicles();
+    assert_eq!(vehicles.len(), 10);
+    for v in &vehicles {
+        let n = d.app.track(v.key).len();
+        assert!((175..=181).contains(&n), "{}: {n} points", v.key);
+    }
+    assert_eq!(d.app.map_path().len(), 99);
     let mut term = Terminal::new(TestBackend::new(200, 60)).unwrap();
     let theme = Theme::default();
     c.bench_function(

@@ -8,14 +8,17 @@
 mod common;
 
 use common::{command, hear, keys, screen, sim, wait};
+use mavterm::app::mission::{LoadedList, Shown};
 use mavterm::app::{App, AppConfig, Effect, Event};
 use mavterm::dialect::{self, MavMessage};
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::keymap::Key;
-use mavterm::mission::MissionType;
+use mavterm::mission::{MissionItem, MissionType};
 use mavterm::proto::geo::{LatLon, Plane};
 use mavterm::proto::vehicles::VehicleKey;
 use mavterm::ui::{buffer_to_text, render_to_buffer, Theme};
+use ratatui::buffer::Buffer;
+use ratatui::style::{Color, Modifier};
 
 const SECOND: u64 = 1_000_000;
 /// One degree of a great circle on the 6371 km sphere, metres (π·R/180).
@@ -199,9 +202,10 @@ fn settle(r: &mut VirtualRunner) {
     panic!("transfers still running");
 }
 
-/// The sim with two aircraft near home, the lists uploaded, flying its mission for 40 s.
+/// The sim with the lists uploaded, flying its mission for 25 s, then two aircraft heard near it
+/// (the sim's own traffic, `adsb=`, flies tracks kilometres long: it would be off this map).
 fn flight() -> (VirtualRunner, tempfile::TempDir) {
-    let mut r = runner("?adsb=2&adsb_radius=6000&adsb_alt=60&seed=4");
+    let mut r = runner("?seed=4");
     let dir = tempfile::tempdir().unwrap();
     for (word, text) in [
         ("wp", mission_file()),
@@ -220,7 +224,77 @@ fn flight() -> (VirtualRunner, tempfile::TempDir) {
     common::yes(&mut r);
     wait(&mut r, 25.0);
     keys(&mut r, &["9"]);
+    // Two aircraft on the map around the vehicle (604 m AMSL): one 100 m above (near: the
+    // status bar warns), one 400 m above.
+    let own = r.app.target_pos().unwrap();
+    let plane = Plane::new(own);
+    let now = r.now();
+    for (icao, name, (e, n), alt, hdg, speed) in TRAFFIC {
+        let msg = aircraft_on(icao, name, plane.from_en(e, n), alt, 0, hdg, speed);
+        hear(&mut r.app, now, &msg);
+    }
     (r, dir)
+}
+
+/// An aircraft heard: ICAO, callsign, (east, north) of the vehicle, altitude, heading and speed.
+type Heard = (u32, &'static str, (f64, f64), f64, f64, f64);
+
+/// The flight's aircraft.
+const TRAFFIC: [Heard; 2] = [
+    (0x7C6B2D, "MEDIC", (-180.0, 120.0), 704.0, 135.0, 30.0),
+    (0x7C4F1A, "GLIDE", (150.0, -150.0), 1004.0, 290.0, 60.0),
+];
+
+/// The Map's canvas in a whole screen: inside the border, above the footer, left of the traffic
+/// list when there is one: (left, top, right, bottom), the ends excluded.
+fn canvas(buf: &Buffer) -> (u16, u16, u16, u16) {
+    let (w, h) = (buf.area.width, buf.area.height);
+    let word: Vec<&str> = "Traffic ".split("").filter(|c| !c.is_empty()).collect();
+    let side = (1..w).find(|x| {
+        word.iter()
+            .enumerate()
+            .all(|(i, c)| x + (i as u16) < w && buf[(x + i as u16, 2)].symbol() == *c)
+    });
+    (1, 2, side.map_or(w - 1, |s| s - 1), h - 3)
+}
+
+/// The canvas cells holding `symbol`, (column, row).
+fn on_canvas(buf: &Buffer, symbol: &str) -> Vec<(u16, u16)> {
+    let (x0, y0, x1, y1) = canvas(buf);
+    let mut out = Vec::new();
+    for y in y0..y1 {
+        for x in x0..x1 {
+            if buf[(x, y)].symbol() == symbol {
+                out.push((x, y));
+            }
+        }
+    }
+    out
+}
+
+/// The cell of the target's arrow: reverse video, on the canvas.
+fn target_cell(buf: &Buffer) -> (u16, u16) {
+    let (x0, y0, x1, y1) = canvas(buf);
+    let arrows = ["↑", "↗", "→", "↘", "↓", "↙", "←", "↖", "●"];
+    let found: Vec<(u16, u16)> = (y0..y1)
+        .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+        .filter(|&(x, y)| {
+            let c = &buf[(x, y)];
+            arrows.contains(&c.symbol()) && c.modifier.contains(Modifier::REVERSED)
+        })
+        .collect();
+    assert_eq!(found.len(), 1, "{found:?}\n{}", buffer_to_text(buf));
+    found[0]
+}
+
+/// The compass rose's three rows (five cells each) at the canvas's top right.
+fn rose(buf: &Buffer) -> [String; 3] {
+    let (_, y0, x1, _) = canvas(buf);
+    [0, 1, 2].map(|dy| {
+        (x1 - 5..x1)
+            .map(|x| buf[(x, y0 + dy)].symbol())
+            .collect::<String>()
+    })
 }
 
 /// One flight (it takes a while on the virtual clock) for the screens and the moves.
@@ -231,13 +305,35 @@ fn a_flight_with_a_mission_fence_rally_and_traffic() {
     assert!(s.mission.current.is_some(), "flying the mission");
     assert_eq!(r.app.air.traffic.len(), 2);
     for (w, h) in [(80, 24), (200, 60)] {
-        let text = screen(&r, w, h);
+        let buf = render_to_buffer(&r.app, w, h, &Theme::PLAIN);
+        let text = buffer_to_text(&buf);
         assert!(text.contains("Map: following 1:1, north up"), "{text}");
         assert!(text.contains("Traffic 2"), "{text}");
         assert!(text.contains("next wp "), "{text}");
+        assert!(
+            text.contains("TRAFFIC MEDIC"),
+            "the near one on the status bar: {text}"
+        );
+        // Both aircraft on the map itself (not only in the list beside it), each with its
+        // callsign, where they are from the vehicle: up left, and down right.
+        let planes = on_canvas(&buf, "✈");
+        assert_eq!(planes.len(), 2, "{text}");
+        let (vx, vy) = target_cell(&buf);
+        for (_, name, (e, n), ..) in TRAFFIC {
+            let &(x, y) = planes
+                .iter()
+                .find(|(x, y)| {
+                    (1..=5).all(|i| buf[(x + i, *y)].symbol() == &name[i as usize - 1..i as usize])
+                })
+                .unwrap_or_else(|| panic!("{name} not on the map: {text}"));
+            assert_eq!((x < vx, y < vy), (e < 0.0, n > 0.0), "{name}: {text}");
+        }
+        // North up: the rose as on a paper map.
+        assert_eq!(rose(&buf), ["  N  ", "W · E", "  S  "], "{text}");
         insta::assert_snapshot!(format!("map_flight_{w}x{h}"), text);
     }
     without_colour_everything_is_a_symbol(&r);
+    the_current_waypoint_is_marked(&r);
     keys(&mut r, &["f"]);
     insta::assert_snapshot!("map_flight_fitted_200x60", screen(&r, 200, 60));
     keys(&mut r, &["c"]);
@@ -277,7 +373,38 @@ fn without_colour_everything_is_a_symbol(r: &VirtualRunner) {
         assert_eq!(c.fg, ratatui::style::Color::Reset, "{c:?}");
     }
     let text = buffer_to_text(&buf);
-    assert!(text.contains('✈') && text.contains('H'), "{text}");
+    // On the map: the traffic, the home, and the exclusion circle's centre marked.
+    assert_eq!(on_canvas(&buf, "✈").len(), 2, "{text}");
+    assert_eq!(on_canvas(&buf, "H").len(), 1, "{text}");
+    assert_eq!(on_canvas(&buf, "×").len(), 1, "{text}");
+}
+
+/// The waypoint flown to now stands out (reverse video, bold) from the others, in colour and
+/// without.
+fn the_current_waypoint_is_marked(r: &VirtualRunner) {
+    let current = r.app.map_current_seq().unwrap();
+    let path = r.app.map_path();
+    assert!(path.iter().any(|(s, _)| *s == current) && path.len() > 3);
+    for theme in [Theme::default(), Theme::PLAIN] {
+        let buf = render_to_buffer(&r.app, 200, 60, &theme);
+        let (_, _, _, bottom) = canvas(&buf);
+        for (seq, _) in &path {
+            // Its label on the canvas (the scale bar's digits, on the last row, left out).
+            let cells: Vec<&ratatui::buffer::Cell> = on_canvas(&buf, &seq.to_string())
+                .into_iter()
+                .filter(|(_, y)| *y + 1 < bottom)
+                .map(|c| &buf[c])
+                .collect();
+            assert_eq!(cells.len(), 1, "wp {seq}: {}", buffer_to_text(&buf));
+            let marked = cells[0]
+                .modifier
+                .contains(Modifier::REVERSED | Modifier::BOLD);
+            assert_eq!(marked, *seq == current, "wp {seq}: {:?}", cells[0]);
+            if theme.color && *seq != current {
+                assert_eq!(cells[0].fg, Color::Yellow);
+            }
+        }
+    }
 }
 
 #[test]
@@ -375,10 +502,52 @@ fn follow_pan_zoom_centre_and_fit(mut r: VirtualRunner) {
         hw <= me * 1.11 + 1.0 && hh <= mn * 1.11 + 1.0,
         "{hw} {hh} for {me} {mn}"
     );
-    // h: heading up, said in the title.
+    // Zooming out of a fit goes on from the scale shown (on the pane as drawn): exactly half
+    // of it, and the scale bar says so.
+    let shown = r.app.ui.map.shown_radius();
+    let fitted = metres_per_cell(&text);
+    keys(&mut r, &["z"]);
+    assert_eq!(r.app.ui.map.fit, None);
+    assert_eq!(r.app.ui.map.radius_m, shown / 2.0);
+    let text = screen(&r, 200, 60);
+    assert!(text.contains("Map: panned, north up"), "{text}");
+    let ratio = metres_per_cell(&text) / fitted;
+    assert!((ratio - 0.5).abs() < 0.03, "{ratio}: {text}");
+    // Panning out of a fit: no longer fitted, at the fit's scale, a quarter of it east.
+    keys(&mut r, &["f"]);
+    let text = screen(&r, 200, 60);
+    assert!(text.contains("Map: fitted"), "{text}");
+    let (shown, fitted) = (r.app.ui.map.shown_radius(), metres_per_cell(&text));
+    let c = r.app.map_centre().unwrap();
+    keys(&mut r, &["right"]);
+    assert_eq!(r.app.ui.map.fit, None);
+    assert_eq!(r.app.ui.map.radius_m, shown);
+    let (n, e) = ne(c, r.app.map_centre().unwrap());
+    assert!(n.abs() < 0.5 && (e - shown / 4.0).abs() < 0.5, "{n} {e}");
+    let text = screen(&r, 200, 60);
+    assert!(text.contains("Map: panned, north up"), "{text}");
+    let ratio = metres_per_cell(&text) / fitted;
+    assert!((ratio - 1.0).abs() < 0.03, "{ratio}: {text}");
+    // h: heading up, said in the title (and drawn: `heading_up_turns_the_map_and_the_rose`).
     keys(&mut r, &["c", "h"]);
     let text = screen(&r, 80, 24);
     assert!(text.contains("heading up"), "{text}");
+}
+
+/// The scale bar's metres per cell: `├──┤ 100 m`.
+fn metres_per_cell(text: &str) -> f64 {
+    let line = text.lines().find(|l| l.contains('├')).expect("a scale bar");
+    let bar = &line[line.find('├').unwrap()..];
+    let end = bar.find('┤').unwrap();
+    let cells = bar[..end].chars().count() + 1;
+    let words: Vec<&str> = bar[end + '┤'.len_utf8()..].split_whitespace().collect();
+    let v: f64 = words[0].parse().unwrap();
+    let m = match words[1] {
+        "m" => v,
+        "km" => v * 1000.0,
+        u => panic!("{u}"),
+    };
+    m / cells as f64
 }
 
 /// Flying in GUIDED at 10 m.
@@ -421,6 +590,9 @@ fn go_to_from_the_cursor_sends_do_reposition_there() {
         c.lat, c.lon, d, b
     );
     assert!(text.contains(&want), "{want}\n{text}");
+    let buf = render_to_buffer(&r.app, 100, 30, &Theme::PLAIN);
+    let cursor_at = on_canvas(&buf, "X");
+    assert_eq!(cursor_at.len(), 1, "{}", buffer_to_text(&buf));
     let now = r.now();
     let fx = r.app.update(now, Event::Key(Key::ch('g')));
     let frames: Vec<Vec<u8>> = fx
@@ -445,8 +617,13 @@ fn go_to_from_the_cursor_sends_do_reposition_there() {
         (m["target_system"].as_u64(), m["target_component"].as_u64()),
         (Some(1), Some(1))
     );
-    // The map marks the go-to's target.
-    assert!(r.app.guided_target().is_some());
+    // The map marks the go-to's target: `G` where the cursor was (hidden now).
+    let g = r.app.guided_target().unwrap();
+    assert!(mavterm::proto::geo::distance_m(g, c) < 0.05, "{g:?} {c:?}");
+    keys(&mut r, &["enter"]);
+    assert_eq!(r.app.ui.map.cursor, None);
+    let buf = render_to_buffer(&r.app, 100, 30, &Theme::PLAIN);
+    assert_eq!(on_canvas(&buf, "G"), cursor_at, "{}", buffer_to_text(&buf));
 }
 
 #[test]
@@ -499,6 +676,11 @@ fn heartbeat() -> MavMessage {
 }
 
 fn position(lat: f64, lon: f64, alt_m: f64) -> MavMessage {
+    position_hdg(lat, lon, alt_m, 0.0)
+}
+
+/// A position with the vehicle heading `hdg` degrees.
+fn position_hdg(lat: f64, lon: f64, alt_m: f64, hdg: f64) -> MavMessage {
     MavMessage::GLOBAL_POSITION_INT(dialect::GLOBAL_POSITION_INT_DATA {
         time_boot_ms: 0,
         lat: (lat * 1e7) as i32,
@@ -508,19 +690,51 @@ fn position(lat: f64, lon: f64, alt_m: f64) -> MavMessage {
         vx: 0,
         vy: 0,
         vz: 0,
-        hdg: 0,
+        hdg: (hdg * 100.0).round() as u16,
     })
 }
 
+/// `msg` from `sysid`:1 on link 0, at `now`.
+fn hear_from(app: &mut App, sysid: u8, now: u64, msg: &MavMessage) {
+    use mavterm::wire::frame::{decode_one, encode, Header, Version};
+    let h = Header {
+        sysid,
+        compid: 1,
+        seq: 0,
+    };
+    let frame = decode_one(&encode(Version::V2, h, msg)).unwrap();
+    app.update(
+        now,
+        Event::Frames {
+            link: 0,
+            frames: vec![frame],
+            stats: mavterm::link::ParserStats::default(),
+        },
+    );
+}
+
 fn aircraft(icao: u32, callsign: &str, p: LatLon, alt_m: f64, tslc: u8) -> MavMessage {
+    aircraft_on(icao, callsign, p, alt_m, tslc, 270.0, 40.0)
+}
+
+/// An ADSB_VEHICLE report: heading in degrees, speed in m/s.
+fn aircraft_on(
+    icao: u32,
+    callsign: &str,
+    p: LatLon,
+    alt_m: f64,
+    tslc: u8,
+    heading: f64,
+    speed: f64,
+) -> MavMessage {
     use dialect::AdsbFlags as F;
     MavMessage::ADSB_VEHICLE(dialect::ADSB_VEHICLE_DATA {
         ICAO_address: icao,
         lat: (p.lat * 1e7).round() as i32,
         lon: (p.lon * 1e7).round() as i32,
         altitude: (alt_m * 1000.0) as i32,
-        heading: 27000,
-        hor_velocity: 4000,
+        heading: (heading * 100.0).round() as u16,
+        hor_velocity: (speed * 100.0).round() as u16,
         ver_velocity: 0,
         flags: F::ADSB_FLAGS_VALID_COORDS
             | F::ADSB_FLAGS_VALID_ALTITUDE
@@ -561,28 +775,53 @@ fn stale_traffic_is_dimmed_then_dropped() {
         ..Default::default()
     });
     let own = LatLon::new(-35.0, 149.0);
-    let far = Plane::new(own).from_en(0.0, 5000.0);
+    // On the map: 150 m north, 400 m above (not near).
+    let there = Plane::new(own).from_en(0.0, 150.0);
     // Heard at 1 s, its report one second old.
     hear(
         &mut app,
         SECOND,
-        &aircraft(0xABC123, "QFA12", far, 900.0, 1),
+        &aircraft(0xABC123, "QFA12", there, 1000.0, 1),
     );
     let a = app.air.traffic.get(0xABC123).unwrap();
     assert!(!a.is_stale(SECOND));
     let t = text(&app);
-    assert!(t.contains("✈ QFA12") && t.contains("+300 m"), "{t}");
-    assert!(t.contains("5.0 km 000°"), "{t}");
-    // Older than 5 s: dimmed (still listed).
+    assert!(t.contains("✈ QFA12") && t.contains("+400 m"), "{t}");
+    assert!(t.contains("150 m 000°"), "{t}");
+    // Fresh: in the traffic's colour on the map, plain in the list.
+    let buf = render_to_buffer(&app, 120, 30, &Theme::default());
+    let on_map = on_canvas(&buf, "✈");
+    assert_eq!(on_map.len(), 1, "{}", buffer_to_text(&buf));
+    assert_eq!(buf[on_map[0]].fg, Color::Magenta);
+    // Older than 5 s: dimmed, on the map and in the list (still there).
     app.update(7 * SECOND, Event::Tick);
     assert!(app.air.traffic.get(0xABC123).unwrap().is_stale(app.now));
     let buf = render_to_buffer(&app, 120, 30, &Theme::default());
-    let dimmed = buf
+    let all: Vec<(u16, u16)> = buf
         .content()
         .iter()
-        .filter(|c| c.symbol() == "✈")
-        .all(|c| c.fg == ratatui::style::Color::DarkGray);
-    assert!(dimmed, "stale traffic is drawn dim");
+        .enumerate()
+        .filter(|(_, c)| c.symbol() == "✈")
+        .map(|(i, _)| buf.pos_of(i))
+        .collect();
+    let on_map = on_canvas(&buf, "✈");
+    assert_eq!(
+        (all.len(), on_map.len()),
+        (2, 1),
+        "the map's and the list's"
+    );
+    for at in all {
+        assert_eq!(
+            buf[at].fg,
+            Color::DarkGray,
+            "stale traffic is drawn dim: {at:?}"
+        );
+    }
+    // Without colour: dim.
+    let buf = render_to_buffer(&app, 120, 30, &Theme::PLAIN);
+    assert!(buf[on_canvas(&buf, "✈")[0]]
+        .modifier
+        .contains(Modifier::DIM));
     // 20 s after the information's time (0 s): still there at 20 s, gone after it.
     app.update(20 * SECOND, Event::Tick);
     assert_eq!(app.air.traffic.len(), 1);
@@ -595,6 +834,7 @@ fn stale_traffic_is_dimmed_then_dropped() {
         !t.contains("QFA12") && t.contains("no ADS-B traffic heard"),
         "{t}"
     );
+    assert!(on_canvas(&render_to_buffer(&app, 120, 30, &Theme::PLAIN), "✈").is_empty());
 }
 
 #[test]
@@ -744,4 +984,222 @@ fn the_traffic_deadline_never_stays_in_the_past() {
     app.update(11 * SECOND + 300_001, Event::Tick);
     assert!(app.air.traffic.is_empty());
     assert!(app.next_deadline() > 11 * SECOND + 300_001);
+}
+
+/// The file lists `kind`: `items` as a loaded file's, shown on the map.
+fn load(app: &mut App, kind: MissionType, items: Vec<MissionItem>) {
+    app.ui.mission.files[kind.index()] = Some(LoadedList {
+        path: format!("{kind}.waypoints"),
+        items,
+        errors: Vec::new(),
+    });
+    app.ui.mission.shown = Shown::File;
+}
+
+#[test]
+fn heading_up_turns_the_map_and_the_rose() {
+    let mut app = app_with(Default::default());
+    let own = LatLon::new(-35.0, 149.0);
+    // Heading east, with waypoint 1 150 m north.
+    hear(
+        &mut app,
+        SECOND,
+        &position_hdg(own.lat, own.lon, 600.0, 90.0),
+    );
+    let wp = Plane::new(own).from_en(0.0, 150.0);
+    let m = MissionType::Mission;
+    load(
+        &mut app,
+        m,
+        vec![
+            MissionItem::at(m, 0, 0, 16, own.lat, own.lon, 600.0),
+            MissionItem::at(m, 1, 3, 16, wp.lat, wp.lon, 20.0),
+        ],
+    );
+    // The vehicle's arrow, waypoint 1's label and the rose.
+    let look = |app: &App| {
+        let buf = render_to_buffer(app, 120, 30, &Theme::PLAIN);
+        let (vx, vy) = target_cell(&buf);
+        let (_, _, _, bottom) = canvas(&buf);
+        let wp: Vec<(u16, u16)> = on_canvas(&buf, "1")
+            .into_iter()
+            .filter(|(_, y)| y + 1 < bottom)
+            .collect();
+        assert_eq!(wp.len(), 1, "{}", buffer_to_text(&buf));
+        let arrow = buf[(vx, vy)].symbol().to_string();
+        (arrow, (vx, vy), wp[0], rose(&buf), buffer_to_text(&buf))
+    };
+    // North up: the arrow points east, the waypoint straight above.
+    let (arrow, (vx, vy), (wx, wy), r, text) = look(&app);
+    assert_eq!(arrow, "→", "{text}");
+    assert!(wx.abs_diff(vx) <= 1 && wy + 5 < vy, "{text}");
+    assert_eq!(r, ["  N  ", "W · E", "  S  "], "{text}");
+    // Heading up: the arrow points up, the waypoint (north) to the left on the same row, the
+    // rose turned a quarter left.
+    app.update(2 * SECOND, Event::Key(Key::ch('h')));
+    let (arrow, (vx, vy), (wx, wy), r, text) = look(&app);
+    assert!(
+        text.contains("Map: following 1:1, heading up 090°"),
+        "{text}"
+    );
+    assert_eq!(arrow, "↑", "{text}");
+    assert!(wy.abs_diff(vy) <= 1 && wx + 10 < vx, "{text}");
+    assert_eq!(r, ["  E  ", "N · S", "  W  "], "{text}");
+    // Heading north-east: north is up left, the waypoint too.
+    hear(
+        &mut app,
+        3 * SECOND,
+        &position_hdg(own.lat, own.lon, 600.0, 45.0),
+    );
+    let (arrow, (vx, vy), (wx, wy), r, text) = look(&app);
+    assert_eq!(arrow, "↑", "{text}");
+    assert!(wx + 5 < vx && wy + 3 < vy, "{text}");
+    assert_eq!(r, ["N   E", "  ·  ", "W   S"], "{text}");
+    // Heading south: upside down.
+    hear(
+        &mut app,
+        4 * SECOND,
+        &position_hdg(own.lat, own.lon, 600.0, 180.0),
+    );
+    let (_, (vx, vy), (wx, wy), r, text) = look(&app);
+    assert!(wx.abs_diff(vx) <= 1 && wy > vy + 5, "{text}");
+    assert_eq!(r, ["  S  ", "E · W", "  N  "], "{text}");
+}
+
+#[test]
+fn every_vehicle_heard_is_drawn() {
+    let mut app = app_with(Default::default());
+    // 2:1 120 m east of the target, heading south.
+    let p = Plane::new(LatLon::new(-35.0, 149.0)).from_en(120.0, 0.0);
+    hear_from(&mut app, 2, SECOND, &heartbeat());
+    hear_from(
+        &mut app,
+        2,
+        SECOND,
+        &position_hdg(p.lat, p.lon, 600.0, 180.0),
+    );
+    assert_eq!(app.map_vehicles().len(), 2);
+    let buf = render_to_buffer(&app, 120, 30, &Theme::PLAIN);
+    let text = buffer_to_text(&buf);
+    assert!(text.contains("Map: following 1:1"), "{text}");
+    // The target: its arrow in reverse video; the other: its arrow and system id, to the right
+    // on the same row.
+    let (vx, vy) = target_cell(&buf);
+    assert_eq!(buf[(vx, vy)].symbol(), "↑");
+    let other = on_canvas(&buf, "↓");
+    assert_eq!(other.len(), 1, "{text}");
+    let (x, y) = other[0];
+    assert!(y == vy && x > vx + 8, "{text}");
+    assert_eq!(buf[(x + 1, y)].symbol(), "2", "{text}");
+    assert!(!buf[(x, y)].modifier.contains(Modifier::REVERSED));
+}
+
+#[test]
+fn without_colour_inclusion_and_exclusion_fences_look_different() {
+    // The same square and circle, once as inclusion and once as exclusion fences.
+    let draw = |inclusion: bool| {
+        let mut app = app_with(Default::default());
+        let plane = Plane::new(LatLon::new(-35.0, 149.0));
+        let f = MissionType::Fence;
+        let (vertex, circle) = if inclusion {
+            (5001, 5003)
+        } else {
+            (5002, 5004)
+        };
+        let mut items: Vec<MissionItem> = [
+            (-200.0, -150.0),
+            (200.0, -150.0),
+            (200.0, 150.0),
+            (-200.0, 150.0),
+        ]
+        .iter()
+        .enumerate()
+        .map(|(i, (e, n))| {
+            let p = plane.from_en(*e, *n);
+            let mut it = MissionItem::at(f, i as u16, 0, vertex, p.lat, p.lon, 0.0);
+            it.params[0] = 4.0;
+            it
+        })
+        .collect();
+        let c = plane.from_en(-80.0, 40.0);
+        let mut it = MissionItem::at(f, 4, 0, circle, c.lat, c.lon, 0.0);
+        it.params[0] = 50.0;
+        items.push(it);
+        load(&mut app, f, items);
+        let buf = render_to_buffer(&app, 120, 30, &Theme::PLAIN);
+        for cell in buf.content() {
+            assert_eq!(cell.fg, Color::Reset);
+        }
+        buf
+    };
+    let (inc, exc) = (draw(true), draw(false));
+    let canvas_text = |buf: &Buffer| {
+        let (x0, y0, x1, y1) = canvas(buf);
+        (y0..y1)
+            .map(|y| (x0..x1).map(|x| buf[(x, y)].symbol()).collect::<String>())
+            .collect::<Vec<String>>()
+    };
+    let (ti, te) = (canvas_text(&inc), canvas_text(&exc));
+    // Exclusion: its corners and the circle's centre marked; inclusion: none.
+    assert_eq!(on_canvas(&inc, "×").len(), 0, "{}", ti.join("\n"));
+    assert_eq!(on_canvas(&exc, "×").len(), 5, "{}", te.join("\n"));
+    // And the lines themselves differ (dashed against dotted), the marks aside: on the square's
+    // top edge, the row of its two top corners.
+    let top = on_canvas(&exc, "×").iter().map(|(_, y)| *y).min().unwrap();
+    let row = |t: &Vec<String>| t[(top - 2) as usize].clone();
+    assert_ne!(row(&ti), row(&te), "\n{}\n{}", ti.join("\n"), te.join("\n"));
+    let dots = |s: &str| {
+        s.chars()
+            .filter(|c| ('\u{2801}'..='\u{28ff}').contains(c))
+            .count()
+    };
+    assert!(
+        dots(&row(&ti)) > 10 && dots(&row(&te)) > 10,
+        "both drawn:\n{}\n{}",
+        ti.join("\n"),
+        te.join("\n")
+    );
+}
+
+#[test]
+fn tracks_keep_three_minutes_at_a_point_a_second() {
+    use mavterm::app::map::{TRACK_POINTS, TRACK_SECS};
+    let mut r = guided();
+    // Flying about for five minutes of the virtual clock.
+    for k in 0..10 {
+        let to = ["-35.3622 149.1652", "-35.3642 149.1662"][k % 2];
+        command(&mut r, &format!("goto {to} 20"));
+        if r.app.ui.confirm.is_some() {
+            common::yes(&mut r);
+        }
+        wait(&mut r, 30.0);
+    }
+    let now = r.now();
+    let key = VehicleKey(1, 1);
+    let t = &r.app.air.tracks[&key];
+    assert!(t.len() <= TRACK_POINTS);
+    // A point a second over the last three minutes.
+    assert!(
+        (TRACK_SECS as usize - 3..=TRACK_SECS as usize + 1).contains(&t.len()),
+        "{}",
+        t.len()
+    );
+    // Kept: none older than three minutes when the last point came (within the second since).
+    let (oldest, newest) = (t.front().unwrap().0, t.back().unwrap().0);
+    assert!(now - newest < SECOND && oldest + TRACK_SECS * SECOND >= newest);
+    for (a, b) in t.iter().zip(t.iter().skip(1)) {
+        let dt = b.0 - a.0;
+        assert!((SECOND..2 * SECOND).contains(&dt), "{dt}");
+    }
+    // Drawn: the last three minutes now.
+    let drawn = r.app.track(key);
+    let recent = t
+        .iter()
+        .filter(|(at, _)| at + TRACK_SECS * SECOND >= now)
+        .count();
+    assert_eq!(drawn.len(), recent);
+    assert!(recent + 1 >= t.len());
+    // It flew: most points differ from the one before.
+    let moved = drawn.windows(2).filter(|w| w[0] != w[1]).count();
+    assert!(moved > drawn.len() / 2, "{moved} of {}", drawn.len());
 }

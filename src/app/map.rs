@@ -10,6 +10,7 @@
 //! Tracks: each session's position at most once a second for the last [`TRACK_SECS`] seconds
 //! (at most [`TRACK_POINTS`] points a vehicle).
 
+use std::cell::Cell;
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 use super::mission::{LoadedList, Shown};
@@ -34,8 +35,8 @@ pub const DEFAULT_RADIUS_M: f64 = 250.0;
 /// The closest and the farthest zoom: half heights in metres.
 pub const MIN_RADIUS_M: f64 = 10.0;
 pub const MAX_RADIUS_M: f64 = 2_000_000.0;
-/// The width/height of the map in metres that a fit assumes (a terminal's cells are about twice
-/// as tall as wide; the map pane is wider than tall).
+/// The width/height of the map in metres assumed before the map was first drawn (a terminal's
+/// cells are about twice as tall as wide; the map pane is wider than tall).
 pub const FIT_ASPECT: f64 = 1.6;
 
 /// The map's settings (config file `adsb_timeout`, `adsb_warn_distance`, `adsb_warn_height`).
@@ -74,6 +75,33 @@ pub struct MapView {
     pub cursor: Option<LatLon>,
     /// After a fit: the half width and half height (metres) the view must hold.
     pub fit: Option<(f64, f64)>,
+    /// The map pane's width over its height (metres on the map, as dots are square) when last
+    /// drawn: what a fitted view shows, so zooming or panning out of it goes on from there.
+    pub aspect: Cell<Option<f64>>,
+}
+
+impl MapView {
+    /// Half the height shown (metres) on a pane `aspect` wide for 1 high: the fit's extent,
+    /// else the zoom's.
+    pub fn half_height(&self, aspect: f64) -> f64 {
+        match self.fit {
+            Some((fw, fh)) => fh.max(fw / aspect),
+            None => self.radius_m,
+        }
+    }
+
+    /// Half the height shown, on the pane as last drawn.
+    pub fn shown_radius(&self) -> f64 {
+        self.half_height(self.aspect.get().unwrap_or(FIT_ASPECT))
+    }
+
+    /// Out of a fit (if in one) into a plain view of the same scale.
+    fn leave_fit(&mut self) {
+        if self.fit.is_some() {
+            self.radius_m = self.shown_radius().clamp(MIN_RADIUS_M, MAX_RADIUS_M);
+            self.fit = None;
+        }
+    }
 }
 
 impl Default for MapView {
@@ -85,6 +113,7 @@ impl Default for MapView {
             heading_up: false,
             cursor: None,
             fit: None,
+            aspect: Cell::new(None),
         }
     }
 }
@@ -537,7 +566,7 @@ impl App {
             self.ui.message = Some((Severity::WARNING, "no position to move from yet".into()));
             return;
         };
-        let radius = self.ui.map.radius_m;
+        let radius = self.ui.map.shown_radius();
         let upd = self.map_up();
         if let Some(c) = self.ui.map.cursor {
             let (e, n) = geo::unrotate(right * radius / 10.0, up * radius / 10.0, upd);
@@ -545,16 +574,16 @@ impl App {
             return;
         }
         let (e, n) = geo::unrotate(right * radius / 4.0, up * radius / 4.0, upd);
+        // Moved away from what was fitted: a plain view at the same scale.
+        self.ui.map.leave_fit();
         self.ui.map.follow = false;
         self.ui.map.centre = Some(Plane::new(centre).from_en(e, n));
     }
 
-    /// Zoom by `factor` (2: in), from the fitted extent if a fit is shown.
+    /// Zoom by `factor` (2: in), from the extent shown if a fit is (on the pane as last drawn).
     fn map_zoom(&mut self, factor: f64) {
         let v = &mut self.ui.map;
-        if let Some((hw, hh)) = v.fit.take() {
-            v.radius_m = hh.max(hw / FIT_ASPECT);
-        }
+        v.leave_fit();
         v.radius_m = (v.radius_m / factor).clamp(MIN_RADIUS_M, MAX_RADIUS_M);
     }
 
@@ -598,13 +627,15 @@ impl App {
             }
             Action::MapCentre => {
                 let v = &mut self.ui.map;
+                v.leave_fit();
                 v.follow = true;
                 v.centre = None;
-                v.fit = None;
                 Ok(None)
             }
             Action::MapFit => self.map_fit(),
             Action::MapHeadingUp => {
+                // A fit is north up: turned, it would no longer hold what it fitted.
+                self.ui.map.leave_fit();
                 self.ui.map.heading_up = !self.ui.map.heading_up;
                 Ok(Some(
                     if self.ui.map.heading_up {
@@ -660,7 +691,7 @@ impl App {
         v.heading_up = false;
         v.centre = Some(centre);
         v.fit = Some((hw, hh));
-        v.radius_m = hh.max(hw / FIT_ASPECT).clamp(MIN_RADIUS_M, MAX_RADIUS_M);
+        v.radius_m = v.shown_radius().clamp(MIN_RADIUS_M, MAX_RADIUS_M);
         Ok(Some(format!("map: fitted {} points", pts.len())))
     }
 

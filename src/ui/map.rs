@@ -3,13 +3,15 @@
 //! heading) and track, homes `H`, the target's mission (numbered waypoints, legs, the current one
 //! marked), geofence (inclusion and exclusion polygons and circles), rally points `R`, the last
 //! go-to's target `G`, and ADS-B traffic `✈` (stale ones dimmed) with its course for the next
-//! minute. A scale bar in metres at the bottom left, the compass at the top right; the nearest
-//! traffic listed beside the map when there is room; the cursor's place (or the next waypoint)
-//! in the footer.
+//! minute. A scale bar in metres at the bottom left, a compass rose (N, E, S and W, turned with
+//! the map when the heading is up) at the top right; the nearest traffic listed beside the map
+//! when there is room; the cursor's place (or the next waypoint) in the footer.
 //!
 //! Small terminals keep the vehicle and the next waypoint: the side list goes first, and a
 //! waypoint off the map is pointed at from its edge. Without colour ([`Theme::PLAIN`]) every
-//! layer is told apart by its symbol; the target by reverse video.
+//! layer is told apart by its symbol or line pattern (legs solid, tracks a dot a second, the
+//! inclusion fence dashed, the exclusion fence dotted with `×` marks, traffic's course sparsely
+//! dotted); the target and the current waypoint by reverse video.
 
 use ratatui::layout::Rect;
 use ratatui::style::{Color, Modifier, Style};
@@ -130,12 +132,11 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         render_side(app, frame, side, theme);
     }
     render_footer(app, frame, footer, theme);
-    // Metres: a braille dot is about as wide as tall, a cell twice as tall as wide.
+    // Metres: a braille dot is about as wide as tall, a cell twice as tall as wide. The pane's
+    // shape is kept for the keys that leave a fitted view (the same scale goes on).
     let aspect = body.width as f64 / (2.0 * body.height.max(1) as f64);
-    let hh = match v.fit {
-        Some((fw, fh)) => fh.max(fw / aspect),
-        None => v.radius_m,
-    };
+    v.aspect.set(Some(aspect));
+    let hh = v.half_height(aspect);
     let view = View {
         plane: Plane::new(centre),
         up: app.map_up(),
@@ -147,43 +148,150 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         .y_bounds([-view.hh, view.hh])
         .paint(|ctx| paint(app, ctx, &view, body, theme));
     frame.render_widget(canvas, body);
+    render_rose(frame, body, view.up, theme);
+}
+
+/// Line patterns, in dots along the line: (on, off). Each line layer has its own, so the layers
+/// are told apart without colour: mission legs solid, tracks a dot a second, the inclusion fence
+/// dashed, the exclusion fence dotted (and `×` at its corners and centres), traffic's course
+/// sparsely dotted.
+pub const INCLUSION_DASH: (usize, usize) = (4, 2);
+pub const EXCLUSION_DASH: (usize, usize) = (1, 1);
+pub const COURSE_DASH: (usize, usize) = (1, 2);
+/// The exclusion fence's mark at its corners and circles' centres.
+pub const EXCLUSION_MARK: &str = "×";
+
+/// The fractions (from, to) of the way from `a` to `b` that lie within the view (Liang–Barsky).
+fn clip(view: &View, a: (f64, f64), b: (f64, f64)) -> Option<(f64, f64)> {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for (p, q) in [
+        (-dx, a.0 + view.hw),
+        (dx, view.hw - a.0),
+        (-dy, a.1 + view.hh),
+        (dy, view.hh - a.1),
+    ] {
+        if p == 0.0 {
+            if q < 0.0 {
+                return None;
+            }
+        } else {
+            let r = q / p;
+            if p < 0.0 {
+                t0 = t0.max(r);
+            } else {
+                t1 = t1.min(r);
+            }
+        }
+    }
+    (t0 <= t1).then_some((t0, t1))
+}
+
+/// A patterned line through `pts` (closed back to the first when `closed`): a point every `dot`
+/// metres where `pattern` is on, the pattern running on from one segment to the next. Only the
+/// parts within the view are sampled.
+fn patterned(
+    view: &View,
+    dot: f64,
+    pts: &[(f64, f64)],
+    closed: bool,
+    (on, off): (usize, usize),
+) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    if pts.len() < 2 || !dot.is_finite() || dot <= 0.0 {
+        return out;
+    }
+    let period = (on + off).max(1) as i64;
+    let n = if closed { pts.len() } else { pts.len() - 1 };
+    // Metres along the line at the segment's start.
+    let mut along = 0.0;
+    for i in 0..n {
+        let (a, b) = (pts[i], pts[(i + 1) % pts.len()]);
+        let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+        let len = dx.hypot(dy);
+        if !len.is_finite() {
+            return out;
+        }
+        if len > 0.0 {
+            if let Some((t0, t1)) = clip(view, a, b) {
+                let k0 = ((along + t0 * len) / dot).ceil() as i64;
+                let end = (along + t1 * len) / dot;
+                // A corner is the next segment's start: not drawn twice.
+                let shared = t1 >= 1.0 && (closed || i + 1 < n);
+                let k1 = if shared { end.ceil() - 1.0 } else { end.floor() } as i64;
+                for k in k0..=k1 {
+                    if k.rem_euclid(period) < on as i64 {
+                        let t = (k as f64 * dot - along) / len;
+                        out.push((a.0 + dx * t, a.1 + dy * t));
+                    }
+                }
+            }
+        }
+        along += len;
+    }
+    out
+}
+
+/// Where to print a label so that it lands in the cell holding the dot of `p` (the canvas puts
+/// labels on a grid of its own, one cell coarser than its dots'). A point off the map stays off.
+fn label_at(view: &View, area: Rect, p: (f64, f64)) -> (f64, f64) {
+    if area.width < 2 || area.height < 2 || !view.inside(p) {
+        return p;
+    }
+    let (w, h) = (area.width as f64, area.height as f64);
+    // The dot as the canvas rounds it (a hair towards the far side, so that a point on the
+    // centre line is not split by rounding noise), then its cell.
+    let dot = |frac: f64, dots: f64| (frac * (dots - 1.0) + 1e-6).round();
+    let col = (dot((p.0 + view.hw) / (2.0 * view.hw), 2.0 * w) / 2.0).floor();
+    let row = (dot((view.hh - p.1) / (2.0 * view.hh), 4.0 * h) / 4.0).floor();
+    let x = (-view.hw + (col + 0.5) * 2.0 * view.hw / (w - 1.0)).min(view.hw);
+    let y = (view.hh - (row + 0.5) * 2.0 * view.hh / (h - 1.0)).max(-view.hh);
+    (x, y)
 }
 
 /// Everything on the canvas, least important first (later labels cover earlier ones).
 fn paint(app: &App, ctx: &mut Context, view: &View, area: Rect, theme: &Theme) {
     let cell_m = 2.0 * view.hw / area.width.max(1) as f64;
-    // Fence.
+    // A braille dot: half a cell wide, a quarter tall (the same metres both ways).
+    let dot = cell_m / 2.0;
+    // Fence: inclusion dashed, exclusion dotted with its corners and centres marked.
+    let mut marks: Vec<(f64, f64)> = Vec::new();
     for shape in fence_shapes(&app.map_list(MissionType::Fence)) {
-        match shape {
+        let (inclusion, pts) = match shape {
             FenceShape::Polygon { inclusion, points } => {
-                let c = colour(theme, if inclusion { Color::Green } else { Color::Red });
                 let pts: Vec<(f64, f64)> = points.iter().map(|p| view.xy(*p)).collect();
-                for i in 0..pts.len() {
-                    let (a, b) = (pts[i], pts[(i + 1) % pts.len()]);
-                    ctx.draw(&CLine::new(a.0, a.1, b.0, b.1, c));
+                if !inclusion {
+                    marks.extend(&pts);
                 }
+                (inclusion, pts)
             }
             FenceShape::Circle {
                 inclusion,
                 centre,
                 radius,
             } => {
-                let c = colour(theme, if inclusion { Color::Green } else { Color::Red });
                 let (cx, cy) = view.xy(centre);
-                const N: usize = 48;
-                for k in 0..N {
-                    let a0 = k as f64 / N as f64 * std::f64::consts::TAU;
-                    let a1 = (k + 1) as f64 / N as f64 * std::f64::consts::TAU;
-                    ctx.draw(&CLine::new(
-                        cx + radius * a0.cos(),
-                        cy + radius * a0.sin(),
-                        cx + radius * a1.cos(),
-                        cy + radius * a1.sin(),
-                        c,
-                    ));
+                if !inclusion {
+                    marks.push((cx, cy));
                 }
+                // About a chord every two dots of its edge, within reason.
+                let n = ((std::f64::consts::TAU * radius / dot / 2.0) as usize).clamp(24, 720);
+                let pts = (0..n)
+                    .map(|k| {
+                        let a = k as f64 / n as f64 * std::f64::consts::TAU;
+                        (cx + radius * a.cos(), cy + radius * a.sin())
+                    })
+                    .collect();
+                (inclusion, pts)
             }
-        }
+        };
+        let (c, pattern) = if inclusion {
+            (Color::Green, INCLUSION_DASH)
+        } else {
+            (Color::Red, EXCLUSION_DASH)
+        };
+        let dots = patterned(view, dot, &pts, true, pattern);
+        ctx.draw(&Points::new(&dots, colour(theme, c)));
     }
     // Tracks.
     for veh in app.map_vehicles() {
@@ -205,12 +313,21 @@ fn paint(app: &App, ctx: &mut Context, view: &View, area: Rect, theme: &Theme) {
         let (ve, vn) = a.velocity_en();
         if ve != 0.0 || vn != 0.0 {
             let (dx, dy) = geo::rotate(ve * COURSE_AHEAD_S, vn * COURSE_AHEAD_S, view.up);
-            ctx.draw(&CLine::new(x, y, x + dx, y + dy, colour(theme, Color::Magenta)));
+            let dots = patterned(view, dot, &[(x, y), (x + dx, y + dy)], false, COURSE_DASH);
+            ctx.draw(&Points::new(&dots, colour(theme, Color::Magenta)));
         }
     }
     ctx.layer();
-    // Labels from here on. Half a cell left, so a symbol stands on its point.
-    let at = |p: (f64, f64)| (p.0 - cell_m / 2.0, p.1);
+    // Labels from here on, each in the cell of its point's dot.
+    let at = |p: (f64, f64)| label_at(view, area, p);
+    for p in marks {
+        let (x, y) = at(p);
+        ctx.print(
+            x,
+            y,
+            Span::styled(EXCLUSION_MARK, Style::default().fg(colour(theme, Color::Red))),
+        );
+    }
     let current = app.map_current_seq();
     for (seq, p) in &pts {
         let style = if Some(*seq) == current {
@@ -241,7 +358,7 @@ fn paint(app: &App, ctx: &mut Context, view: &View, area: Rect, theme: &Theme) {
         } else {
             Style::default().fg(colour(theme, Color::Magenta))
         };
-        let mut text = "✈".to_string();
+        let mut text = TRAFFIC_MARK.to_string();
         if wide {
             text.push_str(&a.name());
         }
@@ -273,15 +390,20 @@ fn paint(app: &App, ctx: &mut Context, view: &View, area: Rect, theme: &Theme) {
         };
         ctx.print(x, y, Span::styled(text, style));
     }
-    // The next waypoint off the map: pointed at from the edge.
+    // The next waypoint off the map: pointed at from the edge (below the compass rose).
     if let Some((seq, p)) = app.next_waypoint() {
         let xy = view.xy(p);
         if !view.inside(xy) {
             let k = (view.hw * 0.95 / xy.0.abs()).min(view.hh * 0.9 / xy.1.abs());
-            let (x, y) = (xy.0 * k, xy.1 * k);
+            let (x, mut y) = (xy.0 * k, xy.1 * k);
             let bearing = geo::wrap_360(xy.0.atan2(xy.1).to_degrees());
             let text = format!("{}{seq}", geo::arrow(bearing));
-            let (x, y) = (x.clamp(-view.hw, view.hw - 3.0 * cell_m), y);
+            let x = x.clamp(-view.hw, view.hw - 3.0 * cell_m);
+            let cell_h = 2.0 * view.hh / area.height.max(1) as f64;
+            let (rw, rh) = ROSE;
+            if x > view.hw - (rw as f64 + 3.0) * cell_m && y > view.hh - rh as f64 * cell_h {
+                y = view.hh - (rh as f64 + 0.5) * cell_h;
+            }
             ctx.print(x, y, Span::styled(text, theme.selected()));
         }
     }
@@ -289,13 +411,7 @@ fn paint(app: &App, ctx: &mut Context, view: &View, area: Rect, theme: &Theme) {
         let (x, y) = at(view.xy(c));
         ctx.print(x, y, Span::styled("X", theme.selected()));
     }
-    // The compass at the top right, the scale bar at the bottom left.
-    let north = geo::arrow(-view.up);
-    ctx.print(
-        view.hw - 3.0 * cell_m,
-        view.hh,
-        Span::styled(format!("N{north}"), theme.header()),
-    );
+    // The scale bar at the bottom left (the compass rose is drawn over the top right).
     let (bar, cells) = scale(2.0 * view.hw, area.width);
     let text = format!(
         "├{}┤ {}",
@@ -303,6 +419,55 @@ fn paint(app: &App, ctx: &mut Context, view: &View, area: Rect, theme: &Theme) {
         geo::distance_text(bar)
     );
     ctx.print(-view.hw, -view.hh, Span::styled(text, theme.header()));
+}
+
+/// The traffic's symbol on the map (and in the list beside it).
+pub const TRAFFIC_MARK: &str = "✈";
+
+/// The compass rose's size, cells: N, E, S and W around a dot.
+pub const ROSE: (u16, u16) = (5, 3);
+
+/// The cells (column, row) of the compass rose's N, E, S and W within its box, for a map with
+/// bearing `up` up: each letter where its bearing points on the screen, to the nearest eighth.
+pub fn rose_letters(up: f64) -> [(char, u16, u16); 4] {
+    // Clockwise from the top: the box's middle top, its corners and the middles of its sides.
+    const AT: [(u16, u16); 8] = [(2, 0), (4, 0), (4, 1), (4, 2), (2, 2), (0, 2), (0, 1), (0, 0)];
+    let mut out = [(' ', 0, 0); 4];
+    for (i, c) in ['N', 'E', 'S', 'W'].into_iter().enumerate() {
+        let on_screen = geo::wrap_360(i as f64 * 90.0 - up);
+        let k = (on_screen / 45.0 + 0.5).floor() as usize % 8;
+        out[i] = (c, AT[k].0, AT[k].1);
+    }
+    out
+}
+
+/// The compass rose at the top right of the map: N, E, S and W turned with the map (`up` is the
+/// bearing up); on a map too small for it, `N` and an arrow.
+fn render_rose(frame: &mut Frame, body: Rect, up: f64, theme: &Theme) {
+    let (rw, rh) = ROSE;
+    let buf = frame.buffer_mut();
+    if body.width < 4 * rw || body.height < 2 * rh {
+        if body.width >= 3 && body.height >= 1 {
+            let text = format!("N{}", geo::arrow(-up));
+            buf.set_string(body.right() - 3, body.y, text, theme.header());
+        }
+        return;
+    }
+    let (x0, y0) = (body.right() - rw, body.y);
+    for y in y0..y0 + rh {
+        for x in x0..x0 + rw {
+            buf[(x, y)].reset();
+        }
+    }
+    buf[(x0 + rw / 2, y0 + rh / 2)].set_char('·');
+    for (c, dx, dy) in rose_letters(up) {
+        let style = if c == 'N' {
+            theme.header()
+        } else {
+            Style::default()
+        };
+        buf[(x0 + dx, y0 + dy)].set_char(c).set_style(style);
+    }
 }
 
 /// A round length (1, 2 or 5 × 10ⁿ metres) near a fifth of the map's `width_m` and the cells it
@@ -392,7 +557,7 @@ fn render_side(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             Some(h) => format!("{h:+.0} m"),
             None => a.alt_m.map_or("alt ?".into(), |x| format!("{x:.0} m AMSL")),
         };
-        let first = format!("✈ {} {course} {height}", a.name());
+        let first = format!("{TRAFFIC_MARK} {} {course} {height}", a.name());
         let age = a.age(app.now) / crate::clock::SECOND;
         let second = match r {
             Some(r) => format!(
@@ -419,6 +584,62 @@ fn render_side(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn view(hw: f64, hh: f64) -> View {
+        View {
+            plane: Plane::new(LatLon::new(0.0, 0.0)),
+            up: 0.0,
+            hw,
+            hh,
+        }
+    }
+
+    #[test]
+    fn the_rose_turns_with_the_map() {
+        let at = |up: f64| rose_letters(up).map(|(c, x, y)| (c, x, y));
+        assert_eq!(
+            at(0.0),
+            [('N', 2, 0), ('E', 4, 1), ('S', 2, 2), ('W', 0, 1)]
+        );
+        // Heading east: north on the left.
+        assert_eq!(
+            at(90.0),
+            [('N', 0, 1), ('E', 2, 0), ('S', 4, 1), ('W', 2, 2)]
+        );
+        // Heading north-east: north up left.
+        assert_eq!(
+            at(45.0),
+            [('N', 0, 0), ('E', 4, 0), ('S', 4, 2), ('W', 0, 2)]
+        );
+        // To the nearest eighth, never two letters in one cell.
+        for up in (0..360).map(|d| d as f64 + 0.5) {
+            let cells: std::collections::BTreeSet<(u16, u16)> =
+                at(up).iter().map(|(_, x, y)| (*x, *y)).collect();
+            assert_eq!(cells.len(), 4, "{up}");
+        }
+    }
+
+    #[test]
+    fn patterns_run_on_along_the_line_and_stop_at_the_edge() {
+        let v = view(100.0, 50.0);
+        // Ten dots of 1 m, every other one: 0, 2, ... 10.
+        let pts = patterned(&v, 1.0, &[(0.0, 0.0), (10.0, 0.0)], false, (1, 1));
+        let xs: Vec<f64> = pts.iter().map(|p| p.0).collect();
+        assert_eq!(xs, [0.0, 2.0, 4.0, 6.0, 8.0, 10.0]);
+        // The pattern goes on round a corner: 3 m then 3 m up, (2, 1) dashes.
+        let pts = patterned(&v, 1.0, &[(0.0, 0.0), (3.0, 0.0), (3.0, 3.0)], false, (2, 1));
+        assert_eq!(pts, [(0.0, 0.0), (1.0, 0.0), (3.0, 0.0), (3.0, 1.0), (3.0, 3.0)]);
+        // Only what is on the map: a line from far outside starts at the edge.
+        let pts = patterned(&v, 1.0, &[(-1e6, 0.0), (0.0, 0.0)], false, (1, 0));
+        assert_eq!(pts.len(), 101);
+        assert!(pts.iter().all(|p| v.inside(*p)));
+        assert!(patterned(&v, 1.0, &[(-1e6, 60.0), (1e6, 60.0)], false, (1, 0)).is_empty());
+        // Closed: round to the first point, each corner once (16 m, a dot a metre).
+        let sq = [(0.0, 0.0), (4.0, 0.0), (4.0, 4.0), (0.0, 4.0)];
+        let pts = patterned(&v, 1.0, &sq, true, (1, 0));
+        assert_eq!(pts.len(), 16);
+        assert_eq!(pts[15], (0.0, 1.0));
+    }
 
     #[test]
     fn scale_bars_are_round() {
