@@ -9,11 +9,16 @@ mod common;
 
 use common::{command, keys, wait, yes};
 
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+
 use mavterm::app::AppConfig;
 use mavterm::driver::virtual_time::VirtualRunner;
+use mavterm::link::source::VirtualSource;
 use mavterm::link::LinkSpec;
 use mavterm::proto::calibration::{Phase, Run};
 use mavterm::proto::vehicles::VehicleKey;
+use mavterm::wire::Severity;
 
 const SECOND: u64 = 1_000_000;
 const KEY: VehicleKey = VehicleKey(1, 1);
@@ -143,20 +148,254 @@ fn gyro_baro_level_and_simple_accel_from_start_to_result_at_0_and_20_percent_los
 }
 
 /// The start command lost (the vehicle never hears the first copy): sent again after
-/// RESEND_AFTER, still with confirmation 0, and the calibration ends well.
+/// RESEND_AFTER, still with confirmation 0, and the calibration ends well. Each calibration
+/// whose result is its ACK: gyro, barometer, level, simple accelerometer, large vehicle.
 #[test]
 fn a_lost_start_is_sent_again() {
-    let mut r = runner("drop_cmd=241:1");
-    start(&mut r, "gyro");
-    until_done(&mut r, 30.0);
-    assert!(matches!(
+    let cases: [(&str, u32, [f64; 7]); 5] = [
+        ("gyro", 241, [1., 0., 0., 0., 0., 0., 0.]),
+        ("baro", 241, [0., 0., 1., 0., 0., 0., 0.]),
+        ("level", 241, [0., 0., 0., 0., 2., 0., 0.]),
+        ("simple-accel", 241, [0., 0., 0., 0., 4., 0., 0.]),
+        ("compass-fixed 90", 42006, [90., 0., 0., 0., 0., 0., 0.]),
+    ];
+    for (word, id, want) in cases {
+        let mut r = runner(&format!("drop_cmd={id}:1"));
+        start(&mut r, word);
+        until_done(&mut r, 30.0);
+        assert!(
+            matches!(run(&r).unwrap().phase, Phase::Done { ok: true, .. }),
+            "{word}: {:?}",
+            run(&r).unwrap().phase
+        );
+        assert_eq!(
+            common::sim(&r).vehicles()[0].commands_dropped(),
+            1,
+            "{word}"
+        );
+        let f = frames(&mut r);
+        let cmds = sent(&f, id);
+        assert_eq!(cmds.len(), 2, "{word}: the first lost, the second answered");
+        all_as(&cmds, want);
+    }
+}
+
+/// The six-position and the onboard compass calibrations with their start command lost: sent
+/// again, then run to their end (the compass accepted).
+#[test]
+fn a_lost_start_of_accel_or_compass_is_sent_again() {
+    let mut r = runner("uncal=1&drop_cmd=241:1");
+    keys(&mut r, &["8"]);
+    start(&mut r, "accel");
+    until_done(&mut r, 120.0);
+    assert_eq!(
         run(&r).unwrap().phase,
-        Phase::Done { ok: true, .. }
-    ));
+        Phase::Done {
+            ok: true,
+            text: "accelerometer calibration: successful".into()
+        }
+    );
     let f = frames(&mut r);
     let cmds = sent(&f, 241);
-    assert_eq!(cmds.len(), 2, "the first lost, the second answered");
-    all_as(&cmds, [1., 0., 0., 0., 0., 0., 0.]);
+    assert_eq!(cmds.len(), 2);
+    all_as(&cmds, [0., 0., 0., 0., 1., 0., 0.]);
+
+    let mut r = runner("uncal=1&drop_cmd=42424:1");
+    keys(&mut r, &["8"]);
+    start(&mut r, "compass");
+    let end = r.now() + 40 * SECOND;
+    while run(&r).unwrap().phase != Phase::Accept && r.now() < end {
+        wait(&mut r, 0.2);
+    }
+    assert_eq!(run(&r).unwrap().phase, Phase::Accept);
+    command(&mut r, "cal accept");
+    until_done(&mut r, 30.0);
+    assert!(run(&r).unwrap().reboot_needed);
+    let f = frames(&mut r);
+    let cmds = sent(&f, 42424);
+    assert_eq!(cmds.len(), 2);
+    all_as(&cmds, [0., 1., 0., 0., 0., 0., 0.]);
+}
+
+/// The ACK of position 1 lost (`drop_ack`), the vehicle moves on to position 2 while that
+/// answer still waits in the command queue: enter at position 2 sends at once, no error.
+#[test]
+fn a_lost_position_ack_does_not_hold_the_next_position_back() {
+    // A slow link, so the queue still waits for the lost ACK when position 2 is asked.
+    let mut r = runner("uncal=1&drop_ack=42429:1&latency_ms=300");
+    keys(&mut r, &["8"]);
+    start(&mut r, "accel");
+    let step = |r: &mut VirtualRunner, want: Phase| {
+        let end = r.now() + 20 * SECOND;
+        while run(r).unwrap().phase != want && r.now() < end {
+            wait(r, 0.05);
+        }
+        assert_eq!(run(r).unwrap().phase, want);
+    };
+    step(&mut r, Phase::Position(1));
+    keys(&mut r, &["enter"]);
+    step(&mut r, Phase::Position(2));
+    assert!(
+        r.app.sessions[&KEY].commands.is_open(KEY, 42429),
+        "the answer to position 1 still waits for its ACK"
+    );
+    frames(&mut r);
+    keys(&mut r, &["enter"]);
+    let msg = r.app.ui.message.clone();
+    assert!(
+        msg.as_ref().is_some_and(|(sev, _)| *sev != Severity::ERROR),
+        "{msg:?}"
+    );
+    assert_eq!(run(&r).unwrap().phase, Phase::Placed(2));
+    wait(&mut r, 0.01);
+    let pos: Vec<f64> = sent(&frames(&mut r), 42429)
+        .iter()
+        .map(|c| params(c)[0])
+        .collect();
+    assert_eq!(pos, vec![2.0], "sent at once");
+    until_done(&mut r, 120.0);
+    assert_eq!(
+        run(&r).unwrap().phase,
+        Phase::Done {
+            ok: true,
+            text: "accelerometer calibration: successful".into()
+        }
+    );
+}
+
+/// `x` on the Health screen during a compass calibration: DO_CANCEL_MAG_CAL for every compass
+/// (mask 0), confirmation 0; the vehicle stops and the screen says it was cancelled.
+#[test]
+fn a_compass_calibration_cancelled() {
+    let mut r = runner("uncal=1");
+    keys(&mut r, &["8"]);
+    start(&mut r, "compass");
+    let end = r.now() + 10 * SECOND;
+    while run(&r).unwrap().phase != Phase::Running && r.now() < end {
+        wait(&mut r, 0.2);
+    }
+    assert_eq!(run(&r).unwrap().phase, Phase::Running);
+    keys(&mut r, &["x"]);
+    wait(&mut r, 2.0);
+    assert_eq!(
+        run(&r).unwrap().phase,
+        Phase::Done {
+            ok: false,
+            text: "compass calibration cancelled".into()
+        }
+    );
+    let screen = common::screen(&r, 80, 24);
+    assert!(
+        screen.contains("CALIBRATE compass calibration cancelled"),
+        "{screen}"
+    );
+    assert_eq!(action(&r), "compass calibration cancelled");
+    let f = frames(&mut r);
+    let cmds = sent(&f, 42426);
+    assert_eq!(cmds.len(), 1);
+    all_as(&cmds, [0.; 7]);
+    // The vehicle no longer calibrates: no MAG_CAL_PROGRESS or REPORT since.
+    let ignored = r.app.sessions[&KEY].calibration.ignored;
+    wait(&mut r, 3.0);
+    assert_eq!(r.app.sessions[&KEY].calibration.ignored, ignored);
+}
+
+/// A source that goes silent (hears and says nothing) from a time the test sets: a vehicle
+/// lost.
+struct Silenced {
+    inner: Box<dyn VirtualSource>,
+    from: Arc<AtomicU64>,
+}
+
+impl VirtualSource for Silenced {
+    fn receive(&mut self, now: u64, bytes: &[u8]) {
+        if now < self.from.load(Ordering::Relaxed) {
+            self.inner.receive(now, bytes);
+        }
+    }
+    fn poll(&mut self, now: u64) -> Vec<u8> {
+        let out = self.inner.poll(now);
+        if now < self.from.load(Ordering::Relaxed) {
+            out
+        } else {
+            Vec::new()
+        }
+    }
+    fn next_deadline(&self) -> u64 {
+        self.inner.next_deadline()
+    }
+    fn as_any(&self) -> &dyn std::any::Any {
+        self.inner.as_any()
+    }
+}
+
+/// A runner on `sim://?query` that can be silenced.
+fn silenceable(query: &str) -> (VirtualRunner, Arc<AtomicU64>) {
+    let spec: LinkSpec = format!("sim://?{query}").parse().unwrap();
+    let from = Arc::new(AtomicU64::new(u64::MAX));
+    let src = Silenced {
+        inner: mavterm::driver::local_source(&spec).unwrap(),
+        from: from.clone(),
+    };
+    let cfg = AppConfig {
+        links: vec![spec.to_string()],
+        epoch: mavterm::driver::virtual_time::virtual_epoch(),
+        ..AppConfig::default()
+    };
+    let mut r = VirtualRunner::new(cfg, vec![Box::new(src)]);
+    r.advance_to(7 * SECOND);
+    (r, from)
+}
+
+/// The vehicle goes silent in the middle of an accelerometer or compass calibration: after
+/// STALL_AFTER without its position requests or MAG_CAL_PROGRESS the calibration ends as
+/// failed, with the reason on the status bar and the screen (not "running" for ever).
+#[test]
+fn a_calibration_whose_vehicle_goes_silent_ends_as_failed() {
+    let (mut r, silence) = silenceable("uncal=1");
+    keys(&mut r, &["8"]);
+    start(&mut r, "accel");
+    let end = r.now() + 20 * SECOND;
+    while run(&r).unwrap().phase != Phase::Position(1) && r.now() < end {
+        wait(&mut r, 0.1);
+    }
+    assert_eq!(run(&r).unwrap().phase, Phase::Position(1));
+    silence.store(r.now(), Ordering::Relaxed);
+    wait(&mut r, 14.0);
+    assert!(
+        run(&r).unwrap().phase == Phase::Position(1),
+        "still waiting"
+    );
+    wait(&mut r, 1.5);
+    let want = "accelerometer calibration FAILED: no word from the vehicle for 15 s (no position \
+                request): is it still there? start again";
+    assert_eq!(
+        run(&r).unwrap().phase,
+        Phase::Done {
+            ok: false,
+            text: want.into()
+        }
+    );
+    assert_eq!(action(&r), want);
+    let screen = common::screen(&r, 200, 60);
+    assert!(screen.contains(want), "{screen}");
+
+    let (mut r, silence) = silenceable("uncal=1");
+    keys(&mut r, &["8"]);
+    start(&mut r, "compass");
+    let end = r.now() + 10 * SECOND;
+    while run(&r).unwrap().phase != Phase::Running && r.now() < end {
+        wait(&mut r, 0.2);
+    }
+    assert_eq!(run(&r).unwrap().phase, Phase::Running);
+    silence.store(r.now(), Ordering::Relaxed);
+    wait(&mut r, 16.0);
+    assert!(
+        matches!(&run(&r).unwrap().phase, Phase::Done { ok: false, text }
+            if text.contains("no word from the vehicle for 15 s (no MAG_CAL_PROGRESS or REPORT)")),
+        "{:?}",
+        run(&r).unwrap().phase
+    );
 }
 
 /// Six positions, each asked by the vehicle (COMMAND_LONG ACCELCAL_VEHICLE_POS) and shown with
@@ -341,8 +580,14 @@ fn no_calibration_while_armed() {
 
 /// `fake_calibration_vehicle.py` with `extra` arguments against mavterm headless running
 /// `script` (100x30): the COMMAND_LONGs the vehicle received ([command, p1..p7, confirmation])
-/// of the calibrations, and the `health` snapshot.
+/// of the calibrations (and reboots), and the `health` snapshot.
 fn against_stand_in(extra: &[&str], script: &str) -> (Vec<Vec<f64>>, String) {
+    let (got, _, last) = against_stand_in_all(extra, script);
+    (got, last)
+}
+
+/// As [`against_stand_in`], with the `before` snapshot too.
+fn against_stand_in_all(extra: &[&str], script: &str) -> (Vec<Vec<f64>>, String, String) {
     let dir = tempfile::tempdir().unwrap();
     let port = common::free_udp_port();
     let log = dir.path().join("commands.json");
@@ -377,10 +622,10 @@ fn against_stand_in(extra: &[&str], script: &str) -> (Vec<Vec<f64>>, String) {
         .ok()
         .and_then(|t| serde_json::from_str(&t).ok())
         .unwrap_or_default();
-    let cal = [241.0, 42429.0, 42424.0, 42425.0, 42426.0, 42006.0];
+    let cal = [241.0, 42429.0, 42424.0, 42425.0, 42426.0, 42006.0, 246.0];
     let got = got.into_iter().filter(|c| cal.contains(&c[0])).collect();
-    let screen = std::fs::read_to_string(screens.join("health.txt")).unwrap_or_default();
-    (got, screen)
+    let read = |name: &str| std::fs::read_to_string(screens.join(name)).unwrap_or_default();
+    (got, read("before.txt"), read("health.txt"))
 }
 
 /// ArduPilot's six-position sequence from pymavlink, its start ACK lost: the first position
@@ -424,5 +669,51 @@ fn stand_in_compass_refused_and_bad_radius() {
     assert!(
         screen.contains("compass calibration FAILED: mag 0 BAD_RADIUS fitness 45.2"),
         "{screen}"
+    );
+}
+
+/// DO_CANCEL_MAG_CAL as pymavlink reads it: every compass (mask 0), confirmation 0; the
+/// vehicle's ACCEPTED ends it as cancelled.
+#[test]
+fn stand_in_compass_cancelled() {
+    let script = "1.5 key 8\n2 key :\n2.1 text \"cal compass\"\n2.2 key enter\n2.8 key y\n\
+                  4 key x\n5 snapshot health\n5.5 quit\n";
+    let (got, screen) = against_stand_in(&[], script);
+    assert_eq!(
+        got,
+        vec![
+            vec![42424.0, 0., 1., 0., 0., 0., 0., 0., 0.],
+            vec![42426.0, 0., 0., 0., 0., 0., 0., 0., 0.],
+        ],
+        "{screen}"
+    );
+    assert!(screen.contains("compass calibration cancelled"), "{screen}");
+}
+
+/// Accepted, then rebooted from the prompt (`reboot`, asked first): the vehicle comes back
+/// with its boot time from 0, and the reboot the calibration needed is done.
+#[test]
+fn stand_in_compass_accepted_then_rebooted() {
+    let script = "1.5 key 8\n2 key :\n2.1 text \"cal compass\"\n2.2 key enter\n2.8 key y\n\
+                  7 key S\n7.5 snapshot before\n8 key :\n8.1 text \"reboot\"\n8.2 key enter\n\
+                  8.6 key y\n13 snapshot health\n13.5 quit\n";
+    let dir_screens = against_stand_in_all(&[], script);
+    let (got, first, last) = dir_screens;
+    assert_eq!(
+        got,
+        vec![
+            vec![42424.0, 0., 1., 0., 0., 0., 0., 0., 0.],
+            vec![42425.0, 0., 0., 0., 0., 0., 0., 0., 0.],
+            vec![246.0, 1., 0., 0., 0., 0., 0., 0., 0.],
+        ],
+        "{last}"
+    );
+    assert!(
+        first.contains("compass calibration accepted: `reboot` the vehicle (asks first)"),
+        "{first}"
+    );
+    assert!(
+        last.contains("compass calibration: the vehicle rebooted, new offsets in use"),
+        "{last}"
     );
 }

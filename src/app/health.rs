@@ -118,7 +118,7 @@ impl App {
         let now = self.now;
         match cmd {
             CalCmd::Start(kind) => {
-                self.refuse_armed(key, kind)?;
+                self.refuse_start(key, kind)?;
                 if let Some(r) = self.sessions[&key].calibration.run.as_ref() {
                     if !r.finished() {
                         return Err(format!(
@@ -149,10 +149,23 @@ impl App {
             }
             CalCmd::Next => {
                 let s = self.sessions.get_mut(&key).ok_or("no session")?;
-                let (command, params) = s.calibration.placed(now)?;
+                // Checked first; the machine takes the position as placed only once the queue
+                // has sent it.
+                let (command, params) = s.calibration.placing()?;
                 let n = params[0] as u8;
-                let (_, out) = s.submit(now, spec(key, command, params))?;
+                // The vehicle asks for this position now: an answer to an earlier one still
+                // waiting for its ACK (lost, or the vehicle moved on without it reaching us)
+                // is stale, and does not hold this one back.
+                let mut out = s.supersede(now, command);
+                let sent = match s.submit(now, spec(key, command, params)) {
+                    Ok((_, sent)) => {
+                        out.extend(sent);
+                        s.calibration.placed(now).map(|_| ())
+                    }
+                    Err(e) => Err(e),
+                };
                 self.session_out(key, out, fx);
+                sent?;
                 let (words, _) = crate::proto::calibration::position(n);
                 Ok(Some(format!("accel cal {n}/6: {words}: sent")))
             }
@@ -182,10 +195,22 @@ impl App {
         }
     }
 
-    /// A calibration is never started on an armed vehicle.
-    fn refuse_armed(&self, key: VehicleKey, kind: Kind) -> Result<(), String> {
-        if self.vehicles.get(key).is_some_and(|v| v.armed()) {
+    /// A calibration is never started on an armed vehicle, nor one of ArduPilot's protocols
+    /// on another autopilot (its profile says which it runs).
+    fn refuse_start(&self, key: VehicleKey, kind: Kind) -> Result<(), String> {
+        let v = self.vehicles.get(key);
+        if v.is_some_and(|v| v.armed()) {
             return Err(format!("{key} is armed: no {} (disarm first)", kind.name()));
+        }
+        if let (Some(protocol), Some(v)) = (kind.ardupilot_protocol(), v) {
+            let profile = crate::proto::profile::of(v.autopilot);
+            if !profile.ardupilot_calibrations() {
+                return Err(format!(
+                    "{key} runs {}: the {} is ArduPilot's ({protocol}), not sent",
+                    profile.name(),
+                    kind.name()
+                ));
+            }
         }
         Ok(())
     }
@@ -198,7 +223,7 @@ impl App {
         fx: &mut Vec<Effect>,
     ) -> Result<Option<String>, String> {
         self.commandable_at(key)?;
-        self.refuse_armed(key, kind)?;
+        self.refuse_start(key, kind)?;
         let now = self.now;
         let s = self.sessions.get_mut(&key).ok_or("no session")?;
         let (command, params) = s.calibration.start(now, kind)?;

@@ -1348,7 +1348,8 @@ impl App {
                     );
                     // A rebooted autopilot forgets what it was asked: its machines start over.
                     if let Some(s) = self.sessions.get_mut(&key) {
-                        s.on_reboot();
+                        let out = s.on_reboot(self.now);
+                        self.session_out(key, out, fx);
                     }
                 }
                 VehicleEvent::Conflict(key, detail) => {

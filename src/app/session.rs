@@ -249,7 +249,10 @@ impl Session {
                 fetch_params && crate::proto::profile::of(autopilot).component_metadata(),
             ),
             logs: LogMachine::new(key),
-            prearm: PrearmReasons::default(),
+            // ArduPilot repeats its reasons every 30 s; others keep them until cleared.
+            prearm: PrearmReasons::with_period(
+                crate::proto::profile::of(autopilot).prearm_period(),
+            ),
             calibration: Calibration::new(key),
             mode_seen: None,
             mode_asks: Vec::new(),
@@ -863,10 +866,25 @@ impl Session {
             || self.commands.entries().any(|e| e.open())
     }
 
-    pub fn on_reboot(&mut self) {
+    pub fn on_reboot(&mut self, now: Micros) -> Vec<SessionOut> {
         self.streams.on_reboot();
         self.mission.on_reboot();
         self.comp_meta.on_reboot();
+        // A calibration running is forgotten; the reboot a compass calibration needed is done.
+        let mut buf = Vec::new();
+        self.calibration.on_reboot(now, &mut buf);
+        let mut out = Vec::new();
+        self.deliver(now, &mut buf, &mut out);
+        out
+    }
+
+    /// Every open `command` to this vehicle is superseded (finished at once, never resent, its
+    /// late ACK ignored): a newer request of the same command makes it stale.
+    pub fn supersede(&mut self, now: Micros, command: u16) -> Vec<SessionOut> {
+        let done = self.commands.supersede(now, self.key, command);
+        let mut out = Vec::new();
+        self.drive(now, done, &mut out);
+        out
     }
 
     /// `link` came back after being down.

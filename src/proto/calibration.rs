@@ -6,12 +6,14 @@
 //!   (param5 = 4) run in the handler: the vehicle goes quiet and its ACK is the result. Baro
 //!   (param3 = 1) is ACCEPTED at once, or IN_PROGRESS then ACCEPTED with an airspeed sensor.
 //! - Accelerometer, six positions (param5 = 1): the gyros are calibrated first, then ACCEPTED;
-//!   while waiting for a position the vehicle says `Place vehicle … and press any key.` once and
-//!   sends COMMAND_LONG MAV_CMD_ACCELCAL_VEHICLE_POS (param1 = the position, 1..6) to the GCS
-//!   every second; the GCS answers with the same command and position when the vehicle is
-//!   placed (ACCEPTED if it is the position asked, else FAILED); after the sixth the vehicle
-//!   sends ACCELCAL_VEHICLE_POS_SUCCESS (16777215) or _FAILED (16777216), again every second.
-//!   A SUCCESS or FAILED counts only after a position of this run was asked: the vehicle keeps
+//!   while waiting for a position the vehicle sends COMMAND_LONG MAV_CMD_ACCELCAL_VEHICLE_POS
+//!   (param1 = the position, 1..6) to the GCS every second (and says `Place vehicle … and press
+//!   any key.` once per position until the GCS first answers with the command:
+//!   `AP_AccelCal::gcs_vehicle_position` clears `_use_gcs_snoop`); the GCS answers with the
+//!   same command and position when the vehicle is placed (ACCEPTED if it is the position
+//!   asked, else FAILED); after the sixth the vehicle sends ACCELCAL_VEHICLE_POS_SUCCESS
+//!   (16777215) or _FAILED (16777216, after `Calibration FAILED`), again every second. A
+//!   SUCCESS or FAILED counts only after a position of this run was asked: the vehicle keeps
 //!   repeating the last run's.
 //! - Compass (DO_START_MAG_CAL, all compasses, retry, no autosave): ACCEPTED, then
 //!   MAG_CAL_PROGRESS per compass while running and MAG_CAL_REPORT per compass once done
@@ -24,6 +26,10 @@
 //! is recovered from the first position request or MAG_CAL_PROGRESS; a command with neither
 //! its ACK nor any sign of it is sent again, [`MAX_SENDS`] in all, [`RESEND_AFTER`] apart
 //! (calibrations are refused while armed and run again harmlessly), through the command queue.
+//! A vehicle gone silent is not: an accelerometer or compass calibration with no word from
+//! the vehicle (no position request, no MAG_CAL_PROGRESS or REPORT, no ACK) for
+//! [`STALL_AFTER`] ends as failed, and one running when the vehicle reboots ends at once
+//! ([`Calibration::on_reboot`], which also clears the reboot a compass calibration needed).
 
 use std::collections::{BTreeMap, VecDeque};
 
@@ -43,8 +49,15 @@ pub const RESEND_AFTER: Micros = 4 * SECOND;
 pub const MAX_SENDS: u32 = 5;
 /// An IN_PROGRESS calibration with no word for this long has stopped answering.
 pub const PROGRESS_TIMEOUT: Micros = 20 * SECOND;
+/// An accelerometer or compass calibration with no word from the vehicle for this long has
+/// stalled (the vehicle asks for a position every second and streams MAG_CAL_PROGRESS a few
+/// times a second: this is many of them lost in a row, or a vehicle gone).
+pub const STALL_AFTER: Micros = 15 * SECOND;
 /// A text this close before an ACK explains it.
 pub const EXPLAIN: Micros = SECOND;
+/// What a saved compass calibration asks of the operator (the new offsets are used from the
+/// next boot); the prompt's `reboot` asks first, then sends PREFLIGHT_REBOOT_SHUTDOWN.
+pub const REBOOT_ADVICE: &str = "`reboot` the vehicle (asks first) to use the new offsets";
 /// ACCELCAL_VEHICLE_POS_SUCCESS and _FAILED.
 pub const POS_SUCCESS: f32 = 16_777_215.0;
 pub const POS_FAILED: f32 = 16_777_216.0;
@@ -106,6 +119,17 @@ impl Kind {
             Kind::Accel => "place the vehicle as it asks, enter at each position",
             Kind::Compass => "rotate the vehicle about every axis",
             Kind::CompassFixed(_) => "the vehicle must face the heading given",
+        }
+    }
+
+    /// The ArduPilot protocol it needs, for a calibration only ArduPilot runs this way (the
+    /// profile's `ardupilot_calibrations`); `None` for PREFLIGHT_CALIBRATION's own.
+    pub fn ardupilot_protocol(self) -> Option<&'static str> {
+        match self {
+            Kind::Accel => Some("ACCELCAL_VEHICLE_POS"),
+            Kind::Compass => Some("DO_START_MAG_CAL"),
+            Kind::CompassFixed(_) => Some("FIXED_MAG_CAL_YAW"),
+            _ => None,
         }
     }
 
@@ -266,6 +290,16 @@ impl Run {
         }
     }
 
+    /// An accelerometer or compass calibration the vehicle runs (started, not over): the
+    /// vehicle's steady word about it is expected, and its silence for [`STALL_AFTER`] ends it.
+    fn stalls(&self) -> bool {
+        matches!(self.kind, Kind::Accel | Kind::Compass)
+            && matches!(
+                self.phase,
+                Phase::Running | Phase::Position(_) | Phase::Placed(_) | Phase::Accept
+            )
+    }
+
     fn done(&mut self, ok: bool, text: String, out: &mut Vec<Out>) {
         self.pending = None;
         let sev = if ok {
@@ -341,11 +375,12 @@ impl Calibration {
         Ok((command, params))
     }
 
-    /// `enter` at an accelerometer position: the command telling the vehicle it is placed.
-    pub fn placed(&mut self, now: Micros) -> Result<(u16, [f64; 7]), String> {
+    /// The command `enter` would send at an accelerometer position (the vehicle is placed),
+    /// without changing anything: the caller sends it, then calls [`Calibration::placed`].
+    pub fn placing(&self) -> Result<(u16, [f64; 7]), String> {
         let run = self
             .run
-            .as_mut()
+            .as_ref()
             .filter(|r| !r.finished())
             .ok_or("no calibration running")?;
         let Phase::Position(n) = run.phase else {
@@ -355,8 +390,14 @@ impl Calibration {
             });
         };
         let command = MavCmd::MAV_CMD_ACCELCAL_VEHICLE_POS as u16;
-        let params = [n as f64, 0., 0., 0., 0., 0., 0.];
-        run.phase = Phase::Placed(n);
+        Ok((command, [n as f64, 0., 0., 0., 0., 0., 0.]))
+    }
+
+    /// `enter` at an accelerometer position, its command sent: the vehicle samples it.
+    pub fn placed(&mut self, now: Micros) -> Result<(u16, [f64; 7]), String> {
+        let (command, params) = self.placing()?;
+        let run = self.run.as_mut().ok_or("no calibration running")?;
+        run.phase = Phase::Placed(params[0] as u8);
         run.sends += 1;
         run.pending = Some(Pending {
             command,
@@ -418,16 +459,42 @@ impl Calibration {
         Ok(Some((command, params)))
     }
 
+    /// The vehicle rebooted: a calibration it was running is over (it forgot it), and the
+    /// reboot a compass calibration needed has happened.
+    pub fn on_reboot(&mut self, now: Micros, out: &mut Vec<Out>) {
+        self.now = now;
+        let Some(run) = self.run.as_mut() else {
+            return;
+        };
+        if !run.finished() {
+            let text = format!("{} FAILED: the vehicle rebooted", run.kind.name());
+            run.done(false, text, out);
+        } else if run.reboot_needed {
+            run.reboot_needed = false;
+            if let Phase::Done { text, .. } = &mut run.phase {
+                *text = format!(
+                    "{}: the vehicle rebooted, new offsets in use",
+                    run.kind.name()
+                );
+            }
+            out.push(Out::notice(Severity::INFO, run.status_line()));
+        }
+    }
+
     /// A text the vehicle said: kept a moment to explain a refusal, or the reason of the one
     /// that just came.
     pub fn on_text(&mut self, now: Micros, text: &str) {
         if let Some(run) = self.run.as_mut() {
             if let (Some(at), Phase::Done { ok: false, text: t }) = (run.refused_at, &mut run.phase)
             {
-                run.refused_at = None;
-                if now.saturating_sub(at) <= EXPLAIN {
+                if crate::proto::health::reason_of(text).is_some() {
+                    // A pre-arm statement explains no calibration: keep waiting.
+                } else if now.saturating_sub(at) <= EXPLAIN {
+                    run.refused_at = None;
                     t.push_str(&format!(" ({text})"));
                     return;
+                } else {
+                    run.refused_at = None;
                 }
             }
         }
@@ -437,10 +504,13 @@ impl Calibration {
         self.texts.push_back((now, text.to_string()));
     }
 
+    /// The text that explains an answer at `now`: the latest of the last [`EXPLAIN`], a
+    /// pre-arm statement (`PreArm: …`, repeated on its own every 30 s) left out.
     fn reason(&self, now: Micros) -> Option<String> {
         self.texts
             .iter()
             .rev()
+            .filter(|(_, s)| crate::proto::health::reason_of(s).is_none())
             .find(|(t, _)| now.saturating_sub(*t) <= EXPLAIN)
             .map(|(_, s)| s.clone())
     }
@@ -476,7 +546,7 @@ impl Calibration {
         if command == accept {
             if accepted {
                 run.reboot_needed = true;
-                let text = format!("{name} accepted: reboot the vehicle to use the new offsets");
+                let text = format!("{name} accepted: {REBOOT_ADVICE}");
                 run.done(true, text, out);
             } else {
                 let text = format!("{name}: accept {}{why}", result_name(result));
@@ -679,7 +749,7 @@ impl Calibration {
             run.done(false, format!("{name} FAILED: {}", failed.join(", ")), out);
         } else if run.reports.values().all(|r| r.autosaved) {
             run.reboot_needed = true;
-            let text = format!("{name} saved: reboot the vehicle to use the new offsets");
+            let text = format!("{name} saved: {REBOOT_ADVICE}");
             run.done(true, text, out);
         } else {
             run.phase = Phase::Accept;
@@ -732,6 +802,20 @@ impl Machine for Calibration {
             run.done(false, text, out);
             return;
         }
+        if run.stalls() && now.saturating_sub(run.heard) >= STALL_AFTER {
+            let what = match run.kind {
+                Kind::Accel => "no position request",
+                _ => "no MAG_CAL_PROGRESS or REPORT",
+            };
+            let text = format!(
+                "{} FAILED: no word from the vehicle for {} s ({what}): is it still there? \
+                 start again",
+                run.kind.name(),
+                STALL_AFTER / SECOND
+            );
+            run.done(false, text, out);
+            return;
+        }
         let Some(p) = run.pending.as_mut() else {
             return;
         };
@@ -759,7 +843,8 @@ impl Machine for Calibration {
             .map(|p| p.sent + RESEND_AFTER);
         let quiet = (run.phase == Phase::Running && run.progress.is_some())
             .then_some(run.heard + PROGRESS_TIMEOUT);
-        [resend, quiet].into_iter().flatten().min()
+        let stall = run.stalls().then_some(run.heard + STALL_AFTER);
+        [resend, quiet, stall].into_iter().flatten().min()
     }
 }
 
@@ -784,5 +869,413 @@ impl Requests for Calibration {
             }
             run.sends += 1;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! The machine fed ArduPilot's messages as `GCS_Common.cpp`, `AP_AccelCal.cpp` and
+    //! `AP_Compass_Calibration.cpp` send them, through our encoder and parser.
+
+    use super::*;
+    use crate::dialect::{self, MagCalStatus};
+    use crate::proto::ack::CommandAck;
+    use crate::wire::{frame, FrameParser, Header, Version};
+
+    const KEY: VehicleKey = VehicleKey(1, 1);
+    const S: Micros = SECOND;
+
+    fn feed(c: &mut Calibration, now: Micros, msg: &MavMessage) -> Vec<Out> {
+        let h = Header {
+            sysid: 1,
+            compid: 1,
+            seq: 0,
+        };
+        let bytes = frame::encode(Version::V2, h, msg);
+        let f = FrameParser::new().parse_all(&bytes).remove(0);
+        let ack = CommandAck::from_frame(&f);
+        let m = Incoming {
+            now,
+            from: (1, 1),
+            link: 0,
+            profile: Default::default(),
+            id: f.msgid,
+            payload: f.payload(),
+            msg: f.message.as_ref(),
+            ack: ack.as_ref(),
+        };
+        let mut out = Vec::new();
+        c.on_message(&m, &mut out);
+        out
+    }
+
+    fn ack(command: MavCmd, result: MavResult) -> MavMessage {
+        MavMessage::COMMAND_ACK(dialect::COMMAND_ACK_DATA {
+            command,
+            result,
+            target_system: 255,
+            target_component: 190,
+            ..Default::default()
+        })
+    }
+
+    /// `send_accelcal_vehicle_position`: COMMAND_LONG to 0:0.
+    fn pos(p: f32) -> MavMessage {
+        MavMessage::COMMAND_LONG(dialect::COMMAND_LONG_DATA {
+            command: MavCmd::MAV_CMD_ACCELCAL_VEHICLE_POS,
+            param1: p,
+            ..Default::default()
+        })
+    }
+
+    fn progress(id: u8, status: MagCalStatus, pct: u8) -> MavMessage {
+        MavMessage::MAG_CAL_PROGRESS(dialect::MAG_CAL_PROGRESS_DATA {
+            compass_id: id,
+            cal_mask: 1,
+            cal_status: status,
+            attempt: 1,
+            completion_pct: pct,
+            ..Default::default()
+        })
+    }
+
+    fn report(id: u8, status: MagCalStatus) -> MavMessage {
+        MavMessage::MAG_CAL_REPORT(dialect::MAG_CAL_REPORT_DATA {
+            compass_id: id,
+            cal_mask: 1,
+            cal_status: status,
+            fitness: 4.5,
+            ofs_x: 30.0,
+            ofs_y: -20.0,
+            ofs_z: 55.0,
+            ..Default::default()
+        })
+    }
+
+    fn phase(c: &Calibration) -> Phase {
+        c.run.as_ref().unwrap().phase.clone()
+    }
+
+    fn done(ok: bool, text: &str) -> Phase {
+        Phase::Done {
+            ok,
+            text: text.into(),
+        }
+    }
+
+    /// A compass calibration running from its ACK, compass 0 at 40 %.
+    fn compass_running() -> Calibration {
+        let mut c = Calibration::new(KEY);
+        c.start(0, Kind::Compass).unwrap();
+        feed(
+            &mut c,
+            S / 10,
+            &ack(
+                MavCmd::MAV_CMD_DO_START_MAG_CAL,
+                MavResult::MAV_RESULT_ACCEPTED,
+            ),
+        );
+        feed(
+            &mut c,
+            S / 2,
+            &progress(0, MagCalStatus::MAG_CAL_RUNNING_STEP_ONE, 40),
+        );
+        assert_eq!(phase(&c), Phase::Running);
+        c
+    }
+
+    /// An accelerometer calibration at position 2 (position 1 placed and accepted).
+    fn accel_at_two() -> Calibration {
+        let mut c = Calibration::new(KEY);
+        c.start(0, Kind::Accel).unwrap();
+        let cal = MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION;
+        feed(&mut c, 3 * S, &ack(cal, MavResult::MAV_RESULT_ACCEPTED));
+        feed(&mut c, 3 * S, &pos(1.0));
+        assert_eq!(phase(&c), Phase::Position(1));
+        c.placed(4 * S).unwrap();
+        let p = MavCmd::MAV_CMD_ACCELCAL_VEHICLE_POS;
+        feed(&mut c, 4 * S, &ack(p, MavResult::MAV_RESULT_ACCEPTED));
+        feed(&mut c, 5 * S, &pos(2.0));
+        assert_eq!(phase(&c), Phase::Position(2));
+        c
+    }
+
+    /// `AP_AccelCal::fail`: `Calibration FAILED`, then ACCELCAL_VEHICLE_POS_FAILED (and again
+    /// every second): the run fails with the vehicle's words.
+    #[test]
+    fn accel_failed_after_positions_of_this_run() {
+        let mut c = accel_at_two();
+        c.on_text(5 * S + S / 2, "Calibration FAILED");
+        let out = feed(&mut c, 6 * S, &pos(POS_FAILED));
+        assert_eq!(
+            phase(&c),
+            done(
+                false,
+                "accelerometer calibration FAILED (Calibration FAILED)"
+            )
+        );
+        assert_eq!(out.len(), 1, "told once");
+        // Its repeats are nothing more.
+        feed(&mut c, 7 * S, &pos(POS_FAILED));
+        assert_eq!(c.ignored, 1);
+        assert_eq!(c.next_deadline(), None);
+    }
+
+    /// The last run's SUCCESS, repeated every second until `AP_AccelCal::start`, is not this
+    /// run's result; the first position request then shows the start was heard though its ACK
+    /// was lost.
+    #[test]
+    fn a_stale_success_of_the_last_run_is_ignored() {
+        let mut c = Calibration::new(KEY);
+        c.start(0, Kind::Accel).unwrap();
+        feed(&mut c, S / 2, &pos(POS_SUCCESS));
+        assert_eq!(phase(&c), Phase::Starting);
+        assert_eq!(c.ignored, 1);
+        // The ACK lost; position 1 asked: started, nothing to resend.
+        feed(&mut c, 3 * S, &pos(1.0));
+        assert_eq!(phase(&c), Phase::Position(1));
+        c.poll(3 * S + RESEND_AFTER, &mut Vec::new());
+        assert!(c.requests().is_empty());
+        // A SUCCESS once a position of this run was asked ends it.
+        feed(&mut c, 20 * S, &pos(POS_SUCCESS));
+        assert_eq!(
+            phase(&c),
+            done(true, "accelerometer calibration: successful")
+        );
+    }
+
+    /// `Compass::_accept_calibration` fails for a compass not SUCCESS, with no text: the
+    /// refusal stands alone, and a pre-arm statement near it is not taken for its reason.
+    #[test]
+    fn a_refused_accept() {
+        let mut c = compass_running();
+        feed(&mut c, S, &report(0, MagCalStatus::MAG_CAL_SUCCESS));
+        assert_eq!(phase(&c), Phase::Accept);
+        let (command, params) = c.accept(2 * S).unwrap();
+        assert_eq!((command, params), (42425, [0.; 7]));
+        c.on_text(2 * S + S / 10, "PreArm: Compass calibration running");
+        feed(
+            &mut c,
+            2 * S + S / 5,
+            &ack(
+                MavCmd::MAV_CMD_DO_ACCEPT_MAG_CAL,
+                MavResult::MAV_RESULT_FAILED,
+            ),
+        );
+        assert_eq!(phase(&c), done(false, "compass calibration: accept FAILED"));
+        c.on_text(2 * S + S / 2, "PreArm: Compass calibration running");
+        c.on_text(4 * S, "EKF3 IMU0 is using GPS");
+        assert_eq!(phase(&c), done(false, "compass calibration: accept FAILED"));
+        assert!(!c.run.as_ref().unwrap().reboot_needed);
+        // Accepted: saved, the reboot it needs said.
+        let mut c = compass_running();
+        feed(&mut c, S, &report(0, MagCalStatus::MAG_CAL_SUCCESS));
+        c.accept(2 * S).unwrap();
+        feed(
+            &mut c,
+            2 * S,
+            &ack(
+                MavCmd::MAV_CMD_DO_ACCEPT_MAG_CAL,
+                MavResult::MAV_RESULT_ACCEPTED,
+            ),
+        );
+        assert_eq!(
+            phase(&c),
+            done(
+                true,
+                &format!("compass calibration accepted: {REBOOT_ADVICE}")
+            )
+        );
+        assert!(c.run.as_ref().unwrap().reboot_needed);
+    }
+
+    /// A refusal's reason is the text ArduPilot sends after its ACK, within EXPLAIN.
+    #[test]
+    fn a_refused_start_takes_the_text_after_it() {
+        let mut c = Calibration::new(KEY);
+        c.start(0, Kind::Compass).unwrap();
+        feed(
+            &mut c,
+            S / 10,
+            &ack(
+                MavCmd::MAV_CMD_DO_START_MAG_CAL,
+                MavResult::MAV_RESULT_FAILED,
+            ),
+        );
+        c.on_text(S / 5, "Disarm to allow compass calibration");
+        assert_eq!(
+            phase(&c),
+            done(
+                false,
+                "compass calibration refused: FAILED (Disarm to allow compass calibration)"
+            )
+        );
+    }
+
+    /// Barometer with an airspeed sensor (`GCS_MAVLINK_InProgress`): IN_PROGRESS, again every
+    /// second, then ACCEPTED.
+    #[test]
+    fn baro_in_progress_then_accepted() {
+        let mut c = Calibration::new(KEY);
+        let (command, params) = c.start(0, Kind::Baro).unwrap();
+        assert_eq!((command, params[2]), (241, 1.0));
+        let cal = MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION;
+        feed(&mut c, S / 10, &ack(cal, MavResult::MAV_RESULT_IN_PROGRESS));
+        assert_eq!(phase(&c), Phase::Running);
+        let run = c.run.as_ref().unwrap();
+        assert_eq!(run.status_line(), "barometer calibration: running 0%");
+        for t in 1..8 {
+            feed(&mut c, t * S, &ack(cal, MavResult::MAV_RESULT_IN_PROGRESS));
+        }
+        // Nothing resent while it runs.
+        c.poll(7 * S + RESEND_AFTER, &mut Vec::new());
+        assert!(c.requests().is_empty());
+        assert_eq!(phase(&c), Phase::Running);
+        feed(&mut c, 8 * S, &ack(cal, MavResult::MAV_RESULT_ACCEPTED));
+        assert_eq!(phase(&c), done(true, "barometer calibration: done"));
+        // Silent after IN_PROGRESS for PROGRESS_TIMEOUT: stopped answering.
+        let mut c = Calibration::new(KEY);
+        c.start(0, Kind::Baro).unwrap();
+        feed(&mut c, S, &ack(cal, MavResult::MAV_RESULT_IN_PROGRESS));
+        assert_eq!(c.next_deadline(), Some(S + PROGRESS_TIMEOUT));
+        c.poll(S + PROGRESS_TIMEOUT, &mut Vec::new());
+        assert_eq!(
+            phase(&c),
+            done(
+                false,
+                "barometer calibration: the vehicle stopped answering"
+            )
+        );
+    }
+
+    /// DO_CANCEL_MAG_CAL for every compass (mask 0), ACCEPTED: cancelled.
+    #[test]
+    fn a_compass_calibration_cancelled() {
+        let mut c = compass_running();
+        let (command, params) = c.cancel(S).unwrap().unwrap();
+        assert_eq!((command, params), (42426, [0.; 7]));
+        // Progress still in flight changes nothing.
+        feed(
+            &mut c,
+            S + S / 10,
+            &progress(0, MagCalStatus::MAG_CAL_RUNNING_STEP_ONE, 45),
+        );
+        feed(
+            &mut c,
+            S + S / 5,
+            &ack(
+                MavCmd::MAV_CMD_DO_CANCEL_MAG_CAL,
+                MavResult::MAV_RESULT_ACCEPTED,
+            ),
+        );
+        assert_eq!(phase(&c), done(false, "compass calibration cancelled"));
+        // Any other is only no longer followed (nothing to send).
+        let mut c = accel_at_two();
+        assert_eq!(c.cancel(6 * S), Ok(None));
+        assert_eq!(
+            phase(&c),
+            done(false, "accelerometer calibration: no longer followed")
+        );
+    }
+
+    /// A vehicle gone silent: no position request or MAG_CAL_PROGRESS for STALL_AFTER ends
+    /// the calibration as failed, with the reason.
+    #[test]
+    fn a_silent_vehicle_ends_it_after_the_stall_time() {
+        let mut c = accel_at_two();
+        assert_eq!(c.next_deadline(), Some(5 * S + STALL_AFTER));
+        // Asked every second: not stalled however long the operator takes.
+        for t in 6..40 {
+            feed(&mut c, t * S, &pos(2.0));
+        }
+        c.poll(39 * S + STALL_AFTER - 1, &mut Vec::new());
+        assert_eq!(phase(&c), Phase::Position(2));
+        let mut out = Vec::new();
+        c.poll(39 * S + STALL_AFTER, &mut out);
+        assert_eq!(
+            phase(&c),
+            done(
+                false,
+                "accelerometer calibration FAILED: no word from the vehicle for 15 s (no \
+                 position request): is it still there? start again"
+            )
+        );
+        assert_eq!(out.len(), 1);
+        // Placed, then nothing (its last word, position 2 asked, at 5 s): resent meanwhile,
+        // then given up.
+        let mut c = accel_at_two();
+        c.placed(6 * S).unwrap();
+        c.poll(6 * S + RESEND_AFTER, &mut Vec::new());
+        assert_eq!(c.requests().len(), 1, "the answer sent again");
+        c.poll(5 * S + STALL_AFTER - 1, &mut Vec::new());
+        assert!(c.running());
+        c.poll(5 * S + STALL_AFTER, &mut Vec::new());
+        assert!(!c.running());
+        // Compass.
+        let mut c = compass_running();
+        c.poll(S / 2 + STALL_AFTER, &mut Vec::new());
+        assert!(
+            matches!(&phase(&c), Phase::Done { ok: false, text }
+                if text.contains("no MAG_CAL_PROGRESS or REPORT")),
+            "{:?}",
+            phase(&c)
+        );
+        // Gyro, level, simple accel and baro are the ACK's alone: no stall.
+        let mut c = Calibration::new(KEY);
+        c.start(0, Kind::Gyro).unwrap();
+        c.poll(STALL_AFTER, &mut Vec::new());
+        assert!(c.running());
+    }
+
+    /// A reboot ends a calibration running, and is the one an accepted compass calibration
+    /// needed.
+    #[test]
+    fn a_reboot_ends_a_run_and_clears_the_reboot_needed() {
+        let mut c = compass_running();
+        let mut out = Vec::new();
+        c.on_reboot(2 * S, &mut out);
+        assert_eq!(
+            phase(&c),
+            done(false, "compass calibration FAILED: the vehicle rebooted")
+        );
+        let mut c = compass_running();
+        feed(&mut c, S, &report(0, MagCalStatus::MAG_CAL_SUCCESS));
+        c.accept(2 * S).unwrap();
+        feed(
+            &mut c,
+            2 * S,
+            &ack(
+                MavCmd::MAV_CMD_DO_ACCEPT_MAG_CAL,
+                MavResult::MAV_RESULT_ACCEPTED,
+            ),
+        );
+        let mut out = Vec::new();
+        c.on_reboot(9 * S, &mut out);
+        let run = c.run.as_ref().unwrap();
+        assert!(!run.reboot_needed);
+        assert_eq!(
+            run.phase,
+            done(
+                true,
+                "compass calibration: the vehicle rebooted, new offsets in use"
+            )
+        );
+        assert_eq!(out.len(), 1);
+        // Again: nothing more.
+        let mut out = Vec::new();
+        c.on_reboot(20 * S, &mut out);
+        assert!(out.is_empty());
+    }
+
+    /// `placing` tells what enter would send without taking it as sent.
+    #[test]
+    fn placing_changes_nothing() {
+        let mut c = accel_at_two();
+        let before = c.run.clone();
+        assert_eq!(c.placing(), Ok((42429, [2., 0., 0., 0., 0., 0., 0.])));
+        assert_eq!(c.run, before);
+        c.placed(6 * S).unwrap();
+        assert_eq!(phase(&c), Phase::Placed(2));
+        assert!(c.placing().unwrap_err().contains("being sampled"));
     }
 }

@@ -4,14 +4,19 @@
 //!   per reason, aged. ArduPilot runs its pre-arm checks once a second and, while disarmed and
 //!   failing, states each failure as `PreArm: …` every 30 s (`AP_Arming::update`,
 //!   `PREARM_DISPLAY_PERIOD`); a refused arm states them as `Arm: …`; MAV_CMD_RUN_PREARM_CHECKS
-//!   (401) makes it state them at once, before its ACK (`handle_command_run_prearm_checks`). A
-//!   reason not repeated within [`KEEP`] is dropped; after an accepted RUN_PREARM_CHECKS, the
-//!   reasons the vehicle did not state again before its ACK are dropped at once. They are all
-//!   dropped when the vehicle arms or its SYS_STATUS says the pre-arm checks pass. PX4 states
-//!   its failed checks as `Preflight Fail: …` (and a refused arm as `Arming denied…`): the same
-//!   list holds them.
-//! - The names of SYS_STATUS's sensor bits ([`sensor_name`]): a bit newer than our table is
-//!   named by the dialect, and one newer than the dialect by its number.
+//!   (401) makes it state them at once: its handler queues the texts and returns, so the ACK
+//!   leaves first and the texts follow it (`handle_command_run_prearm_checks`). A reason not
+//!   repeated within [`KEEP`] is dropped; after an accepted RUN_PREARM_CHECKS, the reasons the
+//!   vehicle did not state again by [`SETTLE`] after its ACK are dropped. An ask whose ACK never
+//!   comes stops waiting after [`ASK_TIMEOUT`]. They are all dropped when the vehicle arms or
+//!   its SYS_STATUS says the pre-arm checks pass. PX4 states its failed checks as
+//!   `Preflight Fail: …` (and a refused arm as `Arming denied…`): the same list holds them, but
+//!   PX4 does not repeat them on ArduPilot's cadence, so for a vehicle whose profile has no
+//!   repeat period ([`PrearmReasons::with_period`]) a reason stays until one of those clears it.
+//! - The names of SYS_STATUS's sensor bits ([`sensor_name`]): the main bits by our short names;
+//!   the extended ones (`onboard_control_sensors_*_extended`) by the dialect's
+//!   MAV_SYS_STATUS_SENSOR_EXTENDED (`recovery`, `leak`, `gyro 3`, …), and a bit newer than the
+//!   dialect by its number.
 //! - ArduPilot's thresholds: the EKF variances against `FS_EKF_THRESH` (default 0.8, as
 //!   `Copter::ekf_over_threshold` counts them), and the vibration levels of ArduPilot's guide
 //!   (below 30 m/s² fine, above 60 m/s² a problem).
@@ -31,6 +36,9 @@ pub const PREARM_PERIOD: Micros = 30 * SECOND;
 pub const KEEP: Micros = 2 * PREARM_PERIOD + 5 * SECOND;
 /// How long after RUN_PREARM_CHECKS's ACK its texts may still come.
 pub const SETTLE: Micros = SECOND;
+/// An ask (RUN_PREARM_CHECKS, sent once: it is not resent) with no ACK by then is given up:
+/// the command queue's longest wait for an ACK and a margin.
+pub const ASK_TIMEOUT: Micros = crate::proto::commands::MAX_TIMEOUT + SECOND;
 /// Reasons kept at most (a vehicle stating more is counted, not stored).
 pub const MAX_REASONS: usize = 32;
 /// What starts a pre-arm or arm failure: ArduPilot's, then PX4's.
@@ -80,13 +88,17 @@ pub fn reason_of(text: &str) -> Option<(&str, &str)> {
 }
 
 /// The reasons one vehicle gives now for not arming.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct PrearmReasons {
     reasons: VecDeque<Reason>,
-    /// When RUN_PREARM_CHECKS was last sent, until its ACK.
+    /// How often the vehicle repeats them on its own (ArduPilot's 30 s), if it does.
+    period: Option<Micros>,
+    /// When RUN_PREARM_CHECKS was last sent, until its ACK (or [`ASK_TIMEOUT`]).
     asked: Option<Micros>,
     /// When the vehicle last answered one (accepted).
     pub answered: Option<Micros>,
+    /// When the last ask was given up: no ACK within [`ASK_TIMEOUT`].
+    pub unanswered: Option<Micros>,
     /// Reasons not stored: the list was full.
     pub overflow: u64,
     /// The pre-arm checks pass by SYS_STATUS (when the vehicle reports the bit).
@@ -95,7 +107,40 @@ pub struct PrearmReasons {
     drop_at: Option<(Micros, Micros)>,
 }
 
+/// ArduPilot's: repeated every [`PREARM_PERIOD`].
+impl Default for PrearmReasons {
+    fn default() -> Self {
+        Self::with_period(Some(PREARM_PERIOD))
+    }
+}
+
 impl PrearmReasons {
+    /// For a vehicle that repeats its reasons every `period` (its profile's
+    /// `prearm_period`), or never (`None`: they are kept until cleared).
+    pub fn with_period(period: Option<Micros>) -> Self {
+        Self {
+            reasons: VecDeque::new(),
+            period,
+            asked: None,
+            answered: None,
+            unanswered: None,
+            overflow: 0,
+            passing: None,
+            drop_at: None,
+        }
+    }
+
+    /// How often the vehicle repeats its reasons on its own, if it does.
+    pub fn period(&self) -> Option<Micros> {
+        self.period
+    }
+
+    /// How long a reason not stated again is kept: two periods and a margin ([`KEEP`] for
+    /// ArduPilot), so one lost repetition does not drop it; `None` without a period.
+    pub fn keep(&self) -> Option<Micros> {
+        self.period.map(|p| 2 * p + 5 * SECOND)
+    }
+
     /// The reasons, oldest first.
     pub fn reasons(&self) -> impl Iterator<Item = &Reason> {
         self.reasons.iter()
@@ -137,6 +182,7 @@ impl PrearmReasons {
     /// RUN_PREARM_CHECKS is on its way.
     pub fn asked(&mut self, now: Micros) {
         self.asked = Some(now);
+        self.unanswered = None;
     }
 
     /// True while an ask is waiting for its answer.
@@ -159,7 +205,9 @@ impl PrearmReasons {
     }
 
     fn expire(&mut self, now: Micros) {
-        self.reasons.retain(|r| now.saturating_sub(r.last) < KEEP);
+        if let Some(keep) = self.keep() {
+            self.reasons.retain(|r| now.saturating_sub(r.last) < keep);
+        }
     }
 }
 
@@ -206,6 +254,14 @@ impl Machine for PrearmReasons {
     }
 
     fn poll(&mut self, now: Micros, _: &mut Vec<Out>) {
+        if self
+            .asked
+            .is_some_and(|t| now.saturating_sub(t) >= ASK_TIMEOUT)
+        {
+            // The ask or its ACK was lost: nothing more is coming of it.
+            self.asked = None;
+            self.unanswered = Some(now);
+        }
         if let Some((at, since)) = self.drop_at {
             if now >= at {
                 self.drop_at = None;
@@ -216,11 +272,17 @@ impl Machine for PrearmReasons {
     }
 
     fn next_deadline(&self) -> Option<Micros> {
-        let expiry = self.reasons.iter().map(|r| r.last + KEEP).min();
-        [expiry, self.drop_at.map(|d| d.0)]
-            .into_iter()
-            .flatten()
-            .min()
+        let expiry = self
+            .keep()
+            .and_then(|keep| self.reasons.iter().map(|r| r.last + keep).min());
+        [
+            expiry,
+            self.drop_at.map(|d| d.0),
+            self.asked.map(|t| t + ASK_TIMEOUT),
+        ]
+        .into_iter()
+        .flatten()
+        .min()
     }
 }
 
@@ -260,12 +322,43 @@ const SENSOR_NAMES: [&str; 32] = [
     "extended",
 ];
 
-/// The name of SYS_STATUS sensor bit `bit` (0..32), or of an extended one (`ext`).
+/// Our short names of the extended bits (MAV_SYS_STATUS_SENSOR_EXTENDED), lowest first.
+const EXT_SENSOR_NAMES: [(&str, &str); 6] = [
+    ("MAV_SYS_STATUS_RECOVERY_SYSTEM", "recovery"),
+    ("MAV_SYS_STATUS_SENSOR_LEAK", "leak"),
+    ("MAV_SYS_STATUS_SENSOR_3D_GYRO3", "gyro 3"),
+    ("MAV_SYS_STATUS_SENSOR_3D_ACCEL3", "accel 3"),
+    ("MAV_SYS_STATUS_SENSOR_3D_GYRO4", "gyro 4"),
+    ("MAV_SYS_STATUS_SENSOR_3D_ACCEL4", "accel 4"),
+];
+
+/// The dialect's name of extended sensor bit `bit`, if it has one.
+fn ext_dialect_name(bit: u32) -> Option<&'static str> {
+    use crate::dialect::MavSysStatusSensorExtended as Ext;
+    let flag = Ext::from_bits(1u32.checked_shl(bit)?)?;
+    Ext::all()
+        .iter_names()
+        .find(|(_, f)| *f == flag)
+        .map(|(n, _)| n)
+}
+
+/// The name of SYS_STATUS sensor bit `bit` (0..32), or of an extended one (`ext`): an extended
+/// bit by the dialect (our short name for those we know, else the dialect's own without its
+/// `MAV_SYS_STATUS_` prefix, in lower case), and one newer than the dialect by its number.
 pub fn sensor_name(bit: u32, ext: bool) -> String {
     if ext {
-        return match bit {
-            0 => "recovery".into(),
-            n => format!("ext bit {n}"),
+        return match ext_dialect_name(bit) {
+            Some(d) => EXT_SENSOR_NAMES
+                .iter()
+                .find(|(n, _)| *n == d)
+                .map(|(_, short)| (*short).to_string())
+                .unwrap_or_else(|| {
+                    let s = d.trim_start_matches("MAV_SYS_STATUS_");
+                    s.trim_start_matches("SENSOR_")
+                        .to_lowercase()
+                        .replace('_', " ")
+                }),
+            None => format!("ext bit {bit}"),
         };
     }
     match SENSOR_NAMES.get(bit as usize) {
@@ -437,6 +530,110 @@ mod tests {
         assert_eq!(p.next_deadline(), None);
     }
 
+    /// `msg` through our encoder and parser, to `p`.
+    fn feed(p: &mut PrearmReasons, now: Micros, msg: &crate::dialect::MavMessage) {
+        use crate::wire::{frame, FrameParser, Header, Version};
+        let h = Header {
+            sysid: 1,
+            compid: 1,
+            seq: 0,
+        };
+        let bytes = frame::encode(Version::V2, h, msg);
+        let f = FrameParser::new().parse_all(&bytes).remove(0);
+        let ack = crate::proto::ack::CommandAck::from_frame(&f);
+        let m = Incoming {
+            now,
+            from: (1, 1),
+            link: 0,
+            profile: Default::default(),
+            id: f.msgid,
+            payload: f.payload(),
+            msg: f.message.as_ref(),
+            ack: ack.as_ref(),
+        };
+        p.on_message(&m, &mut Vec::new());
+    }
+
+    fn prearm_ack(result: MavResult) -> crate::dialect::MavMessage {
+        crate::dialect::MavMessage::COMMAND_ACK(crate::dialect::COMMAND_ACK_DATA {
+            command: MavCmd::MAV_CMD_RUN_PREARM_CHECKS,
+            result,
+            ..Default::default()
+        })
+    }
+
+    #[test]
+    fn an_ask_whose_ack_is_lost_stops_waiting() {
+        let mut p = PrearmReasons::default();
+        p.asked(0);
+        assert!(p.asking());
+        assert_eq!(p.next_deadline(), Some(ASK_TIMEOUT));
+        p.poll(ASK_TIMEOUT - 1, &mut Vec::new());
+        assert!(p.asking());
+        p.poll(ASK_TIMEOUT, &mut Vec::new());
+        assert!(!p.asking(), "given up");
+        assert_eq!(p.unanswered, Some(ASK_TIMEOUT));
+        assert_eq!(p.next_deadline(), None);
+        // A late ACK changes nothing; a new ask waits again.
+        feed(
+            &mut p,
+            ASK_TIMEOUT + 1,
+            &prearm_ack(MavResult::MAV_RESULT_ACCEPTED),
+        );
+        assert_eq!(p.answered, None);
+        p.asked(20 * SECOND);
+        assert_eq!(p.unanswered, None);
+        feed(
+            &mut p,
+            21 * SECOND,
+            &prearm_ack(MavResult::MAV_RESULT_ACCEPTED),
+        );
+        assert!(!p.asking());
+        assert_eq!(p.answered, Some(21 * SECOND));
+    }
+
+    #[test]
+    fn without_a_repeat_period_reasons_stay_until_cleared() {
+        // PX4: no 30 s repeats, so no aging.
+        let mut p = PrearmReasons::with_period(None);
+        assert_eq!(p.keep(), None);
+        p.on_text(0, "Preflight Fail: Accel Sensor 0 missing");
+        p.on_text(0, "Preflight Fail: ekf2 missing data");
+        assert_eq!(p.next_deadline(), None);
+        p.poll(10 * KEEP, &mut Vec::new());
+        assert_eq!(p.len(), 2);
+        // An answered ask drops the reason not stated again after it.
+        p.asked(10 * KEEP);
+        feed(
+            &mut p,
+            10 * KEEP + SECOND,
+            &prearm_ack(MavResult::MAV_RESULT_ACCEPTED),
+        );
+        p.on_text(10 * KEEP + SECOND + 1, "Preflight Fail: ekf2 missing data");
+        p.poll(10 * KEEP + SECOND + SETTLE, &mut Vec::new());
+        assert_eq!(p.others(None), vec!["Preflight Fail: ekf2 missing data"]);
+        // SYS_STATUS's pre-arm check healthy clears them.
+        let healthy =
+            crate::dialect::MavMessage::SYS_STATUS(crate::dialect::SYS_STATUS_DATA {
+                onboard_control_sensors_present:
+                    crate::dialect::MavSysStatusSensor::from_bits_truncate(PREARM_CHECK),
+                onboard_control_sensors_enabled:
+                    crate::dialect::MavSysStatusSensor::from_bits_truncate(PREARM_CHECK),
+                onboard_control_sensors_health:
+                    crate::dialect::MavSysStatusSensor::from_bits_truncate(PREARM_CHECK),
+                ..Default::default()
+            });
+        feed(&mut p, 11 * KEEP, &healthy);
+        assert!(p.is_empty());
+        assert_eq!(p.passing, Some(true));
+        // ArduPilot's: aged out after KEEP.
+        let mut p = PrearmReasons::default();
+        assert_eq!(p.keep(), Some(KEEP));
+        p.on_text(0, "PreArm: Compass not calibrated");
+        p.poll(KEEP, &mut Vec::new());
+        assert!(p.is_empty());
+    }
+
     #[test]
     fn px4_texts_are_reasons_too() {
         assert_eq!(
@@ -478,17 +675,35 @@ mod tests {
             present: 0b1011 | PREARM_CHECK | 0x8000_0000,
             enabled: 0b1011 | PREARM_CHECK,
             health: 0b0011,
-            present_ext: 0b11,
-            enabled_ext: 0b01,
-            health_ext: 0b01,
+            // recovery, leak, and bit 9 (newer than the dialect).
+            present_ext: 0b10_0000_0011,
+            enabled_ext: 0b10_0000_0011,
+            health_ext: 0b00_0000_0001,
             ..Default::default()
         };
         let names: Vec<String> = sensors(&s).into_iter().map(|x| x.name).collect();
         assert_eq!(
             names,
-            vec!["gyro", "accel", "baro", "pre-arm", "recovery", "ext bit 1"]
+            vec![
+                "gyro",
+                "accel",
+                "baro",
+                "pre-arm",
+                "recovery",
+                "leak",
+                "ext bit 9"
+            ]
         );
-        assert_eq!(unhealthy(&s), vec!["baro", "pre-arm"]);
+        assert_eq!(unhealthy(&s), vec!["baro", "pre-arm", "leak", "ext bit 9"]);
+        // Every extended bit the dialect names (MAV_SYS_STATUS_SENSOR_EXTENDED), by name.
+        let ext: Vec<String> = (0..6).map(|b| sensor_name(b, true)).collect();
+        assert_eq!(
+            ext,
+            vec!["recovery", "leak", "gyro 3", "accel 3", "gyro 4", "accel 4"]
+        );
+        assert_eq!(sensor_name(6, true), "ext bit 6");
+        assert_eq!(sensor_name(31, true), "ext bit 31");
+        assert_eq!(sensor_name(40, true), "ext bit 40");
         assert_eq!(sensor_name(40, false), "bit 40");
         assert_eq!(ekf_flag_names(0x8001), vec!["att", "gps-glitch"]);
     }

@@ -141,6 +141,23 @@ pub trait Profile: Sync + std::fmt::Debug {
     fn component_metadata(&self) -> bool {
         false
     }
+
+    /// Whether the vehicle runs ArduPilot's calibration protocols: the six-position
+    /// accelerometer calibration driven by MAV_CMD_ACCELCAL_VEHICLE_POS (`AP_AccelCal`), the
+    /// onboard compass calibration (DO_START_MAG_CAL, MAG_CAL_PROGRESS / REPORT, DO_ACCEPT /
+    /// DO_CANCEL_MAG_CAL) and FIXED_MAG_CAL_YAW. Elsewhere they are refused before anything is
+    /// sent (PX4 drives its own accelerometer and compass calibrations by STATUSTEXT).
+    fn ardupilot_calibrations(&self) -> bool {
+        false
+    }
+
+    /// How often the vehicle states its failing pre-arm checks on its own while disarmed, if
+    /// it does: a reason not stated again within two periods is dropped. `None`: a reason
+    /// stays until the vehicle arms, its SYS_STATUS says the checks pass, or an answered
+    /// RUN_PREARM_CHECKS leaves it out.
+    fn prearm_period(&self) -> Option<crate::clock::Micros> {
+        None
+    }
 }
 
 fn custom_base() -> f64 {
@@ -227,6 +244,13 @@ impl Profile for ArduPilot {
     }
     fn param_file(&self) -> Option<&'static str> {
         Some(ARDUPILOT_PARAM_FILE)
+    }
+    fn ardupilot_calibrations(&self) -> bool {
+        true
+    }
+    /// `AP_Arming::update`: every 30 s (PREARM_DISPLAY_PERIOD) while disarmed and failing.
+    fn prearm_period(&self) -> Option<crate::clock::Micros> {
+        Some(crate::proto::health::PREARM_PERIOD)
     }
 }
 
@@ -379,5 +403,16 @@ mod tests {
         assert_eq!((p[0], p[1], p[2]), (1.0, 4.0, 4.0));
         let p = of(MAV_AUTOPILOT_ARDUPILOTMEGA).set_mode_params(4);
         assert_eq!((p[0], p[1], p[2]), (1.0, 4.0, 0.0));
+    }
+
+    #[test]
+    fn ardupilot_calibrations_and_prearm_repeats_are_ardupilots_alone() {
+        let ap = of(MAV_AUTOPILOT_ARDUPILOTMEGA);
+        assert!(ap.ardupilot_calibrations());
+        assert_eq!(ap.prearm_period(), Some(30 * crate::clock::SECOND));
+        for a in [MAV_AUTOPILOT_PX4, MAV_AUTOPILOT_GENERIC] {
+            assert!(!of(a).ardupilot_calibrations(), "{a:?}");
+            assert_eq!(of(a).prearm_period(), None, "{a:?}");
+        }
     }
 }

@@ -10,10 +10,12 @@
 //!   `uncal=1`; then its SYS_STATUS reports the pre-arm bit (present, enabled, healthy when
 //!   passing).
 //! - Accelerometer, six positions (`AP_AccelCal::update`): after the gyro calibration of
-//!   PREFLIGHT_CALIBRATION param5 = 1, each position is announced once (`Place vehicle level and
-//!   press any key.`, CRITICAL) and asked with COMMAND_LONG MAV_CMD_ACCELCAL_VEHICLE_POS
-//!   (param1 = the position) to the GCS every second; the GCS's ACCELCAL_VEHICLE_POS with the
-//!   position asked is ACCEPTED and the vehicle samples ([`SAMPLE_TIME`]), any other FAILED.
+//!   PREFLIGHT_CALIBRATION param5 = 1, each position is asked with COMMAND_LONG
+//!   MAV_CMD_ACCELCAL_VEHICLE_POS (param1 = the position) to the GCS every second, and announced
+//!   once (`Place vehicle level and press any key.`, CRITICAL) until the GCS first answers with
+//!   ACCELCAL_VEHICLE_POS (`gcs_vehicle_position` clears `_use_gcs_snoop`: from then on the
+//!   command alone asks); the GCS's ACCELCAL_VEHICLE_POS with the position asked is ACCEPTED
+//!   and the vehicle samples ([`SAMPLE_TIME`], asking nothing meanwhile), any other FAILED.
 //!   After the sixth: `Calibration successful` and ACCELCAL_VEHICLE_POS_SUCCESS, repeated every
 //!   second from then on (as ArduPilot keeps reporting its last result).
 //! - Compass (`AP_Compass_Calibration.cpp`): DO_START_MAG_CAL (FAILED while armed, with
@@ -58,6 +60,9 @@ pub struct AccelRun {
     /// Sampling until then.
     pub sampling: Option<Micros>,
     pub last_request: Option<Micros>,
+    /// `_use_gcs_snoop`: the positions are announced in texts too, until the GCS first
+    /// answers with ACCELCAL_VEHICLE_POS.
+    pub snoop: bool,
 }
 
 /// One compass calibrating.
@@ -187,6 +192,7 @@ impl SimVehicle {
             step: 0,
             sampling: None,
             last_request: None,
+            snoop: true,
         });
         self.cal.accel_last = None;
     }
@@ -209,6 +215,8 @@ impl SimVehicle {
                 let Some(run) = self.cal.accel.as_mut() else {
                     return MAV_RESULT_FAILED;
                 };
+                // The GCS answers by command: no more texts asking.
+                run.snoop = false;
                 if run.sampling.is_none() && run.step >= 1 && p[0] == run.step as f32 {
                     run.sampling = Some(self.now + SAMPLE_TIME);
                     MAV_RESULT_ACCEPTED
@@ -336,7 +344,8 @@ impl SimVehicle {
         };
         run.sampling = None;
         if step != run.step {
-            // WAITING_FOR_ORIENTATION on a new step: announced once.
+            // WAITING_FOR_ORIENTATION on a new step: announced once, while the GCS has not
+            // answered by command.
             run.step = step;
             let words = match step {
                 1 => "level",
@@ -346,10 +355,12 @@ impl SimVehicle {
                 5 => "nose UP",
                 _ => "on its BACK",
             };
-            self.text(
-                MavSeverity::MAV_SEVERITY_CRITICAL,
-                &format!("Place vehicle {words} and press any key."),
-            );
+            if run.snoop {
+                self.text(
+                    MavSeverity::MAV_SEVERITY_CRITICAL,
+                    &format!("Place vehicle {words} and press any key."),
+                );
+            }
         }
         if run
             .last_request
@@ -640,8 +651,10 @@ mod tests {
             let got = g.since(from);
             assert_eq!(got[0], "ack 42429 0", "{n}: {got:?}");
             if n < 6 {
+                // The GCS answered by command (the FAILED one above): the vehicle no longer
+                // says where to put it, it only asks.
                 assert!(
-                    got.iter().any(|t| t.starts_with("Place vehicle")),
+                    !got.iter().any(|t| t.starts_with("Place vehicle")),
                     "{got:?}"
                 );
                 assert!(got.contains(&format!("pos {} to 0:0", n + 1)), "{got:?}");

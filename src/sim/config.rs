@@ -81,6 +81,11 @@ pub const OPTIONS: &[(&str, &str, &str)] = &[
         "512:2,400:1",
         "ignore the first N copies of command ID (ID:N,...): tests resends",
     ),
+    (
+        "drop_ack",
+        "42429:1",
+        "lose the ACKs of the first N copies of command ID (it still acts)",
+    ),
     ("ftp", "0", "a firmware without MAVFTP"),
     (
         "mission_boot_ms",
@@ -194,6 +199,10 @@ pub struct SimConfig {
     /// COMMAND_LONG / COMMAND_INT it receives with command id ID, as if they were lost on the
     /// way, so a GCS's resends can be tested deterministically.
     pub drop_cmd: BTreeMap<u16, u32>,
+    /// `drop_ack=ID:N,...`: each vehicle carries out the first N COMMAND_LONG / COMMAND_INT
+    /// with command id ID but their COMMAND_ACKs are lost on the way back, so a GCS's handling
+    /// of a lost answer can be tested deterministically.
+    pub drop_ack: BTreeMap<u16, u32>,
     /// `ftp=0`: a firmware built without MAVFTP (`AP_MAVLINK_FTP_ENABLED` 0): FILE_TRANSFER_PROTOCOL
     /// goes unanswered and AUTOPILOT_VERSION does not announce MAV_PROTOCOL_CAPABILITY_FTP.
     pub ftp: bool,
@@ -244,6 +253,7 @@ impl Default for SimConfig {
             state: None,
             impair_in: false,
             drop_cmd: BTreeMap::new(),
+            drop_ack: BTreeMap::new(),
             ftp: true,
             mission_boot_ms: 0,
             camera: false,
@@ -278,8 +288,8 @@ fn prob(key: &str, value: &str) -> Result<f64, SimError> {
     Ok(p)
 }
 
-/// `drop_cmd=ID:N[,ID:N...]`: command id (0..=65535) and how many of its first copies to drop
-/// (1 or more); each id at most once.
+/// `drop_cmd=ID:N[,ID:N...]` (and `drop_ack`): command id (0..=65535) and how many of its
+/// first copies (or their ACKs) to drop (1 or more); each id at most once.
 fn drop_list(key: &str, value: &str) -> Result<BTreeMap<u16, u32>, SimError> {
     const SYNTAX: &str = "expected COMMAND_ID:COUNT[,COMMAND_ID:COUNT...], e.g. 512:2,400:1";
     let mut map = BTreeMap::new();
@@ -390,6 +400,7 @@ impl SimConfig {
                     c.state = Some(PathBuf::from(value));
                 }
                 "drop_cmd" => c.drop_cmd = drop_list(key, value)?,
+                "drop_ack" => c.drop_ack = drop_list(key, value)?,
                 "impair_in" => c.impair_in = flag(key, value)?,
                 "ftp" => c.ftp = flag(key, value)?,
                 "mission_boot_ms" => {
@@ -519,8 +530,9 @@ mod tests {
 
     #[test]
     fn drop_cmd_parses_ids_and_counts() {
-        let c = SimConfig::from_query("drop_cmd=512:2,400:1").unwrap();
+        let c = SimConfig::from_query("drop_cmd=512:2,400:1&drop_ack=42429:1").unwrap();
         assert_eq!(c.drop_cmd, BTreeMap::from([(512, 2), (400, 1)]));
+        assert_eq!(c.drop_ack, BTreeMap::from([(42429, 1)]));
         assert!(SimConfig::default().drop_cmd.is_empty());
         let e = SimConfig::from_query("drop_cmd=512")
             .unwrap_err()

@@ -7,7 +7,7 @@
 
 use super::mavftp::Request as FtpRequest;
 use super::streams::{self, id, DEFAULT_INTERVAL};
-use super::telemetry::{command_ack, param_value_notify, raw_command_ack};
+use super::telemetry::{param_value_notify, raw_command_ack};
 use super::vehicle::{
     mode, AirspeedCal, Blocked, Inbound, LastCommand, SimVehicle, ACCEL_CAL_TIME, GYRO_CAL_TIME,
 };
@@ -261,7 +261,7 @@ impl SimVehicle {
                 {
                     // A retransmission: our ACK was lost. Acknowledge again, do not repeat.
                     let result = last.result;
-                    self.push(command_ack(cmd.command, result, cmd.from));
+                    self.ack(cmd.command, result, cmd.from);
                     return;
                 }
             }
@@ -278,7 +278,7 @@ impl SimVehicle {
             // A synchronous calibration: the ACK comes when it is over.
             Some(b) => b.then.extend(then),
             None => {
-                self.push(command_ack(cmd.command, result, cmd.from));
+                self.ack(cmd.command, result, cmd.from);
                 self.out.extend(then);
             }
         }

@@ -144,6 +144,7 @@ impl Sim {
             }
             let mut v = SimVehicle::new(sysid, i, cfg.seed, params, path);
             v.drop_left = cfg.drop_cmd.clone();
+            v.drop_acks = cfg.drop_ack.clone();
             v.set_link(cfg.baud, cfg.ftp);
             v.logs = logs::SimLogs::new(cfg.logs, cfg.log_size);
             v.mission.ready_at = cfg.mission_boot_ms.saturating_mul(1000);

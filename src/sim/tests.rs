@@ -2012,6 +2012,26 @@ fn drop_cmd_drops_the_first_copies() {
     assert_eq!(g.v().commands_dropped(), 3);
 }
 
+/// drop_ack=ID:N: the first N copies of a command are carried out but their ACKs are lost;
+/// later ones are answered.
+#[test]
+fn drop_ack_loses_the_first_answers() {
+    let mut g = Gcs::new("drop_ack=400:1");
+    g.run_until(vehicle::EKF_GPS_AT + 100_000);
+    assert_eq!(g.set_mode(mode::GUIDED), MAV_RESULT_ACCEPTED, "not listed");
+    let arm = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+    let n = g.frames.len();
+    g.send_long(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, arm, 0);
+    g.run_for(1_500_000);
+    assert!(g.raw_acks_since(n).is_empty(), "its ACK lost");
+    assert!(g.v().armed(), "but it armed");
+    assert_eq!(
+        g.command(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, [0.0; 7], 0),
+        MAV_RESULT_ACCEPTED
+    );
+    assert!(!g.v().armed());
+}
+
 /// MAV_CMD_PREFLIGHT_CALIBRATION gyro (param1=1) and simple accel (param5=4): ArduPilot runs them
 /// synchronously in its main loop, so the vehicle goes silent, then sends one COMMAND_ACK
 /// ACCEPTED (no IN_PROGRESS); what arrived meanwhile is answered after it. Armed: FAILED with

@@ -309,6 +309,8 @@ pub struct SimVehicle {
     /// `drop_cmd`: copies of each command id still to drop.
     pub(super) drop_left: BTreeMap<u16, u32>,
     pub(super) commands_dropped: u64,
+    /// `drop_ack`: ACKs of each command id still to lose.
+    pub(super) drop_acks: BTreeMap<u16, u32>,
     /// Metres north/east of home, metres above home (up), velocities m/s (north, east, up).
     pub(super) north: f64,
     pub(super) east: f64,
@@ -411,6 +413,7 @@ impl SimVehicle {
             airspeed_cal: None,
             drop_left: BTreeMap::new(),
             commands_dropped: 0,
+            drop_acks: BTreeMap::new(),
             north: 0.0,
             east: 0.0,
             alt: 0.0,
@@ -547,6 +550,19 @@ impl SimVehicle {
         }
     }
 
+    /// The COMMAND_ACK of `command` to `to`, unless `drop_ack` loses it.
+    pub(super) fn ack(&mut self, command: MavCmd, result: MavResult, to: (u8, u8)) {
+        if let Some(n) = self
+            .drop_acks
+            .get_mut(&(command as u16))
+            .filter(|n| **n > 0)
+        {
+            *n -= 1;
+            return;
+        }
+        self.push(super::telemetry::command_ack(command, result, to));
+    }
+
     /// HOME_POSITION and GPS_GLOBAL_ORIGIN, as ArduPilot sends them whenever home is set
     /// (`AP_AHRS::set_home`).
     pub(super) fn announce_home(&mut self) {
@@ -579,7 +595,7 @@ impl SimVehicle {
             let b = self.blocked.take().expect("checked");
             self.now = now;
             let (command, result, to) = b.ack;
-            self.push(super::telemetry::command_ack(command, result, to));
+            self.ack(command, result, to);
             self.out.extend(b.then);
             while self.blocked.is_none() {
                 let Some((from, msg)) = self.queued_in.pop_front() else {

@@ -18,7 +18,10 @@
 //! A value older than [`STALE_AFTER`] is dimmed and ends in `?`; one never heard shows `--`
 //! (EKF and PRE, which not every autopilot reports, are left out until they are).
 //! Items are whole or absent: a line too narrow drops its last items, never cuts a number.
-//! With no target, or nothing heard yet, the pane is its title line alone.
+//! With no target, or nothing heard yet, the pane is its title line alone. The title row also
+//! carries the Health screen's summary when something there needs a look (pre-arm reasons,
+//! unhealthy sensors, the EKF over its threshold, a calibration running or a reboot it needs),
+//! in the room the rule leaves: `─ Flight 1:1 ─ 2 pre-arm reasons, mag unhealthy (screen 8) ─`.
 
 use ratatui::layout::Rect;
 use ratatui::style::Style;
@@ -83,11 +86,23 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     }
     let width = area.width as usize;
     let title = format!("─ {} ", ellipsize(&title(app), width.saturating_sub(3)));
-    let rule = "─".repeat(width.saturating_sub(title.chars().count()));
-    let head = Line::from(vec![
-        Span::styled(title, theme.border()),
-        Span::styled(rule, theme.border()),
-    ]);
+    let mut used = title.chars().count();
+    let mut spans = vec![Span::styled(title, theme.border())];
+    // The Health screen's concerns, in the room the rule leaves (whole words or ellipsized,
+    // never pushing a row off).
+    let concerns = health_summary(app);
+    let room = width.saturating_sub(used + 2);
+    if !concerns.is_empty() && room >= MIN_HEALTH {
+        let text = format!("{} ", ellipsize(&concerns, room - 1));
+        used += 2 + text.chars().count();
+        spans.push(Span::styled("─ ", theme.border()));
+        spans.push(Span::styled(text, theme.alert()));
+    }
+    spans.push(Span::styled(
+        "─".repeat(width.saturating_sub(used)),
+        theme.border(),
+    ));
+    let head = Line::from(spans);
     frame.render_widget(Paragraph::new(head), Rect { height: 1, ..area });
     let lines = lines(app, width, theme);
     for (i, line) in lines.into_iter().enumerate() {
@@ -101,6 +116,27 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             ..area
         };
         frame.render_widget(Paragraph::new(line), row);
+    }
+}
+
+/// Columns the health summary needs on the title row to be shown at all.
+const MIN_HEALTH: usize = 16;
+
+/// The Health screen's summary of the target when something needs a look (`2 pre-arm
+/// reasons, baro unhealthy (screen 8)`), else empty: [`super::health::concerns`].
+pub fn health_summary(app: &App) -> String {
+    let Some((key, s)) = app
+        .target
+        .and_then(|k| app.sessions.get(&k).map(|s| (k, s)))
+    else {
+        return String::new();
+    };
+    let armed = app.vehicles.get(key).is_some_and(|v| v.armed());
+    let parts = super::health::concerns(app, s, armed);
+    if parts.is_empty() {
+        String::new()
+    } else {
+        format!("{} (screen 8)", parts.join(", "))
     }
 }
 

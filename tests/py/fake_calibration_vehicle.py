@@ -5,14 +5,18 @@ Over UDP to mavterm (`--port P`, mavterm listening there), as 1:1 (ArduCopter qu
 disarmed), it plays ArduPilot's own sequences (GCS_Common.cpp, AP_AccelCal.cpp,
 AP_Compass_Calibration.cpp): the ACK as the handler returns, its texts after it.
 
-- PREFLIGHT_CALIBRATION param5 = 1: ACCEPTED; then, per position, `Place vehicle ... and press
-  any key.` once and COMMAND_LONG MAV_CMD_ACCELCAL_VEHICLE_POS (param1 = position, to 0:0)
-  every second; the GCS's ACCELCAL_VEHICLE_POS with the position asked: ACCEPTED (sampled 0.3 s
-  later, then the next position), any other: FAILED. After the sixth: `Calibration successful`
-  and ACCELCAL_VEHICLE_POS_SUCCESS (16777215) every second.
+- PREFLIGHT_CALIBRATION param5 = 1: ACCEPTED; then, per position, COMMAND_LONG
+  MAV_CMD_ACCELCAL_VEHICLE_POS (param1 = position, to 0:0) every second, and `Place vehicle ...
+  and press any key.` once until the GCS first answers with ACCELCAL_VEHICLE_POS
+  (AP_AccelCal::gcs_vehicle_position clears _use_gcs_snoop); the GCS's ACCELCAL_VEHICLE_POS
+  with the position asked: ACCEPTED (sampled 0.3 s later, then the next position), any other:
+  FAILED. After the sixth: `Calibration successful` and ACCELCAL_VEHICLE_POS_SUCCESS
+  (16777215) every second.
 - DO_START_MAG_CAL: ACCEPTED; MAG_CAL_PROGRESS of compass 0 (4 Hz) to 100 % in 3 s; then
   MAG_CAL_REPORT (2 Hz) until DO_ACCEPT_MAG_CAL (ACCEPTED if successful, else FAILED) or
-  DO_CANCEL_MAG_CAL (ACCEPTED).
+  DO_CANCEL_MAG_CAL (ACCEPTED; the calibration stops, nothing more is sent of it).
+- PREFLIGHT_REBOOT_SHUTDOWN param1 = 1: ACCEPTED, then silent for 1.5 s, then up again with its
+  boot time from 0 (SYSTEM_TIME, sent every second, goes back) and its calibrations forgotten.
 
 Every COMMAND_LONG received is written to --log-out (JSON: [command, p1..p7, confirmation]).
 
@@ -52,6 +56,8 @@ accel = None  # {"step": n, "sampling_until": t or None, "last_req": t}
 accel_done = None  # time of the last SUCCESS report
 mag = None  # {"start": t, "accepted": bool}
 later = []  # (time, fn): texts queued by a handler, sent after its ACK
+boot = start  # SYSTEM_TIME's time_boot_ms counts from here
+down_until = 0.0  # rebooting: nothing is sent before then
 
 
 def save():
@@ -74,7 +80,7 @@ def position(p):
 
 
 def handle(msg):
-    global accel, mag
+    global accel, accel_done, mag, boot, down_until
     p = [msg.param1, msg.param2, msg.param3, msg.param4, msg.param5, msg.param6, msg.param7]
     log.append([msg.command] + p + [msg.confirmation])
     save()
@@ -84,11 +90,13 @@ def handle(msg):
         if not args.lose_start_ack:
             ack(c, mav.MAV_RESULT_ACCEPTED, to)
         if accel is None:
-            accel = {"step": 0, "sampling_until": None, "last_req": 0.0}
+            accel = {"step": 0, "sampling_until": None, "last_req": 0.0, "snoop": True}
     elif c == mav.MAV_CMD_ACCELCAL_VEHICLE_POS:
         ok = (accel is not None and accel["sampling_until"] is None
               and accel["step"] >= 1 and int(p[0]) == accel["step"])
         ack(c, mav.MAV_RESULT_ACCEPTED if ok else mav.MAV_RESULT_FAILED, to)
+        if accel is not None:
+            accel["snoop"] = False  # answered by command: no more texts asking
         if ok:
             accel["sampling_until"] = time.time() + 0.3
     elif c == mav.MAV_CMD_DO_START_MAG_CAL:
@@ -107,6 +115,14 @@ def handle(msg):
     elif c == mav.MAV_CMD_DO_CANCEL_MAG_CAL:
         ack(c, mav.MAV_RESULT_ACCEPTED, to)
         mag = None
+    elif c == mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN and p[0] == 1:
+        ack(c, mav.MAV_RESULT_ACCEPTED, to)
+        # The ACK leaves, then the board resets: silent a moment, then up from boot time 0.
+        down_until = time.time() + 1.5
+        boot = down_until
+        accel = None
+        accel_done = None
+        mag = None
     else:
         ack(c, mav.MAV_RESULT_ACCEPTED, to)
 
@@ -123,8 +139,10 @@ def tick(now):
                 position(POS_SUCCESS)
                 return
             accel["step"] += 1
-            m.statustext_send(mav.MAV_SEVERITY_CRITICAL,
-                              ("Place vehicle %s and press any key." % WORDS[accel["step"]]).encode())
+            if accel["snoop"]:
+                m.statustext_send(
+                    mav.MAV_SEVERITY_CRITICAL,
+                    ("Place vehicle %s and press any key." % WORDS[accel["step"]]).encode())
         if accel["step"] == 0:
             accel["step"] = 1
             m.statustext_send(mav.MAV_SEVERITY_CRITICAL, b"Place vehicle level and press any key.")
@@ -141,10 +159,15 @@ last_hb = 0.0
 last_mag = 0.0
 while time.time() - start < args.duration:
     now = time.time()
+    if now < down_until:
+        # Rebooting: deaf and dumb.
+        conn.recv_match(blocking=True, timeout=0.02)
+        continue
     if now - last_hb >= 1.0:
         last_hb = now
         m.heartbeat_send(mav.MAV_TYPE_QUADROTOR, mav.MAV_AUTOPILOT_ARDUPILOTMEGA,
                          mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 0, mav.MAV_STATE_STANDBY)
+        m.system_time_send(int(now * 1e6), int((now - boot) * 1000) & 0xFFFFFFFF)
     for (t, fn) in [x for x in later if x[0] <= now]:
         fn()
     later = [x for x in later if x[0] > now]
