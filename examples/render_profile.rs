@@ -4,7 +4,6 @@
 //! leaves out building the scene).
 
 #[path = "../tests/ui_fixture/mod.rs"]
-#[allow(dead_code)]
 mod ui_fixture;
 
 use mavterm::ui::{self, Theme};
