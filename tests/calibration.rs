@@ -717,3 +717,30 @@ fn stand_in_compass_accepted_then_rebooted() {
         "{last}"
     );
 }
+
+/// Started from the prompt on another screen, the six-position calibration's line says what
+/// answers there (`:cal next`), and `:cal next` does: `enter` is "placed" on screen 8 only.
+#[test]
+fn accelerometer_placement_from_another_screen_says_cal_next() {
+    let mut r = runner("uncal=1");
+    start(&mut r, "accel");
+    let end = r.now() + 20 * SECOND;
+    while !matches!(run(&r).unwrap().phase, Phase::Position(_)) && r.now() < end {
+        wait(&mut r, 0.1);
+    }
+    assert_eq!(run(&r).unwrap().phase, Phase::Position(1));
+    let bar = common::screen(&r, 200, 60);
+    let bar = bar.lines().last().unwrap();
+    assert!(
+        bar.contains(
+            "accel cal 1/6: place the vehicle level (bottom down), then :cal next (or enter on screen 8)"
+        ),
+        "{bar}"
+    );
+    command(&mut r, "cal next");
+    let end = r.now() + 10 * SECOND;
+    while !matches!(run(&r).unwrap().phase, Phase::Position(2)) && r.now() < end {
+        wait(&mut r, 0.1);
+    }
+    assert_eq!(run(&r).unwrap().phase, Phase::Position(2));
+}

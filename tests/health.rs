@@ -311,3 +311,20 @@ fn on_px4_reasons_stay_and_ardupilot_calibrations_are_refused() {
     command(&mut r, "cal gyro");
     assert!(r.app.ui.confirm.is_some(), "the gyros are PX4's too");
 }
+
+/// The EKF failsafe is judged against the vehicle's own `FS_EKF_THRESH` once its parameters are
+/// in (ArduCopter's `ekf_over_threshold`): the sim's variances (velocity 0.02, position 0.01,
+/// compass 0.02) are within the default 0.8, and over a threshold of 0.015 for compass and
+/// velocity, two of three.
+#[test]
+fn the_ekf_failsafe_uses_the_vehicles_threshold() {
+    let mut r = runner("", 8.0);
+    common::keys(&mut r, &["8"]);
+    let s = common::screen(&r, 200, 60);
+    assert!(s.contains("FS_EKF_THRESH 0.8: within"), "{s}");
+    common::command(&mut r, "param set FS_EKF_THRESH 0.015");
+    common::wait(&mut r, 2.0);
+    let s = common::screen(&r, 200, 60);
+    assert!(s.contains("FS_EKF_THRESH 0.015: OVER"), "{s}");
+    assert!(s.contains("EKF variance"), "{s}");
+}

@@ -266,7 +266,11 @@ impl App {
         if run.phase == Phase::Starting {
             return;
         }
-        let text = run.status_line();
+        // `enter` says "placed" on the Health screen; elsewhere it has other work.
+        let mut text = run.status_line();
+        if self.ui.screen != "health" {
+            text = text.replace(", then enter", ", then :cal next (or enter on screen 8)");
+        }
         let (sev, last) = match &run.phase {
             Phase::Done { ok: true, .. } => (Severity::INFO, true),
             Phase::Done { ok: false, .. } => (Severity::WARNING, true),

@@ -340,7 +340,7 @@ pub fn concerns(app: &App, s: &Session, armed: bool) -> Vec<String> {
         }
     }
     if let Some(v) = s.flight.ekf_variances.filter(|x| !x.is_stale(now)) {
-        if ekf_over_threshold(&v.value, EKF_THRESH) {
+        if ekf_over_threshold(&v.value, ekf_thresh(s)) {
             parts.push("EKF variance".into());
         }
     }
@@ -430,6 +430,16 @@ fn sensor_lines(app: &App, s: &Session, theme: &Theme, lines: &mut Vec<Line<'sta
     lines.push(Line::from(spans));
 }
 
+/// The vehicle's `FS_EKF_THRESH` once its parameters hold it (0 turns ArduCopter's EKF
+/// failsafe off), else ArduCopter's default.
+fn ekf_thresh(s: &Session) -> f32 {
+    s.params
+        .sets
+        .get(&s.key.1)
+        .and_then(|set| set.get("FS_EKF_THRESH"))
+        .map_or(EKF_THRESH, |p| p.value as f32)
+}
+
 fn ekf_lines(app: &App, s: &Session, theme: &Theme, lines: &mut Vec<Line<'static>>) {
     let now = app.now;
     let (Some(flags), Some(v)) = (s.flight.ekf, s.flight.ekf_variances) else {
@@ -473,10 +483,11 @@ fn ekf_lines(app: &App, s: &Session, theme: &Theme, lines: &mut Vec<Line<'static
         ));
         spans.push(Span::raw("  "));
     }
-    let over = ekf_over_threshold(&var, EKF_THRESH);
+    let thresh = ekf_thresh(s);
+    let over = ekf_over_threshold(&var, thresh);
     spans.push(Span::styled(
         format!(
-            "FS_EKF_THRESH {EKF_THRESH}: {}",
+            "FS_EKF_THRESH {thresh}: {}",
             if over { "OVER" } else { "within" }
         ),
         if over { theme.alert() } else { theme.dim() },
@@ -622,7 +633,7 @@ fn failsafes(
         }
     }
     if let Some(v) = s.flight.ekf_variances.filter(|x| !x.is_stale(now)) {
-        if ekf_over_threshold(&v.value, EKF_THRESH) {
+        if ekf_over_threshold(&v.value, ekf_thresh(s)) {
             fs.push("EKF variance".into());
         }
     }
