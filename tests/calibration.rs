@@ -62,6 +62,15 @@ fn until_done(r: &mut VirtualRunner, limit: f64) {
     }
 }
 
+/// Steps of `step` s until the calibration is at `want` (at most `limit` s), and it is.
+fn until_phase(r: &mut VirtualRunner, want: Phase, limit: u64, step: f64) {
+    let end = r.now() + limit * SECOND;
+    while run(r).unwrap().phase != want && r.now() < end {
+        wait(r, step);
+    }
+    assert_eq!(run(r).unwrap().phase, want);
+}
+
 /// The COMMAND_LONGs sent with this command id, as pymavlink reads them.
 fn sent(frames: &[Vec<u8>], command: u32) -> Vec<serde_json::Value> {
     let longs: Vec<Vec<u8>> = frames
@@ -203,11 +212,7 @@ fn a_lost_start_of_accel_or_compass_is_sent_again() {
     let mut r = runner("uncal=1&drop_cmd=42424:1");
     keys(&mut r, &["8"]);
     start(&mut r, "compass");
-    let end = r.now() + 40 * SECOND;
-    while run(&r).unwrap().phase != Phase::Accept && r.now() < end {
-        wait(&mut r, 0.2);
-    }
-    assert_eq!(run(&r).unwrap().phase, Phase::Accept);
+    until_phase(&mut r, Phase::Accept, 40, 0.2);
     command(&mut r, "cal accept");
     until_done(&mut r, 30.0);
     assert!(run(&r).unwrap().reboot_needed);
@@ -225,16 +230,9 @@ fn a_lost_position_ack_does_not_hold_the_next_position_back() {
     let mut r = runner("uncal=1&drop_ack=42429:1&latency_ms=300");
     keys(&mut r, &["8"]);
     start(&mut r, "accel");
-    let step = |r: &mut VirtualRunner, want: Phase| {
-        let end = r.now() + 20 * SECOND;
-        while run(r).unwrap().phase != want && r.now() < end {
-            wait(r, 0.05);
-        }
-        assert_eq!(run(r).unwrap().phase, want);
-    };
-    step(&mut r, Phase::Position(1));
+    until_phase(&mut r, Phase::Position(1), 20, 0.05);
     keys(&mut r, &["enter"]);
-    step(&mut r, Phase::Position(2));
+    until_phase(&mut r, Phase::Position(2), 20, 0.05);
     assert!(
         r.app.sessions[&KEY].commands.is_open(KEY, 42429),
         "the answer to position 1 still waits for its ACK"
@@ -270,11 +268,7 @@ fn a_compass_calibration_cancelled() {
     let mut r = runner("uncal=1");
     keys(&mut r, &["8"]);
     start(&mut r, "compass");
-    let end = r.now() + 10 * SECOND;
-    while run(&r).unwrap().phase != Phase::Running && r.now() < end {
-        wait(&mut r, 0.2);
-    }
-    assert_eq!(run(&r).unwrap().phase, Phase::Running);
+    until_phase(&mut r, Phase::Running, 10, 0.2);
     keys(&mut r, &["x"]);
     wait(&mut r, 2.0);
     assert_eq!(
@@ -355,11 +349,7 @@ fn a_calibration_whose_vehicle_goes_silent_ends_as_failed() {
     let (mut r, silence) = silenceable("uncal=1");
     keys(&mut r, &["8"]);
     start(&mut r, "accel");
-    let end = r.now() + 20 * SECOND;
-    while run(&r).unwrap().phase != Phase::Position(1) && r.now() < end {
-        wait(&mut r, 0.1);
-    }
-    assert_eq!(run(&r).unwrap().phase, Phase::Position(1));
+    until_phase(&mut r, Phase::Position(1), 20, 0.1);
     silence.store(r.now(), Ordering::Relaxed);
     wait(&mut r, 14.0);
     assert!(
@@ -383,11 +373,7 @@ fn a_calibration_whose_vehicle_goes_silent_ends_as_failed() {
     let (mut r, silence) = silenceable("uncal=1");
     keys(&mut r, &["8"]);
     start(&mut r, "compass");
-    let end = r.now() + 10 * SECOND;
-    while run(&r).unwrap().phase != Phase::Running && r.now() < end {
-        wait(&mut r, 0.2);
-    }
-    assert_eq!(run(&r).unwrap().phase, Phase::Running);
+    until_phase(&mut r, Phase::Running, 10, 0.2);
     silence.store(r.now(), Ordering::Relaxed);
     wait(&mut r, 16.0);
     assert!(

@@ -61,6 +61,18 @@ fn list(r: &mut VirtualRunner) {
     panic!("list incomplete: {:?}", logs(r).list);
 }
 
+/// At 57600 baud in `dir`, the list in, `get` typed and 2 s of it run: the runner and the
+/// sim's count of LOG_REQUEST_END so far (its logging paused by the download).
+fn two_seconds_into(dir: &std::path::Path, get: &str) -> (VirtualRunner, u32) {
+    let mut r = runner("baud=57600&log_size=30000", dir);
+    list(&mut r);
+    command(&mut r, get);
+    wait(&mut r, 2.0);
+    let ends = sim(&r).vehicle(1).unwrap().logs.ends;
+    assert!(sim(&r).vehicle(1).unwrap().logs.logging_paused);
+    (r, ends)
+}
+
 fn download(loss: f64, baud: u32) -> (f64, u32) {
     let dir = tempfile::tempdir().unwrap();
     let mut r = runner(
@@ -171,12 +183,7 @@ fn an_interrupted_download_resumes_from_what_is_on_disk() {
 #[test]
 fn cancel_sends_log_request_end_and_keeps_the_partial() {
     let dir = tempfile::tempdir().unwrap();
-    let mut r = runner("baud=57600&log_size=30000", dir.path());
-    list(&mut r);
-    command(&mut r, "log get 2");
-    wait(&mut r, 2.0);
-    let ends = sim(&r).vehicle(1).unwrap().logs.ends;
-    assert!(sim(&r).vehicle(1).unwrap().logs.logging_paused);
+    let (mut r, ends) = two_seconds_into(dir.path(), "log get 2");
     command(&mut r, "log cancel");
     wait(&mut r, 1.0);
     let v = sim(&r).vehicle(1).unwrap();
@@ -731,12 +738,7 @@ fn the_status_bar_shows_bytes_rate_eta_and_retries_on_other_screens_and_a_stall(
 #[test]
 fn quitting_mid_download_sends_log_request_end() {
     let dir = tempfile::tempdir().unwrap();
-    let mut r = runner("baud=57600&log_size=30000", dir.path());
-    list(&mut r);
-    command(&mut r, "log get 3");
-    wait(&mut r, 2.0);
-    let ends = sim(&r).vehicle(1).unwrap().logs.ends;
-    assert!(sim(&r).vehicle(1).unwrap().logs.logging_paused);
+    let (mut r, ends) = two_seconds_into(dir.path(), "log get 3");
     r.capture_sent();
     keys(&mut r, &["q"]);
     assert!(r.quit_requested());
