@@ -960,18 +960,21 @@ mod tests {
         c
     }
 
-    /// A compass calibration running from its ACK, compass 0 at 40 %.
-    fn compass_running() -> Calibration {
+    /// A compass calibration started at 0, the vehicle's ACK with `result` in at 0.1 s.
+    fn compass_started(result: MavResult) -> Calibration {
         let mut c = Calibration::new(KEY);
         c.start(0, Kind::Compass).unwrap();
         feed(
             &mut c,
             S / 10,
-            &ack(
-                MavCmd::MAV_CMD_DO_START_MAG_CAL,
-                MavResult::MAV_RESULT_ACCEPTED,
-            ),
+            &ack(MavCmd::MAV_CMD_DO_START_MAG_CAL, result),
         );
+        c
+    }
+
+    /// A compass calibration running from its ACK, compass 0 at 40 %.
+    fn compass_running() -> Calibration {
+        let mut c = compass_started(MavResult::MAV_RESULT_ACCEPTED);
         feed(
             &mut c,
             S / 2,
@@ -1079,16 +1082,7 @@ mod tests {
     /// A refusal's reason is the text ArduPilot sends after its ACK, within EXPLAIN.
     #[test]
     fn a_refused_start_takes_the_text_after_it() {
-        let mut c = Calibration::new(KEY);
-        c.start(0, Kind::Compass).unwrap();
-        feed(
-            &mut c,
-            S / 10,
-            &ack(
-                MavCmd::MAV_CMD_DO_START_MAG_CAL,
-                MavResult::MAV_RESULT_FAILED,
-            ),
-        );
+        let mut c = compass_started(MavResult::MAV_RESULT_FAILED);
         c.on_text(S / 5, "Disarm to allow compass calibration");
         assert_eq!(
             phase(&c),
