@@ -62,6 +62,29 @@ fn until_done(r: &mut VirtualRunner, limit: f64) {
     }
 }
 
+/// The Health screen (`8`), then `cal WORD` asked and confirmed.
+fn start_on_health(r: &mut VirtualRunner, word: &str) {
+    keys(r, &["8"]);
+    start(r, word);
+}
+
+/// How an accelerometer calibration ends when ArduPilot says it went well.
+fn accel_successful() -> Phase {
+    Phase::Done {
+        ok: true,
+        text: "accelerometer calibration: successful".into(),
+    }
+}
+
+/// Steps of `step` s until the calibration is at `want` (at most `limit` s), and it is.
+fn until_phase(r: &mut VirtualRunner, want: Phase, limit: u64, step: f64) {
+    let end = r.now() + limit * SECOND;
+    while run(r).unwrap().phase != want && r.now() < end {
+        wait(r, step);
+    }
+    assert_eq!(run(r).unwrap().phase, want);
+}
+
 /// The COMMAND_LONGs sent with this command id, as pymavlink reads them.
 fn sent(frames: &[Vec<u8>], command: u32) -> Vec<serde_json::Value> {
     let longs: Vec<Vec<u8>> = frames
@@ -185,29 +208,17 @@ fn a_lost_start_is_sent_again() {
 #[test]
 fn a_lost_start_of_accel_or_compass_is_sent_again() {
     let mut r = runner("uncal=1&drop_cmd=241:1");
-    keys(&mut r, &["8"]);
-    start(&mut r, "accel");
+    start_on_health(&mut r, "accel");
     until_done(&mut r, 120.0);
-    assert_eq!(
-        run(&r).unwrap().phase,
-        Phase::Done {
-            ok: true,
-            text: "accelerometer calibration: successful".into()
-        }
-    );
+    assert_eq!(run(&r).unwrap().phase, accel_successful());
     let f = frames(&mut r);
     let cmds = sent(&f, 241);
     assert_eq!(cmds.len(), 2);
     all_as(&cmds, [0., 0., 0., 0., 1., 0., 0.]);
 
     let mut r = runner("uncal=1&drop_cmd=42424:1");
-    keys(&mut r, &["8"]);
-    start(&mut r, "compass");
-    let end = r.now() + 40 * SECOND;
-    while run(&r).unwrap().phase != Phase::Accept && r.now() < end {
-        wait(&mut r, 0.2);
-    }
-    assert_eq!(run(&r).unwrap().phase, Phase::Accept);
+    start_on_health(&mut r, "compass");
+    until_phase(&mut r, Phase::Accept, 40, 0.2);
     command(&mut r, "cal accept");
     until_done(&mut r, 30.0);
     assert!(run(&r).unwrap().reboot_needed);
@@ -223,18 +234,10 @@ fn a_lost_start_of_accel_or_compass_is_sent_again() {
 fn a_lost_position_ack_does_not_hold_the_next_position_back() {
     // A slow link, so the queue still waits for the lost ACK when position 2 is asked.
     let mut r = runner("uncal=1&drop_ack=42429:1&latency_ms=300");
-    keys(&mut r, &["8"]);
-    start(&mut r, "accel");
-    let step = |r: &mut VirtualRunner, want: Phase| {
-        let end = r.now() + 20 * SECOND;
-        while run(r).unwrap().phase != want && r.now() < end {
-            wait(r, 0.05);
-        }
-        assert_eq!(run(r).unwrap().phase, want);
-    };
-    step(&mut r, Phase::Position(1));
+    start_on_health(&mut r, "accel");
+    until_phase(&mut r, Phase::Position(1), 20, 0.05);
     keys(&mut r, &["enter"]);
-    step(&mut r, Phase::Position(2));
+    until_phase(&mut r, Phase::Position(2), 20, 0.05);
     assert!(
         r.app.sessions[&KEY].commands.is_open(KEY, 42429),
         "the answer to position 1 still waits for its ACK"
@@ -254,13 +257,7 @@ fn a_lost_position_ack_does_not_hold_the_next_position_back() {
         .collect();
     assert_eq!(pos, vec![2.0], "sent at once");
     until_done(&mut r, 120.0);
-    assert_eq!(
-        run(&r).unwrap().phase,
-        Phase::Done {
-            ok: true,
-            text: "accelerometer calibration: successful".into()
-        }
-    );
+    assert_eq!(run(&r).unwrap().phase, accel_successful());
 }
 
 /// `x` on the Health screen during a compass calibration: DO_CANCEL_MAG_CAL for every compass
@@ -268,13 +265,8 @@ fn a_lost_position_ack_does_not_hold_the_next_position_back() {
 #[test]
 fn a_compass_calibration_cancelled() {
     let mut r = runner("uncal=1");
-    keys(&mut r, &["8"]);
-    start(&mut r, "compass");
-    let end = r.now() + 10 * SECOND;
-    while run(&r).unwrap().phase != Phase::Running && r.now() < end {
-        wait(&mut r, 0.2);
-    }
-    assert_eq!(run(&r).unwrap().phase, Phase::Running);
+    start_on_health(&mut r, "compass");
+    until_phase(&mut r, Phase::Running, 10, 0.2);
     keys(&mut r, &["x"]);
     wait(&mut r, 2.0);
     assert_eq!(
@@ -353,13 +345,8 @@ fn silenceable(query: &str) -> (VirtualRunner, Arc<AtomicU64>) {
 #[test]
 fn a_calibration_whose_vehicle_goes_silent_ends_as_failed() {
     let (mut r, silence) = silenceable("uncal=1");
-    keys(&mut r, &["8"]);
-    start(&mut r, "accel");
-    let end = r.now() + 20 * SECOND;
-    while run(&r).unwrap().phase != Phase::Position(1) && r.now() < end {
-        wait(&mut r, 0.1);
-    }
-    assert_eq!(run(&r).unwrap().phase, Phase::Position(1));
+    start_on_health(&mut r, "accel");
+    until_phase(&mut r, Phase::Position(1), 20, 0.1);
     silence.store(r.now(), Ordering::Relaxed);
     wait(&mut r, 14.0);
     assert!(
@@ -381,13 +368,8 @@ fn a_calibration_whose_vehicle_goes_silent_ends_as_failed() {
     assert!(screen.contains(want), "{screen}");
 
     let (mut r, silence) = silenceable("uncal=1");
-    keys(&mut r, &["8"]);
-    start(&mut r, "compass");
-    let end = r.now() + 10 * SECOND;
-    while run(&r).unwrap().phase != Phase::Running && r.now() < end {
-        wait(&mut r, 0.2);
-    }
-    assert_eq!(run(&r).unwrap().phase, Phase::Running);
+    start_on_health(&mut r, "compass");
+    until_phase(&mut r, Phase::Running, 10, 0.2);
     silence.store(r.now(), Ordering::Relaxed);
     wait(&mut r, 16.0);
     assert!(
@@ -409,8 +391,7 @@ fn accelerometer_six_positions_at_0_and_20_percent_loss() {
         "uncal=1&loss=0.2&impair_in=1&seed=9",
     ] {
         let mut r = runner(query);
-        keys(&mut r, &["8"]);
-        start(&mut r, "accel");
+        start_on_health(&mut r, "accel");
         // The first position on screen, as the vehicle asked it.
         let end = r.now() + 20 * SECOND;
         while !matches!(run(&r).unwrap().phase, Phase::Position(_)) && r.now() < end {
@@ -424,14 +405,7 @@ fn accelerometer_six_positions_at_0_and_20_percent_loss() {
         );
         until_done(&mut r, 120.0);
         let run = run(&r).unwrap();
-        assert_eq!(
-            run.phase,
-            Phase::Done {
-                ok: true,
-                text: "accelerometer calibration: successful".into()
-            },
-            "{query}"
-        );
+        assert_eq!(run.phase, accel_successful(), "{query}");
         assert!(run.asked >= 6);
         let f = frames(&mut r);
         all_as(&sent(&f, 241), [0., 0., 0., 0., 1., 0., 0.]);
@@ -469,8 +443,7 @@ fn compass_progress_reports_accept_and_reboot_at_0_and_20_percent_loss() {
         "uncal=1&loss=0.2&impair_in=1&seed=8",
     ] {
         let mut r = runner(query);
-        keys(&mut r, &["8"]);
-        start(&mut r, "compass");
+        start_on_health(&mut r, "compass");
         // Running from its ACK, or from the first progress when the ACK is lost; both
         // compasses once each has sent its progress.
         let end = r.now() + 10 * SECOND;

@@ -61,6 +61,34 @@ fn list(r: &mut VirtualRunner) {
     panic!("list incomplete: {:?}", logs(r).list);
 }
 
+/// At 57600 baud in `dir`, the list in, `get` typed and 2 s of it run: the runner and the
+/// sim's count of LOG_REQUEST_END so far (its logging paused by the download).
+fn two_seconds_into(dir: &std::path::Path, get: &str) -> (VirtualRunner, u32) {
+    let mut r = runner("baud=57600&log_size=30000", dir);
+    list(&mut r);
+    command(&mut r, get);
+    wait(&mut r, 2.0);
+    let ends = sim(&r).vehicle(1).unwrap().logs.ends;
+    assert!(sim(&r).vehicle(1).unwrap().logs.logging_paused);
+    (r, ends)
+}
+
+/// `mavterm --link LINK --headless --duration SECS --logs-out OUT`, run to its end.
+fn headless_logs_out(link: &str, secs: &str, out: &std::path::Path) -> std::process::Output {
+    std::process::Command::new(common::mavterm())
+        .args([
+            "--link",
+            link,
+            "--headless",
+            "--duration",
+            secs,
+            "--logs-out",
+        ])
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
 fn download(loss: f64, baud: u32) -> (f64, u32) {
     let dir = tempfile::tempdir().unwrap();
     let mut r = runner(
@@ -171,12 +199,7 @@ fn an_interrupted_download_resumes_from_what_is_on_disk() {
 #[test]
 fn cancel_sends_log_request_end_and_keeps_the_partial() {
     let dir = tempfile::tempdir().unwrap();
-    let mut r = runner("baud=57600&log_size=30000", dir.path());
-    list(&mut r);
-    command(&mut r, "log get 2");
-    wait(&mut r, 2.0);
-    let ends = sim(&r).vehicle(1).unwrap().logs.ends;
-    assert!(sim(&r).vehicle(1).unwrap().logs.logging_paused);
+    let (mut r, ends) = two_seconds_into(dir.path(), "log get 2");
     command(&mut r, "log cancel");
     wait(&mut r, 1.0);
     let v = sim(&r).vehicle(1).unwrap();
@@ -297,18 +320,7 @@ fn headless_logs_out_exits_0_only_when_every_log_is_whole() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("no log 9"));
     // Not whole in the time given: not 0, the partial kept.
     let slow = tempfile::tempdir().unwrap();
-    let out = std::process::Command::new(common::mavterm())
-        .args([
-            "--link",
-            "sim://?baud=57600&log_size=200000",
-            "--headless",
-            "--duration",
-            "8",
-            "--logs-out",
-        ])
-        .arg(slow.path())
-        .output()
-        .unwrap();
+    let out = headless_logs_out("sim://?baud=57600&log_size=200000", "8", slow.path());
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("not complete"));
     let partials = std::fs::read_dir(slow.path())
@@ -349,18 +361,7 @@ fn stand_in_download(loss: &str, outage: bool) {
     }
     let mut fake = common::stand_in("fake_log_vehicle.py", &a);
     let out_dir = dir.path().join("logs");
-    let out = std::process::Command::new(common::mavterm())
-        .args([
-            "--link",
-            &format!("tcp:127.0.0.1:{port}"),
-            "--headless",
-            "--duration",
-            "45",
-            "--logs-out",
-        ])
-        .arg(&out_dir)
-        .output()
-        .unwrap();
+    let out = headless_logs_out(&format!("tcp:127.0.0.1:{port}"), "45", &out_dir);
     let stderr = String::from_utf8_lossy(&out.stderr).to_string();
     assert!(out.status.success(), "{stderr}");
     let _ = fake.0.wait();
@@ -731,12 +732,7 @@ fn the_status_bar_shows_bytes_rate_eta_and_retries_on_other_screens_and_a_stall(
 #[test]
 fn quitting_mid_download_sends_log_request_end() {
     let dir = tempfile::tempdir().unwrap();
-    let mut r = runner("baud=57600&log_size=30000", dir.path());
-    list(&mut r);
-    command(&mut r, "log get 3");
-    wait(&mut r, 2.0);
-    let ends = sim(&r).vehicle(1).unwrap().logs.ends;
-    assert!(sim(&r).vehicle(1).unwrap().logs.logging_paused);
+    let (mut r, ends) = two_seconds_into(dir.path(), "log get 3");
     r.capture_sent();
     keys(&mut r, &["q"]);
     assert!(r.quit_requested());
@@ -774,18 +770,11 @@ fn a_headless_run_whose_time_is_up_sends_log_request_end() {
         check.clone().into(),
     ];
     let mut fake = common::stand_in("fake_log_vehicle.py", &a);
-    let out = std::process::Command::new(common::mavterm())
-        .args([
-            "--link",
-            &format!("tcp:127.0.0.1:{port}"),
-            "--headless",
-            "--duration",
-            "3",
-            "--logs-out",
-        ])
-        .arg(dir.path().join("logs"))
-        .output()
-        .unwrap();
+    let out = headless_logs_out(
+        &format!("tcp:127.0.0.1:{port}"),
+        "3",
+        &dir.path().join("logs"),
+    );
     let stderr = String::from_utf8_lossy(&out.stderr).to_string();
     assert!(!out.status.success());
     assert!(stderr.contains("not complete"), "{stderr}");

@@ -11,7 +11,6 @@ use mavterm::dialect::{self, MavMessage};
 use mavterm::driver::virtual_time::VirtualRunner;
 use mavterm::keymap::Key;
 use mavterm::link::LinkSpec;
-use mavterm::proto::vehicles::VehicleKey;
 use mavterm::ui::{buffer_to_text, render_to_buffer, Theme};
 
 const SECOND: u64 = 1_000_000;
@@ -75,10 +74,7 @@ fn tail(app: &App) -> String {
 }
 
 fn runner_tail(r: &VirtualRunner) -> String {
-    let s = buffer_to_text(&render_to_buffer(&r.app, 160, 30, &Theme::PLAIN));
-    let s = s.lines().last().unwrap_or("").trim_end().to_string();
-    s.split_once('│')
-        .map_or(s.clone(), |(_, t)| t.trim().to_string())
+    tail(&r.app)
 }
 
 /// A COMMAND_ACK from 1:1.
@@ -94,6 +90,22 @@ fn ack(command: dialect::MavCmd, result: dialect::MavResult) -> MavMessage {
 fn arm(app: &mut App, t: u64) {
     run(app, t, "arm");
     key(app, t + SECOND / 2, Key::ch('y'));
+}
+
+/// Arm 1:1 at 1 s; its COMMAND_ACK with `result` comes at 1.7 s.
+fn arm_answered(app: &mut App, result: dialect::MavResult) {
+    arm(app, SECOND);
+    hear(
+        app,
+        1_700_000,
+        &ack(dialect::MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, result),
+    );
+}
+
+/// `:messages` typed at `now`: the screen with the list.
+fn messages(app: &mut App, now: u64) -> String {
+    run(app, now, "messages");
+    screen(app)
 }
 
 #[test]
@@ -131,15 +143,7 @@ fn a_refused_arm_shows_failed_with_the_vehicles_reason_until_the_next_action() {
 #[test]
 fn a_reason_that_comes_after_the_refusal_joins_the_line() {
     let mut app = app();
-    arm(&mut app, SECOND);
-    hear(
-        &mut app,
-        1_700_000,
-        &ack(
-            dialect::MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
-            dialect::MavResult::MAV_RESULT_FAILED,
-        ),
-    );
+    arm_answered(&mut app, dialect::MavResult::MAV_RESULT_FAILED);
     assert_eq!(tail(&app), "COMPONENT_ARM_DISARM to 1:1: FAILED");
     hear(
         &mut app,
@@ -151,8 +155,7 @@ fn a_reason_that_comes_after_the_refusal_joins_the_line() {
     );
     let refused = "COMPONENT_ARM_DISARM to 1:1: FAILED (Arm: AHRS: waiting for home)";
     assert_eq!(tail(&app), refused);
-    run(&mut app, 2 * SECOND, "messages");
-    let s = screen(&app);
+    let s = messages(&mut app, 2 * SECOND);
     assert!(s.contains("Outcomes"), "{s}");
     assert!(s.contains(&format!("00:00:01 {refused}")), "{s}");
 }
@@ -181,7 +184,19 @@ fn sim_runner() -> VirtualRunner {
 }
 
 fn runner_screen(r: &VirtualRunner) -> String {
-    buffer_to_text(&render_to_buffer(&r.app, 160, 30, &Theme::PLAIN))
+    screen(&r.app)
+}
+
+/// `line` typed at the prompt (its question answered `y` when `confirm`), then `secs` of
+/// virtual time: the status bar's action line right after it, and after the wait.
+fn act(r: &mut VirtualRunner, line: &str, confirm: bool, secs: f64) -> (String, String) {
+    command(r, line);
+    if confirm {
+        common::yes(r);
+    }
+    let sent = runner_tail(r);
+    wait(r, secs);
+    (sent, runner_tail(r))
 }
 
 #[test]
@@ -189,21 +204,17 @@ fn on_the_sim_a_refused_take_off_then_an_accepted_arm_then_a_saved_parameter_fil
     let mut r = sim_runner();
     // Before home, GUIDED's arming check refuses: the take-off stops at its arm step, with the
     // vehicle's reason.
-    command(&mut r, "takeoff 10");
-    common::yes(&mut r);
-    assert_eq!(runner_tail(&r), "takeoff to 10 m: started");
-    wait(&mut r, 3.0);
+    let (started, done) = act(&mut r, "takeoff 10", true, 3.0);
+    assert_eq!(started, "takeoff to 10 m: started");
     let stopped = "takeoff 10 m (arm): FAILED; stopped (Arm: AHRS: waiting for home)";
-    assert_eq!(runner_tail(&r), stopped);
+    assert_eq!(done, stopped);
     // After the fix: arming is accepted.
     wait(&mut r, 6.0);
     assert_eq!(runner_tail(&r), stopped, "no action since: the line stays");
-    command(&mut r, "arm");
-    common::yes(&mut r);
-    assert_eq!(runner_tail(&r), "COMPONENT_ARM_DISARM: sent");
-    wait(&mut r, 2.0);
+    let (sent, done) = act(&mut r, "arm", true, 2.0);
+    assert_eq!(sent, "COMPONENT_ARM_DISARM: sent");
     let armed = "COMPONENT_ARM_DISARM to 1:1: ACCEPTED";
-    assert_eq!(runner_tail(&r), armed);
+    assert_eq!(done, armed);
     // The parameters downloaded meanwhile: a save ends with the count and the file.
     wait(&mut r, 20.0);
     let p = std::env::temp_dir().join(format!("outcomes-{}.parm", std::process::id()));
@@ -258,15 +269,7 @@ fn tall_screen(app: &App) -> String {
 #[test]
 fn messages_is_listed_in_help_completes_on_tab_and_has_a_key() {
     let mut app = app();
-    arm(&mut app, SECOND);
-    hear(
-        &mut app,
-        1_700_000,
-        &ack(
-            dialect::MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
-            dialect::MavResult::MAV_RESULT_ACCEPTED,
-        ),
-    );
+    arm_answered(&mut app, dialect::MavResult::MAV_RESULT_ACCEPTED);
     let accepted = "COMPONENT_ARM_DISARM to 1:1: ACCEPTED";
     assert_eq!(tail(&app), accepted);
     // `?` lists the command and its key.
@@ -366,20 +369,16 @@ fn listed_in_order(r: &mut VirtualRunner, lines: &[&str]) {
 #[test]
 fn camera_and_gimbal_commands_end_accepted_refused_or_with_their_images() {
     let mut r = camera_runner();
-    command(&mut r, "camera mode video");
-    assert_eq!(runner_tail(&r), "camera 1:100 mode video: sent");
-    wait(&mut r, 1.0);
+    let (sent, done) = act(&mut r, "camera mode video", false, 1.0);
+    assert_eq!(sent, "camera 1:100 mode video: sent");
     let video = "camera 1:100 mode video: ACCEPTED";
-    assert_eq!(runner_tail(&r), video);
-    command(&mut r, "camera mode image");
-    wait(&mut r, 1.0);
-    assert_eq!(runner_tail(&r), "camera 1:100 mode image: ACCEPTED");
+    assert_eq!(done, video);
+    let (_, done) = act(&mut r, "camera mode image", false, 1.0);
+    assert_eq!(done, "camera 1:100 mode image: ACCEPTED");
 
     // A capture of three: accepted, then counted to its figure.
-    command(&mut r, "camera shoot 3 1");
-    assert_eq!(runner_tail(&r), "camera 1:100 shoot 3 every 1 s: sent");
-    wait(&mut r, 1.5);
-    let tail = runner_tail(&r);
+    let (sent, tail) = act(&mut r, "camera shoot 3 1", false, 1.5);
+    assert_eq!(sent, "camera 1:100 shoot 3 every 1 s: sent");
     assert!(
         tail.starts_with("camera 1:100 shoot 3 every 1 s: ")
             && tail.ends_with(" of 3 images taken"),
@@ -390,44 +389,30 @@ fn camera_and_gimbal_commands_end_accepted_refused_or_with_their_images() {
     assert_eq!(runner_tail(&r), three);
 
     // Refused by the camera: a mode change while it takes images.
-    command(&mut r, "camera shoot 0 1");
-    wait(&mut r, 1.0);
+    let (_, done) = act(&mut r, "camera shoot 0 1", false, 1.0);
     let endless = "camera 1:100 shoot every 1 s until stopped: ACCEPTED";
-    assert_eq!(runner_tail(&r), endless);
-    command(&mut r, "camera mode video");
-    wait(&mut r, 1.0);
+    assert_eq!(done, endless);
+    let (_, done) = act(&mut r, "camera mode video", false, 1.0);
     let refused = "camera 1:100 mode video: TEMPORARILY_REJECTED";
-    assert_eq!(runner_tail(&r), refused);
+    assert_eq!(done, refused);
     // Keys that start nothing leave it.
     common::keys(&mut r, &["j", "k"]);
     assert_eq!(runner_tail(&r), refused);
-    command(&mut r, "camera stop");
-    wait(&mut r, 1.0);
-    assert_eq!(runner_tail(&r), "camera 1:100 stop images: ACCEPTED");
+    let (_, done) = act(&mut r, "camera stop", false, 1.0);
+    assert_eq!(done, "camera 1:100 stop images: ACCEPTED");
 
     // The gimbal: pointed, accepted by its manager.
-    command(&mut r, "gimbal -45 0");
-    assert_eq!(runner_tail(&r), "gimbal 1:1/1 pitch -45° yaw 0°: sent");
-    wait(&mut r, 1.0);
+    let (sent, done) = act(&mut r, "gimbal -45 0", false, 1.0);
+    assert_eq!(sent, "gimbal 1:1/1 pitch -45° yaw 0°: sent");
     let pointed = "gimbal 1:1/1 pitch -45° yaw 0°: ACCEPTED";
-    assert_eq!(runner_tail(&r), pointed);
+    assert_eq!(done, pointed);
 
     listed_in_order(&mut r, &[video, three, endless, refused, pointed]);
 }
 
 /// The sim after its parameters are in.
 fn downloaded_sim() -> VirtualRunner {
-    let mut r = sim_runner();
-    for _ in 0..120 {
-        wait(&mut r, 0.5);
-        let done = r.app.sessions.get(&VehicleKey(1, 1)).is_some_and(|s| {
-            s.params.downloading().is_none() && s.params.autopilot().is_some_and(|p| p.complete())
-        });
-        if done {
-            return r;
-        }
-    }
-    panic!("the download did not finish");
+    common::downloaded(sim_runner())
 }
 
 #[test]
@@ -450,14 +435,10 @@ fn a_parameter_edit_and_param_set_end_confirmed_by_the_echo() {
     common::keys(&mut r, &["j", "k"]);
     assert_eq!(runner_tail(&r), edited);
     // At the prompt.
-    command(&mut r, "param set RTL_ALT 3000");
-    assert_eq!(
-        runner_tail(&r),
-        "RTL_ALT = 3000: sent, waiting for the echo"
-    );
-    wait(&mut r, 1.0);
+    let (sent, done) = act(&mut r, "param set RTL_ALT 3000", false, 1.0);
+    assert_eq!(sent, "RTL_ALT = 3000: sent, waiting for the echo");
     let set = "RTL_ALT = 3000 confirmed";
-    assert_eq!(runner_tail(&r), set);
+    assert_eq!(done, set);
     listed_in_order(&mut r, &[edited, set]);
 }
 
@@ -466,10 +447,14 @@ fn wp_download_set_current_and_clear_end_with_what_the_vehicle_did() {
     let mut r = sim_runner();
     wait(&mut r, 6.0);
     // Paths as typed, relative to where mavterm runs (the package, under cargo).
-    command(&mut r, "wp load tests/data/missions/square.waypoints");
-    wait(&mut r, 0.2);
+    let (_, done) = act(
+        &mut r,
+        "wp load tests/data/missions/square.waypoints",
+        false,
+        0.2,
+    );
     let loaded = "6 mission items loaded from tests/data/missions/square.waypoints";
-    assert_eq!(runner_tail(&r), loaded);
+    assert_eq!(done, loaded);
     command(&mut r, "wp upload");
     if r.app.ui.confirm.is_some() {
         common::yes(&mut r);
@@ -477,24 +462,20 @@ fn wp_download_set_current_and_clear_end_with_what_the_vehicle_did() {
     wait(&mut r, 5.0);
     assert_eq!(runner_tail(&r), "6 mission items uploaded");
 
-    command(&mut r, "wp download");
-    assert_eq!(runner_tail(&r), "downloading the mission of 1:1");
-    wait(&mut r, 3.0);
+    let (sent, done) = act(&mut r, "wp download", false, 3.0);
+    assert_eq!(sent, "downloading the mission of 1:1");
     let downloaded = "mission downloaded from 1:1: 6 items";
-    assert_eq!(runner_tail(&r), downloaded);
+    assert_eq!(done, downloaded);
 
-    command(&mut r, "wp set 2");
-    assert_eq!(runner_tail(&r), "current item 2: sent");
-    wait(&mut r, 3.0);
+    let (sent, done) = act(&mut r, "wp set 2", false, 3.0);
+    assert_eq!(sent, "current item 2: sent");
     let current = "1:1 is now at mission item 2";
-    assert_eq!(runner_tail(&r), current);
+    assert_eq!(done, current);
 
-    command(&mut r, "wp clear");
-    common::yes(&mut r);
-    assert_eq!(runner_tail(&r), "clearing the mission of 1:1");
-    wait(&mut r, 3.0);
+    let (sent, done) = act(&mut r, "wp clear", true, 3.0);
+    assert_eq!(sent, "clearing the mission of 1:1");
     let cleared = "mission cleared on 1:1";
-    assert_eq!(runner_tail(&r), cleared);
+    assert_eq!(done, cleared);
     common::keys(&mut r, &["j", "k"]);
     assert_eq!(runner_tail(&r), cleared);
 
@@ -506,21 +487,27 @@ fn a_file_read_ends_with_what_was_read_or_the_error_and_where() {
     let mut r = sim_runner();
     wait(&mut r, 4.0);
     // A mission file with bad lines: the first, by its line, and how many.
-    command(&mut r, "wp load tests/data/missions/bad-line.waypoints");
-    wait(&mut r, 0.2);
+    let (_, done) = act(
+        &mut r,
+        "wp load tests/data/missions/bad-line.waypoints",
+        false,
+        0.2,
+    );
     let bad_line = "line 4: 10 fields where 12 were expected in \
                     tests/data/missions/bad-line.waypoints (3 error(s): not uploaded)";
-    assert_eq!(runner_tail(&r), bad_line);
+    assert_eq!(done, bad_line);
     // A file that is not there: why, and which.
-    command(&mut r, "param load /nonexistent/dir/x.parm");
-    wait(&mut r, 0.2);
+    let (_, done) = act(&mut r, "param load /nonexistent/dir/x.parm", false, 0.2);
     let missing = "could not read /nonexistent/dir/x.parm: No such file or directory (os error 2)";
-    assert_eq!(runner_tail(&r), missing);
+    assert_eq!(done, missing);
     // A parameter file compared: what it holds against the vehicle.
     wait(&mut r, 20.0);
-    command(&mut r, "param diff tests/data/copter-params.parm");
-    wait(&mut r, 0.2);
-    let diffed = runner_tail(&r);
+    let (_, diffed) = act(
+        &mut r,
+        "param diff tests/data/copter-params.parm",
+        false,
+        0.2,
+    );
     assert!(
         diffed.starts_with("tests/data/copter-params.parm: ") && diffed.contains(" changed, "),
         "{diffed}"
@@ -531,15 +518,7 @@ fn a_file_read_ends_with_what_was_read_or_the_error_and_where() {
 #[test]
 fn after_a_passing_message_a_key_shows_the_latest_actions_line() {
     let mut app = app();
-    arm(&mut app, SECOND);
-    hear(
-        &mut app,
-        1_700_000,
-        &ack(
-            dialect::MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
-            dialect::MavResult::MAV_RESULT_ACCEPTED,
-        ),
-    );
+    arm_answered(&mut app, dialect::MavResult::MAV_RESULT_ACCEPTED);
     assert_eq!(tail(&app), "COMPONENT_ARM_DISARM to 1:1: ACCEPTED");
     // A later action (a file read), done.
     run(&mut app, 2 * SECOND, "wp load /x/a.waypoints");
@@ -564,16 +543,13 @@ fn after_a_passing_message_a_key_shows_the_latest_actions_line() {
 #[test]
 fn log_list_and_erase_end_with_the_logs_listed() {
     let mut r = sim_runner();
-    command(&mut r, "log list");
-    assert_eq!(runner_tail(&r), "asking 1:1 for its logs");
-    wait(&mut r, 3.0);
+    let (sent, done) = act(&mut r, "log list", false, 3.0);
+    assert_eq!(sent, "asking 1:1 for its logs");
     let listed = "1:1 has 3 logs";
-    assert_eq!(runner_tail(&r), listed);
-    command(&mut r, "log erase");
-    common::yes(&mut r);
-    assert_eq!(runner_tail(&r), "LOG_ERASE sent to 1:1; listing again");
-    wait(&mut r, 5.0);
+    assert_eq!(done, listed);
+    let (sent, done) = act(&mut r, "log erase", true, 5.0);
+    assert_eq!(sent, "LOG_ERASE sent to 1:1; listing again");
     let erased = "logs erased on 1:1: none left";
-    assert_eq!(runner_tail(&r), erased);
+    assert_eq!(done, erased);
     listed_in_order(&mut r, &[listed, erased]);
 }

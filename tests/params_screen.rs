@@ -5,6 +5,8 @@
 
 mod common;
 
+use common::{downloaded, wait};
+
 use std::sync::Arc;
 
 use mavterm::app::AppConfig;
@@ -15,8 +17,6 @@ use mavterm::params::meta::MetaSet;
 use mavterm::proto::params::EditState;
 use mavterm::proto::vehicles::VehicleKey;
 use mavterm::sim::Sim;
-
-const SECOND: u64 = 1_000_000;
 
 fn meta() -> Arc<MetaSet> {
     let xml =
@@ -31,25 +31,6 @@ fn runner_with(query: &str, meta: Option<Arc<MetaSet>>) -> VirtualRunner {
         ..AppConfig::default()
     };
     VirtualRunner::from_specs(&[spec], cfg).unwrap()
-}
-
-fn wait(r: &mut VirtualRunner, secs: f64) {
-    let t = r.now() + (secs * SECOND as f64) as u64;
-    r.advance_to(t);
-}
-
-/// Run until the target's parameters are all in (at most a minute of virtual time).
-fn downloaded(mut r: VirtualRunner) -> VirtualRunner {
-    for _ in 0..120 {
-        wait(&mut r, 0.5);
-        let done = r.app.sessions.get(&VehicleKey(1, 1)).is_some_and(|s| {
-            s.params.downloading().is_none() && s.params.autopilot().is_some_and(|p| p.complete())
-        });
-        if done {
-            return r;
-        }
-    }
-    panic!("the download did not finish");
 }
 
 fn sim(r: &VirtualRunner) -> &Sim {

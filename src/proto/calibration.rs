@@ -879,33 +879,14 @@ mod tests {
 
     use super::*;
     use crate::dialect::{self, MagCalStatus};
-    use crate::proto::ack::CommandAck;
-    use crate::wire::{frame, FrameParser, Header, Version};
+    use crate::proto::machine::received;
 
     const KEY: VehicleKey = VehicleKey(1, 1);
     const S: Micros = SECOND;
 
     fn feed(c: &mut Calibration, now: Micros, msg: &MavMessage) -> Vec<Out> {
-        let h = Header {
-            sysid: 1,
-            compid: 1,
-            seq: 0,
-        };
-        let bytes = frame::encode(Version::V2, h, msg);
-        let f = FrameParser::new().parse_all(&bytes).remove(0);
-        let ack = CommandAck::from_frame(&f);
-        let m = Incoming {
-            now,
-            from: (1, 1),
-            link: 0,
-            profile: Default::default(),
-            id: f.msgid,
-            payload: f.payload(),
-            msg: f.message.as_ref(),
-            ack: ack.as_ref(),
-        };
         let mut out = Vec::new();
-        c.on_message(&m, &mut out);
+        received(now, msg, |m| c.on_message(m, &mut out));
         out
     }
 
@@ -963,18 +944,37 @@ mod tests {
         }
     }
 
-    /// A compass calibration running from its ACK, compass 0 at 40 %.
-    fn compass_running() -> Calibration {
+    /// [`compass_running`] ended SUCCESS at 1 s and accepted at 2 s (the vehicle's ACK in).
+    fn compass_accepted() -> Calibration {
+        let mut c = compass_running();
+        feed(&mut c, S, &report(0, MagCalStatus::MAG_CAL_SUCCESS));
+        c.accept(2 * S).unwrap();
+        feed(
+            &mut c,
+            2 * S,
+            &ack(
+                MavCmd::MAV_CMD_DO_ACCEPT_MAG_CAL,
+                MavResult::MAV_RESULT_ACCEPTED,
+            ),
+        );
+        c
+    }
+
+    /// A compass calibration started at 0, the vehicle's ACK with `result` in at 0.1 s.
+    fn compass_started(result: MavResult) -> Calibration {
         let mut c = Calibration::new(KEY);
         c.start(0, Kind::Compass).unwrap();
         feed(
             &mut c,
             S / 10,
-            &ack(
-                MavCmd::MAV_CMD_DO_START_MAG_CAL,
-                MavResult::MAV_RESULT_ACCEPTED,
-            ),
+            &ack(MavCmd::MAV_CMD_DO_START_MAG_CAL, result),
         );
+        c
+    }
+
+    /// A compass calibration running from its ACK, compass 0 at 40 %.
+    fn compass_running() -> Calibration {
+        let mut c = compass_started(MavResult::MAV_RESULT_ACCEPTED);
         feed(
             &mut c,
             S / 2,
@@ -1068,17 +1068,7 @@ mod tests {
         assert_eq!(phase(&c), done(false, "compass calibration: accept FAILED"));
         assert!(!c.run.as_ref().unwrap().reboot_needed);
         // Accepted: saved, the reboot it needs said.
-        let mut c = compass_running();
-        feed(&mut c, S, &report(0, MagCalStatus::MAG_CAL_SUCCESS));
-        c.accept(2 * S).unwrap();
-        feed(
-            &mut c,
-            2 * S,
-            &ack(
-                MavCmd::MAV_CMD_DO_ACCEPT_MAG_CAL,
-                MavResult::MAV_RESULT_ACCEPTED,
-            ),
-        );
+        let c = compass_accepted();
         assert_eq!(
             phase(&c),
             done(
@@ -1092,16 +1082,7 @@ mod tests {
     /// A refusal's reason is the text ArduPilot sends after its ACK, within EXPLAIN.
     #[test]
     fn a_refused_start_takes_the_text_after_it() {
-        let mut c = Calibration::new(KEY);
-        c.start(0, Kind::Compass).unwrap();
-        feed(
-            &mut c,
-            S / 10,
-            &ack(
-                MavCmd::MAV_CMD_DO_START_MAG_CAL,
-                MavResult::MAV_RESULT_FAILED,
-            ),
-        );
+        let mut c = compass_started(MavResult::MAV_RESULT_FAILED);
         c.on_text(S / 5, "Disarm to allow compass calibration");
         assert_eq!(
             phase(&c),
@@ -1238,17 +1219,7 @@ mod tests {
             phase(&c),
             done(false, "compass calibration FAILED: the vehicle rebooted")
         );
-        let mut c = compass_running();
-        feed(&mut c, S, &report(0, MagCalStatus::MAG_CAL_SUCCESS));
-        c.accept(2 * S).unwrap();
-        feed(
-            &mut c,
-            2 * S,
-            &ack(
-                MavCmd::MAV_CMD_DO_ACCEPT_MAG_CAL,
-                MavResult::MAV_RESULT_ACCEPTED,
-            ),
-        );
+        let mut c = compass_accepted();
         let mut out = Vec::new();
         c.on_reboot(9 * S, &mut out);
         let run = c.run.as_ref().unwrap();

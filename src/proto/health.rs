@@ -532,26 +532,7 @@ mod tests {
 
     /// `msg` through our encoder and parser, to `p`.
     fn feed(p: &mut PrearmReasons, now: Micros, msg: &crate::dialect::MavMessage) {
-        use crate::wire::{frame, FrameParser, Header, Version};
-        let h = Header {
-            sysid: 1,
-            compid: 1,
-            seq: 0,
-        };
-        let bytes = frame::encode(Version::V2, h, msg);
-        let f = FrameParser::new().parse_all(&bytes).remove(0);
-        let ack = crate::proto::ack::CommandAck::from_frame(&f);
-        let m = Incoming {
-            now,
-            from: (1, 1),
-            link: 0,
-            profile: Default::default(),
-            id: f.msgid,
-            payload: f.payload(),
-            msg: f.message.as_ref(),
-            ack: ack.as_ref(),
-        };
-        p.on_message(&m, &mut Vec::new());
+        crate::proto::machine::received(now, msg, |m| p.on_message(m, &mut Vec::new()));
     }
 
     fn prearm_ack(result: MavResult) -> crate::dialect::MavMessage {

@@ -1491,16 +1491,7 @@ mod tests {
 
     #[test]
     fn a_gap_is_asked_as_soon_as_the_request_ends_and_the_file_is_a_prefix() {
-        let mut m = LogMachine::new(VehicleKey(1, 1));
-        m.dir = Some(PathBuf::from("/d"));
-        m.list.entries.insert(
-            2,
-            LogEntry {
-                id: 2,
-                time_utc: 0,
-                size: 900,
-            },
-        );
+        let mut m = with_log_2(900);
         let mut out = Vec::new();
         m.get(0, 2, None, false).unwrap();
         let io = m.take_io();
@@ -1547,9 +1538,8 @@ mod tests {
         assert_eq!(m.transfer.as_ref().unwrap().retries, 1);
     }
 
-    /// A machine downloading log 2 (`size` bytes, no time) into `/d`, its partial opened empty
-    /// at `now`, with `route` as where the vehicle is reached.
-    fn downloading(size: u32, now: Micros, route: Option<Micros>) -> (LogMachine, Vec<Out>) {
+    /// A machine of 1:1 saving into `/d` whose list holds log 2 (`size` bytes, no time).
+    fn with_log_2(size: u32) -> LogMachine {
         let mut m = LogMachine::new(VehicleKey(1, 1));
         m.dir = Some(PathBuf::from("/d"));
         m.list.entries.insert(
@@ -1560,6 +1550,13 @@ mod tests {
                 size,
             },
         );
+        m
+    }
+
+    /// A machine downloading log 2 (`size` bytes, no time) into `/d`, its partial opened empty
+    /// at `now`, with `route` as where the vehicle is reached.
+    fn downloading(size: u32, now: Micros, route: Option<Micros>) -> (LogMachine, Vec<Out>) {
+        let mut m = with_log_2(size);
         let mut out = Vec::new();
         m.set_route(now, route, &mut out);
         m.get(now, 2, None, false).unwrap();

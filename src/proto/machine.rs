@@ -13,6 +13,31 @@ use crate::link::LinkId;
 use crate::proto::ack::CommandAck;
 use crate::wire::Severity;
 
+/// `msg` from 1:1 at `now`, through our encoder and parser as a machine receives it: what `f`
+/// makes of it (for tests of the machines).
+#[cfg(test)]
+pub(crate) fn received<R>(now: Micros, msg: &MavMessage, f: impl FnOnce(&Incoming<'_>) -> R) -> R {
+    use crate::wire::{frame, FrameParser, Header, Version};
+    let h = Header {
+        sysid: 1,
+        compid: 1,
+        seq: 0,
+    };
+    let bytes = frame::encode(Version::V2, h, msg);
+    let parsed = FrameParser::new().parse_all(&bytes).remove(0);
+    let ack = CommandAck::from_frame(&parsed);
+    f(&Incoming {
+        now,
+        from: (1, 1),
+        link: 0,
+        profile: Default::default(),
+        id: parsed.msgid,
+        payload: parsed.payload(),
+        msg: parsed.message.as_ref(),
+        ack: ack.as_ref(),
+    })
+}
+
 /// What a link is, as far as asking for telemetry goes.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct LinkProfile {

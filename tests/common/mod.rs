@@ -317,6 +317,27 @@ pub fn wait(r: &mut mavterm::driver::virtual_time::VirtualRunner, secs: f64) {
     r.advance_to(t);
 }
 
+/// Run `r` until 1:1's parameters are all in (at most a minute of virtual time).
+pub fn downloaded(
+    mut r: mavterm::driver::virtual_time::VirtualRunner,
+) -> mavterm::driver::virtual_time::VirtualRunner {
+    for _ in 0..120 {
+        wait(&mut r, 0.5);
+        let done = r
+            .app
+            .sessions
+            .get(&mavterm::proto::vehicles::VehicleKey(1, 1))
+            .is_some_and(|s| {
+                s.params.downloading().is_none()
+                    && s.params.autopilot().is_some_and(|p| p.complete())
+            });
+        if done {
+            return r;
+        }
+    }
+    panic!("the download did not finish");
+}
+
 /// The frames the core sent in `fx`.
 pub fn sent_frames(fx: &[mavterm::app::Effect]) -> Vec<Vec<u8>> {
     fx.iter()
