@@ -697,11 +697,7 @@ fn stand_in_compass_accepted_then_rebooted() {
 fn accelerometer_placement_from_another_screen_says_cal_next() {
     let mut r = runner("uncal=1");
     start(&mut r, "accel");
-    let end = r.now() + 20 * SECOND;
-    while !matches!(run(&r).unwrap().phase, Phase::Position(_)) && r.now() < end {
-        wait(&mut r, 0.1);
-    }
-    assert_eq!(run(&r).unwrap().phase, Phase::Position(1));
+    until_phase(&mut r, Phase::Position(1), 20, 0.1);
     let bar = common::screen(&r, 200, 60);
     let bar = bar.lines().last().unwrap();
     assert!(
@@ -711,9 +707,5 @@ fn accelerometer_placement_from_another_screen_says_cal_next() {
         "{bar}"
     );
     command(&mut r, "cal next");
-    let end = r.now() + 10 * SECOND;
-    while !matches!(run(&r).unwrap().phase, Phase::Position(2)) && r.now() < end {
-        wait(&mut r, 0.1);
-    }
-    assert_eq!(run(&r).unwrap().phase, Phase::Position(2));
+    until_phase(&mut r, Phase::Position(2), 10, 0.1);
 }
