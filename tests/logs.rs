@@ -785,3 +785,42 @@ fn a_headless_run_whose_time_is_up_sends_log_request_end() {
     assert_eq!(c["ends"], 1, "LOG_REQUEST_END at the end of the run: {c}");
     assert_eq!(c["errors"], serde_json::json!([]), "{c}");
 }
+
+/// The list's columns line up whatever the zone's label: with `+05:30` (six characters) a row
+/// with a time and one without end their size at the same column, under the header's.
+#[test]
+fn the_list_lines_up_in_any_zone() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec: LinkSpec = "sim://".parse().unwrap();
+    let cfg = AppConfig {
+        logs_dir: Some(dir.path().to_path_buf()),
+        fetch_params: false,
+        zone: mavterm::clock::DisplayZone::fixed(
+            chrono::FixedOffset::east_opt(5 * 3600 + 1800).unwrap(),
+        ),
+        ..AppConfig::default()
+    };
+    let mut r = VirtualRunner::from_specs(&[spec], cfg).unwrap();
+    r.advance_to(3 * SECOND);
+    keys(&mut r, &["7"]);
+    wait(&mut r, 2.0);
+    let screen = common::screen(&r, 80, 24);
+    let end_of = |needle: &str| {
+        let line = screen
+            .lines()
+            .find(|l| l.contains(needle))
+            .unwrap_or_else(|| panic!("{needle}: {screen}"));
+        let at = line
+            .find(" kB")
+            .or_else(|| line.find("size").map(|i| i + 4 - 3));
+        line[..at.unwrap()].chars().count()
+    };
+    // The sim's logs: 3 newest with a time (+05:30 shows 00:30 the next day), 1 without.
+    assert!(screen.contains("2025-11-25 00:30:00 +05:30"), "{screen}");
+    assert_eq!(
+        end_of("2025-11-25 00:30:00 +05:30"),
+        end_of("(no time)"),
+        "{screen}"
+    );
+    assert_eq!(end_of("(no time)"), end_of("size"), "{screen}");
+}

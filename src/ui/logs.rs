@@ -98,18 +98,17 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
             theme.dim(),
         ));
     }
-    lines.push(Line::styled(
-        format!("{:>5}  {:<25} {:>10}  {}", "id", "time", "size", "here"),
-        theme.border(),
-    ));
     let rows = app.log_rows();
-    let room = (area.height as usize).saturating_sub(lines.len() + 2);
+    let room = (area.height as usize).saturating_sub(lines.len() + 3);
     let sel = app.ui.logs.sel.min(rows.len().saturating_sub(1));
     let first = sel.saturating_sub(room.saturating_sub(1));
-    for (i, e) in rows.iter().enumerate().skip(first).take(room) {
-        let time = if e.time_utc == 0 {
-            "(no time)".to_string()
-        } else {
+    let shown: Vec<_> = rows.iter().enumerate().skip(first).take(room).collect();
+    let times: Vec<String> = shown
+        .iter()
+        .map(|(_, e)| {
+            if e.time_utc == 0 {
+                return "(no time)".to_string();
+            }
             chrono::DateTime::from_timestamp(e.time_utc as i64, 0)
                 .map(|t| {
                     format!(
@@ -119,7 +118,20 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
                     )
                 })
                 .unwrap_or_default()
-        };
+        })
+        .collect();
+    // The time column as wide as its widest entry (the zone's label varies).
+    let tw = times
+        .iter()
+        .map(|t| super::fmt::width(t))
+        .max()
+        .unwrap_or(0)
+        .max(4);
+    lines.push(Line::styled(
+        format!("{:>5}  {:<tw$} {:>10}  {}", "id", "time", "size", "here"),
+        theme.border(),
+    ));
+    for ((i, e), time) in shown.into_iter().zip(times) {
         let here = match &s.logs.transfer {
             Some(t) if t.entry.id == e.id && t.active() => "downloading".to_string(),
             _ => match s.logs.history.iter().rev().find(|(h, _, _)| h.id == e.id) {
@@ -138,7 +150,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         };
         lines.push(Line::styled(
             format!(
-                "{mark}{:>4}  {time:<25} {:>10}  {here}",
+                "{mark}{:>4}  {time:<tw$} {:>10}  {here}",
                 e.id,
                 human_bytes(e.size as u64)
             ),
