@@ -393,8 +393,9 @@ impl Session {
         }
         // A SET_MESSAGE_INTERVAL's ACK is the stream machine's while one of its own waits,
         // else the command queue's.
-        let claimed = w & Dispatch::STREAMS != 0 && self.streams.claims(m);
-        if w & Dispatch::STREAMS != 0 {
+        let streams = w & Dispatch::STREAMS != 0 || self.streams.reads(m.link, m.id);
+        let claimed = streams && self.streams.claims(m);
+        if streams {
             Machine::on_message(&mut self.streams, m, &mut buf);
         }
         if w & Dispatch::FLIGHT != 0 {
@@ -1060,9 +1061,12 @@ mod tests {
         let attitude = crate::dialect::ATTITUDE_DATA::ID;
         assert_ne!(wants_in(&built, time) & TOY, 0);
         assert_eq!(wants_in(&built, attitude) & TOY, 0);
-        // The machines reading every message still get both; the session's own table is
-        // untouched by the toy.
-        assert_ne!(wants_in(&built, attitude) & Dispatch::STREAMS, 0);
+        // The session's own bits are unchanged by the toy: the stream machine takes
+        // heartbeats by the table (the messages it measures come by its own per-link check),
+        // and the session's own table is untouched.
+        let heartbeat = crate::dialect::HEARTBEAT_DATA::ID;
+        assert_ne!(wants_in(&built, heartbeat) & Dispatch::STREAMS, 0);
+        assert_eq!(wants_in(&built, attitude) & Dispatch::STREAMS, 0);
         assert_eq!(wants(time) & TOY, 0);
         assert_eq!(
             wants(crate::dialect::PARAM_VALUE_DATA::ID) & Dispatch::PARAMS,

@@ -28,10 +28,16 @@ pub struct CommandAck {
 
 impl CommandAck {
     /// Read a COMMAND_ACK from a frame (decoded by the dialect or not). `None` for other ids.
+    #[inline]
     pub fn from_frame(frame: &Frame) -> Option<CommandAck> {
         if frame.msgid != MSG_ID {
             return None;
         }
+        Self::read(frame)
+    }
+
+    #[inline(never)]
+    fn read(frame: &Frame) -> Option<CommandAck> {
         // Wire order: command u16, result u8, progress u8, result_param2 i32, target_system u8,
         // target_component u8 (MAVLink 2 drops trailing zeros: they read as zero).
         let p = crate::wire::payload::Payload(frame.payload());

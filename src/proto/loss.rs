@@ -96,6 +96,17 @@ pub struct SeqTracker {
     pub restarts: u64,
     window: [Bucket; WINDOW_SECS as usize],
     rate: [RateBucket; RATE_SECS as usize],
+    /// The second of the last advance, once its window and rate buckets are set: the next
+    /// frame in order within that second is counted without dividing time again.
+    same_second: Option<SameSecond>,
+}
+
+/// Where the counts of the second of the last advance go.
+#[derive(Debug, Clone, Copy)]
+struct SameSecond {
+    start: Micros,
+    window: usize,
+    rate: usize,
 }
 
 impl Default for SeqTracker {
@@ -114,6 +125,7 @@ impl Default for SeqTracker {
             restarts: 0,
             window: [Bucket::default(); WINDOW_SECS as usize],
             rate: [RateBucket::default(); RATE_SECS as usize],
+            same_second: None,
         }
     }
 }
@@ -158,6 +170,7 @@ impl SeqTracker {
         self.last_advance = now;
         self.count_start = now;
         self.rate = [RateBucket::default(); RATE_SECS as usize];
+        self.same_second = None;
         self.received += 1;
         self.bucket(now).received += 1;
     }
@@ -181,6 +194,13 @@ impl SeqTracker {
         let b = self.bucket(now);
         b.received += 1;
         b.lost += gap as i64;
+        let sec = now / SECOND;
+        self.rate_bucket(sec);
+        self.same_second = Some(SameSecond {
+            start: sec * SECOND,
+            window: (sec % WINDOW_SECS) as usize,
+            rate: (sec % RATE_SECS) as usize,
+        });
         if gap == 0 {
             SeqOutcome::InOrder
         } else {
@@ -274,6 +294,20 @@ impl SeqTracker {
         if self.last.is_some_and(|last| seq == last.wrapping_add(1)) {
             // The next frame, the usual case: what the rules below come to for `d == 1`.
             self.last_time = now;
+            if let Some(same) = self
+                .same_second
+                .filter(|s| now >= s.start && now - s.start < SECOND)
+            {
+                // In the second of the last advance: `advance(seq, 1, now)` with its buckets
+                // already found.
+                self.set_seen(seq, true);
+                self.last = Some(seq);
+                self.rate[same.rate].steps += 1.0;
+                self.last_advance = now;
+                self.received += 1;
+                self.window[same.window].received += 1;
+                return SeqOutcome::InOrder;
+            }
             return self.advance(seq, 1, now);
         }
         self.record_other(seq, now)

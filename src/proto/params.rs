@@ -187,44 +187,51 @@ impl ParamSet {
         v: f64,
         download: bool,
     ) -> Option<f64> {
-        if let Some(i) = index {
-            let i = i as usize;
-            if i >= self.names.len() {
-                return None;
-            }
-            match &self.names[i] {
-                Some(old) if old == name => {}
-                Some(old) => {
-                    // Another name at this index (the set changed): the old one is gone.
-                    let old = old.clone();
-                    self.params.remove(&old);
-                    self.names[i] = Some(name.to_string());
-                }
-                None => {
-                    self.names[i] = Some(name.to_string());
-                    self.received += 1;
-                }
-            }
+        if !self.note_index(name, index) {
+            return None;
         }
-        let apply = |p: &mut Param| {
-            let before = p.value;
-            let had = p.fetched.is_some() || p.edit.is_some() || index.is_none();
-            p.value = v;
-            p.ptype = ptype;
-            p.raw = raw;
-            if index.is_some() {
-                p.index = index;
-            }
-            if download && p.fetched.is_none() {
-                p.fetched = Some(v);
-            }
-            had.then_some(before)
-        };
         // A name heard before (every value after the first) is found without making a String.
-        if let Some(p) = self.params.get_mut(name) {
-            return apply(p);
+        let p = match self.params.get_mut(name) {
+            Some(p) => p,
+            None => self
+                .params
+                .entry(name.to_string())
+                .or_insert(Param::heard(ptype, raw, index, v)),
+        };
+        p.apply(index, ptype, raw, v, download)
+    }
+
+    /// `name` heard at `index`: the index taken (another name there before is gone). False when
+    /// the index is beyond the count (nothing is recorded then).
+    fn note_index(&mut self, name: &str, index: Option<u16>) -> bool {
+        let Some(i) = index else {
+            return true;
+        };
+        let i = i as usize;
+        if i >= self.names.len() {
+            return false;
         }
-        let p = self.params.entry(name.to_string()).or_insert(Param {
+        match &self.names[i] {
+            Some(old) if old == name => {}
+            Some(old) => {
+                // Another name at this index (the set changed): the old one is gone.
+                let old = old.clone();
+                self.params.remove(&old);
+                self.names[i] = Some(name.to_string());
+            }
+            None => {
+                self.names[i] = Some(name.to_string());
+                self.received += 1;
+            }
+        }
+        true
+    }
+}
+
+impl Param {
+    /// A parameter first heard with this value.
+    fn heard(ptype: ParamType, raw: Option<f32>, index: Option<u16>, v: f64) -> Param {
+        Param {
             value: v,
             ptype,
             raw,
@@ -232,8 +239,30 @@ impl ParamSet {
             fetched: None,
             default: None,
             edit: None,
-        });
-        apply(p)
+        }
+    }
+
+    /// Take a value heard (at `index`, or by name only); the value it had, if it had one.
+    fn apply(
+        &mut self,
+        index: Option<u16>,
+        ptype: ParamType,
+        raw: Option<f32>,
+        v: f64,
+        download: bool,
+    ) -> Option<f64> {
+        let before = self.value;
+        let had = self.fetched.is_some() || self.edit.is_some() || index.is_none();
+        self.value = v;
+        self.ptype = ptype;
+        self.raw = raw;
+        if index.is_some() {
+            self.index = index;
+        }
+        if download && self.fetched.is_none() {
+            self.fetched = Some(v);
+        }
+        had.then_some(before)
     }
 }
 
@@ -363,33 +392,34 @@ pub enum ParamOut {
 
 /// A PARAM_VALUE read from its payload (so a type code newer than the dialect still reads).
 #[derive(Debug, Clone, PartialEq)]
-pub struct ParamValueMsg {
+pub struct ParamValueMsg<'a> {
     pub raw: f32,
     pub count: u16,
     pub index: u16,
-    pub name: String,
+    /// Borrowed from the payload (a parameter name is printable ASCII); escaped when refused.
+    pub name: std::borrow::Cow<'a, str>,
     pub type_code: u8,
     /// The name is not a parameter name: `name` shows its bytes escaped.
     pub refused: bool,
 }
 
-impl ParamValueMsg {
+impl<'a> ParamValueMsg<'a> {
     /// Wire order: param_value f32, param_count u16, param_index u16, param_id char[16],
     /// param_type u8; MAVLink 2 may have cut trailing zeros. A name that is not a parameter
     /// name ([`crate::wire::param_pck::name_ok`]) is still read, `refused`, its bytes escaped
     /// in `name` for the operator.
-    pub fn parse(payload: &[u8]) -> Option<ParamValueMsg> {
+    pub fn parse(payload: &'a [u8]) -> Option<ParamValueMsg<'a>> {
         let mut p = [0u8; 25];
         let n = payload.len().min(25);
         p[..n].copy_from_slice(&payload[..n]);
-        let id = &p[8..24];
-        let len = id.iter().position(|&b| b == 0).unwrap_or(16);
-        let refused = !crate::wire::param_pck::name_ok(&id[..len]);
-        let name = if refused {
-            escaped(&id[..len])
-        } else {
-            String::from_utf8_lossy(&id[..len]).into_owned()
+        // The name's bytes as sent (MAVLink 2 may have cut its trailing zeros).
+        let id = payload.get(8..payload.len().min(24)).unwrap_or(&[]);
+        let id = &id[..id.iter().position(|&b| b == 0).unwrap_or(id.len())];
+        let name = match std::str::from_utf8(id) {
+            Ok(name) if crate::wire::param_pck::name_ok(id) => std::borrow::Cow::Borrowed(name),
+            _ => std::borrow::Cow::Owned(escaped(id)),
         };
+        let refused = matches!(name, std::borrow::Cow::Owned(_));
         Some(ParamValueMsg {
             raw: Payload(&p).f32(0),
             count: Payload(&p).u16(4),
@@ -959,7 +989,7 @@ impl ParamMachine {
             .filter(|d| d.comp == from && matches!(d.phase, Phase::Ftp(_)) && !m.refused)
         {
             if d.heard.len() < MAX_HEARD {
-                d.heard.push((m.name.clone(), ptype, m.raw, v));
+                d.heard.push((m.name.to_string(), ptype, m.raw, v));
             }
         }
         let set = self.sets.entry(from).or_default();
@@ -1009,9 +1039,21 @@ impl ParamMachine {
             out.extend(self.after_value(now, from, index, new_index));
             return out;
         }
-        let before = set.record(&m.name, index, ptype, Some(m.raw), v, downloading);
-        let Some(p) = set.params.get_mut(&m.name) else {
-            return out;
+        // Recorded, and the parameter found for what follows, in one lookup.
+        let recorded = set.note_index(&m.name, index);
+        let (before, p) = match set.params.get_mut(m.name.as_ref()) {
+            Some(p) if recorded => (p.apply(index, ptype, Some(m.raw), v, downloading), p),
+            Some(p) => (None, p),
+            None if recorded => {
+                let p = set.params.entry(m.name.to_string()).or_insert(Param::heard(
+                    ptype,
+                    Some(m.raw),
+                    index,
+                    v,
+                ));
+                (p.apply(index, ptype, Some(m.raw), v, downloading), p)
+            }
+            None => return out,
         };
         // An edit waiting for its echo.
         let mut resend = None;
@@ -1035,7 +1077,7 @@ impl ParamMachine {
                 }
                 out.push(ParamOut::Set {
                     comp: from,
-                    name: m.name.clone(),
+                    name: m.name.to_string(),
                     confirmed: true,
                     notice: (
                         Severity::INFO,
@@ -1061,7 +1103,7 @@ impl ParamMachine {
                 };
                 out.push(ParamOut::Set {
                     comp: from,
-                    name: m.name.clone(),
+                    name: m.name.to_string(),
                     confirmed: false,
                     notice: (
                         Severity::ERROR,
@@ -1676,9 +1718,10 @@ mod tests {
 
     #[test]
     fn parse_reads_a_cut_payload() {
-        let m = ParamValueMsg::parse(&pv("ABC", 0.0, 9, 5, 0)).unwrap();
+        let payload = pv("ABC", 0.0, 9, 5, 0);
+        let m = ParamValueMsg::parse(&payload).unwrap();
         assert_eq!(
-            (m.name.as_str(), m.count, m.index, m.type_code),
+            (m.name.as_ref(), m.count, m.index, m.type_code),
             ("ABC", 5, 0, 9)
         );
         // No name at all is refused, not dropped.

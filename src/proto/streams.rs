@@ -570,12 +570,31 @@ struct LinkStreams {
     quiet_since: Option<Micros>,
     items: Vec<Item>,
     watch: Vec<Watch>,
+    /// For each id below 512, its place in `watch` plus one (0: not watched); the ids above
+    /// are looked for in `watch`.
+    watch_at: [u8; 512],
     /// SET_MESSAGE_INTERVALs waiting their turn: (item, message).
     queue: VecDeque<(usize, u32)>,
     /// Requests sent on this link, all told.
     requests: u32,
     /// The fitted rates' expected bytes per second, and the link's budget.
     load: (f64, Option<f64>),
+}
+
+impl LinkStreams {
+    /// Where message `id` is in `watch`, if it is watched.
+    #[inline]
+    fn watched(&self, id: u32) -> Option<usize> {
+        match self.watch_at.get(id as usize) {
+            Some(0) => None,
+            Some(&at)
+                if (at as usize) <= self.watch.len() && self.watch[at as usize - 1].msgid == id =>
+            {
+                Some(at as usize - 1)
+            }
+            _ => self.watch.iter().position(|w| w.msgid == id),
+        }
+    }
 }
 
 /// The one SET_MESSAGE_INTERVAL waiting for its ACK.
@@ -729,6 +748,7 @@ impl StreamMachine {
                 quiet_since: None,
                 items: Vec::new(),
                 watch: Vec::new(),
+                watch_at: [0; 512],
                 queue: VecDeque::new(),
                 requests: 0,
                 load: (0.0, None),
@@ -759,9 +779,21 @@ impl StreamMachine {
                     entry.due = true;
                 }
             }
-        } else if let Some(w) = entry.watch.iter_mut().find(|w| w.msgid == id) {
+        } else if let Some(w) = entry.watched(id) {
+            let w = &mut entry.watch[w];
             w.meter.push(now);
             entry.quiet_since = None;
+        }
+    }
+
+    /// Whether message `id` on `link` is one this machine reads: a heartbeat or an ACK (in
+    /// [`Machine::IDS`]), a message whose arrivals it measures on that link, or any message of
+    /// a link it has not heard yet. The rest pass it by.
+    #[inline]
+    pub fn reads(&self, link: usize, id: u32) -> bool {
+        match self.links.get(&link) {
+            None => true,
+            Some(s) => s.watched(id).is_some(),
         }
     }
 
@@ -1074,6 +1106,14 @@ impl StreamMachine {
                         });
                     }
                 }
+                s.watch_at = [0; 512];
+                for (i, w) in s.watch.iter().enumerate() {
+                    if let (Some(at), Ok(i)) =
+                        (s.watch_at.get_mut(w.msgid as usize), u8::try_from(i + 1))
+                    {
+                        *at = i;
+                    }
+                }
                 s.items = items;
                 for i in 0..self.links[&link].items.len() {
                     self.ask(link, i);
@@ -1287,8 +1327,12 @@ impl StreamMachine {
 }
 
 impl Machine for StreamMachine {
-    /// Every message: arrivals are counted against the rates asked.
-    const IDS: Ids = Ids::All;
+    /// Heartbeats and ACKs; the messages whose arrivals are counted against the rates asked
+    /// come by [`StreamMachine::reads`], per link.
+    const IDS: Ids = Ids::Only(&[
+        <dialect::HEARTBEAT_DATA as mavlink::MessageData>::ID,
+        <dialect::COMMAND_ACK_DATA as mavlink::MessageData>::ID,
+    ]);
 
     /// Every message; a COMMAND_ACK of MAV_CMD_SET_MESSAGE_INTERVAL while one of its own waits
     /// is its answer (see [`Machine::claims`]).

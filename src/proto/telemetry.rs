@@ -46,6 +46,7 @@ pub mod id {
     pub const EXTENDED_SYS_STATE: u32 = crate::dialect::EXTENDED_SYS_STATE_DATA::ID;
     pub const VIBRATION: u32 = crate::dialect::VIBRATION_DATA::ID;
     pub const RADIO_STATUS: u32 = crate::dialect::RADIO_STATUS_DATA::ID;
+    pub const HEARTBEAT: u32 = crate::dialect::HEARTBEAT_DATA::ID;
 }
 
 /// MAV_SYS_STATUS_PREARM_CHECK in SYS_STATUS's sensor bits.
@@ -730,8 +731,21 @@ fn battery_status_from_payload(payload: &[u8]) -> (u8, Battery) {
 }
 
 impl crate::proto::machine::Machine for FlightTelemetry {
-    /// Every message of the autopilot: the first one heard starts the HOME_POSITION requests.
-    const IDS: crate::proto::machine::Ids = crate::proto::machine::Ids::All;
+    /// The messages it reads, and the heartbeat: the first one heard starts the HOME_POSITION
+    /// requests.
+    const IDS: crate::proto::machine::Ids = crate::proto::machine::Ids::Only(&[
+        id::HEARTBEAT,
+        id::EXTENDED_SYS_STATE,
+        id::GLOBAL_POSITION_INT,
+        id::VFR_HUD,
+        id::VIBRATION,
+        id::RADIO_STATUS,
+        id::SYS_STATUS,
+        id::BATTERY_STATUS,
+        id::GPS_RAW_INT,
+        id::EKF_STATUS_REPORT,
+        id::HOME_POSITION,
+    ]);
 
     fn on_message(&mut self, m: &crate::proto::machine::Incoming, _: &mut Vec<Out>) {
         FlightTelemetry::on_message(self, m.now, m.id, m.msg, m.payload);
