@@ -59,6 +59,25 @@ def rss_kb(pid):
     return 0
 
 
+def memory(pid):
+    """RSS split: anonymous (heap, stacks) and file-backed (the binary's pages, libraries), kB;
+    and the thread count."""
+    out = {}
+    try:
+        with open(f"/proc/{pid}/smaps_rollup") as f:
+            for line in f:
+                k, _, v = line.partition(":")
+                if k in ("Rss", "Anonymous", "Shared_Clean", "Private_Clean"):
+                    out[k] = int(v.split()[0])
+        with open(f"/proc/{pid}/status") as f:
+            for line in f:
+                if line.startswith("Threads:"):
+                    out["threads"] = int(line.split()[1])
+    except OSError:
+        pass
+    return out
+
+
 def wait_port(port, timeout=10.0):
     end = time.time() + timeout
     while time.time() < end:
@@ -147,6 +166,7 @@ def run(binary, n, args):
             peak = max(peak, rss_kb(pid))
         c1, s1, t1 = cpu_ticks(pid), cpu_ticks(sim.pid), time.time()
         rss = rss_kb(pid)
+        mem = memory(pid)
         key = key_ms(b"?", b" Keys ") if key_ms else None
         return {
             "key_ms": key,
@@ -155,6 +175,9 @@ def run(binary, n, args):
             "rss_mb": rss / 1024.0,
             "peak_mb": peak / 1024.0,
             "sim_cpu_pct": 100.0 * (s1 - s0) / TICK / (t1 - t0),
+            "anon_mb": mem.get("Anonymous", 0) / 1024.0,
+            "file_mb": (mem.get("Rss", 0) - mem.get("Anonymous", 0)) / 1024.0,
+            "threads": mem.get("threads", 0),
         }
     finally:
         for p in [locals().get("pid")]:
@@ -185,12 +208,13 @@ def main():
                     default=(200, 60))
     args = ap.parse_args()
     print(f"{'vehicles':>8} {'cpu %':>7} {'rss MB':>7} {'peak MB':>8} {'sim cpu %':>9} "
-          f"{'key ms':>7}")
+          f"{'key ms':>7} {'anon MB':>7} {'file MB':>7} {'threads':>7}")
     for n in args.counts:
         r = run(args.binary, n, args)
         key = "-" if r["key_ms"] is None else f"{r['key_ms']:.0f}"
         print(f"{r['vehicles']:>8} {r['cpu_pct']:>7.2f} {r['rss_mb']:>7.1f} "
-              f"{r['peak_mb']:>8.1f} {r['sim_cpu_pct']:>9.2f} {key:>7}", flush=True)
+              f"{r['peak_mb']:>8.1f} {r['sim_cpu_pct']:>9.2f} {key:>7} "
+              f"{r['anon_mb']:>7.1f} {r['file_mb']:>7.1f} {r['threads']:>7}", flush=True)
 
 
 if __name__ == "__main__":
