@@ -17,9 +17,24 @@ use ratatui::symbols::border;
 use ratatui::text::{Line, Span, Text};
 use ratatui::widgets::{Block, BorderType, Borders, Paragraph, Widget};
 
-/// Whether every character of `s` is printable ASCII: one cell each, as its own grapheme.
-fn plain(s: &str) -> bool {
-    s.bytes().all(|b| (b' '..=b'~').contains(&b))
+/// Characters other than printable ASCII drawn straight: each its own grapheme (none of them
+/// joins a neighbour into a cluster) one column wide, as ratatui measures them.
+const SIMPLE: [char; 8] = ['…', '»', '└', '·', '↓', '↑', '─', '━'];
+
+/// Whether every character of `s` is printable ASCII or one of [`SIMPLE`]: one cell each, as
+/// its own grapheme. The count of those cells, if so.
+fn plain(s: &str) -> Option<usize> {
+    if s.bytes().all(|b| (b' '..=b'~').contains(&b)) {
+        return Some(s.len());
+    }
+    let mut n = 0;
+    for c in s.chars() {
+        if !(' '..='~').contains(&c) && !SIMPLE.contains(&c) {
+            return None;
+        }
+        n += 1;
+    }
+    Some(n)
 }
 
 /// Index into `buf.content` of `(x, y)`, inside `buf.area`.
@@ -44,16 +59,26 @@ pub fn patch(buf: &mut Buffer, area: Rect, style: Style) {
     }
 }
 
-/// Write the printable ASCII `s` from `(x, y)` (inside the buffer) in at most `max` cells, each
-/// cell's style patched with `style`. Returns the cells written.
-fn put(buf: &mut Buffer, x: u16, y: u16, max: u16, s: &str, style: Style) -> u16 {
-    let n = s.len().min(max as usize);
+/// Write `s`, [`plain`] text of `n` characters, from `(x, y)` (inside the buffer) in at most
+/// `max` cells, each cell's style patched with `style`. Returns the cells written.
+fn put(buf: &mut Buffer, x: u16, y: u16, max: u16, (s, n): (&str, usize), style: Style) -> u16 {
+    let n = n.min(max as usize);
     let i = index(buf, x, y);
-    let plain_style = style == Style::default();
-    for (c, b) in buf.content[i..i + n].iter_mut().zip(s.bytes()) {
-        c.set_char(b as char);
-        if !plain_style {
-            c.set_style(style);
+    let cells = &mut buf.content[i..i + n];
+    let patch = style != Style::default();
+    if s.len() == n || s.is_ascii() {
+        for (c, b) in cells.iter_mut().zip(s.bytes()) {
+            c.set_char(b as char);
+            if patch {
+                c.set_style(style);
+            }
+        }
+    } else {
+        for (c, ch) in cells.iter_mut().zip(s.chars()) {
+            c.set_char(ch);
+            if patch {
+                c.set_style(style);
+            }
         }
     }
     n as u16
@@ -66,8 +91,8 @@ pub fn span(buf: &mut Buffer, area: Rect, s: &str, style: Style) {
     if clip.is_empty() {
         return;
     }
-    if plain(s) {
-        put(buf, clip.x, clip.y, clip.width, s, style);
+    if let Some(n) = plain(s) {
+        put(buf, clip.x, clip.y, clip.width, (s, n), style);
     } else {
         Line::from(Span::styled(s, style)).render(area, buf);
     }
@@ -76,7 +101,7 @@ pub fn span(buf: &mut Buffer, area: Rect, s: &str, style: Style) {
 /// `s` in the first row of `area` as ratatui renders a table cell made from a string
 /// (`Text::raw`).
 pub fn raw(buf: &mut Buffer, area: Rect, s: &str) {
-    if plain(s) {
+    if plain(s).is_some() {
         span(buf, area, s, Style::default());
     } else {
         Text::raw(s).render(Rect { height: 1, ..area }, buf);
@@ -90,13 +115,14 @@ pub fn line(buf: &mut Buffer, area: Rect, spans: &[(&str, Style)]) {
     if area.is_empty() {
         return;
     }
-    if spans.iter().all(|(s, _)| plain(s)) {
+    if spans.iter().all(|(s, _)| plain(s).is_some()) {
         let (mut x, end) = (area.x, area.right());
         for (s, style) in spans {
             if x >= end {
                 break;
             }
-            x += put(buf, x, area.y, end - x, s, *style);
+            let n = plain(s).unwrap_or(0);
+            x += put(buf, x, area.y, end - x, (s, n), *style);
         }
     } else {
         let line = Line::from(
@@ -137,17 +163,10 @@ pub struct Table {
 impl Table {
     /// A table in `area` with columns of `widths`, `spacing` apart.
     pub fn new(area: Rect, widths: &[Constraint], spacing: u16) -> Self {
-        // As `Table::get_column_widths` lays them out, with no selection column.
-        let [_, columns] = Layout::horizontal([Constraint::Length(0), Constraint::Fill(0)])
-            .areas(Rect::new(0, 0, area.width, 1));
-        let cols = Layout::horizontal(widths.iter().copied())
-            .flex(Flex::Start)
-            .spacing(spacing)
-            .split(columns)
-            .iter()
-            .map(|r| (r.x, r.width))
-            .collect();
-        Table { area, cols }
+        Table {
+            area,
+            cols: columns(area.width, widths, spacing),
+        }
     }
 
     /// Whether the table draws anything at all.
@@ -259,6 +278,42 @@ impl Table {
     }
 }
 
+/// Each column's x and width, as `Table::get_column_widths` lays them out with no selection
+/// column: columns of fixed lengths that all fit simply follow each other; anything else is
+/// left to ratatui's layout.
+fn columns(width: u16, widths: &[Constraint], spacing: u16) -> Vec<(u16, u16)> {
+    let lengths: Option<Vec<u16>> = widths
+        .iter()
+        .map(|c| match c {
+            Constraint::Length(n) => Some(*n),
+            _ => None,
+        })
+        .collect();
+    if let Some(lengths) = lengths {
+        let gaps = lengths.len().saturating_sub(1) * spacing as usize;
+        if lengths.iter().map(|&n| n as usize).sum::<usize>() + gaps <= width as usize {
+            let mut x = 0;
+            return lengths
+                .into_iter()
+                .map(|n| {
+                    let col = (x, n);
+                    x += n + spacing;
+                    col
+                })
+                .collect();
+        }
+    }
+    let [_, area] = Layout::horizontal([Constraint::Length(0), Constraint::Fill(0)])
+        .areas(Rect::new(0, 0, width, 1));
+    Layout::horizontal(widths.iter().copied())
+        .flex(Flex::Start)
+        .spacing(spacing)
+        .split(area)
+        .iter()
+        .map(|r| (r.x, r.width))
+        .collect()
+}
+
 /// A pane's bordered block (all borders, plain or thick), its title at the top left styled like
 /// its border, and an unstyled one at the bottom left: what ratatui's `Block` draws, without
 /// setting a style over the whole area.
@@ -347,11 +402,7 @@ impl PaneBlock {
             ),
         ];
         for (y, t, style) in titles {
-            let tw = if plain(t) {
-                t.len()
-            } else {
-                Line::from(Span::styled(t, style)).width()
-            };
+            let tw = plain(t).unwrap_or_else(|| Line::from(Span::styled(t, style)).width());
             let room = area.width - 2;
             let at = Rect::new(area.x + 1, y, (tw.min(room as usize)) as u16, 1);
             span(buf, at, t, style);
@@ -395,6 +446,7 @@ mod tests {
             ("3:1", "ARMED", "plain text longer than its column for sure"),
             ("4:1", "", "tab\there"),
             ("5:1", "x", ""),
+            ("6:1", "AR…", "   └ 1:1 » ·↓↑─━ and then some more"),
         ];
         let row_style = |i: usize| match i % 3 {
             0 => Style::default(),
@@ -460,10 +512,45 @@ mod tests {
     }
 
     #[test]
+    fn columns_are_where_ratatuis_layout_puts_them() {
+        let layout = |width: u16, widths: &[Constraint], spacing: u16| -> Vec<(u16, u16)> {
+            let [_, area] = Layout::horizontal([Constraint::Length(0), Constraint::Fill(0)])
+                .areas(Rect::new(0, 0, width, 1));
+            Layout::horizontal(widths.iter().copied())
+                .flex(Flex::Start)
+                .spacing(spacing)
+                .split(area)
+                .iter()
+                .map(|r| (r.x, r.width))
+                .collect()
+        };
+        let sets: [&[u16]; 6] = [
+            &[1, 3, 8, 12, 5, 7, 4, 11, 20],
+            &[16, 10, 5, 6, 7, 6, 4, 7, 5, 4, 5],
+            &[0, 4, 0, 9],
+            &[30],
+            &[],
+            &[2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2],
+        ];
+        for set in sets {
+            let widths: Vec<Constraint> = set.iter().map(|&n| Constraint::Length(n)).collect();
+            for spacing in [0, 1, 2, 3] {
+                for width in 0..140 {
+                    assert_eq!(
+                        columns(width, &widths, spacing),
+                        layout(width, &widths, spacing),
+                        "{set:?} spacing {spacing} width {width}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
     fn lines_draw_what_a_paragraph_draws() {
         let dim = Style::default().fg(Color::DarkGray);
         let red = Style::default().fg(Color::Red).add_modifier(Modifier::BOLD);
-        let cases: [&[(&str, Style)]; 4] = [
+        let cases: [&[(&str, Style)]; 5] = [
             &[
                 ("12:00:01", dim),
                 (" ", Style::default()),
@@ -481,6 +568,7 @@ mod tests {
                 ("日本語日本語日本語日本語日本語日本語", red),
             ],
             &[("", dim)],
+            &[("» 1 tcp:5760 ·", dim), (" ↓ └ ─━ ↑ cut…", red), ("…", red)],
         ];
         for spans in cases {
             for w in [5u16, 20, 40, 80] {
