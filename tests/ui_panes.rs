@@ -696,3 +696,97 @@ fn help_footer_names_the_scroll_keys_and_any_other_key_closes() {
         assert_eq!(d.app.ui.screen, "overview", "{k}");
     }
 }
+
+/// Where `needle` starts on screen: (column, row) of its first character.
+fn find(buf: &ratatui::buffer::Buffer, needle: &str) -> (u16, u16) {
+    for y in 0..buf.area.height {
+        let row: Vec<char> = (0..buf.area.width)
+            .map(|x| buf[(x, y)].symbol().chars().next().unwrap_or(' '))
+            .collect();
+        let want: Vec<char> = needle.chars().collect();
+        if let Some(x) = row.windows(want.len()).position(|w| w == want.as_slice()) {
+            return (x as u16, y);
+        }
+    }
+    panic!("{needle:?} not on screen");
+}
+
+/// The panes' colours and attributes, cell by cell: headers, the selected row's highlight over
+/// the whole row, row styles (the target in bold, a lost vehicle and a link's sources dimmed),
+/// cell styles (ARMED, a link's state, a message's severity) and the focused pane's border.
+#[test]
+fn panes_keep_their_styles() {
+    use ratatui::style::{Color, Modifier};
+    let mut d = common::scene();
+    d.app.ui.focus = Pane::Vehicles;
+    d.app.ui.vehicle_sel = 0;
+    let theme = Theme::default();
+    let buf = ui::render_to_buffer(&d.app, 100, 40, &theme);
+    let at = |needle: &str| {
+        let (x, y) = find(&buf, needle);
+        buf[(x, y)].clone()
+    };
+    let fg_mod = |c: &ratatui::buffer::Cell| (c.fg, c.modifier);
+
+    // Vehicles, focused: a thick cyan border, a bold yellow header.
+    let (bx, by) = find(&buf, "┏ *Vehicles");
+    assert_eq!(fg_mod(&buf[(bx, by)]), (Color::Cyan, Modifier::BOLD));
+    let head = at("TYPE");
+    assert_eq!(fg_mod(&head), (Color::Yellow, Modifier::BOLD));
+    // The selected row (the target, armed): reversed from edge to edge inside the border, in
+    // bold; ARMED red on top.
+    let (_, sel_y) = find(&buf, "> 1:1");
+    for x in bx + 1..bx + 99 {
+        let c = &buf[(x, sel_y)];
+        assert!(
+            c.modifier.contains(Modifier::REVERSED | Modifier::BOLD),
+            "{x}: {c:?}"
+        );
+    }
+    assert!(!buf[(bx, sel_y)].modifier.contains(Modifier::REVERSED));
+    let armed = at("ARMED ");
+    assert_eq!(armed.fg, Color::Yellow, "the header's ARMED comes first");
+    let (ax, _) = find(&buf, "ARMED ");
+    let armed_row = &buf[(ax, sel_y)];
+    assert_eq!(armed_row.symbol(), "A");
+    assert_eq!(armed_row.fg, Color::Red);
+    assert!(armed_row
+        .modifier
+        .contains(Modifier::REVERSED | Modifier::BOLD));
+    // A lost vehicle's row is dim, not highlighted.
+    let (lx, ly) = find(&buf, "lost 13s");
+    assert_eq!(fg_mod(&buf[(lx, ly)]), (Color::DarkGray, Modifier::empty()));
+    assert_eq!(buf[(bx + 1, ly)].fg, Color::DarkGray);
+
+    // Links, not focused: a plain grey border, no highlight, a source row dimmed, a link up in
+    // green, down in bold red.
+    let (lbx, lby) = find(&buf, "┌ Links");
+    assert_eq!(
+        fg_mod(&buf[(lbx, lby)]),
+        (Color::DarkGray, Modifier::empty())
+    );
+    assert_eq!(fg_mod(&at("STATE")), (Color::Yellow, Modifier::BOLD));
+    let (sx, sy) = find(&buf, "└ 1:154");
+    assert_eq!(buf[(sx, sy)].fg, Color::DarkGray);
+    assert_eq!(buf[(lbx + 1, sy)].fg, Color::DarkGray);
+    assert_eq!(fg_mod(&at("up ")), (Color::Green, Modifier::empty()));
+    assert_eq!(fg_mod(&at("down: ")), (Color::Red, Modifier::BOLD));
+    let (_, link0) = find(&buf, "-0 udpin");
+    assert!(!buf[(lbx + 1, link0)].modifier.contains(Modifier::REVERSED));
+
+    // Messages: the time dim, the severity's colour on its label and text, ours in light blue.
+    let (px, py) = find(&buf, "CRIT   1:1     PreArm");
+    assert_eq!(fg_mod(&buf[(px, py)]), (Color::Magenta, Modifier::BOLD));
+    assert_eq!(buf[(px - 2, py)].fg, Color::DarkGray);
+    assert_eq!(
+        buf[(px + 6, py)].fg,
+        Color::Reset,
+        "the space between is unstyled"
+    );
+    let (tx, _) = find(&buf, "PreArm");
+    assert_eq!(fg_mod(&buf[(tx, py)]), (Color::Magenta, Modifier::BOLD));
+    assert_eq!(
+        fg_mod(&at("mavterm link")),
+        (Color::LightBlue, Modifier::empty())
+    );
+}

@@ -4,17 +4,18 @@
 //! timestamps from the future, rejected) when we sign or the source does. Below them, the forwarding outputs (`--out`), when
 //! there are any: state, frames sent to the ground station there, frames it sent, frames dropped.
 
+use ratatui::buffer::Buffer;
 use ratatui::layout::{Constraint, Rect};
 use ratatui::style::Style;
 use ratatui::text::{Line, Span};
-use ratatui::widgets::{Cell, Paragraph, Row, Table, TableState};
 use ratatui::Frame;
 
-use super::{ellipsize, fmt, pane_block, selected_style, Theme};
-use crate::app::links::{loss_pct, LinkState, LinkStatus};
+use super::{ellipsize, fast, fmt, pane_block, selected_style, Theme};
+use crate::app::links::{loss_pct, LinkState, LinkStatus, SourceStats};
 use crate::app::signing::SigningCounts;
 use crate::app::{App, Pane};
 use crate::link::LinkSpec;
+use crate::proto::vehicles::VehicleKey;
 
 /// The signing line under a source row: `signing: signed 120 · unsigned 5 · bad sig 3 ·
 /// replayed 1 · future 1 · rejected 10` with a key (the `signing:` label when `width` has room
@@ -115,26 +116,22 @@ fn pct(p: f64) -> String {
 /// Widths of the numeric columns, in order.
 type Widths = [u16; 9];
 
+/// A table cell: its text, and its style when it is a styled `Span` (else plain text).
+type Cell = (String, Option<Style>);
+
 /// The counter cells shared by link and source rows: CRC, RX, LOST, DUP, REO.
-fn counts<'a>(
-    w: &Widths,
-    crc: Cell<'a>,
-    rx: u64,
-    lost: u64,
-    dup: u64,
-    reord: u64,
-) -> [Cell<'a>; 5] {
-    let n = |v: u64, i: usize| Cell::from(fmt::count(v, w[i] as usize));
+fn counts(w: &Widths, crc: Cell, rx: u64, lost: u64, dup: u64, reord: u64) -> [Cell; 5] {
+    let n = |v: u64, i: usize| (fmt::count(v, w[i] as usize), None);
     [crc, n(rx, 5), n(lost, 6), n(dup, 7), n(reord, 8)]
 }
 
-fn link_row<'a>(
+fn link_row(
     l: &LinkStatus,
     now: u64,
     theme: &Theme,
     (name, name_w, state_w): (&str, usize, usize),
     w: &Widths,
-) -> Vec<Cell<'a>> {
+) -> Vec<Cell> {
     let (fps, bps) = l.rate.rates(now);
     let (dup, reord) = l.sources.values().fold((0, 0), |(d, r), s| {
         (d + s.seq.duplicates, r + s.seq.reordered)
@@ -145,20 +142,20 @@ fn link_row<'a>(
     } else {
         Style::default()
     };
-    let crc = Cell::from(Span::styled(
+    let crc = (
         fmt::count(l.parser.crc_errors, w[4] as usize),
-        crc_style,
-    ));
+        Some(crc_style),
+    );
     let mut cells = vec![
-        Cell::from(fmt::fit(name, name_w).into_owned()),
-        Cell::from(Span::styled(
+        (fmt::fit(name, name_w).into_owned(), None),
+        (
             fmt::fit(&l.state.label(), state_w).into_owned(),
-            state_style(&l.state, theme),
-        )),
-        Cell::from(rate(fps, w[0])),
-        Cell::from(rate(bps, w[1])),
-        Cell::from(pct(loss_pct(l.window_totals(now)))),
-        Cell::from(pct(loss_pct(totals))),
+            Some(state_style(&l.state, theme)),
+        ),
+        (rate(fps, w[0]), None),
+        (rate(bps, w[1]), None),
+        (pct(loss_pct(l.window_totals(now))), None),
+        (pct(loss_pct(totals)), None),
     ];
     cells.extend(counts(w, crc, totals.0, totals.1, dup, reord));
     cells
@@ -405,14 +402,6 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         .enumerate()
         .map(|(i, &x)| Constraint::Length((x + if i + 1 < sw.len() { pad } else { 0 }) as u16))
         .collect();
-    let keep = |cells: Vec<Cell<'static>>| -> Vec<Cell<'static>> {
-        cells
-            .into_iter()
-            .enumerate()
-            .filter(|(i, _)| *i < 2 || shown[*i - 2])
-            .map(|c| c.1)
-            .collect()
-    };
     let mut header = vec![
         fmt::fit("LINK", name_w).into_owned(),
         fmt::fit("STATE", state_w).into_owned(),
@@ -425,97 +414,125 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     );
 
     let now = app.now;
+    // The table's rows; the cells of those shown are made when drawn.
     let mut rows = Vec::new();
-    // Lines drawn over the table after it: (row index, line), for text wider than a column.
-    let mut overlays = Vec::new();
     // Table row index of each link, for the selection highlight.
     let mut sel_row = 0;
     for (i, l) in app.links.iter().enumerate() {
         if i == sel_link {
             sel_row = rows.len();
         }
-        let cells = link_row(l, now, theme, (&names[i], name_w, state_w), &w);
-        rows.push(Row::new(keep(cells)));
+        rows.push(TableRow::Link(i));
         if !l.expanded {
             continue;
         }
         for (src, s) in &l.sources {
-            let q = &s.seq;
-            let mut cells = vec![
-                Cell::from(fmt::fit(&format!("   └ {src}"), name_w).into_owned()),
-                Cell::from(""),
-                Cell::from(""),
-                Cell::from(""),
-                Cell::from(pct(q.window_loss_pct(now))),
-                Cell::from(pct(q.loss_pct())),
-            ];
-            cells.extend(counts(
-                &w,
-                Cell::from(""),
-                q.received,
-                q.lost,
-                q.duplicates,
-                q.reordered,
-            ));
-            rows.push(Row::new(keep(cells)).style(theme.dim()));
+            rows.push(TableRow::Source(src, s));
+            // Text wider than a column, drawn across the row.
             if key || s.signing.any_signing() {
-                overlays.push((
-                    rows.len(),
-                    signing_line(&s.signing, key, inner.width, theme),
-                ));
-                rows.push(Row::new(vec![Cell::from("")]));
+                rows.push(TableRow::Signing(&s.signing));
             }
         }
     }
     if app.links.is_empty() {
-        rows.push(Row::new(vec![Cell::from(Span::styled(
-            "no links",
-            theme.dim(),
-        ))]));
+        rows.push(TableRow::Empty);
     }
     // Every row is one line high, under a one-line header; the window follows the selection.
     let visible = inner.height.saturating_sub(1) as usize;
     let total = rows.len();
     let first = fmt::scroll_offset(sel_row, visible, total);
     if let Some(more) = fmt::list_more(first, visible, total) {
-        block = block.title_bottom(Line::from(format!(" {more} ")));
+        block.bottom = Some(format!(" {more} "));
     }
-    frame.render_widget(block, area);
+    let buf = frame.buffer_mut();
+    block.render(buf, area);
     if let Some(bottom) = outputs_area {
-        render_outputs(app, frame, bottom, theme);
+        render_outputs(app, buf, bottom, theme);
     }
     if let Some((lines, at)) = detail {
-        frame.render_widget(Paragraph::new(lines), at);
+        for (l, y) in lines.iter().zip(at.top()..at.bottom()) {
+            fast::paragraph_line(buf, Rect { y, height: 1, ..at }, l);
+        }
     }
-    let table = Table::new(rows, widths)
-        .header(Row::new(header).style(theme.header()))
-        .column_spacing(1)
-        .row_highlight_style(selected_style(app, Pane::Links, theme));
-    let mut state = TableState::default()
-        .with_offset(first)
-        .with_selected((!app.links.is_empty()).then_some(sel_row));
-    frame.render_stateful_widget(table, inner, &mut state);
-    let first = state.offset();
-    for (row, line) in overlays {
-        let Some(y) = row
-            .checked_sub(first)
-            .and_then(|r| u16::try_from(r + 1).ok())
-            .filter(|&dy| dy < inner.height)
-        else {
-            continue;
-        };
-        let at = Rect {
-            y: inner.y + y,
-            height: 1,
-            ..inner
-        };
-        frame.render_widget(Paragraph::new(line), at);
+    let table = fast::Table::new(inner, &widths, 1);
+    if table.is_empty() {
+        return;
     }
+    table.header(buf, theme.header(), header.iter().map(String::as_str));
+    let selected = (!app.links.is_empty()).then_some(sel_row);
+    let highlight = selected_style(app, Pane::Links, theme);
+    // Only the cells of the columns shown, in order.
+    let draw = |buf: &mut Buffer, y: u16, cells: Vec<Cell>| {
+        let kept = cells
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| *i < 2 || shown[*i - 2])
+            .map(|c| c.1);
+        for (col, (text, style)) in kept.enumerate() {
+            match style {
+                Some(style) => table.span(buf, y, col, &text, style),
+                None => table.raw(buf, y, col, &text),
+            }
+        }
+    };
+    let (start, end) = table.visible(first, selected, total);
+    for (k, row) in rows[start..end].iter().enumerate() {
+        let y = table.row_y(k);
+        match *row {
+            TableRow::Link(i) => {
+                draw(
+                    buf,
+                    y,
+                    link_row(&app.links[i], now, theme, (&names[i], name_w, state_w), &w),
+                );
+            }
+            TableRow::Source(src, s) => {
+                table.patch_row(buf, y, theme.dim());
+                let q = &s.seq;
+                let blank = || (String::new(), None);
+                let mut cells = vec![
+                    (fmt::fit(&format!("   └ {src}"), name_w).into_owned(), None),
+                    blank(),
+                    blank(),
+                    blank(),
+                    (pct(q.window_loss_pct(now)), None),
+                    (pct(q.loss_pct()), None),
+                ];
+                cells.extend(counts(
+                    &w,
+                    blank(),
+                    q.received,
+                    q.lost,
+                    q.duplicates,
+                    q.reordered,
+                ));
+                draw(buf, y, cells);
+            }
+            TableRow::Signing(c) => {
+                let line = signing_line(c, key, inner.width, theme);
+                fast::paragraph_line(buf, table.row_area(y), &line);
+            }
+            TableRow::Empty => table.span(buf, y, 0, "no links", theme.dim()),
+        }
+        if selected == Some(start + k) {
+            table.patch_row(buf, y, highlight);
+        }
+    }
+}
+
+/// A row of the links' table.
+enum TableRow<'a> {
+    Link(usize),
+    Source(&'a VehicleKey, &'a SourceStats),
+    /// The signing counts under a source, drawn across the row.
+    Signing(&'a SigningCounts),
+    /// There are no links.
+    Empty,
 }
 
 /// The outputs' table: where frames are forwarded, its state, frames sent there, frames it sent
 /// (carried to the vehicles), frames dropped.
-fn render_outputs(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
+fn render_outputs(app: &App, buf: &mut Buffer, area: Rect, theme: &Theme) {
     const NUM_W: u16 = 8;
     let fixed = 3 * (NUM_W + 1) + 1;
     let rest = area.width.saturating_sub(fixed) as usize;
@@ -528,42 +545,43 @@ fn render_outputs(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         Constraint::Length(NUM_W),
         Constraint::Length(NUM_W),
     ];
-    let n = |v: u64| Cell::from(fmt::count(v, NUM_W as usize));
-    let rows: Vec<Row> = app
-        .outputs
-        .list
-        .iter()
-        .enumerate()
-        .map(|(i, o)| {
-            let state_style = match o.state {
-                LinkState::Up => theme.good(),
-                LinkState::Connecting => theme.dim(),
-                LinkState::Down(_) => theme.alert(),
-            };
-            let drop_style = if o.dropped > 0 {
-                theme.alert()
-            } else {
-                Style::default()
-            };
-            Row::new(vec![
-                Cell::from(ellipsize(&format!(" {i} {}", o.spec), spec_w)),
-                Cell::from(Span::styled(
-                    ellipsize(&o.state.label(), state_w),
-                    state_style,
-                )),
-                n(o.sent),
-                n(o.received),
-                Cell::from(Span::styled(
-                    fmt::count(o.dropped, NUM_W as usize),
-                    drop_style,
-                )),
-            ])
-        })
-        .collect();
-    let header =
-        Row::new(vec!["OUTPUT", "STATE", "SENT", "RECEIVED", "DROPPED"]).style(theme.header());
-    let table = Table::new(rows, widths).header(header).column_spacing(1);
-    frame.render_widget(table, area);
+    let table = fast::Table::new(area, &widths, 1);
+    if table.is_empty() {
+        return;
+    }
+    table.header(
+        buf,
+        theme.header(),
+        ["OUTPUT", "STATE", "SENT", "RECEIVED", "DROPPED"],
+    );
+    let list = &app.outputs.list;
+    let n = |v: u64| fmt::count(v, NUM_W as usize);
+    let (start, end) = table.visible(0, None, list.len());
+    for (k, i) in (start..end).enumerate() {
+        let o = &list[i];
+        let y = table.row_y(k);
+        let state_style = match o.state {
+            LinkState::Up => theme.good(),
+            LinkState::Connecting => theme.dim(),
+            LinkState::Down(_) => theme.alert(),
+        };
+        let drop_style = if o.dropped > 0 {
+            theme.alert()
+        } else {
+            Style::default()
+        };
+        table.raw(buf, y, 0, &ellipsize(&format!(" {i} {}", o.spec), spec_w));
+        table.span(
+            buf,
+            y,
+            1,
+            &ellipsize(&o.state.label(), state_w),
+            state_style,
+        );
+        table.raw(buf, y, 2, &n(o.sent));
+        table.raw(buf, y, 3, &n(o.received));
+        table.span(buf, y, 4, &n(o.dropped), drop_style);
+    }
 }
 
 #[cfg(test)]

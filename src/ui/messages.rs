@@ -10,11 +10,10 @@
 //! wider than the pane is cut and ends with `…` (by display width).
 
 use ratatui::layout::Rect;
-use ratatui::text::{Line, Span};
-use ratatui::widgets::Paragraph;
+use ratatui::style::Style;
 use ratatui::Frame;
 
-use super::{fmt, pane_block, Theme};
+use super::{fast, fmt, pane_block, Theme};
 use crate::app::notices::Notice;
 use crate::app::{App, Pane};
 
@@ -61,7 +60,8 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let scroll = app.ui.msg_scroll.min(len.saturating_sub(visible.max(1)));
     let block = pane_block(app, Pane::Messages, title_text(app, len, scroll), theme);
     let inner = block.inner(area);
-    frame.render_widget(block, area);
+    let buf = frame.buffer_mut();
+    block.render(buf, area);
     if visible == 0 {
         return;
     }
@@ -71,7 +71,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         } else {
             "no messages pass the filter"
         };
-        frame.render_widget(Paragraph::new(Line::styled(empty, theme.dim())), inner);
+        fast::line(buf, inner, &[(empty, theme.dim())]);
         return;
     }
     // Following: the newest lines, recent warnings kept; scrolled back: the window as it is.
@@ -81,31 +81,37 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         let end = len - scroll;
         notices[end.saturating_sub(visible)..end].to_vec()
     };
-    let lines: Vec<Line> = in_view
-        .iter()
-        .map(|n| {
-            let (time, sev, source, text) = notice_text(app, n);
-            let style = theme.severity(n.severity);
-            let source_style = if n.ours || n.source.is_none() {
-                theme.ours()
-            } else {
-                theme.dim()
-            };
-            let (sev, source) = (format!("{sev:<6}"), format!("{source:<7}"));
-            // A text wider than what the columns before it leave is cut with `…`.
-            let room = (inner.width as usize)
-                .saturating_sub(fmt::width(&time) + fmt::width(&sev) + fmt::width(&source) + 3);
-            let text = fmt::fit(&text, room).into_owned();
-            Line::from(vec![
-                Span::styled(time, theme.dim()),
-                Span::raw(" "),
-                Span::styled(sev, style),
-                Span::raw(" "),
-                Span::styled(source, source_style),
-                Span::raw(" "),
-                Span::styled(text, style),
-            ])
-        })
-        .collect();
-    frame.render_widget(Paragraph::new(lines), inner);
+    for (n, y) in in_view.iter().zip(inner.top()..inner.bottom()) {
+        let (time, sev, source, text) = notice_text(app, n);
+        let style = theme.severity(n.severity);
+        let source_style = if n.ours || n.source.is_none() {
+            theme.ours()
+        } else {
+            theme.dim()
+        };
+        let (sev, source) = (format!("{sev:<6}"), format!("{source:<7}"));
+        // A text wider than what the columns before it leave is cut with `…`.
+        let room = (inner.width as usize)
+            .saturating_sub(fmt::width(&time) + fmt::width(&sev) + fmt::width(&source) + 3);
+        let text = fmt::fit(&text, room);
+        let plain = Style::default();
+        let row = Rect {
+            y,
+            height: 1,
+            ..inner
+        };
+        fast::line(
+            buf,
+            row,
+            &[
+                (&time, theme.dim()),
+                (" ", plain),
+                (&sev, style),
+                (" ", plain),
+                (&source, source_style),
+                (" ", plain),
+                (&text, style),
+            ],
+        );
+    }
 }

@@ -8,6 +8,7 @@
 //! small and what it needs.
 
 pub mod confirm;
+pub mod fast;
 pub mod flight;
 pub mod fmt;
 pub mod help;
@@ -32,8 +33,6 @@ crate::for_each_screen!(screen_modules);
 use ratatui::buffer::Buffer;
 use ratatui::layout::Rect;
 use ratatui::style::Style;
-use ratatui::text::Span;
-use ratatui::widgets::{Block, Borders};
 use ratatui::Frame;
 
 use crate::app::{App, Pane};
@@ -117,25 +116,19 @@ fn too_small(frame: &mut Frame, area: Rect, theme: &Theme) {
 
 /// The bordered block every pane sits in; the focused pane's border stands out (colour and a
 /// `*` in the title, so focus is visible without colour too).
-pub fn pane_block<'a>(app: &App, pane: Pane, extra: String, theme: &Theme) -> Block<'a> {
+pub fn pane_block(app: &App, pane: Pane, extra: String, theme: &Theme) -> fast::PaneBlock {
     let focused = app.ui.focus == pane;
     let (style, mark) = if focused {
         (theme.focus_border(), "*")
     } else {
         (theme.border(), "")
     };
-    Block::default()
-        .borders(Borders::ALL)
-        .border_style(style)
-        .border_type(if focused {
-            ratatui::widgets::BorderType::Thick
-        } else {
-            ratatui::widgets::BorderType::Plain
-        })
-        .title(Span::styled(
-            format!(" {mark}{}{extra} ", pane.title()),
-            style,
-        ))
+    fast::PaneBlock {
+        style,
+        thick: focused,
+        title: format!(" {mark}{}{extra} ", pane.title()),
+        bottom: None,
+    }
 }
 
 /// Highlight style for the selected row; only loud in the focused pane.

@@ -7,13 +7,13 @@
 //! a component is heard on by the Links pane's short names; a list longer than the pane says so
 //! in the bottom border (`5 of 12, ↓ 7 more`) and scrolls with the selection.
 
+use std::borrow::Cow;
+
 use ratatui::layout::{Constraint, Rect};
 use ratatui::style::Style;
-use ratatui::text::{Line, Span};
-use ratatui::widgets::{Cell, Paragraph, Row, Table, TableState};
 use ratatui::Frame;
 
-use super::{ellipsize, fmt, links, pane_block, selected_style, Theme};
+use super::{ellipsize, fast, fmt, links, pane_block, selected_style, Theme};
 use crate::app::{App, Pane};
 use crate::proto::vehicles::Vehicle;
 
@@ -71,9 +71,9 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     );
     let inner = block.inner(area);
     if app.vehicles.is_empty() {
-        frame.render_widget(block, area);
-        let p = Paragraph::new(Line::styled("no vehicles heard yet", theme.dim()));
-        frame.render_widget(p, inner);
+        let buf = frame.buffer_mut();
+        block.render(buf, area);
+        fast::line(buf, inner, &[("no vehicles heard yet", theme.dim())]);
         return;
     }
     let wide = inner.width >= WIDE;
@@ -176,16 +176,11 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     // Wide, the columns spread out rather than leave the pane's right half empty.
     let gap = if inner.width >= SPREAD { 3 } else { 1 };
     let w = fmt::share(&spec, inner.width as usize, gap, &priority);
-    let width_of = |c: Column| cols.iter().position(|x| x.0 == c).map_or(0, |i| w[i]);
-    let header: Vec<Cell> = cols
-        .iter()
-        .zip(&w)
-        .map(|(c, &cw)| match c.0 {
-            // An empty column too narrow for its title: no title rather than `…`.
-            Column::Flags if !any_flags && cw < fmt::width(c.1) => Cell::from(""),
-            _ => Cell::from(fmt::fit(c.1, cw).into_owned()),
-        })
-        .collect();
+    let header = cols.iter().zip(&w).map(|(c, &cw)| match c.0 {
+        // An empty column too narrow for its title: no title rather than `…`.
+        Column::Flags if !any_flags && cw < fmt::width(c.1) => Cow::Borrowed(""),
+        _ => fmt::fit(c.1, cw),
+    });
     // The spread goes after each column but the selection mark, which stays next to the ID.
     let widths: Vec<Constraint> = w
         .iter()
@@ -206,7 +201,22 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let total = vehicles.len();
     let sel = app.ui.vehicle_sel.min(total - 1);
     let first = fmt::scroll_offset(sel, visible, total);
-    let rows = vehicles.iter().enumerate().map(|(i, v)| {
+    if let Some(more) = fmt::list_more(first, visible, total) {
+        block.bottom = Some(format!(" {more} "));
+    }
+    let buf = frame.buffer_mut();
+    block.render(buf, area);
+    let table = fast::Table::new(inner, &widths, 1);
+    if table.is_empty() {
+        return;
+    }
+    let header: Vec<Cow<str>> = header.collect();
+    table.header(buf, theme.header(), header.iter().map(|h| h.as_ref()));
+    let highlight = selected_style(app, Pane::Vehicles, theme);
+    let (start, end) = table.visible(first, Some(sel), total);
+    for (k, i) in (start..end).enumerate() {
+        let v = vehicles[i];
+        let y = table.row_y(k);
         let key = v.key();
         let is_target = app.target == Some(key);
         let base = if v.lost {
@@ -214,58 +224,52 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
         } else {
             Style::default()
         };
-        let cut = |t: &str, c: Column| Cell::from(fmt::fit(t, width_of(c)).into_owned());
-        let cells: Vec<Cell> = cols
-            .iter()
-            .map(|c| match c.0 {
-                Column::Mark => Cell::from(if is_target { ">" } else { " " }),
-                Column::Id => cut(&ids[i], Column::Id),
-                Column::Type => cut(&types[i], Column::Type),
-                Column::Autopilot => cut(&autopilots[i], Column::Autopilot),
-                Column::Mode => cut(&modes[i], Column::Mode),
-                Column::Armed if v.armed() => Cell::from(Span::styled(
-                    fmt::fit("ARMED", width_of(Column::Armed)).into_owned(),
-                    if v.lost { base } else { theme.armed() },
-                )),
-                Column::Armed => cut("disarmed", Column::Armed),
-                Column::Status => cut(&statuses[i], Column::Status),
-                Column::Age => Cell::from(age_text(v, app.now, width_of(Column::Age))),
-                Column::Hz => Cell::from(fmt::real(v.heartbeat_hz(), 1, HZ_W as usize)),
-                Column::Link => cut(&link_names[i], Column::Link),
-                Column::Flags => {
-                    let fw = width_of(Column::Flags);
-                    // The words, cut if need be, when there is room to read them; else short.
-                    let text = if fmt::width(&flags[i]) <= fw || fw >= 24 {
-                        flags[i].clone()
-                    } else {
-                        flags_text(v, false)
-                    };
-                    Cell::from(Span::styled(
-                        fmt::fit(&text, fw).into_owned(),
-                        theme.alert(),
-                    ))
-                }
-            })
-            .collect();
         let style = if is_target && !v.lost {
             base.add_modifier(ratatui::style::Modifier::BOLD)
         } else {
             base
         };
-        Row::new(cells).style(style)
-    });
-    if let Some(more) = fmt::list_more(first, visible, total) {
-        block = block.title_bottom(Line::from(format!(" {more} ")));
+        table.patch_row(buf, y, style);
+        for (col, c) in cols.iter().enumerate() {
+            let cw = w[col];
+            let cut = |t| fmt::fit(t, cw);
+            match c.0 {
+                Column::Mark => table.raw(buf, y, col, if is_target { ">" } else { " " }),
+                Column::Id => table.raw(buf, y, col, &cut(&ids[i])),
+                Column::Type => table.raw(buf, y, col, &cut(&types[i])),
+                Column::Autopilot => table.raw(buf, y, col, &cut(&autopilots[i])),
+                Column::Mode => table.raw(buf, y, col, &cut(&modes[i])),
+                Column::Armed if v.armed() => table.span(
+                    buf,
+                    y,
+                    col,
+                    &cut("ARMED"),
+                    if v.lost { base } else { theme.armed() },
+                ),
+                Column::Armed => table.raw(buf, y, col, &cut("disarmed")),
+                Column::Status => table.raw(buf, y, col, &cut(&statuses[i])),
+                Column::Age => table.raw(buf, y, col, &age_text(v, app.now, cw)),
+                Column::Hz => {
+                    table.raw(buf, y, col, &fmt::real(v.heartbeat_hz(), 1, HZ_W as usize))
+                }
+                Column::Link => table.raw(buf, y, col, &cut(&link_names[i])),
+                Column::Flags => {
+                    // The words, cut if need be, when there is room to read them; else short.
+                    let short;
+                    let text = if fmt::width(&flags[i]) <= cw || cw >= 24 {
+                        &flags[i]
+                    } else {
+                        short = flags_text(v, false);
+                        &short
+                    };
+                    table.span(buf, y, col, &cut(text), theme.alert());
+                }
+            }
+        }
+        if i == sel {
+            table.patch_row(buf, y, highlight);
+        }
     }
-    frame.render_widget(block, area);
-    let table = Table::new(rows, widths)
-        .header(Row::new(header).style(theme.header()))
-        .column_spacing(1)
-        .row_highlight_style(selected_style(app, Pane::Vehicles, theme));
-    let mut state = TableState::default()
-        .with_offset(first)
-        .with_selected(Some(sel));
-    frame.render_stateful_widget(table, inner, &mut state);
 }
 
 /// The columns of the pane.
