@@ -412,9 +412,31 @@ struct TerminalFrontend<B: Backend, C: Clock> {
     clock: C,
     period: Micros,
     last_draw: Option<Micros>,
+    /// When the operator last pressed a key, pasted or resized (the start counts as one).
+    last_input: Micros,
+    /// Input came since the last draw: drawn at once, not at the frame-rate cap.
+    input_pending: bool,
     /// A suspend held back: `u64::MAX` while a nudge's stop is still being sent, then when the
     /// process may stop.
     suspend_after: Option<Micros>,
+}
+
+/// No key for this long and no vehicle armed: the screen is only watched, and telemetry alone
+/// redraws it at most every [`IDLE_PERIOD`].
+pub const IDLE_AFTER: Micros = 10 * SECOND;
+
+/// The time between redraws for telemetry alone on an idle screen (4 a second).
+pub const IDLE_PERIOD: Micros = SECOND / 4;
+
+/// The time between redraws for changes the core reports: `period` (the `--fps` cap) while the
+/// operator is at the keys or any vehicle is armed, else at least [`IDLE_PERIOD`]. A key is
+/// always drawn at once, whatever this says; the clock still turns every second.
+pub fn draw_period(period: Micros, now: Micros, last_input: Micros, armed: bool) -> Micros {
+    if armed || now.saturating_sub(last_input) < IDLE_AFTER {
+        period
+    } else {
+        period.max(IDLE_PERIOD)
+    }
 }
 
 /// After a nudge's last stop, the moment given to the link tasks to write it before the process
@@ -506,23 +528,23 @@ where
         Ok(())
     }
 
-    fn record(
-        &mut self,
-        f: impl FnOnce(&mut Recorder, Micros) -> Result<(), TuiError>,
-    ) -> io::Result<()> {
-        let now = self.clock.now();
-        match self.recorder.as_mut() {
-            Some(r) => f(r, now).map_err(io::Error::other),
-            None => Ok(()),
-        }
+    /// The terminal is now `size` (columns, rows). The viewport is fixed and changed only here,
+    /// so a draw does not ask the terminal for its size (an open of /dev/tty and an ioctl each
+    /// time).
+    fn resize_to(&mut self, (w, h): (u16, u16)) -> io::Result<()> {
+        self.terminal
+            .resize(ratatui::layout::Rect::new(0, 0, w, h))
+            .map_err(Into::into)
     }
-}
 
-impl<B: Backend + Send, C: Clock + Send> Frontend for TerminalFrontend<B, C>
-where
-    B::Error: Into<io::Error>,
-{
-    async fn next_input(&mut self) -> io::Result<Option<Event>> {
+    /// The time between redraws now: see [`draw_period`].
+    fn draw_period(&self, app: &App) -> Micros {
+        let armed = !app.armed_vehicles().is_empty();
+        draw_period(self.period, app.now, self.last_input, armed)
+    }
+
+    /// The next event from the terminal or a signal (`None`: the session ends).
+    async fn next_event(&mut self) -> io::Result<Option<Event>> {
         use futures_util::StreamExt;
         loop {
             let ev = tokio::select! {
@@ -534,6 +556,10 @@ where
                     SignalAsk::Stop => return Ok(Some(Event::Suspend)),
                     SignalAsk::Continued => {
                         self.guard.retake()?;
+                        // The size may have changed while stopped.
+                        if let Ok(size) = crossterm::terminal::size() {
+                            self.resize_to(size)?;
+                        }
                         self.forget_screen()?;
                         return Ok(Some(Event::Resize));
                     }
@@ -560,6 +586,7 @@ where
                 Some(Ok(ct::Event::Paste(text))) => return Ok(Some(Event::Paste(text))),
                 Some(Ok(ct::Event::Resize(w, h))) => {
                     self.record(|r, t| r.resize(t, (w, h)))?;
+                    self.resize_to((w, h))?;
                     return Ok(Some(Event::Resize));
                 }
                 Some(Ok(_)) => {}
@@ -569,11 +596,48 @@ where
         }
     }
 
+    fn record(
+        &mut self,
+        f: impl FnOnce(&mut Recorder, Micros) -> Result<(), TuiError>,
+    ) -> io::Result<()> {
+        let now = self.clock.now();
+        match self.recorder.as_mut() {
+            Some(r) => f(r, now).map_err(io::Error::other),
+            None => Ok(()),
+        }
+    }
+}
+
+impl<B: Backend + Send, C: Clock + Send> Frontend for TerminalFrontend<B, C>
+where
+    B::Error: Into<io::Error>,
+{
+    async fn next_input(&mut self) -> io::Result<Option<Event>> {
+        let ev = self.next_event().await?;
+        if matches!(
+            ev,
+            Some(
+                Event::Key(_)
+                    | Event::KeyRepeat(_)
+                    | Event::KeyRelease(_)
+                    | Event::Paste(_)
+                    | Event::Resize
+                    | Event::Suspend
+            )
+        ) {
+            self.last_input = self.clock.now();
+            self.input_pending = true;
+        }
+        Ok(ev)
+    }
+
     fn wake_at(&self, app: &App) -> Option<Micros> {
         // A change held back by the frame-rate cap, and the clock on screen (whole seconds).
         let next_second = (app.now / SECOND + 1) * SECOND;
+        let period = self.draw_period(app);
         let draw = match (app.is_dirty(), self.last_draw) {
-            (true, Some(t)) => (t + self.period).min(next_second),
+            (true, _) if self.input_pending => app.now,
+            (true, Some(t)) => (t + period).min(next_second),
             _ => next_second,
         };
         // A suspend held back for the nudge's last stop to be written.
@@ -614,11 +678,14 @@ where
             self.last_draw = Some(now);
             return Ok(());
         }
-        if self.last_draw.is_some_and(|t| now < t + self.period) && app.is_dirty() {
+        let period = self.draw_period(app);
+        if !self.input_pending && self.last_draw.is_some_and(|t| now < t + period) && app.is_dirty()
+        {
             return Ok(()); // drawn moments ago: draw at wake_at
         }
         if draw_if_dirty(&mut self.terminal, app, &self.theme).map_err(Into::into)? {
             self.last_draw = Some(now);
+            self.input_pending = false;
         }
         Ok(())
     }
@@ -640,7 +707,13 @@ pub async fn run_terminal<C: Clock + Clone + Send>(
     let guard = TerminalGuard::enter()?;
     // No `terminal.clear()`: it asks the terminal for the cursor position, which fails (times
     // out) on terminals that do not answer; the guard already cleared the alternate screen.
-    let terminal = Terminal::new(CrosstermBackend::new(io::stdout()))?;
+    // A fixed viewport, resized on the terminal's resize events (see `resize_to`).
+    let terminal = Terminal::with_options(
+        CrosstermBackend::new(io::stdout()),
+        ratatui::TerminalOptions {
+            viewport: ratatui::Viewport::Fixed(ratatui::layout::Rect::new(0, 0, size.0, size.1)),
+        },
+    )?;
     let mut front = TerminalFrontend {
         terminal,
         events: crossterm::event::EventStream::new(),
@@ -653,6 +726,8 @@ pub async fn run_terminal<C: Clock + Clone + Send>(
         clock: rt.clock(),
         period: SECOND / u64::from(opts.fps.clamp(1, 120)),
         last_draw: None,
+        last_input: rt.clock().now(),
+        input_pending: true,
         suspend_after: None,
     };
     let result = rt.run(None, &mut front).await;
@@ -678,6 +753,20 @@ pub async fn run_terminal<C: Clock + Clone + Send>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_idle_screen_redraws_four_times_a_second_and_keys_or_armed_vehicles_keep_the_rate() {
+        let fps10 = SECOND / 10;
+        let t = 100 * SECOND;
+        // At the keys lately: the --fps rate.
+        assert_eq!(draw_period(fps10, t, t - 9 * SECOND, false), fps10);
+        // Ten seconds without a key, nothing armed: 4 a second.
+        assert_eq!(draw_period(fps10, t, t - IDLE_AFTER, false), SECOND / 4);
+        // Armed: the full rate however long since a key.
+        assert_eq!(draw_period(fps10, t, 0, true), fps10);
+        // A cap slower than the idle rate is kept.
+        assert_eq!(draw_period(SECOND / 2, t, 0, false), SECOND / 2);
+    }
 
     #[test]
     fn recording_is_a_replayable_script() {

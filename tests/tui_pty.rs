@@ -327,6 +327,92 @@ fn sigint_restores_the_terminal() {
     signal_restores_the_terminal("child_gets_sigint");
 }
 
+/// A real clock that, the first time the UI loop reads it, has the terminal made 120x40
+/// (`stty` on the controlling tty: the kernel sends SIGWINCH, as a window resize does), then
+/// ends the session with SIGTERM a moment later.
+#[derive(Clone)]
+struct ResizeClock {
+    clock: RealClock,
+    started: Arc<Once>,
+}
+
+impl Clock for ResizeClock {
+    fn now(&self) -> Micros {
+        self.started.call_once(|| {
+            std::thread::spawn(|| {
+                std::thread::sleep(Duration::from_millis(300));
+                let tty = std::fs::File::open("/dev/tty").expect("a controlling tty");
+                let status = Command::new("stty")
+                    .args(["cols", "120", "rows", "40"])
+                    .stdin(tty)
+                    .status()
+                    .expect("stty(1)");
+                assert!(status.success(), "stty failed");
+                std::thread::sleep(Duration::from_millis(1200));
+                let status = Command::new("kill")
+                    .args(["-TERM".to_string(), std::process::id().to_string()])
+                    .status()
+                    .expect("kill(1)");
+                assert!(status.success(), "kill -TERM failed");
+            });
+        });
+        self.clock.now()
+    }
+}
+
+#[test]
+#[ignore = "run by pty tests inside a pseudo-terminal"]
+fn child_is_resized() {
+    run_child_until(
+        ResizeClock {
+            clock: RealClock::new(),
+            started: Arc::new(Once::new()),
+        },
+        false,
+    );
+}
+
+/// The largest column and row the child moved the cursor to (1-based, from `ESC [ row ; col H`)
+/// between entering and leaving the alternate screen.
+fn furthest_cursor(out: &str) -> (u32, u32) {
+    let (mut col, mut row) = (0, 0);
+    for part in out.split("\x1b[").skip(1) {
+        let Some(end) = part.find('H') else { continue };
+        if let Some((r, c)) = part[..end].split_once(';') {
+            if let (Ok(r), Ok(c)) = (r.parse::<u32>(), c.parse::<u32>()) {
+                row = row.max(r);
+                col = col.max(c);
+            }
+        }
+    }
+    (col, row)
+}
+
+/// The screen follows a resize: drawn within 100x30 first, then out to 120x40 once the
+/// terminal says it is larger (the viewport is fixed between resize events, so a draw does not
+/// ask the terminal its size).
+#[test]
+fn a_resize_redraws_at_the_new_size() {
+    let (ok, out) = under_pty("child_is_resized", b"");
+    assert!(ok, "child must exit 0 after the signal: {out:?}");
+    let enter = out
+        .find(ENTER_ALT)
+        .unwrap_or_else(|| panic!("never entered: {out:?}"));
+    let leave = out
+        .rfind(LEAVE_ALT)
+        .unwrap_or_else(|| panic!("never left: {out:?}"));
+    let screen = &out[enter..leave];
+    let (col, row) = furthest_cursor(screen);
+    assert!(
+        (101..=120).contains(&col) && (31..=40).contains(&row),
+        "drawn out to column {col}, row {row}: {out:?}"
+    );
+    // Before the resize, within 100x30.
+    let first = screen.find("Vehicles").expect("drawn");
+    let (col0, row0) = furthest_cursor(&screen[..first]);
+    assert!(col0 <= 100 && row0 <= 30, "{col0}x{row0}");
+}
+
 /// A stand-in ArduCopter 1:1 on UDP, armed in GUIDED: its heartbeat goes to the GCS's port
 /// every 200 ms, and every datagram the GCS sends it is appended to `path` (hex, one a line)
 /// as it comes, so nothing is lost when the process ends.

@@ -170,7 +170,7 @@ impl App {
 
     /// The autopilots that say they are armed (lost ones included: one may still be flying),
     /// in key order.
-    pub(super) fn armed_vehicles(&self) -> Vec<VehicleKey> {
+    pub fn armed_vehicles(&self) -> Vec<VehicleKey> {
         let mut keys: Vec<VehicleKey> = self
             .sessions
             .keys()
