@@ -399,7 +399,8 @@ impl Recorder {
 /// the core changed something.
 struct TerminalFrontend<B: Backend, C: Clock> {
     terminal: Terminal<B>,
-    events: crossterm::event::EventStream,
+    /// The terminal's events, read by [`read_terminal`] (see there).
+    events: tokio::sync::mpsc::Receiver<io::Result<ct::Event>>,
     signals: Signals,
     recorder: Option<Recorder>,
     /// A key pressed, written once the core has handled it: the key that quits is not written
@@ -419,6 +420,27 @@ struct TerminalFrontend<B: Backend, C: Clock> {
     /// A suspend held back: `u64::MAX` while a nudge's stop is still being sent, then when the
     /// process may stop.
     suspend_after: Option<Micros>,
+}
+
+/// The terminal's events, read by a task of their own and handed over a bounded channel. The
+/// loop waits on the channel: crossterm's `EventStream` polled afresh each time the loop wakes
+/// for something else (a frame) interrupts and restarts its reader thread each time (an eventfd
+/// write, a futex wake and a lock taken by spinning), which was most of what an idle session cost.
+fn read_terminal() -> (
+    tokio::task::JoinHandle<()>,
+    tokio::sync::mpsc::Receiver<io::Result<ct::Event>>,
+) {
+    use futures_util::StreamExt;
+    let (tx, rx) = tokio::sync::mpsc::channel(256);
+    let task = tokio::spawn(async move {
+        let mut events = crossterm::event::EventStream::new();
+        while let Some(ev) = events.next().await {
+            if tx.send(ev).await.is_err() {
+                return;
+            }
+        }
+    });
+    (task, rx)
 }
 
 /// No key for this long and no vehicle armed: the screen is only watched, and telemetry alone
@@ -545,10 +567,9 @@ where
 
     /// The next event from the terminal or a signal (`None`: the session ends).
     async fn next_event(&mut self) -> io::Result<Option<Event>> {
-        use futures_util::StreamExt;
         loop {
             let ev = tokio::select! {
-                ev = self.events.next() => ev,
+                ev = self.events.recv() => ev,
                 ask = self.signals.recv() => match ask {
                     SignalAsk::End => return Ok(None),
                     // Through the core, as Ctrl-Z: Fly mode ends in its stop before the
@@ -714,9 +735,10 @@ pub async fn run_terminal<C: Clock + Clone + Send>(
             viewport: ratatui::Viewport::Fixed(ratatui::layout::Rect::new(0, 0, size.0, size.1)),
         },
     )?;
+    let reader = read_terminal();
     let mut front = TerminalFrontend {
         terminal,
-        events: crossterm::event::EventStream::new(),
+        events: reader.1,
         signals: Signals::new()?,
         recorder,
         pending_key: None,
@@ -731,6 +753,7 @@ pub async fn run_terminal<C: Clock + Clone + Send>(
         suspend_after: None,
     };
     let result = rt.run(None, &mut front).await;
+    reader.0.abort();
     let end = front.quit_at.unwrap_or_else(|| front.clock.now());
     let recorded = match front.recorder.as_mut() {
         Some(r) => r.finish(end),
