@@ -414,10 +414,23 @@ impl<'a> ParamValueMsg<'a> {
         p[..n].copy_from_slice(&payload[..n]);
         // The name's bytes as sent (MAVLink 2 may have cut its trailing zeros).
         let id = payload.get(8..payload.len().min(24)).unwrap_or(&[]);
-        let id = &id[..id.iter().position(|&b| b == 0).unwrap_or(id.len())];
-        let name = match std::str::from_utf8(id) {
-            Ok(name) if crate::wire::param_pck::name_ok(id) => std::borrow::Cow::Borrowed(name),
-            _ => std::borrow::Cow::Owned(escaped(id)),
+        // One pass: the name ends at its first zero, and each byte before it is checked
+        // (`name_ok`: at most 16 bytes here, so only emptiness is left to check).
+        let mut len = id.len();
+        let mut ok = true;
+        for (i, &b) in id.iter().enumerate() {
+            if b == 0 {
+                len = i;
+                break;
+            }
+            ok &= crate::wire::param_pck::name_byte_ok(b);
+        }
+        let id = &id[..len];
+        let name = if ok && len > 0 {
+            // SAFETY: every byte is printable ASCII (`name_byte_ok`), which is UTF-8.
+            std::borrow::Cow::Borrowed(unsafe { std::str::from_utf8_unchecked(id) })
+        } else {
+            std::borrow::Cow::Owned(escaped(id))
         };
         let refused = matches!(name, std::borrow::Cow::Owned(_));
         Some(ParamValueMsg {
