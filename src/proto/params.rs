@@ -2091,7 +2091,7 @@ mod tests {
         sorted.sort();
         assert_eq!(order, sorted);
         for n in names {
-            assert!(set.params.get(n).is_some(), "{n:?}");
+            assert!(set.params.contains_key(n), "{n:?}");
             let probe = ParamName::probe(n);
             assert!(probe.is_none_or(|p| set.params.contains_key(&p)), "{n:?}");
         }
