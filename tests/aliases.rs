@@ -241,7 +241,7 @@ fn param_show_and_param_set() {
         .params
         .keys()
         .filter(|n| n.starts_with("ACRO_"))
-        .cloned()
+        .map(|n| n.to_string())
         .collect();
     assert!(acro.len() >= 2, "{acro:?}");
     for n in &acro {

@@ -1037,7 +1037,7 @@ impl App {
             Some(MavMessage::ADSB_VEHICLE(_)) => self.on_adsb_frame(link, frame, msg),
             _ => {}
         }
-        if self.for_us(msg, ack.as_ref()) {
+        if self.for_us(frame.msgid, msg, ack.as_ref()) {
             self.hand_to_sessions(link, frame, msg, ack.as_ref(), fx);
         }
     }
@@ -1232,10 +1232,17 @@ impl App {
     }
 
     /// True for a message that names no target, or names us or everyone (0).
-    fn for_us(&self, msg: Option<&MavMessage>, ack: Option<&CommandAck>) -> bool {
+    fn for_us(&self, msgid: u32, msg: Option<&MavMessage>, ack: Option<&CommandAck>) -> bool {
         use mavlink::Message;
         let (sys, comp) = match (msg, ack) {
             (_, Some(a)) => (Some(a.target_system), Some(a.target_component)),
+            // Most messages have no target field: the dialect's table says so without asking
+            // the message (`msg` is of id `msgid`).
+            (Some(_), None)
+                if crate::wire::parser::msg_limits(msgid).is_some_and(|l| !l.targeted) =>
+            {
+                (None, None)
+            }
             (Some(m), None) => (m.target_system_id(), m.target_component_id()),
             (None, None) => (None, None),
         };

@@ -189,10 +189,10 @@ impl App {
             .filter(|(n, p)| {
                 !self.ui.params.only_diff
                     || loaded
-                        .and_then(|l| l.values.get(*n))
+                        .and_then(|l| l.values.get(n.as_str()))
                         .is_some_and(|v| !value::same(*v, p.value, p.ptype))
             })
-            .map(|(n, _)| n.clone())
+            .map(|(n, _)| n.to_string())
             .collect()
     }
 

@@ -93,6 +93,124 @@ pub enum EditState {
     Failed(String),
 }
 
+/// A parameter's name as the key of [`ParamSet::params`]: ordered exactly as its string (so it
+/// is looked up by `&str` too), its first 16 bytes compared as one number first, so a search
+/// by [`ParamName::probe`] (every PARAM_VALUE's) compares numbers instead of strings.
+#[derive(Clone)]
+pub struct ParamName {
+    /// The first 16 bytes, big-endian, zero-padded.
+    prefix: u128,
+    len: usize,
+    /// Empty in a probe (never stored).
+    name: String,
+}
+
+impl ParamName {
+    fn prefix(name: &str) -> u128 {
+        let b = name.as_bytes();
+        let mut p = [0u8; 16];
+        let n = b.len().min(16);
+        p[..n].copy_from_slice(&b[..n]);
+        u128::from_be_bytes(p)
+    }
+
+    /// A key to search with, for a name of at most 16 bytes (else `None`), made without
+    /// allocating.
+    fn probe(name: &str) -> Option<ParamName> {
+        (name.len() <= 16).then(|| ParamName {
+            prefix: Self::prefix(name),
+            len: name.len(),
+            name: String::new(),
+        })
+    }
+
+    pub fn as_str(&self) -> &str {
+        &self.name
+    }
+}
+
+impl From<String> for ParamName {
+    fn from(name: String) -> ParamName {
+        ParamName {
+            prefix: Self::prefix(&name),
+            len: name.len(),
+            name,
+        }
+    }
+}
+
+impl From<&str> for ParamName {
+    fn from(name: &str) -> ParamName {
+        ParamName::from(name.to_string())
+    }
+}
+
+impl Ord for ParamName {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        // Equal zero-padded prefixes: when either name is at most 16 bytes, it is the other's
+        // start (the other's bytes past it being zeros), so the shorter is less; else the
+        // whole strings decide (never for a probe, at most 16 bytes).
+        self.prefix.cmp(&other.prefix).then_with(|| {
+            if self.len.min(other.len) <= 16 {
+                self.len.cmp(&other.len)
+            } else {
+                self.name.cmp(&other.name)
+            }
+        })
+    }
+}
+
+impl PartialOrd for ParamName {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl PartialEq for ParamName {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other) == std::cmp::Ordering::Equal
+    }
+}
+
+impl Eq for ParamName {}
+
+impl std::hash::Hash for ParamName {
+    fn hash<H: std::hash::Hasher>(&self, h: &mut H) {
+        self.name.hash(h)
+    }
+}
+
+impl std::borrow::Borrow<str> for ParamName {
+    fn borrow(&self) -> &str {
+        &self.name
+    }
+}
+
+impl std::borrow::Borrow<String> for ParamName {
+    fn borrow(&self) -> &String {
+        &self.name
+    }
+}
+
+impl std::ops::Deref for ParamName {
+    type Target = String;
+    fn deref(&self) -> &String {
+        &self.name
+    }
+}
+
+impl std::fmt::Display for ParamName {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Display::fmt(&self.name, f)
+    }
+}
+
+impl std::fmt::Debug for ParamName {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Debug::fmt(&self.name, f)
+    }
+}
+
 /// One parameter as the vehicle last told it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Param {
@@ -124,7 +242,7 @@ impl Param {
 #[derive(Debug, Clone, Default)]
 pub struct ParamSet {
     /// By name (the order people look them up in).
-    pub params: BTreeMap<String, Param>,
+    pub params: BTreeMap<ParamName, Param>,
     /// Name at each index; as long as the count.
     names: Vec<Option<String>>,
     /// How many the component says it has.
@@ -195,7 +313,7 @@ impl ParamSet {
             Some(p) => p,
             None => self
                 .params
-                .entry(name.to_string())
+                .entry(ParamName::from(name))
                 .or_insert(Param::heard(ptype, raw, index, v)),
         };
         p.apply(index, ptype, raw, v, download)
@@ -414,10 +532,23 @@ impl<'a> ParamValueMsg<'a> {
         p[..n].copy_from_slice(&payload[..n]);
         // The name's bytes as sent (MAVLink 2 may have cut its trailing zeros).
         let id = payload.get(8..payload.len().min(24)).unwrap_or(&[]);
-        let id = &id[..id.iter().position(|&b| b == 0).unwrap_or(id.len())];
-        let name = match std::str::from_utf8(id) {
-            Ok(name) if crate::wire::param_pck::name_ok(id) => std::borrow::Cow::Borrowed(name),
-            _ => std::borrow::Cow::Owned(escaped(id)),
+        // One pass: the name ends at its first zero, and each byte before it is checked
+        // (`name_ok`: at most 16 bytes here, so only emptiness is left to check).
+        let mut len = id.len();
+        let mut ok = true;
+        for (i, &b) in id.iter().enumerate() {
+            if b == 0 {
+                len = i;
+                break;
+            }
+            ok &= crate::wire::param_pck::name_byte_ok(b);
+        }
+        let id = &id[..len];
+        let name = if ok && len > 0 {
+            // SAFETY: every byte is printable ASCII (`name_byte_ok`), which is UTF-8.
+            std::borrow::Cow::Borrowed(unsafe { std::str::from_utf8_unchecked(id) })
+        } else {
+            std::borrow::Cow::Owned(escaped(id))
         };
         let refused = matches!(name, std::borrow::Cow::Owned(_));
         Some(ParamValueMsg {
@@ -1041,16 +1172,18 @@ impl ParamMachine {
         }
         // Recorded, and the parameter found for what follows, in one lookup.
         let recorded = set.note_index(&m.name, index);
-        let (before, p) = match set.params.get_mut(m.name.as_ref()) {
+        let found = match ParamName::probe(&m.name) {
+            Some(k) => set.params.get_mut(&k),
+            None => set.params.get_mut(m.name.as_ref()),
+        };
+        let (before, p) = match found {
             Some(p) if recorded => (p.apply(index, ptype, Some(m.raw), v, downloading), p),
             Some(p) => (None, p),
             None if recorded => {
-                let p = set.params.entry(m.name.to_string()).or_insert(Param::heard(
-                    ptype,
-                    Some(m.raw),
-                    index,
-                    v,
-                ));
+                let p = set
+                    .params
+                    .entry(ParamName::from(m.name.as_ref()))
+                    .or_insert(Param::heard(ptype, Some(m.raw), index, v));
                 (p.apply(index, ptype, Some(m.raw), v, downloading), p)
             }
             None => return out,
@@ -1478,7 +1611,7 @@ impl ParamMachine {
                         let why = format!("no answer after {} tries", e.sends);
                         out.push(ParamOut::Set {
                             comp: *comp,
-                            name: name.clone(),
+                            name: name.to_string(),
                             confirmed: false,
                             notice: (
                                 Severity::ERROR,
@@ -1915,5 +2048,52 @@ mod tests {
         m.on_autopilot_version(30, CAP_PARAM_ENCODE_BYTEWISE);
         let out = m.on_param_value(40, 1, &pv("I", f32::from_bits(7), 6, 1, 0));
         assert_eq!(sends(&out).len(), 1, "{out:?}");
+    }
+
+    #[test]
+    fn param_name_orders_as_its_string() {
+        let names = [
+            "",
+            "A",
+            "A\0",
+            "A\0\0B",
+            "AB",
+            "ABCDEFGHIJKLMNOP",
+            "ABCDEFGHIJKLMNOP\0",
+            "ABCDEFGHIJKLMNOPQ",
+            "ABCDEFGHIJKLMNOPQR",
+            "ABCDEFGHIJKLMNOPR",
+            "ABCDEFGHIJKLMNOQ",
+            "B",
+            "Z_LONG_NAME_OVER_16",
+            "a",
+            "\u{e9}t\u{e9}",
+        ];
+        for a in names {
+            for b in names {
+                let (ka, kb) = (ParamName::from(a), ParamName::from(b));
+                assert_eq!(ka.cmp(&kb), a.cmp(b), "{a:?} {b:?}");
+                if let Some(p) = ParamName::probe(a) {
+                    assert_eq!(p.cmp(&kb), a.cmp(b), "probe {a:?} {b:?}");
+                    assert_eq!(kb.cmp(&p), b.cmp(a), "probe {b:?} {a:?}");
+                }
+            }
+        }
+        let mut set = ParamSet::default();
+        for n in names.iter().rev() {
+            set.params.insert(
+                ParamName::from(*n),
+                Param::heard(ParamType::Int8, None, None, 1.0),
+            );
+        }
+        let order: Vec<&str> = set.params.keys().map(|k| k.as_str()).collect();
+        let mut sorted = names.to_vec();
+        sorted.sort();
+        assert_eq!(order, sorted);
+        for n in names {
+            assert!(set.params.contains_key(n), "{n:?}");
+            let probe = ParamName::probe(n);
+            assert!(probe.is_none_or(|p| set.params.contains_key(&p)), "{n:?}");
+        }
     }
 }

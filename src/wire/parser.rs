@@ -106,6 +106,8 @@ pub struct MsgLimits {
     pub max_len_v1: u8,
     /// Payload length with the extension fields: the most a MAVLink 2 frame may carry.
     pub max_len_v2: u8,
+    /// The message has a target_system or target_component field.
+    pub targeted: bool,
 }
 
 /// [`MsgLimits`] of every id the dialect knows, computed once from the generated code: ids below
@@ -175,6 +177,7 @@ fn limits_from_dialect(msgid: u32) -> Option<MsgLimits> {
         crc_extra: MavMessage::extra_crc(msgid),
         max_len_v1: base as u8,
         max_len_v2: full as u8,
+        targeted: msg.target_system_id().is_some() || msg.target_component_id().is_some(),
     })
 }
 
