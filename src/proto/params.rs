@@ -544,11 +544,10 @@ impl<'a> ParamValueMsg<'a> {
             ok &= crate::wire::param_pck::name_byte_ok(b);
         }
         let id = &id[..len];
-        let name = if ok && len > 0 {
-            // SAFETY: every byte is printable ASCII (`name_byte_ok`), which is UTF-8.
-            std::borrow::Cow::Borrowed(unsafe { std::str::from_utf8_unchecked(id) })
-        } else {
-            std::borrow::Cow::Owned(escaped(id))
+        // Printable ASCII is UTF-8: the check below always passes for a name that was `ok`.
+        let name = match std::str::from_utf8(id) {
+            Ok(name) if ok && len > 0 => std::borrow::Cow::Borrowed(name),
+            _ => std::borrow::Cow::Owned(escaped(id)),
         };
         let refused = matches!(name, std::borrow::Cow::Owned(_));
         Some(ParamValueMsg {
