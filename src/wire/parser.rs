@@ -308,15 +308,38 @@ impl FrameParser {
             let used = (self.pos - base) as usize;
             self.buf.extend_from_slice(&bytes[used..]);
         } else {
+            // The bytes held back and the start of these, enough to end any frame that began
+            // in the held bytes: once past them, the rest is parsed in place (not copied).
+            let held = self.buf.len();
+            let head = bytes.len().min(2 * MAX_FRAME_LEN);
             let mut buf = std::mem::take(&mut self.buf);
-            buf.extend_from_slice(bytes);
+            buf.extend_from_slice(&bytes[..head]);
             self.scan(&buf, base, false, emit);
-            buf.drain(..(self.pos - base) as usize);
-            if buf.capacity() > 64 * 1024 {
-                // A huge read arrived while bytes were held back: do not keep its room.
-                buf.shrink_to(4 * MAX_FRAME_LEN);
+            let used = (self.pos - base) as usize;
+            if used >= held && head < bytes.len() {
+                buf.clear();
+                self.buf = buf;
+                let rest = &bytes[used - held..];
+                let base = self.pos;
+                self.scan(rest, base, false, emit);
+                let used = (self.pos - base) as usize;
+                self.buf.extend_from_slice(&rest[used..]);
+            } else {
+                // Still in the held bytes (a look-ahead needs more), or every byte taken:
+                // what is left and the rest of these, parsed together.
+                buf.drain(..used);
+                if head < bytes.len() {
+                    buf.extend_from_slice(&bytes[head..]);
+                    let base = self.pos;
+                    self.scan(&buf, base, false, emit);
+                    buf.drain(..(self.pos - base) as usize);
+                }
+                self.buf = buf;
             }
-            self.buf = buf;
+            if self.buf.capacity() > 64 * 1024 {
+                // A huge read arrived while bytes were held back: do not keep its room.
+                self.buf.shrink_to(4 * MAX_FRAME_LEN);
+            }
         }
     }
 
@@ -533,7 +556,7 @@ impl FrameParser {
         if !known {
             self.stats.unknown_ids += 1;
         }
-        let frame = Frame {
+        let frame = || Frame {
             raw: RawBytes::first(d, len),
             version,
             seq,
@@ -560,7 +583,8 @@ impl FrameParser {
 /// Where accepted frames go: a frame is handed over with its message still `None`, and decoded
 /// where it then lies, so its few hundred bytes are not moved again.
 trait Sink {
-    fn put(&mut self, frame: Frame, decode: impl FnOnce(&mut Option<MavMessage>));
+    /// `frame` makes the frame (built where it is to lie, not moved there).
+    fn put(&mut self, frame: impl FnOnce() -> Frame, decode: impl FnOnce(&mut Option<MavMessage>));
 }
 
 /// A callback taking each frame.
@@ -568,7 +592,8 @@ struct Emit<F>(F);
 
 impl<F: FnMut(Frame)> Sink for Emit<F> {
     #[inline]
-    fn put(&mut self, mut frame: Frame, decode: impl FnOnce(&mut Option<MavMessage>)) {
+    fn put(&mut self, frame: impl FnOnce() -> Frame, decode: impl FnOnce(&mut Option<MavMessage>)) {
+        let mut frame = frame();
         decode(&mut frame.message);
         (self.0)(frame)
     }
@@ -576,8 +601,8 @@ impl<F: FnMut(Frame)> Sink for Emit<F> {
 
 impl Sink for Vec<Frame> {
     #[inline]
-    fn put(&mut self, frame: Frame, decode: impl FnOnce(&mut Option<MavMessage>)) {
-        self.push(frame);
+    fn put(&mut self, frame: impl FnOnce() -> Frame, decode: impl FnOnce(&mut Option<MavMessage>)) {
+        self.push(frame());
         if let Some(last) = self.last_mut() {
             decode(&mut last.message);
         }
