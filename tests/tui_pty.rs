@@ -138,6 +138,17 @@ fn child_gets_sigint() {
     run_child_until(SignalClock::new("INT"), false);
 }
 
+/// Where the child entered the alternate screen and where it last left it, in its output.
+fn alternate_screen(out: &str) -> (usize, usize) {
+    let enter = out
+        .find(ENTER_ALT)
+        .unwrap_or_else(|| panic!("never entered: {out:?}"));
+    let leave = out
+        .rfind(LEAVE_ALT)
+        .unwrap_or_else(|| panic!("never left: {out:?}"));
+    (enter, leave)
+}
+
 /// Run `child` under `script`, typing `input` until it exits; returns (success, output).
 fn under_pty(child: &str, input: &[u8]) -> (bool, String) {
     under_pty_with(child, Typing::Repeat(input), &[])
@@ -245,12 +256,7 @@ fn under_pty_with(child: &str, typing: Typing, env: &[(&str, String)]) -> (bool,
 fn quit_key_restores_the_terminal() {
     let (ok, out) = under_pty("child_quits_on_q", b"q");
     assert!(ok, "{out}");
-    let enter = out
-        .find(ENTER_ALT)
-        .unwrap_or_else(|| panic!("never entered: {out:?}"));
-    let leave = out
-        .rfind(LEAVE_ALT)
-        .unwrap_or_else(|| panic!("never left: {out:?}"));
+    let (enter, leave) = alternate_screen(&out);
     assert!(enter < leave);
     // Something was drawn in between, and the test harness printed after the restore.
     assert!(out[enter..leave].contains("Vehicles"), "{out:?}");
@@ -283,12 +289,7 @@ fn panic_restores_the_terminal_before_the_message() {
 fn signal_restores_the_terminal(child: &str) {
     let (ok, out) = under_pty(child, b"");
     assert!(ok, "{child} must exit 0 after the signal: {out:?}");
-    let enter = out
-        .find(ENTER_ALT)
-        .unwrap_or_else(|| panic!("never entered: {out:?}"));
-    let leave = out
-        .rfind(LEAVE_ALT)
-        .unwrap_or_else(|| panic!("never left: {out:?}"));
+    let (enter, leave) = alternate_screen(&out);
     assert!(enter < leave, "{out:?}");
     // It was running (had drawn) when the signal came.
     assert!(out[enter..leave].contains("Vehicles"), "{out:?}");
@@ -395,12 +396,7 @@ fn furthest_cursor(out: &str) -> (u32, u32) {
 fn a_resize_redraws_at_the_new_size() {
     let (ok, out) = under_pty("child_is_resized", b"");
     assert!(ok, "child must exit 0 after the signal: {out:?}");
-    let enter = out
-        .find(ENTER_ALT)
-        .unwrap_or_else(|| panic!("never entered: {out:?}"));
-    let leave = out
-        .rfind(LEAVE_ALT)
-        .unwrap_or_else(|| panic!("never left: {out:?}"));
+    let (enter, leave) = alternate_screen(&out);
     let screen = &out[enter..leave];
     let (col, row) = furthest_cursor(screen);
     assert!(
