@@ -561,8 +561,14 @@ where
 
     /// The time between redraws now: see [`draw_period`].
     fn draw_period(&self, app: &App) -> Micros {
-        let armed = !app.armed_vehicles().is_empty();
-        draw_period(self.period, app.now, self.last_input, armed)
+        // Whether anything is armed is asked only once the keys have been idle.
+        let idle = app.now.saturating_sub(self.last_input) >= IDLE_AFTER;
+        draw_period(
+            self.period,
+            app.now,
+            self.last_input,
+            idle && app.any_armed(),
+        )
     }
 
     /// The next event from the terminal or a signal (`None`: the session ends).

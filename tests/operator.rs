@@ -161,6 +161,8 @@ fn key(app: &mut App, now: u64, k: Key) -> Vec<Effect> {
 #[test]
 fn q_while_armed_asks_and_only_y_after_the_guard_quits() {
     let mut app = app_with(true);
+    // What keeps the terminal redrawing at the full rate while nobody types.
+    assert!(app.any_armed());
     let fx = key(&mut app, SECOND, Key::ch('q'));
     assert!(!quits(&fx) && !app.quit);
     assert_eq!(operator_sends(&fx), 0);
@@ -197,6 +199,7 @@ fn q_while_armed_asks_and_only_y_after_the_guard_quits() {
 #[test]
 fn q_while_disarmed_quits_at_once() {
     let mut app = app_with(false);
+    assert!(!app.any_armed());
     let fx = key(&mut app, SECOND, Key::ch('q'));
     assert!(quits(&fx) && app.quit);
     assert!(app.ui.confirm.is_none());

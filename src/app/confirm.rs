@@ -168,9 +168,16 @@ impl App {
         self.dirty = true;
     }
 
+    /// Whether any autopilot says it is armed (lost ones included), without collecting them.
+    pub fn any_armed(&self) -> bool {
+        self.sessions
+            .keys()
+            .any(|k| self.vehicles.get(*k).is_some_and(|v| v.armed()))
+    }
+
     /// The autopilots that say they are armed (lost ones included: one may still be flying),
     /// in key order.
-    pub fn armed_vehicles(&self) -> Vec<VehicleKey> {
+    pub(super) fn armed_vehicles(&self) -> Vec<VehicleKey> {
         let mut keys: Vec<VehicleKey> = self
             .sessions
             .keys()
