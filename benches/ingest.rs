@@ -7,27 +7,13 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use mavterm::app::{App, AppConfig, Event};
+use mavterm::app::AppConfig;
 use mavterm::dialect::MavMessage;
-use mavterm::link::tlog::read_tlog;
-use mavterm::link::{FrameParser, ParserStats};
+use mavterm::link::FrameParser;
 
-fn capture() -> (Vec<u8>, u64) {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/data/copter-flight.vehicle.tlog"
-    );
-    let recs = read_tlog(&std::fs::read(path).unwrap()).unwrap();
-    let mut bytes = Vec::new();
-    let mut n = 0u64;
-    while n < 100_000 {
-        for r in &recs {
-            bytes.extend_from_slice(&r.frame);
-            n += 1;
-        }
-    }
-    (bytes, n)
-}
+#[path = "../tests/ingest_fixture/mod.rs"]
+mod ingest_fixture;
+use ingest_fixture::{capture, Pipeline};
 
 fn bench(c: &mut Criterion) {
     let (bytes, n) = capture();
@@ -51,30 +37,9 @@ fn bench(c: &mut Criterion) {
 
     g.bench_function("mavterm_full_pipeline", |b| {
         b.iter(|| {
-            let mut app = App::new(AppConfig {
-                links: vec!["bench".into()],
-                ..AppConfig::default()
-            });
-            let mut p = FrameParser::new();
-            let mut reported = ParserStats::default();
-            let mut t = 0u64;
-            for chunk in bytes.chunks(4096) {
-                let mut frames = p.frame_vec(chunk.len());
-                p.push_into(chunk, &mut frames);
-                let total = *p.stats();
-                let stats = total.since(&reported);
-                reported = total;
-                t += 1_000;
-                black_box(app.update(
-                    t,
-                    Event::Frames {
-                        link: 0,
-                        frames,
-                        stats,
-                    },
-                ));
-            }
-            assert_eq!(app.links[0].parser.frames, n);
+            let mut p = Pipeline::new(AppConfig::default());
+            p.feed(&bytes);
+            assert_eq!(p.frames(), n);
         })
     });
 
@@ -84,8 +49,7 @@ fn bench(c: &mut Criterion) {
     let (signed, signed_n) = signed_capture(&bytes, &key);
     g.bench_function("mavterm_full_pipeline_signed", |b| {
         b.iter(|| {
-            let mut app = App::new(AppConfig {
-                links: vec!["bench".into()],
+            let mut p = Pipeline::new(AppConfig {
                 signing: Some(mavterm::app::signing::SigningConfig {
                     key: key.clone(),
                     allow_unsigned_heartbeat: false,
@@ -95,26 +59,9 @@ fn bench(c: &mut Criterion) {
                 }),
                 ..AppConfig::default()
             });
-            let mut p = FrameParser::new();
-            let mut reported = ParserStats::default();
-            let mut t = 0u64;
-            for chunk in signed.chunks(4096) {
-                let mut frames = p.frame_vec(chunk.len());
-                p.push_into(chunk, &mut frames);
-                let total = *p.stats();
-                let stats = total.since(&reported);
-                reported = total;
-                t += 1_000;
-                black_box(app.update(
-                    t,
-                    Event::Frames {
-                        link: 0,
-                        frames,
-                        stats,
-                    },
-                ));
-            }
-            assert_eq!(app.links[0].parser.frames, signed_n);
+            p.feed(&signed);
+            assert_eq!(p.frames(), signed_n);
+            let app = &p.app;
             let rejected: u64 = app.links[0]
                 .sources
                 .values()

@@ -10,9 +10,10 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use mavterm::app::{App, AppConfig, Event};
-use mavterm::link::tlog::read_tlog;
-use mavterm::link::{FrameParser, ParserStats};
+use mavterm::app::AppConfig;
+
+mod ingest_fixture;
+use ingest_fixture::Pipeline;
 
 struct Counting;
 
@@ -37,58 +38,23 @@ static GLOBAL: Counting = Counting;
 
 #[test]
 fn the_steady_state_allocates_per_batch_not_per_frame() {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/data/copter-flight.vehicle.tlog"
-    );
-    let bytes: Vec<u8> = read_tlog(&std::fs::read(path).unwrap())
-        .unwrap()
-        .into_iter()
-        .flat_map(|r| r.frame.to_vec())
-        .collect();
-    let mut app = App::new(AppConfig {
-        links: vec!["capture".into()],
-        ..AppConfig::default()
-    });
-    let mut p = FrameParser::new();
-    let mut reported = ParserStats::default();
-    let mut t = 0u64;
-    let mut pass = |app: &mut App| -> (u64, u64, u64) {
-        let (a0, f0) = (
-            ALLOCATIONS.load(Ordering::Relaxed),
-            app.links[0].parser.frames,
-        );
-        let mut batches = 0;
-        for chunk in bytes.chunks(4096) {
-            let mut frames = p.frame_vec(chunk.len());
-            p.push_into(chunk, &mut frames);
-            let total = *p.stats();
-            let stats = total.since(&reported);
-            reported = total;
-            t += 1_000;
-            let fx = app.update(
-                t,
-                Event::Frames {
-                    link: 0,
-                    frames,
-                    stats,
-                },
-            );
-            drop(fx);
-            batches += 1;
-        }
+    let (bytes, _) = ingest_fixture::flight();
+    let mut p = Pipeline::new(AppConfig::default());
+    let pass = |p: &mut Pipeline| -> (u64, u64, u64) {
+        let (a0, f0, b0) = (ALLOCATIONS.load(Ordering::Relaxed), p.frames(), p.batches);
+        p.feed(&bytes);
         (
             ALLOCATIONS.load(Ordering::Relaxed) - a0,
-            app.links[0].parser.frames - f0,
-            batches,
+            p.frames() - f0,
+            p.batches - b0,
         )
     };
-    let (first, frames, _) = pass(&mut app);
+    let (first, frames, _) = pass(&mut p);
     assert_eq!(
         frames, 11_648,
         "the capture's frames (pymavlink counts 11,648)"
     );
-    let (steady, frames, batches) = pass(&mut app);
+    let (steady, frames, batches) = pass(&mut p);
     assert_eq!(frames, 11_648);
     // What may allocate in the steady state: each batch (its frame vector and a few effects),
     // each STATUSTEXT (41: its notice and its line) and each HEARTBEAT (88). Allowing 8 a
