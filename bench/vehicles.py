@@ -24,6 +24,7 @@ time until the help's title is on the terminal is printed (key ms): the UI answe
 import argparse
 import os
 import pty
+import re
 import signal
 import socket
 import struct
@@ -57,6 +58,23 @@ def rss_kb(pid):
             if line.startswith("VmRSS:"):
                 return int(line.split()[1])
     return 0
+
+
+def mappings(pid):
+    """RSS by mapping (the file's name, or [heap], [stack], anon), kB, largest first."""
+    out = {}
+    name = None
+    try:
+        with open(f"/proc/{pid}/smaps") as f:
+            for line in f:
+                head = line.split()
+                if re.match(r"^[0-9a-f]+-[0-9a-f]+ ", line):
+                    name = head[5] if len(head) > 5 else "anon"
+                elif head and head[0] == "Rss:":
+                    out[name] = out.get(name, 0) + int(head[1])
+    except OSError:
+        pass
+    return sorted(out.items(), key=lambda kv: -kv[1])
 
 
 def memory(pid):
@@ -168,6 +186,9 @@ def run(binary, n, args):
         rss = rss_kb(pid)
         mem = memory(pid)
         key = key_ms(b"?", b" Keys ") if key_ms else None
+        if args.smaps:
+            for name, kb in mappings(pid)[:8]:
+                print(f"  {kb:>7} kB  {name}", file=sys.stderr)
         return {
             "key_ms": key,
             "vehicles": n,
@@ -196,6 +217,8 @@ def run(binary, n, args):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--binary", default=os.path.join(ROOT, "target/release/mavterm"))
+    ap.add_argument("--smaps", action="store_true",
+                    help="print the RSS of the largest mappings (stderr)")
     ap.add_argument("--counts", type=int, nargs="+", default=[1, 10, 100, 250])
     ap.add_argument("--warmup", type=float, default=20.0)
     ap.add_argument("--measure", type=float, default=60.0)

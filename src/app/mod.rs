@@ -1012,8 +1012,22 @@ impl App {
         if !copy {
             self.inspector.record(now, frame);
         }
+        // The message, decoded here when the link's parser left it (it decodes nothing) and
+        // something reads this id; one that does not decode is counted on the link.
+        let decoded;
         let fallback;
         let msg = match &frame.message {
+            Some(m) => Some(m),
+            None if frame.lazy && reads(frame.msgid) => {
+                decoded = frame.decode();
+                if decoded.is_none() {
+                    self.links[link].parser.decode_errors += 1;
+                }
+                decoded.as_ref()
+            }
+            None => None,
+        };
+        let msg = match msg {
             Some(m) => Some(m),
             None => {
                 fallback = heartbeat_fallback(frame);
@@ -1378,6 +1392,71 @@ impl App {
                 }
             }
         }
+    }
+}
+
+/// The message ids the core reads decoded, beyond the sessions' machines: handled here
+/// ([`App::on_frame`]).
+const APP_READS: [u32; 5] = [
+    <dialect::HEARTBEAT_DATA as mavlink::MessageData>::ID,
+    <dialect::SYSTEM_TIME_DATA as mavlink::MessageData>::ID,
+    <dialect::STATUSTEXT_DATA as mavlink::MessageData>::ID,
+    <dialect::RADIO_STATUS_DATA as mavlink::MessageData>::ID,
+    <dialect::ADSB_VEHICLE_DATA as mavlink::MessageData>::ID,
+];
+
+/// Whether the core reads message `id` decoded: a session's machine reads it decoded
+/// ([`session::DECODES`]), the core itself does ([`APP_READS`]), or it names a target (which
+/// says whether it is for us). The rest (more than half of what a vehicle streams, and
+/// PARAM_VALUE, read from its payload) are counted, measured and recorded from their bytes.
+#[inline]
+pub fn reads(id: u32) -> bool {
+    let set = READS.get_or_init(ReadSet::build);
+    let named = match set.small.get((id / 64) as usize) {
+        Some(w) => w & (1 << (id % 64)) != 0,
+        None => set.large.binary_search(&id).is_ok(),
+    };
+    named || crate::wire::parser::msg_limits(id).is_some_and(|l| l.targeted)
+}
+
+static READS: std::sync::OnceLock<ReadSet> = std::sync::OnceLock::new();
+
+/// The ids read decoded by name (not for their target): a bit each below 512, the rest sorted.
+struct ReadSet {
+    small: [u64; 8],
+    large: Vec<u32>,
+}
+
+impl ReadSet {
+    fn build() -> ReadSet {
+        let mut set = ReadSet {
+            small: [0; 8],
+            large: Vec::new(),
+        };
+        let lists = session::DECODES.iter().map(|ids| match ids {
+            crate::proto::machine::Ids::Only(ids) => *ids,
+            // A machine reading every message decoded: every id the dialect knows below 512
+            // is marked, and the rest are looked up by the fallback below.
+            crate::proto::machine::Ids::All => &[][..],
+        });
+        let all = session::DECODES
+            .iter()
+            .any(|ids| matches!(ids, crate::proto::machine::Ids::All));
+        for &id in lists.flatten().chain(APP_READS.iter()) {
+            match set.small.get_mut((id / 64) as usize) {
+                Some(w) => *w |= 1 << (id % 64),
+                None => set.large.push(id),
+            }
+        }
+        if all {
+            set.small = [u64::MAX; 8];
+            set.large = (512..=u32::from(u16::MAX))
+                .filter(|&id| crate::wire::parser::msg_limits(id).is_some())
+                .collect();
+        }
+        set.large.sort_unstable();
+        set.large.dedup();
+        set
     }
 }
 

@@ -122,6 +122,22 @@ pub const TABLE: &[(u16, Ids)] = &[
     (Dispatch::CALIBRATION, Calibration::IDS),
 ];
 
+/// Each machine's ids read decoded ([`Machine::DECODES`]), in [`TABLE`]'s order.
+pub const DECODES: &[Ids] = &[
+    StreamMachine::DECODES,
+    FlightTelemetry::DECODES,
+    ParamMachine::DECODES,
+    MissionMachine::DECODES,
+    CommandQueue::DECODES,
+    Sequence::DECODES,
+    CameraSet::DECODES,
+    GimbalSet::DECODES,
+    CompMeta::DECODES,
+    LogMachine::DECODES,
+    PrearmReasons::DECODES,
+    Calibration::DECODES,
+];
+
 /// The machines that read message `id`, from [`TABLE`] (built once).
 #[inline]
 pub fn wants(id: u32) -> u16 {

@@ -121,11 +121,19 @@ impl Forwarder {
                 o.status.dropped += 1;
                 continue;
             }
-            let target = f
-                .message
-                .as_ref()
-                .and_then(mavlink::Message::target_system_id)
-                .filter(|t| *t != 0);
+            // A link's parser decodes nothing: a message naming a target is decoded here.
+            let target = match &f.message {
+                Some(m) => mavlink::Message::target_system_id(m),
+                None if f.lazy
+                    && crate::wire::parser::msg_limits(f.msgid).is_some_and(|l| l.targeted) =>
+                {
+                    f.decode()
+                        .as_ref()
+                        .and_then(mavlink::Message::target_system_id)
+                }
+                None => None,
+            }
+            .filter(|t| *t != 0);
             let heard_on = |l: LinkId| {
                 target.is_some_and(|t| {
                     self.heard
@@ -205,7 +213,7 @@ mod tests {
 
     fn parse(bytes: &[u8]) -> Vec<Frame> {
         let mut out = Vec::new();
-        FrameParser::new().push(bytes, |f| out.push(f));
+        FrameParser::lazy().push(bytes, |f| out.push(f));
         out
     }
 

@@ -179,7 +179,7 @@ impl VLink {
     fn new(src: Option<Box<dyn VirtualSource>>) -> Self {
         Self {
             src,
-            parser: FrameParser::new(),
+            parser: FrameParser::lazy(),
             reported: ParserStats::default(),
             skipped_reported: 0,
         }

@@ -129,7 +129,7 @@ impl Ingest {
     fn new(id: LinkId, events: EventTx) -> Self {
         Self {
             id,
-            parser: FrameParser::new(),
+            parser: FrameParser::lazy(),
             reported: ParserStats::default(),
             events,
             dropped: 0,

@@ -765,6 +765,8 @@ impl Machine for Calibration {
         crate::dialect::MAG_CAL_PROGRESS_DATA::ID,
         crate::dialect::MAG_CAL_REPORT_DATA::ID,
     ]);
+    /// The compass reports are read from their payloads, the ACK as [`Incoming::ack`].
+    const DECODES: Ids = Ids::Only(&[crate::dialect::COMMAND_LONG_DATA::ID]);
 
     fn on_message(&mut self, m: &Incoming, out: &mut Vec<Out>) {
         self.now = m.now;

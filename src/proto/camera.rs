@@ -932,6 +932,8 @@ impl Machine for CameraSet {
         dialect::VIDEO_STREAM_INFORMATION_DATA::ID,
         dialect::GIMBAL_DEVICE_ATTITUDE_STATUS_DATA::ID,
     ]);
+    /// Only the heartbeat is read decoded; the rest from their payloads.
+    const DECODES: Ids = Ids::Only(&[dialect::HEARTBEAT_DATA::ID]);
 
     /// Any component of the system (ArduPilot answers for its camera itself).
     fn on_message(&mut self, m: &Incoming, out: &mut Vec<Out>) {

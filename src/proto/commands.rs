@@ -508,6 +508,8 @@ pub fn to_out(outs: Vec<CmdOut>, route: Route, out: &mut Vec<Out>) {
 
 impl Machine for CommandQueue {
     const IDS: Ids = Ids::Only(&[dialect::COMMAND_ACK_DATA::ID]);
+    /// The ACK is read as [`Incoming::ack`].
+    const DECODES: Ids = Ids::Only(&[]);
 
     /// The ACKs of the commands sent to any component of the system.
     fn on_message(&mut self, m: &Incoming, out: &mut Vec<Out>) {

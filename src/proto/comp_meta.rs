@@ -463,6 +463,8 @@ impl Machine for CompMeta {
         COMPONENT_INFORMATION,
         dialect::FILE_TRANSFER_PROTOCOL_DATA::ID,
     ]);
+    /// All read from their payloads.
+    const DECODES: Ids = Ids::Only(&[]);
 
     fn on_message(&mut self, m: &Incoming, out: &mut Vec<Out>) {
         if self.waits_to_start() {

@@ -677,6 +677,8 @@ impl Machine for GimbalSet {
         dialect::GIMBAL_DEVICE_SET_ATTITUDE_DATA::ID,
         dialect::GIMBAL_DEVICE_ATTITUDE_STATUS_DATA::ID,
     ]);
+    /// Only the heartbeat is read decoded; the rest from their payloads.
+    const DECODES: Ids = Ids::Only(&[dialect::HEARTBEAT_DATA::ID]);
 
     /// The autopilot and any gimbal component may be a gimbal manager.
     fn on_message(&mut self, m: &Incoming, out: &mut Vec<Out>) {

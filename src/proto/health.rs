@@ -217,6 +217,9 @@ impl Machine for PrearmReasons {
         crate::dialect::SYS_STATUS_DATA::ID,
         crate::dialect::COMMAND_ACK_DATA::ID,
     ]);
+    /// Only the heartbeat is read decoded; SYS_STATUS from its payload, the ACK as
+    /// [`Incoming::ack`].
+    const DECODES: Ids = Ids::Only(&[crate::dialect::HEARTBEAT_DATA::ID]);
 
     fn on_message(&mut self, m: &Incoming, _: &mut Vec<Out>) {
         if let Some(hb) = m.heartbeat() {

@@ -187,6 +187,10 @@ impl Ids {
 pub trait Machine {
     /// The dialect's messages it reads (`*_DATA::ID`).
     const IDS: Ids;
+    /// Those of [`Machine::IDS`] it reads decoded ([`Incoming::msg`]); the others it reads from
+    /// the payload alone, so the core need not decode them for it (a link's parser decodes
+    /// nothing: the core decodes what some reader reads decoded).
+    const DECODES: Ids = Self::IDS;
     /// A message it reads; what to do is pushed on `out`.
     fn on_message(&mut self, m: &Incoming, out: &mut Vec<Out>);
     /// Whatever is due at `now`.

@@ -1464,6 +1464,8 @@ impl Machine for MissionMachine {
         id::MISSION_ITEM_REACHED,
         dialect::AUTOPILOT_VERSION_DATA::ID,
     ]);
+    /// All read from their payloads.
+    const DECODES: Ids = Ids::Only(&[]);
 
     fn on_message(&mut self, m: &Incoming, out: &mut Vec<Out>) {
         if m.id == dialect::AUTOPILOT_VERSION_DATA::ID {

@@ -1767,6 +1767,9 @@ impl Machine for ParamMachine {
         dialect::AUTOPILOT_VERSION_DATA::ID,
         dialect::COMMAND_ACK_DATA::ID,
     ]);
+    /// PARAM_VALUE, FILE_TRANSFER_PROTOCOL and AUTOPILOT_VERSION are read from their payloads,
+    /// the ACK as [`Incoming::ack`].
+    const DECODES: Ids = Ids::Only(&[]);
 
     /// Parameters are kept per component of the system; AUTOPILOT_VERSION (and the ACK of our
     /// request for it) only from the autopilot.

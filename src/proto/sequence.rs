@@ -422,6 +422,11 @@ impl Machine for Sequence {
         crate::dialect::GLOBAL_POSITION_INT_DATA::ID,
         crate::dialect::EXTENDED_SYS_STATE_DATA::ID,
     ]);
+    /// EXTENDED_SYS_STATE's landed state is read from its payload.
+    const DECODES: Ids = Ids::Only(&[
+        crate::dialect::HEARTBEAT_DATA::ID,
+        crate::dialect::GLOBAL_POSITION_INT_DATA::ID,
+    ]);
 
     /// The vehicle's heartbeat: does it show the step done? Its position and landed state:
     /// has a take-off reached its altitude, or given up?

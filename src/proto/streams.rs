@@ -1333,6 +1333,8 @@ impl Machine for StreamMachine {
         <dialect::HEARTBEAT_DATA as mavlink::MessageData>::ID,
         <dialect::COMMAND_ACK_DATA as mavlink::MessageData>::ID,
     ]);
+    /// Only the heartbeat is read decoded, the ACK as [`Incoming::ack`].
+    const DECODES: Ids = Ids::Only(&[<dialect::HEARTBEAT_DATA as mavlink::MessageData>::ID]);
 
     /// Every message; a COMMAND_ACK of MAV_CMD_SET_MESSAGE_INTERVAL while one of its own waits
     /// is its answer (see [`Machine::claims`]).

@@ -268,9 +268,19 @@ pub struct Frame {
     pub compat_flags: u8,
     /// `Some` only for known message ids whose payload decoded.
     pub message: Option<MavMessage>,
+    /// From a lazy parser ([`crate::wire::FrameParser::lazy`]): `message` is `None` because
+    /// nothing decoded it; its reader decodes what it reads ([`Frame::decode`]).
+    pub lazy: bool,
 }
 
 impl Frame {
+    /// The message decoded from the payload, if the dialect knows the id and can read it (an
+    /// enum value newer than the dialect's is not).
+    pub fn decode(&self) -> Option<MavMessage> {
+        use mavlink::Message;
+        MavMessage::parse(self.version.to_mavlink(), self.msgid, self.payload()).ok()
+    }
+
     /// Length of the payload as sent (MAVLink 2 truncates trailing zeros).
     pub fn payload_len(&self) -> usize {
         self.raw[1] as usize

@@ -26,6 +26,9 @@
 //!   others together as one truncated frame.
 //! - A frame whose payload does not decode (e.g. an enum value newer than our dialect) is still a
 //!   frame: counted in `decode_errors`, handed on with `message: None`.
+//! - A lazy parser ([`FrameParser::lazy`], the core's links) decodes nothing: every frame is handed
+//!   on with `message: None`, and its reader decodes the messages it reads (and counts those that
+//!   do not decode).
 //!
 //! Work per byte is bounded whatever the input: each position is checked at most once (a CRC of at
 //! most one frame), and the bytes held back never exceed two frames' worth.
@@ -202,6 +205,8 @@ pub struct FrameParser {
     /// Bad CRCs the look-ahead met, (position, length), so the CRC is not computed twice.
     ahead: VecDeque<(u64, usize)>,
     table: &'static MsgTable,
+    /// Decode each known frame's message (else [`FrameParser::lazy`]: never).
+    decode: bool,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -222,6 +227,7 @@ impl Default for FrameParser {
             found: None,
             ahead: VecDeque::new(),
             table: table(),
+            decode: true,
         }
     }
 }
@@ -259,6 +265,16 @@ fn is_magic(b: u8) -> bool {
 impl FrameParser {
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// A parser that frames and checks but decodes nothing: every frame comes with
+    /// `message: None`, for a reader that decodes only the messages it reads (the core decodes
+    /// perhaps half of what a vehicle streams) and counts those that fail.
+    pub fn lazy() -> Self {
+        FrameParser {
+            decode: false,
+            ..Self::default()
+        }
     }
 
     pub fn stats(&self) -> &ParserStats {
@@ -556,6 +572,7 @@ impl FrameParser {
         if !known {
             self.stats.unknown_ids += 1;
         }
+        let lazy = !self.decode;
         let frame = || Frame {
             raw: RawBytes::first(d, len),
             version,
@@ -566,10 +583,12 @@ impl FrameParser {
             incompat_flags: iflags,
             compat_flags: cflags,
             message: None,
+            lazy,
         };
         let stats = &mut self.stats;
+        let decode = known && self.decode;
         emit.put(frame, |message| {
-            if known {
+            if decode {
                 let payload = &raw[hlen..hlen + raw[1] as usize];
                 match MavMessage::parse(version.to_mavlink(), msgid, payload) {
                     Ok(m) => *message = Some(m),

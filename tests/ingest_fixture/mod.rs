@@ -47,7 +47,7 @@ impl Pipeline {
                 links: vec!["capture".into()],
                 ..cfg
             }),
-            parser: FrameParser::new(),
+            parser: FrameParser::lazy(),
             reported: ParserStats::default(),
             t: 0,
             batches: 0,
