@@ -166,9 +166,11 @@ fn the_selected_message_shows_its_fields_as_the_sim_sent_them() {
     wait(&mut r, 10.0);
     common::keys(&mut r, &["4"]);
     select(&mut r, "GLOBAL_POSITION_INT");
-    // A moment later: the last frame is the one on screen.
-    wait(&mut r, 0.01);
+    // On screen every frame's payload is kept (off it, one a second): a second later the last
+    // frame is the one shown.
+    wait(&mut r, 1.0);
     let s = screen(&r);
+    assert!(!s.contains(" older"), "{s}");
     let v = sim(&r).vehicle(1).unwrap();
     let (lat, lon, _) = v.home();
     let num = |n: &str| -> f64 {

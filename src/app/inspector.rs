@@ -4,8 +4,9 @@
 //!
 //! The store ([`MessageStore`]) is fed every frame the core handles (not our own echoes, not a
 //! repeat, not a redundant link's copy). It is cheap on that path: one hash lookup, the arrival
-//! time into a fixed ring, the payload into a buffer that is reused; the payload is decoded only
-//! when the screen shows it. It is bounded: [`MAX_PER_SOURCE`] message ids per source and
+//! time into a fixed ring; the payload is copied into a buffer that is reused only while the
+//! screen is shown, else once a second per message ([`KEEP_EVERY`]), and decoded only when the
+//! screen shows it. It is bounded: [`MAX_PER_SOURCE`] message ids per source and
 //! [`MAX_ENTRIES`] in all, the longest silent evicted (and counted) to make room, so a flood of
 //! spoofed sources cannot grow it.
 
@@ -32,6 +33,9 @@ pub const MAX_ENTRIES: usize = 2048;
 pub const TIMES: usize = 32;
 /// The rate is measured over the arrivals of the last this long (and one just before).
 pub const RATE_WINDOW: Micros = 5 * SECOND;
+/// While the Inspector is not on screen, a message's payload is kept at most this often (the
+/// screen opens on payloads at most this old; on screen, every one is kept).
+pub const KEEP_EVERY: Micros = SECOND;
 
 /// (sysid, compid, msgid) packed in a `u64`: the store's key.
 #[inline]
@@ -83,9 +87,12 @@ pub struct MsgEntry {
     pub last: Micros,
     /// The last [`TIMES`] arrival times, a ring; `count` says how many are filled.
     times: [Micros; TIMES],
-    /// The last frame's version and payload as sent (decoded when shown).
+    /// The version and payload as sent of the last frame kept (decoded when shown): every
+    /// frame's while the Inspector is on screen, else one a second (the first at once).
     pub version: Version,
     payload: Vec<u8>,
+    /// When the payload kept came.
+    kept: Micros,
 }
 
 impl MsgEntry {
@@ -98,22 +105,35 @@ impl MsgEntry {
             times: [0; TIMES],
             version: Version::V2,
             payload: Vec::new(),
+            kept: now,
         }
     }
 
+    /// A frame heard at `now`; `live`: the Inspector is on screen.
     #[inline]
-    fn hear(&mut self, now: Micros, frame: &Frame) {
+    fn hear(&mut self, now: Micros, frame: &Frame, live: bool) {
+        let first = self.count == 0;
         self.times[(self.count % TIMES as u64) as usize] = now;
         self.count += 1;
         self.last = now;
-        self.version = frame.version;
-        self.payload.clear();
-        self.payload.extend_from_slice(frame.payload());
+        if live || first || now.saturating_sub(self.kept) >= KEEP_EVERY {
+            self.kept = now;
+            self.version = frame.version;
+            self.payload.clear();
+            self.payload.extend_from_slice(frame.payload());
+        }
     }
 
-    /// The last frame's payload, as sent (MAVLink 2 cuts trailing zeros).
+    /// The payload kept, as sent (MAVLink 2 cuts trailing zeros): the last frame's while the
+    /// Inspector is on screen, else one at most [`KEEP_EVERY`] older ([`MsgEntry::kept`]).
     pub fn payload(&self) -> &[u8] {
         &self.payload
+    }
+
+    /// When the frame whose payload is kept came (the last one's time, `last`, once the
+    /// Inspector has been on screen for a frame).
+    pub fn kept(&self) -> Micros {
+        self.kept
     }
 
     /// The arrival times kept, oldest first.
@@ -176,6 +196,8 @@ impl MsgEntry {
 /// Every message heard, per source, bounded.
 #[derive(Debug, Clone, Default)]
 pub struct MessageStore {
+    /// The Inspector is on screen: every frame's payload is kept (else one a second).
+    pub live: bool,
     entries: KeyMap<MsgEntry>,
     /// Entries per source (sysid, compid).
     per_source: HashMap<(u8, u8), usize>,
@@ -189,7 +211,7 @@ impl MessageStore {
     pub fn record(&mut self, now: Micros, frame: &Frame) {
         let k = pack(frame.sysid, frame.compid, frame.msgid);
         if let Some(e) = self.entries.get_mut(&k) {
-            e.hear(now, frame);
+            e.hear(now, frame, self.live);
             return;
         }
         self.insert(k, now, frame);
@@ -212,7 +234,7 @@ impl MessageStore {
             self.evict(|_| true);
         }
         let mut e = MsgEntry::new(name, now);
-        e.hear(now, frame);
+        e.hear(now, frame, true);
         self.entries.insert(k, e);
         *self.per_source.entry(source).or_default() += 1;
     }
@@ -780,6 +802,39 @@ mod tests {
             roll: 0.5,
             ..Default::default()
         })
+    }
+
+    #[test]
+    fn payloads_are_kept_once_a_second_off_screen_and_every_one_on_it() {
+        assert!(crate::app::screen::by_name(crate::app::INSPECTOR).is_some());
+        let att = |roll: f32| {
+            frame(
+                1,
+                1,
+                &MavMessage::ATTITUDE(dialect::ATTITUDE_DATA {
+                    roll,
+                    ..Default::default()
+                }),
+            )
+        };
+        let roll = |s: &MessageStore| match s.get((1, 1, 30)).unwrap().decode(30) {
+            Ok(MavMessage::ATTITUDE(a)) => a.roll,
+            other => panic!("{other:?}"),
+        };
+        let mut s = MessageStore::default();
+        // 10 Hz, off screen: the first kept at once, then the one a second after it.
+        for i in 0..15u64 {
+            s.record(i * 100_000, &att(i as f32));
+            let kept = if i < 10 { 0.0 } else { 10.0 };
+            assert_eq!(roll(&s), kept, "frame {i}");
+        }
+        assert_eq!(s.get((1, 1, 30)).unwrap().count, 15);
+        // On screen: every one.
+        s.live = true;
+        for i in 15..20u64 {
+            s.record(i * 100_000, &att(i as f32));
+            assert_eq!(roll(&s), i as f32);
+        }
     }
 
     #[test]

@@ -944,6 +944,8 @@ impl App {
             self.on_link_state(link, LinkState::Up);
         }
         self.dirty = true;
+        // The Inspector keeps every payload only while it is on screen.
+        self.inspector.live = self.ui.screen == INSPECTOR;
         // By reference: a frame (its decoded message inline) is a few hundred bytes to move.
         for frame in &frames {
             self.on_frame(link, frame, fx);
@@ -957,9 +959,9 @@ impl App {
         let key = VehicleKey(frame.sysid, frame.compid);
         // An id our dialect does not know has no CRC we could check: counted on the link only
         // (the parser did), never a source, never loss.
-        if frame.message.is_none() && crate::wire::parser::msg_limits(frame.msgid).is_none() {
+        let Some(limits) = crate::wire::parser::msg_limits(frame.msgid) else {
             return;
-        }
+        };
         let crc = frame.crc();
         // Our own frame coming back through a router: not another GCS, not a source.
         if key == VehicleKey(self.cfg.sysid, self.cfg.compid)
@@ -1018,7 +1020,7 @@ impl App {
         let fallback;
         let msg = match &frame.message {
             Some(m) => Some(m),
-            None if frame.lazy && reads(frame.msgid) => {
+            None if frame.lazy && reads(frame.msgid, limits.targeted) => {
                 decoded = frame.decode();
                 if decoded.is_none() {
                     self.links[link].parser.decode_errors += 1;
@@ -1051,7 +1053,7 @@ impl App {
             Some(MavMessage::ADSB_VEHICLE(_)) => self.on_adsb_frame(link, frame, msg),
             _ => {}
         }
-        if self.for_us(frame.msgid, msg, ack.as_ref()) {
+        if self.for_us(limits.targeted, msg, ack.as_ref()) {
             self.hand_to_sessions(link, frame, msg, ack.as_ref(), fx);
         }
     }
@@ -1245,18 +1247,15 @@ impl App {
         }
     }
 
-    /// True for a message that names no target, or names us or everyone (0).
-    fn for_us(&self, msgid: u32, msg: Option<&MavMessage>, ack: Option<&CommandAck>) -> bool {
+    /// True for a message that names no target, or names us or everyone (0); `targeted`: its
+    /// id has target fields (the dialect's table).
+    fn for_us(&self, targeted: bool, msg: Option<&MavMessage>, ack: Option<&CommandAck>) -> bool {
         use mavlink::Message;
         let (sys, comp) = match (msg, ack) {
             (_, Some(a)) => (Some(a.target_system), Some(a.target_component)),
             // Most messages have no target field: the dialect's table says so without asking
-            // the message (`msg` is of id `msgid`).
-            (Some(_), None)
-                if crate::wire::parser::msg_limits(msgid).is_some_and(|l| !l.targeted) =>
-            {
-                (None, None)
-            }
+            // the message.
+            (Some(_), None) if !targeted => (None, None),
             (Some(m), None) => (m.target_system_id(), m.target_component_id()),
             (None, None) => (None, None),
         };
@@ -1395,6 +1394,9 @@ impl App {
     }
 }
 
+/// The Inspector's screen name.
+pub(crate) const INSPECTOR: &str = "inspector";
+
 /// The message ids the core reads decoded, beyond the sessions' machines: handled here
 /// ([`App::on_frame`]).
 const APP_READS: [u32; 5] = [
@@ -1406,17 +1408,17 @@ const APP_READS: [u32; 5] = [
 ];
 
 /// Whether the core reads message `id` decoded: a session's machine reads it decoded
-/// ([`session::DECODES`]), the core itself does ([`APP_READS`]), or it names a target (which
-/// says whether it is for us). The rest (more than half of what a vehicle streams, and
+/// ([`session::DECODES`]), the core itself does ([`APP_READS`]), or it names a target
+/// (`targeted`, from the dialect's table: the target says whether it is for us). The rest (more than half of what a vehicle streams, and
 /// PARAM_VALUE, read from its payload) are counted, measured and recorded from their bytes.
 #[inline]
-pub fn reads(id: u32) -> bool {
+pub fn reads(id: u32, targeted: bool) -> bool {
     let set = READS.get_or_init(ReadSet::build);
     let named = match set.small.get((id / 64) as usize) {
         Some(w) => w & (1 << (id % 64)) != 0,
         None => set.large.binary_search(&id).is_ok(),
     };
-    named || crate::wire::parser::msg_limits(id).is_some_and(|l| l.targeted)
+    named || targeted
 }
 
 static READS: std::sync::OnceLock<ReadSet> = std::sync::OnceLock::new();

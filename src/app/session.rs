@@ -388,8 +388,8 @@ impl Session {
             }
             if w & offers != 0 || !out.is_empty() || self.sequence.is_some() {
                 self.offer_requests(now, &mut out);
+                self.hold_streams();
             }
-            self.hold_streams();
             return out;
         }
         if w & Dispatch::MISSION != 0 {
@@ -408,8 +408,9 @@ impl Session {
             self.deliver(now, &mut buf, &mut out);
         }
         // A SET_MESSAGE_INTERVAL's ACK is the stream machine's while one of its own waits,
-        // else the command queue's.
-        let streams = w & Dispatch::STREAMS != 0 || self.streams.reads(m.link, m.id);
+        // else the command queue's. The messages it measures are counted here, the rest of it
+        // (heartbeats, ACKs, a link's first message) is its `on_message`.
+        let streams = w & Dispatch::STREAMS != 0 || self.streams.count(now, m.link, m.id).is_none();
         let claimed = streams && self.streams.claims(m);
         if streams {
             Machine::on_message(&mut self.streams, m, &mut buf);
@@ -433,10 +434,12 @@ impl Session {
             Machine::on_message(seq, m, &mut buf);
             self.deliver(now, &mut buf, &mut out);
         }
+        // The command queue changed only if a command was answered, something came out, or
+        // requests were offered: only then can an operator's rate request have opened or ended.
         if w & offers != 0 || !out.is_empty() || self.sequence.is_some() {
             self.offer_requests(now, &mut out);
+            self.hold_streams();
         }
-        self.hold_streams();
         out
     }
 

@@ -116,11 +116,15 @@ impl ParamName {
 
     /// A key to search with, for a name of at most 16 bytes (else `None`), made without
     /// allocating.
-    fn probe(name: &str) -> Option<ParamName> {
-        (name.len() <= 16).then(|| ParamName {
-            prefix: Self::prefix(name),
-            len: name.len(),
-            name: String::new(),
+    fn probe_bytes(name: &[u8]) -> Option<ParamName> {
+        (name.len() <= 16).then(|| {
+            let mut p = [0u8; 16];
+            p[..name.len()].copy_from_slice(name);
+            ParamName {
+                prefix: u128::from_be_bytes(p),
+                len: name.len(),
+                name: String::new(),
+            }
         })
     }
 
@@ -322,6 +326,11 @@ impl ParamSet {
     /// `name` heard at `index`: the index taken (another name there before is gone). False when
     /// the index is beyond the count (nothing is recorded then).
     fn note_index(&mut self, name: &str, index: Option<u16>) -> bool {
+        self.note_index_bytes(name.as_bytes(), index)
+    }
+
+    /// [`ParamSet::note_index`] for a name's bytes (printable ASCII, so also its text).
+    fn note_index_bytes(&mut self, name: &[u8], index: Option<u16>) -> bool {
         let Some(i) = index else {
             return true;
         };
@@ -330,15 +339,15 @@ impl ParamSet {
             return false;
         }
         match &self.names[i] {
-            Some(old) if old == name => {}
+            Some(old) if old.as_bytes() == name => {}
             Some(old) => {
                 // Another name at this index (the set changed): the old one is gone.
                 let old = old.clone();
                 self.params.remove(&old);
-                self.names[i] = Some(name.to_string());
+                self.names[i] = Some(String::from_utf8_lossy(name).into_owned());
             }
             None => {
-                self.names[i] = Some(name.to_string());
+                self.names[i] = Some(String::from_utf8_lossy(name).into_owned());
                 self.received += 1;
             }
         }
@@ -514,50 +523,43 @@ pub struct ParamValueMsg<'a> {
     pub raw: f32,
     pub count: u16,
     pub index: u16,
-    /// Borrowed from the payload (a parameter name is printable ASCII); escaped when refused.
-    pub name: std::borrow::Cow<'a, str>,
+    /// The name's bytes as sent, to the first zero (borrowed from the payload).
+    pub id: &'a [u8],
     pub type_code: u8,
-    /// The name is not a parameter name: `name` shows its bytes escaped.
+    /// The name is not a parameter name: [`ParamValueMsg::name`] shows its bytes escaped.
     pub refused: bool,
 }
 
 impl<'a> ParamValueMsg<'a> {
     /// Wire order: param_value f32, param_count u16, param_index u16, param_id char[16],
     /// param_type u8; MAVLink 2 may have cut trailing zeros. A name that is not a parameter
-    /// name ([`crate::wire::param_pck::name_ok`]) is still read, `refused`, its bytes escaped
-    /// in `name` for the operator.
+    /// name ([`crate::wire::param_pck::name_ok`]) is still read, `refused`.
     pub fn parse(payload: &'a [u8]) -> Option<ParamValueMsg<'a>> {
-        let mut p = [0u8; 25];
-        let n = payload.len().min(25);
-        p[..n].copy_from_slice(&payload[..n]);
-        // The name's bytes as sent (MAVLink 2 may have cut its trailing zeros).
+        let p = Payload(payload);
+        // The name's bytes as sent (MAVLink 2 may have cut its trailing zeros), to the first
+        // zero; each checked without stopping early, so the check is a few wide operations.
         let id = payload.get(8..payload.len().min(24)).unwrap_or(&[]);
-        // One pass: the name ends at its first zero, and each byte before it is checked
-        // (`name_ok`: at most 16 bytes here, so only emptiness is left to check).
-        let mut len = id.len();
-        let mut ok = true;
-        for (i, &b) in id.iter().enumerate() {
-            if b == 0 {
-                len = i;
-                break;
-            }
-            ok &= crate::wire::param_pck::name_byte_ok(b);
-        }
-        let id = &id[..len];
-        // Printable ASCII is UTF-8: the check below always passes for a name that was `ok`.
-        let name = match std::str::from_utf8(id) {
-            Ok(name) if ok && len > 0 => std::borrow::Cow::Borrowed(name),
-            _ => std::borrow::Cow::Owned(escaped(id)),
-        };
-        let refused = matches!(name, std::borrow::Cow::Owned(_));
+        let id = &id[..id.iter().position(|&b| b == 0).unwrap_or(id.len())];
+        let bad = id.iter().fold(false, |bad, &b| {
+            bad | !crate::wire::param_pck::name_byte_ok(b)
+        });
         Some(ParamValueMsg {
-            raw: Payload(&p).f32(0),
-            count: Payload(&p).u16(4),
-            index: Payload(&p).u16(6),
-            name,
-            type_code: p[24],
-            refused,
+            raw: p.f32(0),
+            count: p.u16(4),
+            index: p.u16(6),
+            id,
+            type_code: p.u8(24),
+            refused: bad || id.is_empty(),
         })
+    }
+
+    /// The name: a parameter name as it is (printable ASCII), a refused one's bytes quoted and
+    /// escaped for the operator.
+    pub fn name(&self) -> std::borrow::Cow<'a, str> {
+        match std::str::from_utf8(self.id) {
+            Ok(name) if !self.refused => std::borrow::Cow::Borrowed(name),
+            _ => std::borrow::Cow::Owned(escaped(self.id)),
+        }
     }
 }
 
@@ -1081,7 +1083,7 @@ impl ParamMachine {
         let Some(ptype) = ParamType::from_code(m.type_code) else {
             return vec![ParamOut::Notice(
                 Severity::WARNING,
-                format!("{}: unknown parameter type {}", m.name, m.type_code),
+                format!("{}: unknown parameter type {}", m.name(), m.type_code),
             )];
         };
         let enc = self.encoding;
@@ -1093,7 +1095,7 @@ impl ParamMachine {
                 let would = value::format(value::decode(m.raw, ptype, other), ptype);
                 let text = format!(
                     "{}: {why}, which no {} sent {} can be; {} it would be {would}",
-                    m.name,
+                    m.name(),
                     ptype.name(),
                     enc.name(),
                     other.name()
@@ -1119,7 +1121,7 @@ impl ParamMachine {
             .filter(|d| d.comp == from && matches!(d.phase, Phase::Ftp(_)) && !m.refused)
         {
             if d.heard.len() < MAX_HEARD {
-                d.heard.push((m.name.to_string(), ptype, m.raw, v));
+                d.heard.push((m.name().into_owned(), ptype, m.raw, v));
             }
         }
         let set = self.sets.entry(from).or_default();
@@ -1157,7 +1159,7 @@ impl ParamMachine {
                         "{}:{from} parameter name refused (not 1-16 printable ASCII without \
                          spaces, # or ,): {}{}",
                         self.key.0,
-                        m.name,
+                        m.name(),
                         if set.refused == MAX_REFUSED_TOLD {
                             " (further ones counted only)"
                         } else {
@@ -1170,10 +1172,10 @@ impl ParamMachine {
             return out;
         }
         // Recorded, and the parameter found for what follows, in one lookup.
-        let recorded = set.note_index(&m.name, index);
-        let found = match ParamName::probe(&m.name) {
+        let recorded = set.note_index_bytes(m.id, index);
+        let found = match ParamName::probe_bytes(m.id) {
             Some(k) => set.params.get_mut(&k),
-            None => set.params.get_mut(m.name.as_ref()),
+            None => set.params.get_mut(m.name().as_ref()),
         };
         let (before, p) = match found {
             Some(p) if recorded => (p.apply(index, ptype, Some(m.raw), v, downloading), p),
@@ -1181,7 +1183,7 @@ impl ParamMachine {
             None if recorded => {
                 let p = set
                     .params
-                    .entry(ParamName::from(m.name.as_ref()))
+                    .entry(ParamName::from(m.name().into_owned()))
                     .or_insert(Param::heard(ptype, Some(m.raw), index, v));
                 (p.apply(index, ptype, Some(m.raw), v, downloading), p)
             }
@@ -1209,11 +1211,11 @@ impl ParamMachine {
                 }
                 out.push(ParamOut::Set {
                     comp: from,
-                    name: m.name.to_string(),
+                    name: m.name().into_owned(),
                     confirmed: true,
                     notice: (
                         Severity::INFO,
-                        format!("{} = {} confirmed", m.name, value::format(v, ptype)),
+                        format!("{} = {} confirmed", m.name(), value::format(v, ptype)),
                     ),
                 });
             } else if !e.mismatch_resent {
@@ -1235,17 +1237,17 @@ impl ParamMachine {
                 };
                 out.push(ParamOut::Set {
                     comp: from,
-                    name: m.name.to_string(),
+                    name: m.name().into_owned(),
                     confirmed: false,
                     notice: (
                         Severity::ERROR,
-                        format!("{} = {} {why}", m.name, value::format(e.value, ptype)),
+                        format!("{} = {} {why}", m.name(), value::format(e.value, ptype)),
                     ),
                 });
                 e.state = EditState::Failed(why);
                 self.edits_pending -= 1;
             }
-        } else if index.is_none() && !m.name.starts_with("STAT_") {
+        } else if index.is_none() && !m.id.starts_with(b"STAT_") {
             // A change nobody here asked for: another GCS, or the vehicle itself (calibration
             // offsets, ground pressure, counters: ArduPilot sends many at boot and after
             // calibrations, so they are told at DEBUG; the Parameters screen marks them, and
@@ -1255,7 +1257,7 @@ impl ParamMachine {
                     Severity::DEBUG,
                     format!(
                         "{} changed to {} (was {})",
-                        m.name,
+                        m.name(),
                         value::format(v, ptype),
                         value::format(b, ptype)
                     ),
@@ -1266,7 +1268,7 @@ impl ParamMachine {
             self.sample_rtt(rtt);
         }
         if let Some((val, t)) = resend {
-            out.push(ParamOut::Send(self.param_set(from, &m.name, val, t)));
+            out.push(ParamOut::Send(self.param_set(from, &m.name(), val, t)));
         }
         out.extend(self.send_queued(now));
         out.extend(self.after_value(now, from, index, new_index));
@@ -1856,7 +1858,7 @@ mod tests {
         let payload = pv("ABC", 0.0, 9, 5, 0);
         let m = ParamValueMsg::parse(&payload).unwrap();
         assert_eq!(
-            (m.name.as_ref(), m.count, m.index, m.type_code),
+            (m.name().as_ref(), m.count, m.index, m.type_code),
             ("ABC", 5, 0, 9)
         );
         // No name at all is refused, not dropped.
@@ -2075,7 +2077,7 @@ mod tests {
             for b in names {
                 let (ka, kb) = (ParamName::from(a), ParamName::from(b));
                 assert_eq!(ka.cmp(&kb), a.cmp(b), "{a:?} {b:?}");
-                if let Some(p) = ParamName::probe(a) {
+                if let Some(p) = ParamName::probe_bytes(a.as_bytes()) {
                     assert_eq!(p.cmp(&kb), a.cmp(b), "probe {a:?} {b:?}");
                     assert_eq!(kb.cmp(&p), b.cmp(a), "probe {b:?} {a:?}");
                 }
@@ -2094,7 +2096,7 @@ mod tests {
         assert_eq!(order, sorted);
         for n in names {
             assert!(set.params.contains_key(n), "{n:?}");
-            let probe = ParamName::probe(n);
+            let probe = ParamName::probe_bytes(n.as_bytes());
             assert!(probe.is_none_or(|p| set.params.contains_key(&p)), "{n:?}");
         }
     }

@@ -786,6 +786,22 @@ impl StreamMachine {
         }
     }
 
+    /// A message `id` on `link`, not a heartbeat or an ACK: counted against its rate when it is
+    /// one this machine measures there (`Some(true)`), passed by when not (`Some(false)`);
+    /// `None` for a link not heard yet, which [`StreamMachine::on_message`] must meet. One
+    /// lookup for what [`StreamMachine::reads`] then `on_message` would do.
+    #[inline]
+    pub fn count(&mut self, now: Micros, link: usize, id: u32) -> Option<bool> {
+        let entry = self.links.get_mut(&link)?;
+        let Some(w) = entry.watched(id) else {
+            return Some(false);
+        };
+        self.seen = self.seen.max(now);
+        entry.watch[w].meter.push(now);
+        entry.quiet_since = None;
+        Some(true)
+    }
+
     /// Whether message `id` on `link` is one this machine reads: a heartbeat or an ACK (in
     /// [`Machine::IDS`]), a message whose arrivals it measures on that link, or any message of
     /// a link it has not heard yet. The rest pass it by.

@@ -474,6 +474,14 @@ fn render_detail(app: &App, frame: &mut Frame, area: Rect, theme: &Theme, sel: O
         },
         e.payload().len()
     ))];
+    // Off screen a payload is kept once a second: until the next frame, the fields shown are
+    // of an earlier one, and say so.
+    if e.kept() < e.last {
+        summary.push(Span::raw(format!(
+            "  fields {} older",
+            age_text(e.last - e.kept())
+        )));
+    }
     if let Some((us, outcome)) = app.inspector_requested(k) {
         let style = match outcome.as_str() {
             "ACCEPTED" => theme.good(),
