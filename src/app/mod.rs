@@ -1022,10 +1022,13 @@ impl App {
             Some(m) => Some(m),
             None if frame.lazy && reads(frame.msgid, limits.targeted) => {
                 decoded = frame.decode();
-                if decoded.is_none() {
-                    self.links[link].parser.decode_errors += 1;
+                match &decoded {
+                    Ok(m) => Some(m),
+                    Err(_) => {
+                        self.links[link].parser.decode_errors += 1;
+                        None
+                    }
                 }
-                decoded.as_ref()
             }
             None => None,
         };
@@ -1209,7 +1212,9 @@ impl App {
             ack,
         };
         let mut outs = Vec::new();
-        let quiet = self.vehicles.get(key).is_some_and(|v| v.flood);
+        // Only a component found during a heartbeat flood is quiet: none, no lookup.
+        let quiet =
+            self.vehicles.flood_found > 0 && self.vehicles.get(key).is_some_and(|v| v.flood);
         let mut handle = |k: &VehicleKey, s: &mut Session| {
             if quiet && s.quiet.len() < 256 {
                 s.quiet.insert(key.1);

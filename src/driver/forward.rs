@@ -128,6 +128,7 @@ impl Forwarder {
                     && crate::wire::parser::msg_limits(f.msgid).is_some_and(|l| l.targeted) =>
                 {
                     f.decode()
+                        .ok()
                         .as_ref()
                         .and_then(mavlink::Message::target_system_id)
                 }

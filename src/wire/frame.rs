@@ -274,11 +274,12 @@ pub struct Frame {
 }
 
 impl Frame {
-    /// The message decoded from the payload, if the dialect knows the id and can read it (an
-    /// enum value newer than the dialect's is not).
-    pub fn decode(&self) -> Option<MavMessage> {
+    /// The message decoded from the payload; an error when the dialect does not know the id or
+    /// cannot read it (an enum value newer than the dialect's). Returned as the dialect gives
+    /// it, so the message is built where the caller keeps it (it is a few hundred bytes).
+    pub fn decode(&self) -> Result<MavMessage, mavlink::error::ParserError> {
         use mavlink::Message;
-        MavMessage::parse(self.version.to_mavlink(), self.msgid, self.payload()).ok()
+        MavMessage::parse(self.version.to_mavlink(), self.msgid, self.payload())
     }
 
     /// Length of the payload as sent (MAVLink 2 truncates trailing zeros).
