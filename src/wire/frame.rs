@@ -80,28 +80,51 @@ pub fn crc_update(mut crc: u16, data: &[u8]) -> u16 {
         let hi = c[1] ^ (crc >> 8) as u8;
         crc = rest ^ (t[15][lo as usize] ^ t[14][hi as usize]);
     }
-    let mut rest = chunks.remainder();
-    if rest.len() >= 8 {
-        let c = &rest[..8];
-        let mut x = 0;
-        for k in 2..8 {
-            x ^= t[7 - k][c[k] as usize];
-        }
-        let lo = c[0] ^ crc as u8;
-        let hi = c[1] ^ (crc >> 8) as u8;
-        crc = x ^ (t[7][lo as usize] ^ t[6][hi as usize]);
-        rest = &rest[8..];
+    crc_tail(crc, chunks.remainder())
+}
+
+/// [`crc_update`] over fewer than 16 bytes: 8, 4 and 2 at a time, then one, so the register
+/// waits on as few lookups as it can.
+#[inline(always)]
+#[allow(clippy::reversed_empty_ranges)] // the 2-byte step has no bytes beyond the first two
+fn crc_tail(mut crc: u16, mut rest: &[u8]) -> u16 {
+    let t = &CRC_TABLES;
+    // `n` bytes at once: the register reaches the first two, the others are looked up apart.
+    macro_rules! step {
+        ($n:literal) => {
+            if rest.len() >= $n {
+                let c = &rest[..$n];
+                let mut x = 0;
+                for k in 2..$n {
+                    x ^= t[$n - 1 - k][c[k] as usize];
+                }
+                let lo = c[0] ^ crc as u8;
+                let hi = c[1] ^ (crc >> 8) as u8;
+                crc = x ^ (t[$n - 1][lo as usize] ^ t[$n - 2][hi as usize]);
+                rest = &rest[$n..];
+            }
+        };
     }
-    for &b in rest {
+    step!(8);
+    step!(4);
+    step!(2);
+    if let Some(&b) = rest.first() {
         crc = (crc >> 8) ^ t[0][((crc ^ b as u16) & 0xFF) as usize];
     }
     crc
 }
 
-/// CRC over `data` followed by the message's CRC_EXTRA byte, as MAVLink defines it.
+/// CRC over `data` followed by the message's CRC_EXTRA byte, as MAVLink defines it. The bytes
+/// after the last whole 16 go with CRC_EXTRA through one short tail.
 #[inline]
 pub fn frame_crc(data: &[u8], crc_extra: u8) -> u16 {
-    crc_update(crc_update(0xFFFF, data), &[crc_extra])
+    let whole = data.len() - data.len() % 16;
+    let crc = crc_update(0xFFFF, &data[..whole]);
+    let rest = &data[whole..];
+    let mut tail = [0u8; 16];
+    tail[..rest.len()].copy_from_slice(rest);
+    tail[rest.len()] = crc_extra;
+    crc_update(crc, &tail[..rest.len() + 1])
 }
 
 /// The CRC_EXTRA byte of a message id in our dialect (ardupilotmega, which includes common),
@@ -425,6 +448,13 @@ mod tests {
             let seed = x as u16;
             let bytewise = data.iter().fold(seed, |c, &b| crc_accumulate(c, b));
             assert_eq!(crc_update(seed, &data), bytewise, "length {len}");
+            // A frame's CRC: from 0xFFFF over the bytes, then CRC_EXTRA.
+            let extra = (x >> 16) as u8;
+            let framed = crc_accumulate(
+                data.iter().fold(0xFFFF, |c, &b| crc_accumulate(c, b)),
+                extra,
+            );
+            assert_eq!(frame_crc(&data, extra), framed, "frame of {len} bytes");
         }
     }
 
