@@ -76,28 +76,33 @@ impl Hasher for KeyHasher {
 
 type KeyMap<V> = HashMap<u64, V, BuildHasherDefault<KeyHasher>>;
 
-/// One message id of one source.
+/// One message id of one source. In C order, what every frame touches first (one cache line
+/// with the arrival time's slot of the ring).
 #[derive(Debug, Clone)]
+#[repr(C)]
 pub struct MsgEntry {
-    /// Its name in the dialect.
-    pub name: &'static str,
     /// Frames heard.
     pub count: u64,
-    pub first: Micros,
     pub last: Micros,
-    /// The last [`TIMES`] arrival times, a ring; `count` says how many are filled.
-    times: [Micros; TIMES],
+    /// When the payload kept came.
+    kept: Micros,
     /// The version and payload as sent of the last frame kept (decoded when shown): every
     /// frame's while the Inspector is on screen, else one a second (the first at once).
     pub version: Version,
     payload: Vec<u8>,
-    /// When the payload kept came.
-    kept: Micros,
+    /// Its name in the dialect.
+    pub name: &'static str,
+    pub first: Micros,
+    /// Its key in the store.
+    key: u64,
+    /// The last [`TIMES`] arrival times, a ring; `count` says how many are filled.
+    times: [Micros; TIMES],
 }
 
 impl MsgEntry {
-    fn new(name: &'static str, now: Micros) -> Self {
+    fn new(key: u64, name: &'static str, now: Micros) -> Self {
         Self {
+            key,
             name,
             count: 0,
             first: now,
@@ -198,7 +203,10 @@ impl MsgEntry {
 pub struct MessageStore {
     /// The Inspector is on screen: every frame's payload is kept (else one a second).
     pub live: bool,
-    entries: KeyMap<MsgEntry>,
+    /// Each key's place in `list`: the table stays small (an entry with its ring of times is a
+    /// few hundred bytes), so finding one touches little memory.
+    index: KeyMap<u32>,
+    list: Vec<MsgEntry>,
     /// Entries per source (sysid, compid).
     per_source: HashMap<(u8, u8), usize>,
     /// Entries evicted to stay within the caps.
@@ -210,8 +218,8 @@ impl MessageStore {
     #[inline]
     pub fn record(&mut self, now: Micros, frame: &Frame) {
         let k = pack(frame.sysid, frame.compid, frame.msgid);
-        if let Some(e) = self.entries.get_mut(&k) {
-            e.hear(now, frame, self.live);
+        if let Some(&i) = self.index.get(&k) {
+            self.list[i as usize].hear(now, frame, self.live);
             return;
         }
         self.insert(k, now, frame);
@@ -230,25 +238,32 @@ impl MessageStore {
         if self.per_source.get(&source).copied().unwrap_or(0) >= MAX_PER_SOURCE {
             self.evict(|key| (key >> 32) as u16 == u16::from_be_bytes([source.0, source.1]));
         }
-        if self.entries.len() >= MAX_ENTRIES {
+        if self.list.len() >= MAX_ENTRIES {
             self.evict(|_| true);
         }
-        let mut e = MsgEntry::new(name, now);
+        let mut e = MsgEntry::new(k, name, now);
         e.hear(now, frame, true);
-        self.entries.insert(k, e);
+        self.index.insert(k, self.list.len() as u32);
+        self.list.push(e);
         *self.per_source.entry(source).or_default() += 1;
     }
 
     /// Drop the entry heard least recently among those `pick` chooses.
     fn evict(&mut self, pick: impl Fn(u64) -> bool) {
         let oldest = self
-            .entries
+            .list
             .iter()
-            .filter(|(k, _)| pick(**k))
-            .min_by_key(|(k, e)| (e.last, **k))
-            .map(|(k, _)| *k);
-        if let Some(k) = oldest {
-            self.entries.remove(&k);
+            .enumerate()
+            .filter(|(_, e)| pick(e.key))
+            .min_by_key(|(_, e)| (e.last, e.key))
+            .map(|(i, _)| i);
+        if let Some(i) = oldest {
+            let k = self.list.swap_remove(i).key;
+            self.index.remove(&k);
+            // The last entry moved into the hole.
+            if let Some(moved) = self.list.get(i) {
+                self.index.insert(moved.key, i as u32);
+            }
             let (s, c, _) = unpack(k);
             if let Some(n) = self.per_source.get_mut(&(s, c)) {
                 *n -= 1;
@@ -261,15 +276,16 @@ impl MessageStore {
     }
 
     pub fn get(&self, key: MsgKey) -> Option<&MsgEntry> {
-        self.entries.get(&pack(key.0, key.1, key.2))
+        let i = *self.index.get(&pack(key.0, key.1, key.2))?;
+        self.list.get(i as usize)
     }
 
     pub fn len(&self) -> usize {
-        self.entries.len()
+        self.list.len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.entries.is_empty()
+        self.list.is_empty()
     }
 
     /// Sources heard.
@@ -279,7 +295,7 @@ impl MessageStore {
 
     /// Every entry, in no order.
     pub fn iter(&self) -> impl Iterator<Item = (MsgKey, &MsgEntry)> {
-        self.entries.iter().map(|(k, e)| (unpack(*k), e))
+        self.list.iter().map(|e| (unpack(e.key), e))
     }
 }
 
@@ -906,6 +922,11 @@ mod tests {
         assert!(s.per_source.values().sum::<usize>() == MAX_ENTRIES);
         // The newest is there.
         assert!(s.get((255, 19, 0)).is_some());
+        // After all that moving: every entry is found by its own key, and only there.
+        assert_eq!(s.index.len(), s.list.len());
+        for (k, e) in s.iter() {
+            assert!(std::ptr::eq(s.get(k).unwrap(), e), "{k:?}");
+        }
     }
 
     #[test]
