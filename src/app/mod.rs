@@ -1413,7 +1413,7 @@ const APP_READS: [u32; 5] = [
 ];
 
 /// Whether the core reads message `id` decoded: a session's machine reads it decoded
-/// ([`session::DECODES`]), the core itself does ([`APP_READS`]), or it names a target
+/// ([`session::DECODES`]), the core itself does (`APP_READS`), or it names a target
 /// (`targeted`, from the dialect's table: the target says whether it is for us). The rest (more than half of what a vehicle streams, and
 /// PARAM_VALUE, read from its payload) are counted, measured and recorded from their bytes.
 #[inline]
@@ -1436,30 +1436,27 @@ struct ReadSet {
 
 impl ReadSet {
     fn build() -> ReadSet {
+        use crate::proto::machine::Ids;
+        let mut ids = APP_READS.to_vec();
+        for decodes in session::DECODES {
+            match decodes {
+                Ids::Only(some) => ids.extend_from_slice(some),
+                // A machine reading every message decoded: every id the dialect knows.
+                Ids::All => ids.extend(
+                    (0..=u32::from(u16::MAX))
+                        .filter(|&id| crate::wire::parser::msg_limits(id).is_some()),
+                ),
+            }
+        }
         let mut set = ReadSet {
             small: [0; 8],
             large: Vec::new(),
         };
-        let lists = session::DECODES.iter().map(|ids| match ids {
-            crate::proto::machine::Ids::Only(ids) => *ids,
-            // A machine reading every message decoded: every id the dialect knows below 512
-            // is marked, and the rest are looked up by the fallback below.
-            crate::proto::machine::Ids::All => &[][..],
-        });
-        let all = session::DECODES
-            .iter()
-            .any(|ids| matches!(ids, crate::proto::machine::Ids::All));
-        for &id in lists.flatten().chain(APP_READS.iter()) {
+        for id in ids {
             match set.small.get_mut((id / 64) as usize) {
                 Some(w) => *w |= 1 << (id % 64),
                 None => set.large.push(id),
             }
-        }
-        if all {
-            set.small = [u64::MAX; 8];
-            set.large = (512..=u32::from(u16::MAX))
-                .filter(|&id| crate::wire::parser::msg_limits(id).is_some())
-                .collect();
         }
         set.large.sort_unstable();
         set.large.dedup();

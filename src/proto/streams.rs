@@ -788,8 +788,8 @@ impl StreamMachine {
 
     /// A message `id` on `link`, not a heartbeat or an ACK: counted against its rate when it is
     /// one this machine measures there (`Some(true)`), passed by when not (`Some(false)`);
-    /// `None` for a link not heard yet, which [`StreamMachine::on_message`] must meet. One
-    /// lookup for what [`StreamMachine::reads`] then `on_message` would do.
+    /// `None` for a link not heard yet, which [`StreamMachine::on_message`] must meet (the
+    /// session hands it any message of such a link). One lookup.
     #[inline]
     pub fn count(&mut self, now: Micros, link: usize, id: u32) -> Option<bool> {
         let entry = self.links.get_mut(&link)?;
@@ -800,17 +800,6 @@ impl StreamMachine {
         entry.watch[w].meter.push(now);
         entry.quiet_since = None;
         Some(true)
-    }
-
-    /// Whether message `id` on `link` is one this machine reads: a heartbeat or an ACK (in
-    /// [`Machine::IDS`]), a message whose arrivals it measures on that link, or any message of
-    /// a link it has not heard yet. The rest pass it by.
-    #[inline]
-    pub fn reads(&self, link: usize, id: u32) -> bool {
-        match self.links.get(&link) {
-            None => true,
-            Some(s) => s.watched(id).is_some(),
-        }
     }
 
     /// A COMMAND_ACK of MAV_CMD_SET_MESSAGE_INTERVAL from the target: `None` when none of ours
@@ -1344,7 +1333,7 @@ impl StreamMachine {
 
 impl Machine for StreamMachine {
     /// Heartbeats and ACKs; the messages whose arrivals are counted against the rates asked
-    /// come by [`StreamMachine::reads`], per link.
+    /// come by [`StreamMachine::count`], per link.
     const IDS: Ids = Ids::Only(&[
         <dialect::HEARTBEAT_DATA as mavlink::MessageData>::ID,
         <dialect::COMMAND_ACK_DATA as mavlink::MessageData>::ID,
