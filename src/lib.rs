@@ -40,6 +40,7 @@ pub mod mission;
 pub mod params;
 pub mod paths;
 pub mod proto;
+pub mod resident;
 pub mod screen_list;
 pub mod signing_store;
 pub mod sim;

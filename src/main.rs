@@ -105,6 +105,9 @@ fn load_param_meta(cli: &Cli) -> Result<Option<std::sync::Arc<mavterm::params::m
 /// Errors are printed once, on stderr; a closed stdout (`mavterm ... | head -1`) ends the run
 /// quietly with status 0, as `head`'s users expect.
 fn main() -> ExitCode {
+    // Only the pages of code and data it runs stay resident (see the module); a failure to read
+    // smaps leaves them as the kernel mapped them.
+    let _ = mavterm::resident::trim_file_mappings();
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,

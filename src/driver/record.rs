@@ -2,8 +2,10 @@
 //! MAVProxy, QGroundControl and pymavlink read (8 bytes big-endian µs since the Unix epoch, then
 //! the frame as on the wire).
 //!
-//! The driver's loop only appends records to a batch ([`Recorder::record`]) and hands each
-//! step's batch to a writer thread through a bounded queue ([`Recorder::end_step`]); a writer
+//! The driver's loop only appends records to a batch ([`Recorder::record`]) and hands the batch
+//! to a writer thread through a bounded queue ([`Recorder::end_step`]) once it is
+//! [`HAND_OVER_EVERY`] old or [`HAND_OVER_BYTES`] long (so a vehicle streaming at ordinary rates
+//! wakes the writer a few times a second, not at every step); a writer
 //! that falls behind (a slow disk) loses batches, counted, and never holds up the screen or the
 //! links. The writer flushes what it holds at least once a second, and everything on exit (the
 //! recorder's drop, whichever way the program ends). A write error (a full disk) stops the
@@ -25,9 +27,14 @@ use crate::link::tlog::write_record;
 /// Batches the writer may have waiting (one per step of the driver, a few per second to a few
 /// hundred under load).
 pub const RECORD_QUEUE: usize = 256;
+/// A batch goes to the writer once its first record is this old (core time) ...
+pub const HAND_OVER_EVERY: Micros = SECOND / 4;
+/// ... or once it is this long.
+pub const HAND_OVER_BYTES: usize = 16 * 1024;
 /// What the writer holds in memory before writing it out.
 const WRITE_BUFFER: usize = 64 * 1024;
-/// The longest a record waits in the writer before it reaches the file.
+/// The longest a record waits in the writer before it reaches the file (after at most
+/// [`HAND_OVER_EVERY`] in the batch).
 pub const FLUSH_EVERY: Duration = Duration::from_secs(1);
 /// The fewest core µs between two reports of the log's size.
 const REPORT_EVERY: Micros = SECOND;
@@ -114,6 +121,8 @@ pub struct Recorder {
     done: Option<mpsc::Receiver<()>>,
     batch: Vec<u8>,
     batch_frames: u64,
+    /// When (core time) the batch got its first record, at the end of that step.
+    batch_since: Option<Micros>,
     /// File size: what it had at the start plus every batch the writer took.
     bytes: u64,
     dropped: u64,
@@ -164,6 +173,7 @@ impl Recorder {
             done: Some(done_rx),
             batch: Vec::new(),
             batch_frames: 0,
+            batch_since: None,
             bytes,
             dropped: 0,
             error: None,
@@ -194,18 +204,31 @@ impl Recorder {
         }
     }
 
-    /// After a driver step: the batch handed on ([`Recorder::end_step`]), and what the core
-    /// should be told ([`Recorder::report`]).
+    /// After a driver step: the batch handed on when due ([`Recorder::end_step`]), and what the
+    /// core should be told ([`Recorder::report`]).
     pub fn after_step(&mut self, now: Micros) -> Option<RecordingStatus> {
-        self.end_step();
+        self.end_step(now);
         self.report(now)
     }
 
-    /// Hand the batch to the writer; dropped (and counted) when the writer is behind.
-    pub fn end_step(&mut self) {
+    /// At the end of a driver step at `now`: the batch handed to the writer once it is
+    /// [`HAND_OVER_EVERY`] old or [`HAND_OVER_BYTES`] long.
+    pub fn end_step(&mut self, now: Micros) {
         if self.batch.is_empty() {
             return;
         }
+        let since = *self.batch_since.get_or_insert(now);
+        if self.batch.len() >= HAND_OVER_BYTES || now >= since + HAND_OVER_EVERY {
+            self.hand_over();
+        }
+    }
+
+    /// Hand the batch to the writer now; dropped (and counted) when the writer is behind.
+    pub fn hand_over(&mut self) {
+        if self.batch.is_empty() {
+            return;
+        }
+        self.batch_since = None;
         let Some(tx) = &self.tx else {
             self.batch.clear();
             return;
@@ -259,12 +282,15 @@ impl Recorder {
         Some(self.status())
     }
 
-    /// When a change not yet reported is due to be.
+    /// When the driver must step for the recorder: a change not yet reported, or a batch held
+    /// ([`Recorder::end_step`]), is due.
     pub fn next_report_at(&self) -> Option<Micros> {
-        match self.reported {
+        let report = match self.reported {
             Some(r) if r == (self.bytes, self.dropped, self.error.is_some()) => None,
             _ => Some(self.reported_at + REPORT_EVERY),
-        }
+        };
+        let batch = self.batch_since.map(|t| t + HAND_OVER_EVERY);
+        report.into_iter().chain(batch).min()
     }
 
     pub fn status(&self) -> RecordingStatus {
@@ -436,7 +462,7 @@ mod tests {
         for _ in 0..3 {
             let mut r = Recorder::start(&target, start_time()).unwrap();
             r.record(7, &frame(0, 1));
-            r.end_step();
+            r.hand_over();
             names.push(r.path().file_name().unwrap().to_string_lossy().into_owned());
         }
         assert_eq!(
@@ -463,9 +489,9 @@ mod tests {
         assert_eq!(r.report(0).unwrap().bytes, 5);
         r.record(100, &frame(0, 1));
         r.record(200, &frame(256, 2));
-        r.end_step();
+        r.hand_over();
         r.record(300, &frame(30, 3));
-        r.end_step();
+        r.hand_over();
         assert_eq!(
             r.report(10).map(|s| s.bytes),
             None,
@@ -481,6 +507,37 @@ mod tests {
         let recs = read_tlog(&bytes[5..]).unwrap();
         let got: Vec<(u64, Vec<u8>)> = recs.into_iter().map(|r| (r.time_us, r.frame)).collect();
         assert_eq!(got, vec![(100, frame(0, 1)), (300, frame(30, 3))]);
+    }
+
+    #[test]
+    fn a_batch_waits_a_quarter_second_or_16_kib_and_the_driver_is_woken_for_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.tlog");
+        let mut r = Recorder::start(&TlogTarget::File(path.clone()), start_time()).unwrap();
+        assert_eq!(r.after_step(0).unwrap().bytes, 0);
+        assert_eq!(r.next_report_at(), None, "nothing held, nothing to tell");
+        let ms = SECOND / 1000;
+        r.record(1, &frame(0, 1));
+        r.end_step(10 * ms);
+        assert_eq!(r.status().bytes, 0, "held");
+        assert_eq!(r.next_report_at(), Some(260 * ms), "woken when it is due");
+        r.record(2, &frame(0, 2));
+        r.end_step(259 * ms);
+        assert_eq!(r.status().bytes, 0, "still held");
+        r.end_step(260 * ms);
+        assert_eq!(r.status().bytes, 2 * 22, "handed over a quarter second on");
+        // 16 KiB in one step goes at once.
+        for i in 0..745u64 {
+            r.record(i, &frame(0, i as u8));
+        }
+        r.end_step(261 * ms);
+        assert_eq!(r.status().bytes, 2 * 22 + 745 * 22);
+        // The end writes what is held.
+        r.record(3, &frame(0, 3));
+        r.end_step(262 * ms);
+        let st = r.finish();
+        assert_eq!((st.bytes, st.dropped), (748 * 22, 0));
+        assert_eq!(std::fs::read(&path).unwrap().len(), 748 * 22);
     }
 
     #[test]
@@ -515,7 +572,7 @@ mod tests {
             for i in 0..200u64 {
                 r.record(t + i, &frame(0, i as u8));
             }
-            r.end_step();
+            r.hand_over();
             t += 1000;
             assert!(t < 60 * SECOND, "no error after {t} µs");
             std::thread::sleep(Duration::from_millis(1));
@@ -528,7 +585,7 @@ mod tests {
         // Stopped: nothing more is taken, nothing panics.
         let before = st.bytes;
         r.record(t, &frame(0, 1));
-        r.end_step();
+        r.hand_over();
         assert_eq!(r.finish().bytes, before);
     }
 
@@ -569,7 +626,7 @@ mod tests {
                 for i in 0..4000u64 {
                     r.record(step * 4000 + i, &frame(0, i as u8));
                 }
-                r.end_step();
+                r.hand_over();
             }
             let _ = tx.send(r.finish());
         });
