@@ -1098,9 +1098,16 @@ pub struct Keymap {
 }
 
 impl Default for Keymap {
+    /// The built-in keymap: parsed once per process, copied for each core that asks.
     fn default() -> Self {
-        // A unit test parses the shipped file, so this cannot fail in a released binary.
-        Keymap::from_toml(DEFAULT_KEYMAP, "<built-in default>").expect("built-in keymap is valid")
+        static DEFAULT: std::sync::OnceLock<Keymap> = std::sync::OnceLock::new();
+        DEFAULT
+            .get_or_init(|| {
+                // A unit test parses the shipped file, so this cannot fail in a released binary.
+                Keymap::from_toml(DEFAULT_KEYMAP, "<built-in default>")
+                    .expect("built-in keymap is valid")
+            })
+            .clone()
     }
 }
 

@@ -105,9 +105,11 @@ fn load_param_meta(cli: &Cli) -> Result<Option<std::sync::Arc<mavterm::params::m
 /// Errors are printed once, on stderr; a closed stdout (`mavterm ... | head -1`) ends the run
 /// quietly with status 0, as `head`'s users expect.
 fn main() -> ExitCode {
-    // Only the pages of code and data it runs stay resident (see the module); a failure to read
-    // smaps leaves them as the kernel mapped them.
-    let _ = mavterm::resident::trim_file_mappings();
+    // Only the pages of code and data it runs stay resident (see the module): trimmed now, once
+    // starting up is over, then twice a minute. A failure to read smaps leaves them as mapped.
+    if mavterm::resident::trim_file_mappings().is_ok() {
+        mavterm::resident::keep_trimmed(Duration::from_secs(5), Duration::from_secs(30));
+    }
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
@@ -192,10 +194,24 @@ fn print_report(app: &mavterm::app::App) -> Result<()> {
 
 fn run(cli: Cli) -> Result<()> {
     init_logging(cli.log.as_deref())?;
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()?;
+    // The terminal and a headless report run their loop, links and timers on this one thread
+    // (`Runtime::block_on`): a frame, a key or a timer wakes no other thread (with worker
+    // threads, each was a wake-up of another thread, most of what an idle session cost). The
+    // simulator serving many vehicles, and the script-driven headless runs (which step the
+    // links from outside the runtime, by `Handle::block_on`, which only drives a runtime with
+    // workers), have two workers.
+    let stepped =
+        cli.headless && (cli.params_out.is_some() || cli.logs_out.is_some() || cli.input.is_some());
+    let rt = if stepped || matches!(cli.command, Some(Command::Sim { .. })) {
+        tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .enable_all()
+            .build()?
+    } else {
+        tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()?
+    };
     let result = run_on(cli, &rt);
     // A worker still blocked in the kernel (a file that never answers) must not keep the process
     // alive after quit; a save in progress gets this long to finish.

@@ -7,12 +7,22 @@
 //! [`trim_file_mappings`], called first thing in `main`, lets go of the pages loaded so far of
 //! the file mappings that hold nothing but the file's own bytes (`MADV_DONTNEED`: they come back
 //! when next read, with what is around them). What stays resident is what the program goes on
-//! to use, not what loading it touched.
+//! to use, not what loading it touched. [`keep_trimmed`] does it again every so often for the
+//! files mapped at that first call, so code run once (starting up, connecting, a screen looked
+//! at once) does not stay resident either; what the program runs comes back at its next use.
 //!
 //! Only read-only mappings with no private page (smaps `Anonymous: 0 kB`) are let go of: a page
 //! written since it was mapped (the relocations the loader made, then sealed read-only) exists
 //! nowhere else, and `MADV_DONTNEED` would put the file's bytes back in its place. Such a mapping
 //! cannot gain a private page while it is read-only, so what smaps said still holds at the call.
+//! The later trims leave out files mapped after the first (a library loaded while the program
+//! runs is relocated then, and could be caught between smaps and the call).
+
+use std::sync::OnceLock;
+use std::time::Duration;
+
+/// The files mapped at the first trim: the only ones trimmed again.
+static LOADED: OnceLock<Vec<String>> = OnceLock::new();
 
 /// What [`trim_file_mappings`] did.
 #[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
@@ -29,6 +39,8 @@ struct Mapping {
     writable: bool,
     /// Backed by a file (its path), not anonymous memory, a stack or the vDSO.
     file: bool,
+    /// The file's path (as smaps gives it), or what stands in its place (`[heap]`, empty).
+    path: String,
     /// Private (copied-on-write) pages, kB.
     anonymous_kb: u64,
 }
@@ -51,6 +63,7 @@ fn parse_smaps(text: &str) -> Vec<Mapping> {
                     end,
                     writable: perms.contains('w'),
                     file: path.starts_with('/'),
+                    path: path.to_string(),
                     anonymous_kb: 0,
                 });
                 continue;
@@ -66,14 +79,41 @@ fn parse_smaps(text: &str) -> Vec<Mapping> {
 }
 
 /// Let go of the pages of every read-only file mapping of this process that holds only the file's
-/// bytes. Errors of one mapping are passed over (it stays as it was); only failing to read smaps
-/// is an error.
+/// bytes, and remember which files were mapped (for [`keep_trimmed`]). Errors of one mapping are
+/// passed over (it stays as it was); only failing to read smaps is an error.
 #[cfg(target_os = "linux")]
 pub fn trim_file_mappings() -> std::io::Result<Trimmed> {
+    trim(|m, all| {
+        LOADED.get_or_init(|| {
+            all.iter()
+                .filter(|m| m.file)
+                .map(|m| m.path.clone())
+                .collect()
+        });
+        m.file
+    })
+}
+
+/// [`trim_file_mappings`] again, for the files mapped at its first call only.
+#[cfg(target_os = "linux")]
+pub fn trim_loaded() -> std::io::Result<Trimmed> {
+    let Some(loaded) = LOADED.get() else {
+        return Ok(Trimmed::default());
+    };
+    trim(|m, _| loaded.contains(&m.path))
+}
+
+/// Let go of the pages of the read-only file mappings of nothing but the file's bytes that `pick`
+/// chooses (given each mapping and all of them).
+#[cfg(target_os = "linux")]
+fn trim(pick: impl Fn(&Mapping, &[Mapping]) -> bool) -> std::io::Result<Trimmed> {
     let text = std::fs::read_to_string("/proc/self/smaps")?;
+    let all = parse_smaps(&text);
     let mut done = Trimmed::default();
-    let pure = |m: &&Mapping| m.file && !m.writable && m.anonymous_kb == 0 && m.end > m.start;
-    for m in parse_smaps(&text).iter().filter(pure) {
+    for m in &all {
+        if !(m.file && !m.writable && m.anonymous_kb == 0 && m.end > m.start && pick(m, &all)) {
+            continue;
+        }
         let (addr, len) = (m.start as *mut libc::c_void, m.end - m.start);
         // SAFETY: the range is a whole mapping of this process as the kernel listed it, read-only
         // and of nothing but the file's bytes: after MADV_DONTNEED it reads the same.
@@ -84,9 +124,30 @@ pub fn trim_file_mappings() -> std::io::Result<Trimmed> {
     Ok(done)
 }
 
+/// Trim the files mapped at start `first` after this call (starting up is over), then every
+/// `every`, on a thread of its own, for as long as the program runs (nothing is done when the
+/// thread cannot be started).
+pub fn keep_trimmed(first: Duration, every: Duration) {
+    let _ = std::thread::Builder::new()
+        .name("trim".into())
+        .stack_size(64 * 1024)
+        .spawn(move || {
+            std::thread::sleep(first);
+            loop {
+                let _ = trim_loaded();
+                std::thread::sleep(every);
+            }
+        });
+}
+
 /// Elsewhere nothing is done.
 #[cfg(not(target_os = "linux"))]
 pub fn trim_file_mappings() -> std::io::Result<Trimmed> {
+    Ok(Trimmed::default())
+}
+
+#[cfg(not(target_os = "linux"))]
+pub fn trim_loaded() -> std::io::Result<Trimmed> {
     Ok(Trimmed::default())
 }
 
@@ -147,6 +208,10 @@ Anonymous:             0 kB
         assert!(done.released > 0, "{done:?}");
         assert_eq!(std::hint::black_box(0.5f64).sin(), before);
         assert_eq!(TABLE[std::hint::black_box(2)], "gamma");
+        // Again, for the files mapped the first time only.
+        let again = trim_loaded().unwrap();
+        assert!(again.released > 0, "{again:?}");
+        assert_eq!(std::hint::black_box(0.5f64).sin(), before);
         let text = std::fs::read_to_string("/proc/self/smaps").unwrap();
         assert!(parse_smaps(&text).iter().any(|m| m.file));
     }

@@ -173,7 +173,7 @@ fn hostile_parameter_names_are_refused_and_never_reach_a_file() {
     }
     a.update(3 * SECOND, Event::Tick);
     let set = a.sessions[&VehicleKey(1, 1)].params.autopilot().unwrap();
-    let kept: Vec<&String> = set.params.keys().map(|k| &**k).collect();
+    let kept: Vec<&str> = set.params.keys().map(|k| k.as_str()).collect();
     assert_eq!(kept, ["RTL_ALT", "WPNAV_SPEED"]);
     assert_eq!(set.refused, 6);
     a.ui.screen = "parameters";

@@ -198,6 +198,27 @@ impl MsgEntry {
     }
 }
 
+/// [`MessageStore::hint`]: (key, place) in 256 slots; a key no message has (`u64::MAX`: its
+/// msgid would be over 24 bits) marks an empty slot.
+#[derive(Debug, Clone)]
+struct Hint(Box<[(u64, u32); 256]>);
+
+impl Default for Hint {
+    fn default() -> Self {
+        Hint(Box::new([(u64::MAX, 0); 256]))
+    }
+}
+
+impl Hint {
+    /// The slot of a key: the top byte of its hash.
+    #[inline]
+    fn slot(&self, k: u64) -> usize {
+        let mut h = KeyHasher::default();
+        h.write_u64(k);
+        (h.finish() >> 56) as usize
+    }
+}
+
 /// Every message heard, per source, bounded.
 #[derive(Debug, Clone, Default)]
 pub struct MessageStore {
@@ -206,6 +227,10 @@ pub struct MessageStore {
     /// Each key's place in `list`: the table stays small (an entry with its ring of times is a
     /// few hundred bytes), so finding one touches little memory.
     index: KeyMap<u32>,
+    /// In front of `index`: the place of a key last found, in a slot picked by its hash (its top
+    /// byte); so most frames find their entry with one load and one compare. Emptied when places
+    /// move (an eviction).
+    hint: Hint,
     list: Vec<MsgEntry>,
     /// Entries per source (sysid, compid).
     per_source: HashMap<(u8, u8), usize>,
@@ -218,11 +243,18 @@ impl MessageStore {
     #[inline]
     pub fn record(&mut self, now: Micros, frame: &Frame) {
         let k = pack(frame.sysid, frame.compid, frame.msgid);
-        if let Some(&i) = self.index.get(&k) {
-            self.list[i as usize].hear(now, frame, self.live);
-            return;
-        }
-        self.insert(k, now, frame);
+        let slot = self.hint.slot(k);
+        let i = match self.hint.0[slot] {
+            (key, i) if key == k => i,
+            _ => match self.index.get(&k) {
+                Some(&i) => {
+                    self.hint.0[slot] = (k, i);
+                    i
+                }
+                None => return self.insert(k, now, frame),
+            },
+        };
+        self.list[i as usize].hear(now, frame, self.live);
     }
 
     #[cold]
@@ -258,6 +290,7 @@ impl MessageStore {
             .min_by_key(|(_, e)| (e.last, e.key))
             .map(|(i, _)| i);
         if let Some(i) = oldest {
+            self.hint = Hint::default();
             let k = self.list.swap_remove(i).key;
             self.index.remove(&k);
             // The last entry moved into the hole.

@@ -331,7 +331,7 @@ impl App {
             name.to_string()
         } else {
             let up = name.to_ascii_uppercase();
-            if !set.params.contains_key(&up) {
+            if !set.params.contains_key(up.as_str()) {
                 return Err(format!(
                     "no parameter {name} on {}",
                     VehicleKey(key.0, comp)
@@ -339,7 +339,7 @@ impl App {
             }
             up
         };
-        let p = &set.params[&name];
+        let p = &set.params[name.as_str()];
         let meta = self.param_meta(&name);
         let v = match text.trim().parse::<f64>() {
             Ok(v) => v,
@@ -515,7 +515,7 @@ impl App {
         let mut ok = Vec::new();
         let mut bad = Vec::new();
         for (c, n, v) in changes {
-            let ptype = self.sessions[&key].params.sets[&c].params[&n].ptype;
+            let ptype = self.sessions[&key].params.sets[&c].params[n.as_str()].ptype;
             match ptype.check(v) {
                 Err(_) => bad.push(format!(
                     "{shown}: {n} = {} is out of range for its type: not sent",
@@ -541,7 +541,7 @@ impl App {
             .iter()
             .take(8)
             .map(|(c, n, v)| {
-                let p = &self.sessions[&key].params.sets[c].params[n];
+                let p = &self.sessions[&key].params.sets[c].params[n.as_str()];
                 format!("{n} {} → {}", p.text(), value::format(*v, p.ptype))
             })
             .collect();
@@ -632,7 +632,7 @@ impl App {
             .ok_or_else(|| format!("no parameters of {} to edit", VehicleKey(key.0, comp)))?;
         let p = self
             .param_set()
-            .and_then(|s| s.params.get(&name))
+            .and_then(|s| s.params.get(name.as_str()))
             .ok_or("no such parameter")?;
         if self.param_meta(&name).is_some_and(|m| m.read_only) {
             return Err(format!("{name} is read-only"));

@@ -373,6 +373,11 @@ impl<C: Clock + Clone> RealTime<C> {
         front: &mut impl Frontend,
     ) -> std::io::Result<Ended> {
         front.after(&mut self.app, self.clock.now())?;
+        // One timer for the loop, moved only when the wake-up time changes: a timer made (or
+        // moved earlier) from this thread wakes the runtime's timer thread to take it in, and
+        // frames come many times between two changes of the wake-up time.
+        let mut sleep = std::pin::pin!(tokio::time::sleep(Duration::ZERO));
+        let mut armed: Option<Micros> = None;
         loop {
             if self.app.quit {
                 return Ok(Ended::Quit);
@@ -392,7 +397,11 @@ impl<C: Clock + Clone> RealTime<C> {
             if let Some(u) = until {
                 wake = wake.min(u);
             }
-            let sleep = tokio::time::sleep(Duration::from_micros(wake.saturating_sub(now)));
+            if armed != Some(wake) {
+                let after = Duration::from_micros(wake.saturating_sub(now));
+                sleep.as_mut().reset(tokio::time::Instant::now() + after);
+                armed = Some(wake);
+            }
             let mut output = None;
             let ev = tokio::select! {
                 ev = self.links.mgr.next_event() => ev.map(|(link, ev)| link_event(link, ev)),
@@ -405,7 +414,10 @@ impl<C: Clock + Clone> RealTime<C> {
                     Some(ev) => Some(ev),
                     None => return Ok(Ended::InputClosed),
                 },
-                _ = sleep => Some(Event::Tick),
+                _ = &mut sleep => {
+                    armed = None;
+                    Some(Event::Tick)
+                }
             };
             if let Some(ev) = ev {
                 self.step(ev);
@@ -428,7 +440,9 @@ pub struct RealTimeRunner {
 }
 
 impl RealTimeRunner {
-    /// Start the links on `rt` (a runtime the caller keeps alive; not called from inside it).
+    /// Start the links on `rt` (a runtime the caller keeps alive; not called from inside it). It
+    /// must have worker threads: the runner steps it by `Handle::block_on`, which drives the
+    /// links' I/O and timers only on such a runtime.
     pub fn start(rt: tokio::runtime::Handle, specs: &[LinkSpec], cfg: AppConfig) -> Self {
         let inner = {
             let _in_rt = rt.enter();

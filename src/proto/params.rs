@@ -93,74 +93,65 @@ pub enum EditState {
     Failed(String),
 }
 
-/// A parameter's name as the key of [`ParamSet::params`]: ordered exactly as its string (so it
-/// is looked up by `&str` too), its first 16 bytes compared as one number first, so a search
-/// by [`ParamName::probe`] (every PARAM_VALUE's) compares numbers instead of strings.
-#[derive(Clone)]
+/// A parameter's name as the key of [`ParamSet::params`]: at most 16 bytes of UTF-8 without NUL
+/// (the most PARAM_VALUE's `param_id` and param.pck carry), held in place (no allocation, 17
+/// bytes, so a search of the map reads few cache lines). Ordered exactly as its string, so it is
+/// looked up by `&str` too; its bytes compare as one number.
+#[derive(Clone, Copy)]
 pub struct ParamName {
-    /// The first 16 bytes, big-endian, zero-padded.
-    prefix: u128,
-    len: usize,
-    /// Empty in a probe (never stored).
-    name: String,
+    len: u8,
+    /// The name, zero-padded.
+    bytes: [u8; 16],
 }
 
 impl ParamName {
-    fn prefix(name: &str) -> u128 {
-        let b = name.as_bytes();
-        let mut p = [0u8; 16];
-        let n = b.len().min(16);
-        p[..n].copy_from_slice(&b[..n]);
-        u128::from_be_bytes(p)
+    /// The key of a name; `None` for one longer than 16 bytes or holding a NUL (no parameter
+    /// can have it).
+    pub fn new(name: &str) -> Option<ParamName> {
+        Self::of_text(name.as_bytes())
     }
 
-    /// A key to search with, for a name of at most 16 bytes (else `None`), made without
-    /// allocating.
-    fn probe_bytes(name: &[u8]) -> Option<ParamName> {
-        (name.len() <= 16).then(|| {
-            let mut p = [0u8; 16];
-            p[..name.len()].copy_from_slice(name);
-            ParamName {
-                prefix: u128::from_be_bytes(p),
-                len: name.len(),
-                name: String::new(),
-            }
+    /// The key of a name's bytes: `None` unless they are a name [`ParamName::new`] takes.
+    pub fn probe_bytes(name: &[u8]) -> Option<ParamName> {
+        // Names are ASCII: one pass says it is text without NUL.
+        if !name.iter().all(|&b| (1..0x80).contains(&b)) {
+            std::str::from_utf8(name).ok()?;
+        }
+        Self::of_text(name)
+    }
+
+    /// `name` is UTF-8.
+    fn of_text(name: &[u8]) -> Option<ParamName> {
+        if name.len() > 16 || name.contains(&0) {
+            return None;
+        }
+        let mut bytes = [0u8; 16];
+        bytes[..name.len()].copy_from_slice(name);
+        Some(ParamName {
+            len: name.len() as u8,
+            bytes,
         })
     }
 
     pub fn as_str(&self) -> &str {
-        &self.name
+        let b = &self.bytes[..self.len as usize];
+        // SAFETY: made only of a `&str` or of bytes checked to be UTF-8 (`new`, `probe_bytes`).
+        unsafe { std::str::from_utf8_unchecked(b) }
     }
-}
 
-impl From<String> for ParamName {
-    fn from(name: String) -> ParamName {
-        ParamName {
-            prefix: Self::prefix(&name),
-            len: name.len(),
-            name,
-        }
-    }
-}
-
-impl From<&str> for ParamName {
-    fn from(name: &str) -> ParamName {
-        ParamName::from(name.to_string())
+    /// The bytes as one number: with no NUL in a name, its zero padding sorts as the end of the
+    /// string does, so numbers (then lengths) order as the strings.
+    #[inline]
+    fn number(&self) -> u128 {
+        u128::from_be_bytes(self.bytes)
     }
 }
 
 impl Ord for ParamName {
     fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        // Equal zero-padded prefixes: when either name is at most 16 bytes, it is the other's
-        // start (the other's bytes past it being zeros), so the shorter is less; else the
-        // whole strings decide (never for a probe, at most 16 bytes).
-        self.prefix.cmp(&other.prefix).then_with(|| {
-            if self.len.min(other.len) <= 16 {
-                self.len.cmp(&other.len)
-            } else {
-                self.name.cmp(&other.name)
-            }
-        })
+        self.number()
+            .cmp(&other.number())
+            .then(self.len.cmp(&other.len))
     }
 }
 
@@ -172,7 +163,7 @@ impl PartialOrd for ParamName {
 
 impl PartialEq for ParamName {
     fn eq(&self, other: &Self) -> bool {
-        self.cmp(other) == std::cmp::Ordering::Equal
+        self.len == other.len && self.bytes == other.bytes
     }
 }
 
@@ -180,38 +171,32 @@ impl Eq for ParamName {}
 
 impl std::hash::Hash for ParamName {
     fn hash<H: std::hash::Hasher>(&self, h: &mut H) {
-        self.name.hash(h)
+        self.as_str().hash(h)
     }
 }
 
 impl std::borrow::Borrow<str> for ParamName {
     fn borrow(&self) -> &str {
-        &self.name
-    }
-}
-
-impl std::borrow::Borrow<String> for ParamName {
-    fn borrow(&self) -> &String {
-        &self.name
+        self.as_str()
     }
 }
 
 impl std::ops::Deref for ParamName {
-    type Target = String;
-    fn deref(&self) -> &String {
-        &self.name
+    type Target = str;
+    fn deref(&self) -> &str {
+        self.as_str()
     }
 }
 
 impl std::fmt::Display for ParamName {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        std::fmt::Display::fmt(&self.name, f)
+        std::fmt::Display::fmt(self.as_str(), f)
     }
 }
 
 impl std::fmt::Debug for ParamName {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        std::fmt::Debug::fmt(&self.name, f)
+        std::fmt::Debug::fmt(self.as_str(), f)
     }
 }
 
@@ -247,8 +232,8 @@ impl Param {
 pub struct ParamSet {
     /// By name (the order people look them up in).
     pub params: BTreeMap<ParamName, Param>,
-    /// Name at each index; as long as the count.
-    names: Vec<Option<String>>,
+    /// Name at each index (empty: a name refused); as long as the count.
+    names: Vec<Option<ParamName>>,
     /// How many the component says it has.
     pub count: Option<u16>,
     received: usize,
@@ -299,7 +284,7 @@ impl ParamSet {
     }
 
     /// Record a value at `index` (or by name only when `index` is `None`). Returns the value it
-    /// had, if it had one.
+    /// had, if it had one. A name no parameter can have (over 16 bytes, a NUL) is not recorded.
     fn record(
         &mut self,
         name: &str,
@@ -309,28 +294,20 @@ impl ParamSet {
         v: f64,
         download: bool,
     ) -> Option<f64> {
-        if !self.note_index(name, index) {
+        let key = ParamName::new(name)?;
+        if !self.note_index(key, index) {
             return None;
         }
-        // A name heard before (every value after the first) is found without making a String.
-        let p = match self.params.get_mut(name) {
-            Some(p) => p,
-            None => self
-                .params
-                .entry(ParamName::from(name))
-                .or_insert(Param::heard(ptype, raw, index, v)),
-        };
+        let p = self
+            .params
+            .entry(key)
+            .or_insert(Param::heard(ptype, raw, index, v));
         p.apply(index, ptype, raw, v, download)
     }
 
     /// `name` heard at `index`: the index taken (another name there before is gone). False when
     /// the index is beyond the count (nothing is recorded then).
-    fn note_index(&mut self, name: &str, index: Option<u16>) -> bool {
-        self.note_index_bytes(name.as_bytes(), index)
-    }
-
-    /// [`ParamSet::note_index`] for a name's bytes (printable ASCII, so also its text).
-    fn note_index_bytes(&mut self, name: &[u8], index: Option<u16>) -> bool {
+    fn note_index(&mut self, name: ParamName, index: Option<u16>) -> bool {
         let Some(i) = index else {
             return true;
         };
@@ -338,16 +315,15 @@ impl ParamSet {
         if i >= self.names.len() {
             return false;
         }
-        match &self.names[i] {
-            Some(old) if old.as_bytes() == name => {}
+        match self.names[i] {
+            Some(old) if old == name => {}
             Some(old) => {
                 // Another name at this index (the set changed): the old one is gone.
-                let old = old.clone();
                 self.params.remove(&old);
-                self.names[i] = Some(String::from_utf8_lossy(name).into_owned());
+                self.names[i] = Some(name);
             }
             None => {
-                self.names[i] = Some(String::from_utf8_lossy(name).into_owned());
+                self.names[i] = Some(name);
                 self.received += 1;
             }
         }
@@ -857,12 +833,12 @@ impl ParamMachine {
                         for (i, p) in file.params.iter().enumerate() {
                             let t = pck_type(p.ptype);
                             set.record(&p.name, Some(i as u16), t, None, p.value, true);
-                            if let Some(prm) = set.params.get_mut(&p.name) {
+                            if let Some(prm) = set.params.get_mut(p.name.as_str()) {
                                 prm.default = p.default;
                             }
                         }
                         for (name, t, raw, v) in heard {
-                            if set.params.contains_key(&name) {
+                            if set.params.contains_key(name.as_str()) {
                                 set.record(&name, None, t, Some(raw), v, false);
                             }
                         }
@@ -1148,7 +1124,7 @@ impl ParamMachine {
             if new_index {
                 // Taken as heard (under no name): the download does not wait for it.
                 if let Some(i) = index {
-                    set.names[i as usize] = Some(String::new());
+                    set.names[i as usize] = ParamName::new("");
                     set.received += 1;
                 }
             }
@@ -1171,19 +1147,19 @@ impl ParamMachine {
             out.extend(self.after_value(now, from, index, new_index));
             return out;
         }
-        // Recorded, and the parameter found for what follows, in one lookup.
-        let recorded = set.note_index_bytes(m.id, index);
-        let found = match ParamName::probe_bytes(m.id) {
-            Some(k) => set.params.get_mut(&k),
-            None => set.params.get_mut(m.name().as_ref()),
+        // A name not refused is 1–16 printable ASCII: always a key.
+        let Some(key) = ParamName::probe_bytes(m.id) else {
+            return out;
         };
-        let (before, p) = match found {
+        // Recorded, and the parameter found for what follows, in one lookup.
+        let recorded = set.note_index(key, index);
+        let (before, p) = match set.params.get_mut(&key) {
             Some(p) if recorded => (p.apply(index, ptype, Some(m.raw), v, downloading), p),
             Some(p) => (None, p),
             None if recorded => {
                 let p = set
                     .params
-                    .entry(ParamName::from(m.name().into_owned()))
+                    .entry(key)
                     .or_insert(Param::heard(ptype, Some(m.raw), index, v));
                 (p.apply(index, ptype, Some(m.raw), v, downloading), p)
             }
@@ -1500,7 +1476,7 @@ impl ParamMachine {
                     let f = value::encode(e.value, t, enc);
                     e.sent = Some(f);
                     room -= 1;
-                    go.push((*comp, name.clone(), f, t));
+                    go.push((*comp, *name, f, t));
                 }
             }
         }
@@ -1626,7 +1602,7 @@ impl ParamMachine {
                         e.sent_at = now;
                         let f = value::encode(e.value, t, enc);
                         e.sent = Some(f);
-                        resend.push((*comp, name.clone(), f, t));
+                        resend.push((*comp, *name, f, t));
                     }
                 }
             }
@@ -2059,34 +2035,29 @@ mod tests {
         let names = [
             "",
             "A",
-            "A\0",
-            "A\0\0B",
             "AB",
+            "A_B",
             "ABCDEFGHIJKLMNOP",
-            "ABCDEFGHIJKLMNOP\0",
-            "ABCDEFGHIJKLMNOPQ",
-            "ABCDEFGHIJKLMNOPQR",
-            "ABCDEFGHIJKLMNOPR",
             "ABCDEFGHIJKLMNOQ",
             "B",
-            "Z_LONG_NAME_OVER_16",
+            "Z_LONG_NAME_16CH",
             "a",
             "\u{e9}t\u{e9}",
+            "~",
         ];
         for a in names {
             for b in names {
-                let (ka, kb) = (ParamName::from(a), ParamName::from(b));
+                let (ka, kb) = (ParamName::new(a).unwrap(), ParamName::new(b).unwrap());
                 assert_eq!(ka.cmp(&kb), a.cmp(b), "{a:?} {b:?}");
-                if let Some(p) = ParamName::probe_bytes(a.as_bytes()) {
-                    assert_eq!(p.cmp(&kb), a.cmp(b), "probe {a:?} {b:?}");
-                    assert_eq!(kb.cmp(&p), b.cmp(a), "probe {b:?} {a:?}");
-                }
+                assert_eq!(ka == kb, a == b, "{a:?} {b:?}");
+                let p = ParamName::probe_bytes(a.as_bytes()).unwrap();
+                assert_eq!(p.cmp(&kb), a.cmp(b), "probe {a:?} {b:?}");
             }
         }
         let mut set = ParamSet::default();
         for n in names.iter().rev() {
             set.params.insert(
-                ParamName::from(*n),
+                ParamName::new(n).unwrap(),
                 Param::heard(ParamType::Int8, None, None, 1.0),
             );
         }
@@ -2096,8 +2067,11 @@ mod tests {
         assert_eq!(order, sorted);
         for n in names {
             assert!(set.params.contains_key(n), "{n:?}");
-            let probe = ParamName::probe_bytes(n.as_bytes());
-            assert!(probe.is_none_or(|p| set.params.contains_key(&p)), "{n:?}");
         }
+        // No parameter can have these names: over 16 bytes, a NUL, bytes that are not UTF-8.
+        assert!(ParamName::new("ABCDEFGHIJKLMNOPQ").is_none());
+        assert!(ParamName::new("A\0B").is_none());
+        assert!(ParamName::probe_bytes(&[0x41, 0xFF]).is_none());
+        assert!(!set.params.contains_key("ABCDEFGHIJKLMNOPQ"));
     }
 }

@@ -426,7 +426,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
     let width = area.width as usize;
     let inner_w = width.saturating_sub(2);
     let set = app.param_set();
-    let selected = rows.get(sel).and_then(|n| Some((n, set?.params.get(n)?)));
+    let selected = rows.get(sel).and_then(|n| Some((n, set?.params.get(n.as_str())?)));
     // The detail pane below the list, when a row is selected: a third of the height, 7 rows
     // at 24.
     let detail_h: u16 = match area.height {
@@ -578,7 +578,7 @@ fn render_list(
         .iter()
         .skip(offset)
         .take(list_h)
-        .filter_map(|n| Some((n, set.params.get(n)?, app.param_meta(n))))
+        .filter_map(|n| Some((n, set.params.get(n.as_str())?, app.param_meta(n))))
         .collect();
     let edit = match &app.ui.params.editing {
         Some(ParamEdit::Value(_, n)) if app.ui.mode == crate::keymap::Mode::Edit => {

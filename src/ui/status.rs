@@ -218,7 +218,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, theme: &Theme) {
                     }
                     let was = app
                         .param_set()
-                        .and_then(|s| s.params.get(name))
+                        .and_then(|s| s.params.get(name.as_str()))
                         .map_or(String::new(), |p| format!(" (now {})", p.text()));
                     let text = format!("editing {name}{was}: {}", edit_hint(app, &keys));
                     let line = Line::styled(ellipsize(&text, area.width as usize), theme.header());

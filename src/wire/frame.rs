@@ -118,13 +118,27 @@ fn crc_tail(mut crc: u16, mut rest: &[u8]) -> u16 {
 /// after the last whole 16 go with CRC_EXTRA through one short tail.
 #[inline]
 pub fn frame_crc(data: &[u8], crc_extra: u8) -> u16 {
-    let whole = data.len() - data.len() % 16;
-    let crc = crc_update(0xFFFF, &data[..whole]);
-    let rest = &data[whole..];
-    let mut tail = [0u8; 16];
-    tail[..rest.len()].copy_from_slice(rest);
-    tail[rest.len()] = crc_extra;
-    crc_update(crc, &tail[..rest.len() + 1])
+    frame_crc_in(data, data.len(), crc_extra)
+}
+
+/// [`frame_crc`] of `buf[..len]`; `buf` may go on past `len` (a parser's buffer holding the CRC
+/// and what follows), and then the tail is taken as one fixed 16-byte copy, the bytes past it
+/// never used.
+#[inline]
+pub fn frame_crc_in(buf: &[u8], len: usize, crc_extra: u8) -> u16 {
+    let whole = len - len % 16;
+    let crc = crc_update(0xFFFF, &buf[..whole]);
+    let n = len - whole;
+    let mut tail = match buf[whole..].first_chunk::<16>() {
+        Some(block) => *block,
+        None => {
+            let mut t = [0u8; 16];
+            t[..n].copy_from_slice(&buf[whole..len]);
+            t
+        }
+    };
+    tail[n] = crc_extra;
+    crc_update(crc, &tail[..n + 1])
 }
 
 /// The CRC_EXTRA byte of a message id in our dialect (ardupilotmega, which includes common),
@@ -455,6 +469,10 @@ mod tests {
                 extra,
             );
             assert_eq!(frame_crc(&data, extra), framed, "frame of {len} bytes");
+            // Within a longer buffer (what follows is not read into it).
+            let mut longer = data.clone();
+            longer.extend_from_slice(&[0xA5; 20]);
+            assert_eq!(frame_crc_in(&longer, len, extra), framed, "{len} of more");
         }
     }
 

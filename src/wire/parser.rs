@@ -38,7 +38,7 @@ use std::collections::{BinaryHeap, VecDeque};
 use std::sync::OnceLock;
 
 use super::frame::{
-    frame_crc, Frame, RawBytes, Version, IFLAG_SIGNED, MAGIC_V1, MAGIC_V2, MAX_FRAME_LEN,
+    frame_crc_in, Frame, RawBytes, Version, IFLAG_SIGNED, MAGIC_V1, MAGIC_V2, MAX_FRAME_LEN,
     SIGNATURE_LEN,
 };
 use crate::dialect::MavMessage;
@@ -681,7 +681,7 @@ fn check(d: &[u8], table: &MsgTable) -> Candidate {
     if d.len() < len {
         return Candidate::NeedMore;
     }
-    let crc = frame_crc(&d[1..hlen + plen], limits.crc_extra);
+    let crc = frame_crc_in(&d[1..], hlen + plen - 1, limits.crc_extra);
     if crc.to_le_bytes() != [d[hlen + plen], d[hlen + plen + 1]] {
         return Candidate::BadCrc(len);
     }
@@ -692,7 +692,7 @@ fn check(d: &[u8], table: &MsgTable) -> Candidate {
 mod tests {
     use super::*;
     use crate::dialect as apm;
-    use crate::wire::frame::{encode, Header};
+    use crate::wire::frame::{encode, frame_crc, Header};
 
     fn hb(seq: u8, version: Version) -> Vec<u8> {
         let msg = MavMessage::HEARTBEAT(apm::HEARTBEAT_DATA {
