@@ -4,8 +4,9 @@
 //!
 //! The driver's loop only appends records to a batch ([`Recorder::record`]) and hands the batch
 //! to a writer thread through a bounded queue ([`Recorder::end_step`]) once it is
-//! [`HAND_OVER_EVERY`] old or [`HAND_OVER_BYTES`] long (so a vehicle streaming at ordinary rates
-//! wakes the writer a few times a second, not at every step); a writer
+//! [`HAND_OVER_EVERY`] old or [`HAND_OVER_BYTES`] long, at a step that comes anyway (woken for it
+//! only at [`HAND_OVER_WAKE`]): a vehicle streaming at ordinary rates wakes the writer twice a
+//! second, not at every step, and the loop not at all; a writer
 //! that falls behind (a slow disk) loses batches, counted, and never holds up the screen or the
 //! links. The writer flushes what it holds at least once a second, and everything on exit (the
 //! recorder's drop, whichever way the program ends). A write error (a full disk) stops the
@@ -27,8 +28,11 @@ use crate::link::tlog::write_record;
 /// Batches the writer may have waiting (one per step of the driver, a few per second to a few
 /// hundred under load).
 pub const RECORD_QUEUE: usize = 256;
-/// A batch goes to the writer once its first record is this old (core time) ...
-pub const HAND_OVER_EVERY: Micros = SECOND / 4;
+/// A batch goes to the writer at the first step once its first record is this old (core time)
+/// ...
+pub const HAND_OVER_EVERY: Micros = SECOND / 2;
+/// ... and the driver is woken for it (when nothing else steps it) once it is this old.
+pub const HAND_OVER_WAKE: Micros = SECOND;
 /// ... or once it is this long.
 pub const HAND_OVER_BYTES: usize = 16 * 1024;
 /// What the writer holds in memory before writing it out.
@@ -289,7 +293,7 @@ impl Recorder {
             Some(r) if r == (self.bytes, self.dropped, self.error.is_some()) => None,
             _ => Some(self.reported_at + REPORT_EVERY),
         };
-        let batch = self.batch_since.map(|t| t + HAND_OVER_EVERY);
+        let batch = self.batch_since.map(|t| t + HAND_OVER_WAKE);
         report.into_iter().chain(batch).min()
     }
 
@@ -510,7 +514,7 @@ mod tests {
     }
 
     #[test]
-    fn a_batch_waits_a_quarter_second_or_16_kib_and_the_driver_is_woken_for_it() {
+    fn a_batch_waits_half_a_second_or_16_kib_and_the_driver_is_woken_for_it_after_a_second() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("x.tlog");
         let mut r = Recorder::start(&TlogTarget::File(path.clone()), start_time()).unwrap();
@@ -520,21 +524,22 @@ mod tests {
         r.record(1, &frame(0, 1));
         r.end_step(10 * ms);
         assert_eq!(r.status().bytes, 0, "held");
-        assert_eq!(r.next_report_at(), Some(260 * ms), "woken when it is due");
+        assert_eq!(r.next_report_at(), Some(1010 * ms), "woken a second on at the latest");
         r.record(2, &frame(0, 2));
-        r.end_step(259 * ms);
+        r.end_step(509 * ms);
         assert_eq!(r.status().bytes, 0, "still held");
-        r.end_step(260 * ms);
-        assert_eq!(r.status().bytes, 2 * 22, "handed over a quarter second on");
+        r.end_step(510 * ms);
+        assert_eq!(r.status().bytes, 2 * 22, "handed over at a step half a second on");
+        assert_eq!(r.next_report_at(), Some(SECOND), "the size told a second after the last");
         // 16 KiB in one step goes at once.
         for i in 0..745u64 {
             r.record(i, &frame(0, i as u8));
         }
-        r.end_step(261 * ms);
+        r.end_step(511 * ms);
         assert_eq!(r.status().bytes, 2 * 22 + 745 * 22);
         // The end writes what is held.
         r.record(3, &frame(0, 3));
-        r.end_step(262 * ms);
+        r.end_step(512 * ms);
         let st = r.finish();
         assert_eq!((st.bytes, st.dropped), (748 * 22, 0));
         assert_eq!(std::fs::read(&path).unwrap().len(), 748 * 22);
