@@ -80,13 +80,18 @@ fn main() {
     };
     // The fastest pass, for a quick comparison between builds (criterion gives the spread).
     let mut best = std::time::Duration::MAX;
+    let start = std::time::Instant::now();
     for _ in 0..times {
         let t = std::time::Instant::now();
         run(&bytes, n);
         best = best.min(t.elapsed());
+        if std::env::var_os("PASSES").is_some() {
+            eprint!("{:.1} ", t.elapsed().as_secs_f64() * 1e3);
+        }
     }
     println!(
-        "{what}: {times} x {n} frames, fastest {:.2} ms",
-        best.as_secs_f64() * 1e3
+        "{what}: {times} x {n} frames, fastest {:.2} ms, mean {:.2} ms",
+        best.as_secs_f64() * 1e3,
+        start.elapsed().as_secs_f64() * 1e3 / times.max(1) as f64
     );
 }

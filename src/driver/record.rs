@@ -524,13 +524,25 @@ mod tests {
         r.record(1, &frame(0, 1));
         r.end_step(10 * ms);
         assert_eq!(r.status().bytes, 0, "held");
-        assert_eq!(r.next_report_at(), Some(1010 * ms), "woken a second on at the latest");
+        assert_eq!(
+            r.next_report_at(),
+            Some(1010 * ms),
+            "woken a second on at the latest"
+        );
         r.record(2, &frame(0, 2));
         r.end_step(509 * ms);
         assert_eq!(r.status().bytes, 0, "still held");
         r.end_step(510 * ms);
-        assert_eq!(r.status().bytes, 2 * 22, "handed over at a step half a second on");
-        assert_eq!(r.next_report_at(), Some(SECOND), "the size told a second after the last");
+        assert_eq!(
+            r.status().bytes,
+            2 * 22,
+            "handed over at a step half a second on"
+        );
+        assert_eq!(
+            r.next_report_at(),
+            Some(SECOND),
+            "the size told a second after the last"
+        );
         // 16 KiB in one step goes at once.
         for i in 0..745u64 {
             r.record(i, &frame(0, i as u8));

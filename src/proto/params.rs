@@ -213,7 +213,8 @@ pub struct Param {
     pub fetched: Option<f64>,
     /// The default, when MAVFTP's param.pck carried it.
     pub default: Option<f64>,
-    pub edit: Option<Edit>,
+    /// Boxed: few parameters have one, and every parameter is smaller without it in place.
+    pub edit: Option<Box<Edit>>,
 }
 
 impl Param {
@@ -1430,14 +1431,14 @@ impl ParamMachine {
         {
             self.edits_pending -= 1;
         }
-        p.edit = Some(Edit {
+        p.edit = Some(Box::new(Edit {
             value: v,
             state: EditState::Pending,
             sent: None,
             sends: 0,
             mismatch_resent: false,
             sent_at: now,
-        });
+        }));
         self.edits_pending += 1;
         Ok(self.send_queued(now))
     }
