@@ -373,9 +373,10 @@ impl<C: Clock + Clone> RealTime<C> {
         front: &mut impl Frontend,
     ) -> std::io::Result<Ended> {
         front.after(&mut self.app, self.clock.now())?;
-        // One timer for the loop, moved only when the wake-up time changes: a timer made (or
-        // moved earlier) from this thread wakes the runtime's timer thread to take it in, and
-        // frames come many times between two changes of the wake-up time.
+        // One timer for the loop, moved only when the wake-up time changes: each timer made (or
+        // moved earlier) is taken in by the runtime's timer driver (a wake-up of the thread
+        // parked on it, when that is another), and frames come many times between two changes
+        // of the wake-up time.
         let mut sleep = std::pin::pin!(tokio::time::sleep(Duration::ZERO));
         let mut armed: Option<Micros> = None;
         loop {
