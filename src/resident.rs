@@ -56,14 +56,14 @@ fn parse_smaps(text: &str) -> Vec<Mapping> {
                 (usize::from_str_radix(a, 16), usize::from_str_radix(b, 16))
             {
                 let perms = words.next().unwrap_or("");
-                // offset, device, inode, then the path if any.
-                let path = words.nth(3).unwrap_or("");
+                // Offset, device, inode, then the path if any (it may hold spaces).
+                let path = words.skip(3).collect::<Vec<_>>().join(" ");
                 out.push(Mapping {
                     start,
                     end,
                     writable: perms.contains('w'),
                     file: path.starts_with('/'),
-                    path: path.to_string(),
+                    path,
                     anonymous_kb: 0,
                 });
                 continue;
@@ -172,12 +172,19 @@ Anonymous:             0 kB
 VmFlags: rd ex mr mw me sd
 7ffd00000000-7ffd00002000 r-xp 00000000 00:00 0 [vdso]
 Anonymous:             0 kB
+7f1000000000-7f1000001000 r--p 00000000 08:01 77                         /opt/my tools/lib x.so
+Anonymous:             0 kB
 ";
 
     #[test]
     fn smaps_are_read_with_their_private_pages() {
         let m = parse_smaps(SMAPS);
-        assert_eq!(m.len(), 6);
+        assert_eq!(m.len(), 7);
+        assert_eq!(m[0].path, "/usr/bin/mavterm");
+        assert_eq!(
+            m[6].path, "/opt/my tools/lib x.so",
+            "a path with spaces, whole"
+        );
         assert_eq!((m[0].start, m[0].end), (0x5583c2a00000, 0x5583c2b00000));
         assert!(m[0].file && !m[0].writable && m[0].anonymous_kb == 0);
         // Relocations sealed read-only: private pages, never let go of.
