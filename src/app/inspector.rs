@@ -212,7 +212,7 @@ impl Default for Hint {
 impl Hint {
     /// The slot of a key: the top byte of its hash.
     #[inline]
-    fn slot(&self, k: u64) -> usize {
+    fn slot(k: u64) -> usize {
         let mut h = KeyHasher::default();
         h.write_u64(k);
         (h.finish() >> 56) as usize
@@ -243,7 +243,7 @@ impl MessageStore {
     #[inline]
     pub fn record(&mut self, now: Micros, frame: &Frame) {
         let k = pack(frame.sysid, frame.compid, frame.msgid);
-        let slot = self.hint.slot(k);
+        let slot = Hint::slot(k);
         let i = match self.hint.0[slot] {
             (key, i) if key == k => i,
             _ => match self.index.get(&k) {

@@ -25,16 +25,16 @@ use crate::app::tap::RecordingStatus;
 use crate::clock::{Micros, SECOND};
 use crate::link::tlog::write_record;
 
-/// Batches the writer may have waiting (one per step of the driver, a few per second to a few
-/// hundred under load).
+/// Batches the writer may have waiting (two a second at ordinary rates; one per 16 KiB under
+/// load).
 pub const RECORD_QUEUE: usize = 256;
 /// A batch goes to the writer at the first step once its first record is this old (core time)
 /// ...
 pub const HAND_OVER_EVERY: Micros = SECOND / 2;
+/// ... or once it is this long; ...
+pub const HAND_OVER_BYTES: usize = 16 * 1024;
 /// ... and the driver is woken for it (when nothing else steps it) once it is this old.
 pub const HAND_OVER_WAKE: Micros = SECOND;
-/// ... or once it is this long.
-pub const HAND_OVER_BYTES: usize = 16 * 1024;
 /// What the writer holds in memory before writing it out.
 const WRITE_BUFFER: usize = 64 * 1024;
 /// The longest a record waits in the writer before it reaches the file (after at most
