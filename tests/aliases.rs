@@ -31,7 +31,7 @@ fn sent(r: &mut VirtualRunner) -> Vec<MavMessage> {
     for (_, _, bytes) in r.take_sent() {
         for f in FrameParser::new().parse_all(&bytes) {
             let Some(m) = f.message else { continue };
-            let keep = match &m {
+            let keep = match &*m {
                 MavMessage::COMMAND_LONG(c) => {
                     !matches!(c.command as u16, 511 | 512 | 520 | 2504 | 2505 | 1000)
                 }
@@ -42,7 +42,7 @@ fn sent(r: &mut VirtualRunner) -> Vec<MavMessage> {
                 _ => false,
             };
             if keep {
-                out.push(m);
+                out.push(*m);
             }
         }
     }

@@ -127,7 +127,7 @@ fn vehicle_capture_semantics() {
         let mut acks: Vec<(u64, u64)> = Vec::new();
         let mut max_alt_mm = 0i32;
         for f in &frames {
-            match f.message.as_ref().unwrap() {
+            match f.message.as_deref().unwrap() {
                 MavMessage::HEARTBEAT(hb) => {
                     let m = mode_name(hb.autopilot, hb.mavtype, hb.custom_mode);
                     if modes.last() != Some(&m) {

@@ -125,7 +125,7 @@ fn the_real_arducopter_mission_session_replays_through_the_machine() {
         if (f.sysid, f.compid) != (1, 1) {
             continue;
         }
-        if let Some(MavMessage::STATUSTEXT(st)) = &f.message {
+        if let Some(MavMessage::STATUSTEXT(st)) = f.message.as_deref() {
             let end = st.text.iter().position(|&b| b == 0).unwrap_or(50);
             r.m.on_text(now, &String::from_utf8_lossy(&st.text[..end]));
         }
@@ -291,7 +291,7 @@ fn both_gcs_frames_with_sequence_14_are_kept_by_the_core() {
         .find(|w| w[0].1.seq == 14 && w[1].1.seq == 14)
         .map(|w| {
             w.iter()
-                .map(|(_, f)| f.message.as_ref().map_or("?", |m| m.message_name()))
+                .map(|(_, f)| f.message.as_deref().map_or("?", |m| m.message_name()))
                 .collect()
         })
         .unwrap();

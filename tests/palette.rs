@@ -351,8 +351,8 @@ fn sent_commands(r: &mut VirtualRunner, command: MavCmd) -> Vec<dialect::COMMAND
     r.take_sent()
         .into_iter()
         .flat_map(|(_, _, bytes)| FrameParser::new().parse_all(&bytes))
-        .filter_map(|f| match f.message {
-            Some(MavMessage::COMMAND_LONG(c)) if c.command == command => Some(c),
+        .filter_map(|f| match f.message.as_deref() {
+            Some(MavMessage::COMMAND_LONG(c)) if c.command == command => Some(c.clone()),
             _ => None,
         })
         .collect()

@@ -164,7 +164,7 @@ fn ftp_packets(name: &str) -> Vec<(bool, FtpPacket)> {
     let mut out = Vec::new();
     for r in &recs {
         p.push(&r.frame, |f| {
-            if let Some(MavMessage::FILE_TRANSFER_PROTOCOL(d)) = &f.message {
+            if let Some(MavMessage::FILE_TRANSFER_PROTOCOL(d)) = f.message.as_deref() {
                 let payload: &[u8; PAYLOAD_LEN] = &d.payload;
                 out.push((f.sysid == 1, FtpPacket::parse(payload)));
             }

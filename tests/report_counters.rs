@@ -73,7 +73,7 @@ fn report_counts_drops_echoes_and_evictions() {
         .iter()
         .filter(|f| {
             let fr = FrameParser::new().parse_all(f);
-            matches!(fr[0].message, Some(MavMessage::HEARTBEAT(_)))
+            matches!(fr[0].message.as_deref(), Some(MavMessage::HEARTBEAT(_)))
         })
         .collect();
     assert!(gcs_heartbeats.len() >= 3, "{}", gcs_heartbeats.len());

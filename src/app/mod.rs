@@ -946,7 +946,7 @@ impl App {
         self.dirty = true;
         // The Inspector keeps every payload only while it is on screen.
         self.inspector.live = self.ui.screen == INSPECTOR;
-        // By reference: a frame (its decoded message inline) is a few hundred bytes to move.
+        // By reference: a frame is 88 bytes to move.
         for frame in &frames {
             self.on_frame(link, frame, fx);
         }
@@ -1018,7 +1018,7 @@ impl App {
         // something reads this id; one that does not decode is counted on the link.
         let decoded;
         let fallback;
-        let msg = match &frame.message {
+        let msg = match frame.message.as_deref() {
             Some(m) => Some(m),
             None if frame.lazy && reads(frame.msgid, limits.targeted) => {
                 decoded = frame.decode();

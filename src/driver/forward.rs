@@ -122,7 +122,7 @@ impl Forwarder {
                 continue;
             }
             // A link's parser decodes nothing: a message naming a target is decoded here.
-            let target = match &f.message {
+            let target = match f.message.as_deref() {
                 Some(m) => mavlink::Message::target_system_id(m),
                 None if f.lazy
                     && crate::wire::parser::msg_limits(f.msgid).is_some_and(|l| l.targeted) =>

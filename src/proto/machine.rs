@@ -33,7 +33,7 @@ pub(crate) fn received<R>(now: Micros, msg: &MavMessage, f: impl FnOnce(&Incomin
         profile: Default::default(),
         id: parsed.msgid,
         payload: parsed.payload(),
-        msg: parsed.message.as_ref(),
+        msg: parsed.message.as_deref(),
         ack: ack.as_ref(),
     })
 }

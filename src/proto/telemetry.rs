@@ -786,7 +786,7 @@ mod tests {
 
     fn feed(t: &mut FlightTelemetry, now: Micros, msg: &MavMessage) {
         let f = wire(msg);
-        t.on_message(now, f.msgid, f.message.as_ref(), f.payload());
+        t.on_message(now, f.msgid, f.message.as_deref(), f.payload());
     }
 
     fn position(lat: f64, lon: f64, rel_m: f64) -> MavMessage {
@@ -889,7 +889,7 @@ mod tests {
         assert_eq!((g.fix_type, g.satellites), (200, Some(10)));
         assert_eq!(fix_name(g.fix_type), "fix 200");
         // The decoded path agrees with the hand reader.
-        t.on_message(1, id::GPS_RAW_INT, ok.message.as_ref(), ok.payload());
+        t.on_message(1, id::GPS_RAW_INT, ok.message.as_deref(), ok.payload());
         assert_eq!(t.gps.unwrap().value, gps_from_payload(ok.payload()));
         // BATTERY_STATUS with battery_function 200.
         let mut voltages = [u16::MAX; 10];

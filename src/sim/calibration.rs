@@ -570,7 +570,7 @@ mod tests {
             self.frames
                 .iter()
                 .filter(|(t, _)| *t >= from)
-                .filter_map(|(_, f)| match &f.message {
+                .filter_map(|(_, f)| match f.message.as_deref() {
                     Some(MavMessage::COMMAND_ACK(a)) => {
                         Some(format!("ack {} {}", a.command as u32, a.result as u8))
                     }
@@ -595,7 +595,7 @@ mod tests {
             g.frames
                 .iter()
                 .filter(|(_, f)| {
-                    matches!(&f.message, Some(MavMessage::STATUSTEXT(t))
+                    matches!(f.message.as_deref(), Some(MavMessage::STATUSTEXT(t))
                         if t.text.to_str().unwrap_or("") == text
                             && t.severity == MavSeverity::MAV_SEVERITY_CRITICAL)
                 })
@@ -697,7 +697,7 @@ mod tests {
         let progress: Vec<(u8, u8, u8)> = g
             .frames
             .iter()
-            .filter_map(|(_, f)| match &f.message {
+            .filter_map(|(_, f)| match f.message.as_deref() {
                 Some(MavMessage::MAG_CAL_PROGRESS(p)) => {
                     Some((p.compass_id, p.cal_status as u8, p.completion_pct))
                 }
@@ -710,7 +710,7 @@ mod tests {
         let reports: Vec<(u8, u8, u8)> = g
             .frames
             .iter()
-            .filter_map(|(_, f)| match &f.message {
+            .filter_map(|(_, f)| match f.message.as_deref() {
                 Some(MavMessage::MAG_CAL_REPORT(r)) => {
                     Some((r.compass_id, r.cal_status as u8, r.autosaved))
                 }

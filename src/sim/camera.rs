@@ -451,7 +451,7 @@ mod tests {
         let mut parser = FrameParser::new();
         parser.push(&sim.poll(now + 1000), |f| {
             if let Some(m) = f.message {
-                out.push((f.compid, m));
+                out.push((f.compid, *m));
             }
         });
         out
@@ -514,7 +514,7 @@ mod tests {
             let mut parser = FrameParser::new();
             parser.push(&sim.poll(5 * SECOND), |f| {
                 if let Some(m) = f.message {
-                    o.push(m)
+                    o.push(*m)
                 }
             });
             o

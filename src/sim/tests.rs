@@ -64,7 +64,7 @@ impl Gcs {
     fn acks(&self) -> Vec<(MavCmd, MavResult)> {
         self.frames
             .iter()
-            .filter_map(|f| match &f.message {
+            .filter_map(|f| match f.message.as_deref() {
                 Some(MavMessage::COMMAND_ACK(a)) => Some((a.command, a.result)),
                 _ => None,
             })
@@ -78,7 +78,7 @@ impl Gcs {
     fn texts(&self) -> Vec<(MavSeverity, String)> {
         self.frames
             .iter()
-            .filter_map(|f| match &f.message {
+            .filter_map(|f| match f.message.as_deref() {
                 Some(MavMessage::STATUSTEXT(t)) => {
                     Some((t.severity, t.text.to_str().unwrap_or("").to_string()))
                 }
@@ -204,7 +204,7 @@ impl Gcs {
     fn events_since(&self, from: usize) -> Vec<Ev> {
         self.frames[from..]
             .iter()
-            .filter_map(|f| match &f.message {
+            .filter_map(|f| match f.message.as_deref() {
                 Some(MavMessage::STATUSTEXT(t)) => {
                     Some(Ev::Text(t.text.to_str().unwrap_or("").to_string()))
                 }
@@ -224,7 +224,7 @@ impl Gcs {
         self.frames
             .iter()
             .rev()
-            .find_map(|f| match &f.message {
+            .find_map(|f| match f.message.as_deref() {
                 Some(MavMessage::HEARTBEAT(h)) => Some(h.clone()),
                 _ => None,
             })
@@ -235,7 +235,7 @@ impl Gcs {
     fn msgs_since<T>(&self, from: usize, pick: impl Fn(&MavMessage) -> Option<T>) -> Vec<T> {
         self.frames[from..]
             .iter()
-            .filter_map(|f| f.message.as_ref().and_then(&pick))
+            .filter_map(|f| f.message.as_deref().and_then(&pick))
             .collect()
     }
 
@@ -272,7 +272,7 @@ fn boots_with_heartbeat_and_banner_streams_off() {
     let hb: Vec<&HEARTBEAT_DATA> = g
         .frames
         .iter()
-        .filter_map(|f| match &f.message {
+        .filter_map(|f| match f.message.as_deref() {
             Some(MavMessage::HEARTBEAT(h)) => Some(h),
             _ => None,
         })
@@ -291,7 +291,7 @@ fn boots_with_heartbeat_and_banner_streams_off() {
     let notices: Vec<(String, f32)> = g
         .frames
         .iter()
-        .filter_map(|f| match &f.message {
+        .filter_map(|f| match f.message.as_deref() {
             Some(MavMessage::PARAM_VALUE(p)) => {
                 assert!(is_boot_notice(p), "{p:?}");
                 Some((p.param_id.to_str().unwrap().to_string(), p.param_value))
@@ -334,10 +334,14 @@ fn prearm_refusal_until_position_then_arm() {
     assert_eq!(g.arm(false), MAV_RESULT_ACCEPTED);
     assert!(g.v().armed());
     g.run_for(1_000_000);
-    let hb = g.frames.iter().rev().find_map(|f| match &f.message {
-        Some(MavMessage::HEARTBEAT(h)) => Some(h.clone()),
-        _ => None,
-    });
+    let hb = g
+        .frames
+        .iter()
+        .rev()
+        .find_map(|f| match f.message.as_deref() {
+            Some(MavMessage::HEARTBEAT(h)) => Some(h.clone()),
+            _ => None,
+        });
     let hb = hb.unwrap();
     assert!(hb
         .base_mode
@@ -350,10 +354,14 @@ fn prearm_refusal_until_position_then_arm() {
     g.set_mode(mode::GUIDED);
     g.takeoff(5.0);
     g.run_for(1_000_000);
-    let hb = g.frames.iter().rev().find_map(|f| match &f.message {
-        Some(MavMessage::HEARTBEAT(h)) => Some(h.clone()),
-        _ => None,
-    });
+    let hb = g
+        .frames
+        .iter()
+        .rev()
+        .find_map(|f| match f.message.as_deref() {
+            Some(MavMessage::HEARTBEAT(h)) => Some(h.clone()),
+            _ => None,
+        });
     assert_eq!(
         hb.unwrap().system_status,
         MavState::MAV_STATE_ACTIVE,
@@ -507,7 +515,7 @@ fn unknown_and_unsupported_commands() {
     g.run_for(10_000);
     assert!(g.frames[n..]
         .iter()
-        .all(|f| !matches!(f.message, Some(MavMessage::COMMAND_ACK(_)))));
+        .all(|f| !matches!(f.message.as_deref(), Some(MavMessage::COMMAND_ACK(_)))));
 }
 
 #[test]
@@ -842,10 +850,13 @@ fn streams_and_message_interval() {
         let c = count(&g, n, id);
         assert!((19..=21).contains(&c), "msg {id}: {c} in 5 s at 4 Hz");
     }
-    let gps = g.frames[n..].iter().rev().find_map(|f| match &f.message {
-        Some(MavMessage::GPS_RAW_INT(m)) => Some(m.clone()),
-        _ => None,
-    });
+    let gps = g.frames[n..]
+        .iter()
+        .rev()
+        .find_map(|f| match f.message.as_deref() {
+            Some(MavMessage::GPS_RAW_INT(m)) => Some(m.clone()),
+            _ => None,
+        });
     assert_eq!(gps.unwrap().fix_type, GpsFixType::GPS_FIX_TYPE_3D_FIX);
     // REQUEST_MESSAGE: one AUTOPILOT_VERSION after the ACK; HOME_POSITION too.
     assert_eq!(
@@ -856,7 +867,7 @@ fn streams_and_message_interval() {
         ),
         MAV_RESULT_ACCEPTED
     );
-    let av = g.frames.iter().find_map(|f| match &f.message {
+    let av = g.frames.iter().find_map(|f| match f.message.as_deref() {
         Some(MavMessage::AUTOPILOT_VERSION(a)) => Some(a.clone()),
         _ => None,
     });
@@ -1068,7 +1079,7 @@ fn capture_ftp_packets() -> Vec<mavftp::FtpPacket> {
         let signed = tlog[pos + 2] & 1 != 0;
         let flen = 12 + len + if signed { 13 } else { 0 };
         for f in parser.parse_all(&tlog[pos..pos + flen]) {
-            if let Some(MavMessage::FILE_TRANSFER_PROTOCOL(m)) = f.message {
+            if let Some(MavMessage::FILE_TRANSFER_PROTOCOL(m)) = f.message.as_deref() {
                 out.push(mavftp::FtpPacket::parse(&m.payload));
             }
         }
@@ -1250,7 +1261,7 @@ fn mavftp_download_through_the_sim() {
     let mut file = Vec::new();
     let mut eof = false;
     for f in &g.frames {
-        if let Some(MavMessage::FILE_TRANSFER_PROTOCOL(m)) = &f.message {
+        if let Some(MavMessage::FILE_TRANSFER_PROTOCOL(m)) = f.message.as_deref() {
             assert_eq!((m.target_system, m.target_component), (255, 190));
             let p = mavftp::FtpPacket::parse(&m.payload);
             if p.req_opcode == mavftp::op::BURST_READ_FILE {
@@ -1359,7 +1370,7 @@ fn ftp_off_is_silent_and_unannounced() {
         g.frames
             .iter()
             .rev()
-            .find_map(|f| match &f.message {
+            .find_map(|f| match f.message.as_deref() {
                 Some(MavMessage::AUTOPILOT_VERSION(a)) => Some(a.capabilities.bits()),
                 _ => None,
             })
@@ -1568,7 +1579,7 @@ fn gps_fix_comes_after_four_seconds() {
     let fixes: Vec<(u64, GpsFixType)> = g
         .frames
         .iter()
-        .filter_map(|f| match &f.message {
+        .filter_map(|f| match f.message.as_deref() {
             Some(MavMessage::GPS_RAW_INT(m)) => Some((m.time_usec, m.fix_type)),
             _ => None,
         })
@@ -1643,7 +1654,7 @@ fn do_set_mode_every_mode_disarmed_and_heartbeat_shows_it() {
         let after_ack = g.frames[n..]
             .iter()
             .skip_while(|f| f.msgid != COMMAND_ACK_ID)
-            .find_map(|f| match &f.message {
+            .find_map(|f| match f.message.as_deref() {
                 Some(MavMessage::HEARTBEAT(h)) => Some(h.custom_mode),
                 _ => None,
             });
@@ -1809,7 +1820,7 @@ fn banner_version_and_params_are_the_captures() {
     let real = flight_capture();
     let real_banner = real
         .iter()
-        .find_map(|f| match &f.message {
+        .find_map(|f| match f.message.as_deref() {
             Some(MavMessage::STATUSTEXT(t)) => {
                 let s = t.text.to_str().unwrap_or_default().to_string();
                 s.starts_with("ArduCopter V").then_some(s)
@@ -1820,7 +1831,7 @@ fn banner_version_and_params_are_the_captures() {
     let (real_version, _hash) = real_banner.split_once(" (").unwrap();
     let real_sw = real
         .iter()
-        .find_map(|f| match &f.message {
+        .find_map(|f| match f.message.as_deref() {
             Some(MavMessage::AUTOPILOT_VERSION(a)) => Some(a.flight_sw_version),
             _ => None,
         })

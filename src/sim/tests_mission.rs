@@ -97,7 +97,7 @@ impl Bench {
         self.run_for(20_000);
         self.frames[from..]
             .iter()
-            .find_map(|(_, f)| match &f.message {
+            .find_map(|(_, f)| match f.message.as_deref() {
                 Some(MavMessage::COMMAND_ACK(a)) if a.command == command => Some(a.result),
                 _ => None,
             })
@@ -148,7 +148,7 @@ impl Bench {
     fn texts_since(&self, from: usize) -> Vec<String> {
         self.frames[from..]
             .iter()
-            .filter_map(|(_, f)| match &f.message {
+            .filter_map(|(_, f)| match f.message.as_deref() {
                 Some(MavMessage::STATUSTEXT(t)) => Some(t.text.to_str().unwrap_or("").to_string()),
                 _ => None,
             })
@@ -171,7 +171,7 @@ impl Bench {
     fn mission_current_since(&self, from: usize) -> Vec<(u16, u16, u8, u8)> {
         let mut out: Vec<(u16, u16, u8, u8)> = Vec::new();
         for (_, f) in &self.frames[from..] {
-            if let Some(MavMessage::MISSION_CURRENT(m)) = &f.message {
+            if let Some(MavMessage::MISSION_CURRENT(m)) = f.message.as_deref() {
                 let k = (m.seq, m.total, m.mission_state as u8, m.mission_mode);
                 if out.last() != Some(&k) {
                     out.push(k);
@@ -534,7 +534,7 @@ fn the_capture_replayed_gets_the_real_copters_answers() {
     // The capture's FENCE_TOTAL and RALLY_TOTAL notifications.
     for (name, value) in [("FENCE_TOTAL", 6.0), ("RALLY_TOTAL", 1.0)] {
         let notified = b.frames.iter().any(|(_, f)| {
-            matches!(&f.message, Some(MavMessage::PARAM_VALUE(p))
+            matches!(f.message.as_deref(), Some(MavMessage::PARAM_VALUE(p))
                 if p.param_id.to_str().unwrap_or("") == name && p.param_value == value && p.param_index == u16::MAX)
         });
         assert!(notified, "{name} {value}");
@@ -912,7 +912,7 @@ fn the_capture_mission_flies_like_the_real_copter() {
     let mission_texts = |t: &str| t.starts_with("Mission:") || t.starts_with("Reached command");
     let want_texts: Vec<String> = vehicle
         .iter()
-        .filter_map(|(_, f)| match &f.message {
+        .filter_map(|(_, f)| match f.message.as_deref() {
             Some(MavMessage::STATUSTEXT(t)) => Some(t.text.to_str().unwrap_or("").to_string()),
             _ => None,
         })
@@ -940,7 +940,7 @@ fn the_capture_mission_flies_like_the_real_copter() {
     // The capture's MISSION_CURRENT from AUTO on (the stream, repeats merged).
     let mut want_mc: Vec<(u16, u16, u8, u8)> = Vec::new();
     for (_, f) in &vehicle {
-        if let Some(MavMessage::MISSION_CURRENT(m)) = &f.message {
+        if let Some(MavMessage::MISSION_CURRENT(m)) = f.message.as_deref() {
             let k = (m.seq, m.total, m.mission_state as u8, m.mission_mode);
             if want_mc.last() != Some(&k) {
                 want_mc.push(k);

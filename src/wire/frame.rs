@@ -303,8 +303,10 @@ pub struct Frame {
     pub msgid: u32,
     pub incompat_flags: u8,
     pub compat_flags: u8,
-    /// `Some` only for known message ids whose payload decoded.
-    pub message: Option<MavMessage>,
+    /// `Some` only for known message ids whose payload decoded. Boxed, so a frame is small (88
+    /// bytes, where the largest message is 280) and a batch of them stays in the cache; the
+    /// core's parsers are lazy and decode only what is read ([`Frame::decode`]), with no box.
+    pub message: Option<Box<MavMessage>>,
     /// From a lazy parser ([`crate::wire::FrameParser::lazy`]): `message` is `None` because
     /// nothing decoded it; its reader decodes what it reads ([`Frame::decode`]).
     pub lazy: bool,
@@ -362,7 +364,7 @@ impl Frame {
 
     /// Name of the message, or `UNKNOWN_<id>` for ids the dialect does not know.
     pub fn name(&self) -> String {
-        match &self.message {
+        match self.message.as_deref() {
             Some(m) => m.message_name().to_string(),
             None => format!("UNKNOWN_{}", self.msgid),
         }
@@ -432,6 +434,18 @@ mod tests {
             system_status: apm::MavState::MAV_STATE_ACTIVE,
             mavlink_version: 3,
         })
+    }
+
+    /// A link hands the core its frames in batches of about a hundred: a frame holds its message
+    /// boxed, so the batch is a few kilobytes (not the 280 bytes of the largest message each).
+    #[test]
+    fn a_frame_is_small() {
+        assert!(std::mem::size_of::<MavMessage>() >= 200);
+        assert!(
+            std::mem::size_of::<Frame>() <= 96,
+            "{}",
+            std::mem::size_of::<Frame>()
+        );
     }
 
     #[test]
@@ -509,7 +523,7 @@ mod tests {
         assert_eq!(bytes.len(), 6 + 9 + 2);
         let f = decode_one(&bytes).expect("decodes");
         assert_eq!((f.sysid, f.compid, f.seq, f.msgid), (1, 1, 200, 0));
-        assert_eq!(f.message, Some(gcs_heartbeat()));
+        assert_eq!(f.message.as_deref(), Some(&gcs_heartbeat()));
         assert_eq!(f.raw, bytes);
     }
 
@@ -529,7 +543,7 @@ mod tests {
             &msg,
         );
         assert_eq!(bytes[1], 1, "payload length");
-        assert_eq!(decode_one(&bytes).unwrap().message, Some(msg));
+        assert_eq!(decode_one(&bytes).unwrap().message.as_deref(), Some(&msg));
     }
 
     #[test]

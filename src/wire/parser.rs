@@ -287,8 +287,7 @@ impl FrameParser {
     }
 
     /// An empty Vec with room for the frames `len` more bytes probably hold (from the bytes per
-    /// frame seen so far, plus a quarter), so collecting them seldom has to grow it: a frame is a
-    /// few hundred bytes to move.
+    /// frame seen so far, plus a quarter), so collecting them seldom has to grow it.
     pub fn frame_vec(&self, len: usize) -> Vec<Frame> {
         const FIRST_GUESS: u64 = 32;
         let per_frame = match self.stats.frames {
@@ -304,8 +303,7 @@ impl FrameParser {
         self.push_to(bytes, &mut Emit(emit));
     }
 
-    /// [`FrameParser::push`] appending the frames to `frames`: each is decoded where it lies in
-    /// the Vec instead of being moved there (a frame is a few hundred bytes).
+    /// [`FrameParser::push`] appending the frames to `frames` (each decoded where it lies).
     pub fn push_into(&mut self, bytes: &[u8], frames: &mut Vec<Frame>) {
         self.push_to(bytes, frames);
     }
@@ -591,7 +589,7 @@ impl FrameParser {
             if decode {
                 let payload = &raw[hlen..hlen + raw[1] as usize];
                 match MavMessage::parse(version.to_mavlink(), msgid, payload) {
-                    Ok(m) => *message = Some(m),
+                    Ok(m) => *message = Some(Box::new(m)),
                     Err(_) => stats.decode_errors += 1,
                 }
             }
@@ -600,10 +598,14 @@ impl FrameParser {
 }
 
 /// Where accepted frames go: a frame is handed over with its message still `None`, and decoded
-/// where it then lies, so its few hundred bytes are not moved again.
+/// where it then lies.
 trait Sink {
     /// `frame` makes the frame (built where it is to lie, not moved there).
-    fn put(&mut self, frame: impl FnOnce() -> Frame, decode: impl FnOnce(&mut Option<MavMessage>));
+    fn put(
+        &mut self,
+        frame: impl FnOnce() -> Frame,
+        decode: impl FnOnce(&mut Option<Box<MavMessage>>),
+    );
 }
 
 /// A callback taking each frame.
@@ -611,7 +613,11 @@ struct Emit<F>(F);
 
 impl<F: FnMut(Frame)> Sink for Emit<F> {
     #[inline]
-    fn put(&mut self, frame: impl FnOnce() -> Frame, decode: impl FnOnce(&mut Option<MavMessage>)) {
+    fn put(
+        &mut self,
+        frame: impl FnOnce() -> Frame,
+        decode: impl FnOnce(&mut Option<Box<MavMessage>>),
+    ) {
         let mut frame = frame();
         decode(&mut frame.message);
         (self.0)(frame)
@@ -620,7 +626,11 @@ impl<F: FnMut(Frame)> Sink for Emit<F> {
 
 impl Sink for Vec<Frame> {
     #[inline]
-    fn put(&mut self, frame: impl FnOnce() -> Frame, decode: impl FnOnce(&mut Option<MavMessage>)) {
+    fn put(
+        &mut self,
+        frame: impl FnOnce() -> Frame,
+        decode: impl FnOnce(&mut Option<Box<MavMessage>>),
+    ) {
         self.push(frame());
         if let Some(last) = self.last_mut() {
             decode(&mut last.message);

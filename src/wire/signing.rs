@@ -503,7 +503,7 @@ mod tests {
         assert_eq!(f[n + 1..n + 7], [6, 5, 4, 3, 2, 1], "48-bit timestamp, LE");
         let parsed = decode_one(&f).expect("our parser takes it");
         assert!(parsed.is_signed());
-        assert_eq!(parsed.message, Some(heartbeat()));
+        assert_eq!(parsed.message.as_deref(), Some(&heartbeat()));
         let s = read_signature(&f).unwrap();
         assert_eq!((s.link_id, s.timestamp), (7, 0x0102_0304_0506));
         assert!(verify(&key, &f));
