@@ -140,7 +140,7 @@ impl ParamName {
     }
 
     /// The bytes as one number: with no NUL in a name, its zero padding sorts as the end of the
-    /// string does, so numbers (then lengths) order as the strings.
+    /// string does, so the numbers order as the strings (and are equal only for equal strings).
     #[inline]
     fn number(&self) -> u128 {
         u128::from_be_bytes(self.bytes)
@@ -149,9 +149,8 @@ impl ParamName {
 
 impl Ord for ParamName {
     fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        self.number()
-            .cmp(&other.number())
-            .then(self.len.cmp(&other.len))
+        // Equal numbers are equal names (no NUL in a name, so the padding starts at its end).
+        self.number().cmp(&other.number())
     }
 }
 
@@ -505,6 +504,44 @@ pub struct ParamValueMsg<'a> {
     pub type_code: u8,
     /// The name is not a parameter name: [`ParamValueMsg::name`] shows its bytes escaped.
     pub refused: bool,
+    /// The name as a key, when it is not refused.
+    pub key: Option<ParamName>,
+}
+
+/// The bytes [`crate::wire::param_pck::name_byte_ok`] takes, as the bits of a number (none is
+/// above 127).
+const NAME_BYTES: u128 = {
+    let mut bits = 0u128;
+    let mut b = 0;
+    while b < 128 {
+        if crate::wire::param_pck::name_byte_ok(b as u8) {
+            bits |= 1 << b;
+        }
+        b += 1;
+    }
+    bits
+};
+
+/// [`crate::wire::param_pck::name_byte_ok`] by one shift.
+#[inline]
+fn name_byte(b: u8) -> bool {
+    b < 128 && NAME_BYTES >> b & 1 == 1
+}
+
+/// Where the first zero byte is in `bytes` (16 when none is): eight bytes at a time.
+#[inline]
+fn first_zero(bytes: &[u8; 16]) -> usize {
+    const ONES: u64 = 0x0101_0101_0101_0101;
+    const HIGHS: u64 = 0x8080_8080_8080_8080;
+    for (i, word) in bytes.chunks_exact(8).enumerate() {
+        let w = u64::from_le_bytes(word.try_into().expect("8 bytes"));
+        // The lowest flagged byte is the first zero (flags above it may be false).
+        let zeros = w.wrapping_sub(ONES) & !w & HIGHS;
+        if zeros != 0 {
+            return i * 8 + zeros.trailing_zeros() as usize / 8;
+        }
+    }
+    16
 }
 
 impl<'a> ParamValueMsg<'a> {
@@ -514,19 +551,27 @@ impl<'a> ParamValueMsg<'a> {
     pub fn parse(payload: &'a [u8]) -> Option<ParamValueMsg<'a>> {
         let p = Payload(payload);
         // The name's bytes as sent (MAVLink 2 may have cut its trailing zeros), to the first
-        // zero; each checked without stopping early, so the check is a few wide operations.
-        let id = payload.get(8..payload.len().min(24)).unwrap_or(&[]);
-        let id = &id[..id.iter().position(|&b| b == 0).unwrap_or(id.len())];
-        let bad = id.iter().fold(false, |bad, &b| {
-            bad | !crate::wire::param_pck::name_byte_ok(b)
-        });
+        // zero, found a word at a time; each byte checked without stopping early.
+        let sent = payload.get(8..payload.len().min(24)).unwrap_or(&[]);
+        let mut padded = [0u8; 16];
+        padded[..sent.len()].copy_from_slice(sent);
+        let len = first_zero(&padded);
+        let id = &sent[..len];
+        let bad = id.iter().fold(false, |bad, &b| bad | !name_byte(b));
+        let refused = bad || id.is_empty();
+        // What follows the first zero is not the name: the key is zero-padded from there.
+        padded[len..].fill(0);
         Some(ParamValueMsg {
             raw: p.f32(0),
             count: p.u16(4),
             index: p.u16(6),
             id,
             type_code: p.u8(24),
-            refused: bad || id.is_empty(),
+            refused,
+            key: (!refused).then_some(ParamName {
+                len: len as u8,
+                bytes: padded,
+            }),
         })
     }
 
@@ -1149,7 +1194,7 @@ impl ParamMachine {
             return out;
         }
         // A name not refused is 1–16 printable ASCII: always a key.
-        let Some(key) = ParamName::probe_bytes(m.id) else {
+        let Some(key) = m.key else {
             return out;
         };
         // Recorded, and the parameter found for what follows, in one lookup.
@@ -2029,6 +2074,40 @@ mod tests {
         m.on_autopilot_version(30, CAP_PARAM_ENCODE_BYTEWISE);
         let out = m.on_param_value(40, 1, &pv("I", f32::from_bits(7), 6, 1, 0));
         assert_eq!(sends(&out).len(), 1, "{out:?}");
+    }
+
+    /// The name read from every kind of `param_id` (cut short, zero-terminated with bytes after
+    /// the zero, bytes no name may hold, 16 bytes with no zero): refused exactly when the bytes to
+    /// the first zero are not a name by [`crate::wire::param_pck::name_ok`], and keyed as
+    /// [`ParamName::new`] keys them.
+    #[test]
+    fn param_value_names_are_read_to_the_first_zero_and_checked() {
+        let mut rng = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            rng
+        };
+        let pick = b"AZaz09_.-#, \x7f\x80\xff\x00\x00";
+        for _ in 0..20_000 {
+            let sent = (next() % 17) as usize;
+            let id: Vec<u8> = (0..sent)
+                .map(|_| pick[(next() % pick.len() as u64) as usize])
+                .collect();
+            let mut payload = vec![0u8; 8];
+            payload.extend_from_slice(&id);
+            if sent == 16 {
+                payload.push(9);
+            }
+            let m = ParamValueMsg::parse(&payload).unwrap();
+            let name = &id[..id.iter().position(|&b| b == 0).unwrap_or(id.len())];
+            assert_eq!(m.id, name, "{id:?}");
+            let ok = crate::wire::param_pck::name_ok(name);
+            assert_eq!(m.refused, !ok, "{id:?}");
+            let want = ok.then(|| ParamName::new(std::str::from_utf8(name).unwrap()).unwrap());
+            assert_eq!(m.key, want, "{id:?}");
+        }
     }
 
     #[test]

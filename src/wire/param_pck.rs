@@ -191,7 +191,7 @@ pub fn decode(bytes: &[u8]) -> Result<PckFile, PckError> {
 
 /// A byte a parameter name may hold: printable ASCII but for the space, and for `#` and `,`,
 /// which start a comment and separate fields in parameter files.
-pub fn name_byte_ok(b: u8) -> bool {
+pub const fn name_byte_ok(b: u8) -> bool {
     b.is_ascii_graphic() && b != b'#' && b != b','
 }
 
