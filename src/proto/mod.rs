@@ -23,6 +23,7 @@ pub mod profile;
 pub mod rates;
 pub mod rtt;
 pub mod sequence;
+pub mod slot_map;
 pub mod statustext;
 pub mod streams;
 pub mod telemetry;

@@ -227,13 +227,20 @@ impl Param {
     }
 }
 
+/// Parameters by name, each at a slot a value heard by index finds again.
+pub type ParamMap = super::slot_map::SlotMap<ParamName, Param>;
+
 /// The parameters of one component.
 #[derive(Debug, Clone, Default)]
 pub struct ParamSet {
     /// By name (the order people look them up in).
-    pub params: BTreeMap<ParamName, Param>,
+    pub params: ParamMap,
     /// Name at each index (empty: a name refused); as long as the count.
     names: Vec<Option<ParamName>>,
+    /// The slot in `params` of the name last heard at each index (checked when used; `u32::MAX`:
+    /// none yet), so a value heard by index finds its parameter without a search. As long as
+    /// `names`.
+    slots: Vec<u32>,
     /// How many the component says it has.
     pub count: Option<u16>,
     received: usize,
@@ -270,6 +277,7 @@ impl ParamSet {
             return;
         }
         let n = count as usize;
+        self.slots.resize(n, u32::MAX);
         if n < self.names.len() {
             for name in self.names.drain(n..).flatten() {
                 if self.params.get(&name).is_some_and(|p| p.index.is_some()) {
@@ -298,11 +306,15 @@ impl ParamSet {
         if !self.note_index(key, index) {
             return None;
         }
-        let p = self
-            .params
-            .entry(key)
-            .or_insert(Param::heard(ptype, raw, index, v));
-        p.apply(index, ptype, raw, v, download)
+        let slot = match self.params.slot(&key, None) {
+            Some(s) => s,
+            None => self
+                .params
+                .insert_at(key, Param::heard(ptype, raw, index, v)),
+        };
+        self.params
+            .at_mut(slot)
+            .apply(index, ptype, raw, v, download)
     }
 
     /// `name` heard at `index`: the index taken (another name there before is gone). False when
@@ -554,13 +566,18 @@ impl<'a> ParamValueMsg<'a> {
         // zero, found a word at a time; each byte checked without stopping early.
         let sent = payload.get(8..payload.len().min(24)).unwrap_or(&[]);
         let mut padded = [0u8; 16];
-        padded[..sent.len()].copy_from_slice(sent);
+        match sent.try_into() {
+            // All 16 sent (the usual case: param_type follows, and it is never 0).
+            Ok(all) => padded = all,
+            Err(_) => padded[..sent.len()].copy_from_slice(sent),
+        }
         let len = first_zero(&padded);
         let id = &sent[..len];
         let bad = id.iter().fold(false, |bad, &b| bad | !name_byte(b));
         let refused = bad || id.is_empty();
         // What follows the first zero is not the name: the key is zero-padded from there.
-        padded[len..].fill(0);
+        let keep = u128::MAX.checked_shr(128 - 8 * len as u32).unwrap_or(0);
+        let padded = (u128::from_le_bytes(padded) & keep).to_le_bytes();
         Some(ParamValueMsg {
             raw: p.f32(0),
             count: p.u16(4),
@@ -1197,20 +1214,25 @@ impl ParamMachine {
         let Some(key) = m.key else {
             return out;
         };
-        // Recorded, and the parameter found for what follows, in one lookup.
+        // Recorded, and the parameter found for what follows: by the slot its index had (no
+        // search) when that still holds it.
         let recorded = set.note_index(key, index);
-        let (before, p) = match set.params.get_mut(&key) {
-            Some(p) if recorded => (p.apply(index, ptype, Some(m.raw), v, downloading), p),
-            Some(p) => (None, p),
-            None if recorded => {
-                let p = set
-                    .params
-                    .entry(key)
-                    .or_insert(Param::heard(ptype, Some(m.raw), index, v));
-                (p.apply(index, ptype, Some(m.raw), v, downloading), p)
-            }
+        let at = index.map(|i| i as usize).filter(|&i| i < set.slots.len());
+        let hint = at.map(|i| set.slots[i]).filter(|&s| s != u32::MAX);
+        let slot = match set.params.slot(&key, hint) {
+            Some(s) => s,
+            None if recorded => set
+                .params
+                .insert_at(key, Param::heard(ptype, Some(m.raw), index, v)),
             None => return out,
         };
+        if let Some(i) = at.filter(|_| recorded) {
+            set.slots[i] = slot;
+        }
+        let p = set.params.at_mut(slot);
+        let before = recorded
+            .then(|| p.apply(index, ptype, Some(m.raw), v, downloading))
+            .flatten();
         // An edit waiting for its echo.
         let mut resend = None;
         let mut rtt_sample = None;
