@@ -1045,8 +1045,10 @@ impl App {
                 self.on_heartbeat_frame(link, key, hb, frame, fx);
             }
             _ if copy => {}
-            Some(MavMessage::SYSTEM_TIME(st)) => {
-                let ev = self.vehicles.on_system_time(key, st.time_boot_ms, now);
+            // time_boot_ms u32 at byte 8 (after time_unix_usec), from the payload.
+            _ if frame.msgid == <dialect::SYSTEM_TIME_DATA as mavlink::MessageData>::ID => {
+                let boot_ms = crate::wire::payload::Payload(frame.payload()).u32(8);
+                let ev = self.vehicles.on_system_time(key, boot_ms, now);
                 self.on_vehicle_events(ev, fx);
             }
             Some(MavMessage::STATUSTEXT(_)) => {
@@ -1404,9 +1406,8 @@ pub(crate) const INSPECTOR: &str = "inspector";
 
 /// The message ids the core reads decoded, beyond the sessions' machines: handled here
 /// ([`App::on_frame`]).
-const APP_READS: [u32; 5] = [
+const APP_READS: [u32; 4] = [
     <dialect::HEARTBEAT_DATA as mavlink::MessageData>::ID,
-    <dialect::SYSTEM_TIME_DATA as mavlink::MessageData>::ID,
     <dialect::STATUSTEXT_DATA as mavlink::MessageData>::ID,
     <dialect::RADIO_STATUS_DATA as mavlink::MessageData>::ID,
     <dialect::ADSB_VEHICLE_DATA as mavlink::MessageData>::ID,

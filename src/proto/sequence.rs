@@ -422,11 +422,9 @@ impl Machine for Sequence {
         crate::dialect::GLOBAL_POSITION_INT_DATA::ID,
         crate::dialect::EXTENDED_SYS_STATE_DATA::ID,
     ]);
-    /// EXTENDED_SYS_STATE's landed state is read from its payload.
-    const DECODES: Ids = Ids::Only(&[
-        crate::dialect::HEARTBEAT_DATA::ID,
-        crate::dialect::GLOBAL_POSITION_INT_DATA::ID,
-    ]);
+    /// GLOBAL_POSITION_INT's height and EXTENDED_SYS_STATE's landed state are read from their
+    /// payloads.
+    const DECODES: Ids = Ids::Only(&[crate::dialect::HEARTBEAT_DATA::ID]);
 
     /// The vehicle's heartbeat: does it show the step done? Its position and landed state:
     /// has a take-off reached its altitude, or given up?
@@ -439,12 +437,14 @@ impl Machine for Sequence {
             to_out(self.on_heartbeat(hb.custom_mode, armed, &name), out);
             return;
         }
-        match m.msg {
-            Some(crate::dialect::MavMessage::GLOBAL_POSITION_INT(p)) => {
-                to_out(self.on_position(p.relative_alt), out)
+        match m.id {
+            // relative_alt i32 at byte 16 (after time_boot_ms, lat, lon, alt).
+            crate::dialect::GLOBAL_POSITION_INT_DATA::ID => {
+                let relative_alt = crate::wire::payload::Payload(m.payload).i32(16);
+                to_out(self.on_position(relative_alt), out)
             }
             // landed_state is the second byte (a trailing zero may be cut by MAVLink 2).
-            _ if m.id == crate::dialect::EXTENDED_SYS_STATE_DATA::ID => {
+            crate::dialect::EXTENDED_SYS_STATE_DATA::ID => {
                 let state = m.payload.get(1).copied().unwrap_or(0);
                 to_out(self.on_landed_state(state), out)
             }

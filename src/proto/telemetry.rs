@@ -24,6 +24,7 @@ use crate::clock::{Micros, SECOND};
 use crate::dialect::{self, MavCmd, MavMessage};
 use crate::proto::machine::Out;
 use crate::proto::vehicles::VehicleKey;
+use crate::wire::payload::Payload;
 
 /// A value older than this is shown stale.
 pub const STALE_AFTER: Micros = 3 * SECOND;
@@ -513,27 +514,30 @@ impl FlightTelemetry {
         Some(distance_bearing(h, (pos.lat(), pos.lon())))
     }
 
-    /// A message from the autopilot: its id, the message when the dialect could decode it, and
-    /// the payload as sent (read by hand when the dialect could not).
-    pub fn on_message(&mut self, now: Micros, id: u32, msg: Option<&MavMessage>, payload: &[u8]) {
+    /// A message from the autopilot: its id and its payload as sent, read at the fields' wire
+    /// offsets (sorted by size, as MAVLink sends them; a field MAVLink 2 cut reads as zero), so
+    /// nothing is decoded and an enum value newer than the dialect is kept.
+    pub fn on_message(&mut self, now: Micros, id: u32, payload: &[u8]) {
         if self.home.is_none() && self.next_home_request.is_none() {
             self.next_home_request = Some(now);
         }
-        match (id, msg) {
-            // vtol_state, landed_state (a trailing zero may be cut by MAVLink 2): read from the
-            // payload, so a value newer than the dialect is kept.
-            (id::EXTENDED_SYS_STATE, _) => {
+        let p = Payload(payload);
+        match id {
+            // vtol_state, landed_state.
+            id::EXTENDED_SYS_STATE => {
                 self.landed_state = Some(Timed {
-                    value: payload.get(1).copied().unwrap_or(0),
+                    value: p.u8(1),
                     at: now,
                 });
             }
-            (id::GLOBAL_POSITION_INT, Some(MavMessage::GLOBAL_POSITION_INT(p))) => {
+            // time_boot_ms u32, lat, lon, alt, relative_alt i32 (4..20), vx, vy, vz i16 (20..26),
+            // hdg u16 (26).
+            id::GLOBAL_POSITION_INT => {
                 let value = Position {
-                    lat_e7: p.lat,
-                    lon_e7: p.lon,
-                    alt_mm: p.alt,
-                    relative_alt_mm: p.relative_alt,
+                    lat_e7: p.i32(4),
+                    lon_e7: p.i32(8),
+                    alt_mm: p.i32(12),
+                    relative_alt_mm: p.i32(16),
                 };
                 self.altitude.set(now, value.relative_alt_m() as f32);
                 self.position = Some(Timed { value, at: now });
@@ -545,10 +549,11 @@ impl FlightTelemetry {
                         .vfr_hud_at
                         .is_none_or(|t| now.saturating_sub(t) > STALE_AFTER)
                 {
-                    let (vx, vy) = (p.vx as f64 / 100.0, p.vy as f64 / 100.0);
+                    let (vx, vy) = (p.i16(20) as f64 / 100.0, p.i16(22) as f64 / 100.0);
+                    let (vz, hdg) = (p.i16(24), p.u16(26));
                     let speed = vx.hypot(vy);
-                    let heading = if p.hdg != u16::MAX {
-                        (p.hdg / 100) as i16
+                    let heading = if hdg != u16::MAX {
+                        (hdg / 100) as i16
                     } else if speed >= 0.5 {
                         vy.atan2(vx).to_degrees().rem_euclid(360.0).round() as i16 % 360
                     } else {
@@ -556,114 +561,97 @@ impl FlightTelemetry {
                     };
                     let value = Motion {
                         groundspeed: speed as f32,
-                        climb: -(p.vz as f32) / 100.0,
+                        climb: -(vz as f32) / 100.0,
                         heading,
                     };
                     self.motion = Some(Timed { value, at: now });
                 }
             }
-            (id::VFR_HUD, Some(MavMessage::VFR_HUD(h))) => {
+            // airspeed, groundspeed, alt, climb f32 (0..16), heading i16 (16), throttle u16.
+            id::VFR_HUD => {
                 let value = Motion {
-                    groundspeed: h.groundspeed,
-                    climb: h.climb,
-                    heading: h.heading,
+                    groundspeed: p.f32(4),
+                    climb: p.f32(12),
+                    heading: p.i16(16),
                 };
                 self.motion = Some(Timed { value, at: now });
                 self.vfr_hud_at = Some(now);
             }
-            (id::VIBRATION, Some(MavMessage::VIBRATION(v))) => {
+            // time_usec u64, vibration_x, _y, _z f32 (8..20), clipping_0, _1, _2 u32 (20..32).
+            id::VIBRATION => {
                 let value = Vibration {
-                    x: v.vibration_x,
-                    y: v.vibration_y,
-                    z: v.vibration_z,
-                    clipping: [v.clipping_0, v.clipping_1, v.clipping_2],
+                    x: p.f32(8),
+                    y: p.f32(12),
+                    z: p.f32(16),
+                    clipping: [p.u32(20), p.u32(24), p.u32(28)],
                 };
                 self.vibration = Some(Timed { value, at: now });
             }
-            (id::RADIO_STATUS, Some(MavMessage::RADIO_STATUS(r))) => {
+            // rxerrors, fixed u16 (0, 2), rssi, remrssi, txbuf, noise, remnoise u8 (4..9).
+            id::RADIO_STATUS => {
                 let value = Radio {
-                    rssi: r.rssi,
-                    remrssi: r.remrssi,
-                    noise: r.noise,
-                    remnoise: r.remnoise,
-                    txbuf: r.txbuf,
-                    rxerrors: r.rxerrors,
-                    fixed: r.fixed,
+                    rssi: p.u8(4),
+                    remrssi: p.u8(5),
+                    noise: p.u8(7),
+                    remnoise: p.u8(8),
+                    txbuf: p.u8(6),
+                    rxerrors: p.u16(0),
+                    fixed: p.u16(2),
                 };
                 self.radio = Some(Timed { value, at: now });
             }
-            (id::SYS_STATUS, msg) => {
-                // The sensor bits from the payload: bits newer than the dialect are kept.
+            // The sensor bits (0..12; bits newer than the dialect are kept), load u16 (12),
+            // voltage_battery u16 (14), current_battery i16 (16), ..., battery_remaining i8 (30).
+            id::SYS_STATUS => {
+                let sensors = Sensors::from_payload(payload);
                 self.sensors = Some(Timed {
-                    value: Sensors::from_payload(payload),
+                    value: sensors,
                     at: now,
                 });
-                let Some(MavMessage::SYS_STATUS(s)) = msg else {
-                    return;
-                };
-                let b = Battery::from_sys_status(
-                    s.voltage_battery,
-                    s.current_battery,
-                    s.battery_remaining,
-                );
+                let b = Battery::from_sys_status(p.u16(14), p.i16(16), p.u8(30) as i8);
                 self.set_battery(now, b);
-                let bits = |f: dialect::MavSysStatusSensor| f.bits() & PREARM_CHECK != 0;
-                if bits(s.onboard_control_sensors_present) {
+                if sensors.present & PREARM_CHECK != 0 {
                     let value = Prearm {
-                        enabled: bits(s.onboard_control_sensors_enabled),
-                        healthy: bits(s.onboard_control_sensors_health),
+                        enabled: sensors.enabled & PREARM_CHECK != 0,
+                        healthy: sensors.health & PREARM_CHECK != 0,
                     };
                     self.prearm = Some(Timed { value, at: now });
                 }
             }
-            (id::BATTERY_STATUS, msg) => {
-                let (battery_id, b) = match msg {
-                    Some(MavMessage::BATTERY_STATUS(b)) => (
-                        b.id,
-                        Battery::from_battery_status(
-                            &b.voltages,
-                            &b.voltages_ext,
-                            b.current_battery,
-                            b.battery_remaining,
-                        ),
-                    ),
-                    _ => battery_status_from_payload(payload),
-                };
+            id::BATTERY_STATUS => {
+                let (battery_id, b) = battery_status_from_payload(payload);
                 if battery_id == 0 {
                     self.set_battery(now, b);
                 }
             }
-            (id::GPS_RAW_INT, msg) => {
-                let value = match msg {
-                    Some(MavMessage::GPS_RAW_INT(g)) => Gps {
-                        fix_type: g.fix_type as u8,
-                        satellites: (g.satellites_visible != u8::MAX)
-                            .then_some(g.satellites_visible),
-                        hdop_e2: (g.eph != u16::MAX).then_some(g.eph),
-                    },
-                    _ => gps_from_payload(payload),
-                };
-                self.gps = Some(Timed { value, at: now });
+            id::GPS_RAW_INT => {
+                self.gps = Some(Timed {
+                    value: gps_from_payload(payload),
+                    at: now,
+                });
             }
-            (id::EKF_STATUS_REPORT, Some(MavMessage::EKF_STATUS_REPORT(e))) => {
+            // velocity, pos_horiz, pos_vert, compass, terrain_alt variances f32 (0..20), flags
+            // u16 (20).
+            id::EKF_STATUS_REPORT => {
                 self.ekf = Some(Timed {
-                    value: e.flags.bits(),
+                    value: p.u16(20),
                     at: now,
                 });
                 let value = EkfVariances {
-                    velocity: e.velocity_variance,
-                    pos_horiz: e.pos_horiz_variance,
-                    pos_vert: e.pos_vert_variance,
-                    compass: e.compass_variance,
-                    terrain_alt: e.terrain_alt_variance,
+                    velocity: p.f32(0),
+                    pos_horiz: p.f32(4),
+                    pos_vert: p.f32(8),
+                    compass: p.f32(12),
+                    terrain_alt: p.f32(16),
                 };
                 self.ekf_variances = Some(Timed { value, at: now });
             }
-            (id::HOME_POSITION, Some(MavMessage::HOME_POSITION(h))) => {
+            // latitude, longitude, altitude i32 (0..12), ...
+            id::HOME_POSITION => {
                 let value = Home {
-                    lat_e7: h.latitude,
-                    lon_e7: h.longitude,
-                    alt_mm: h.altitude,
+                    lat_e7: p.i32(0),
+                    lon_e7: p.i32(4),
+                    alt_mm: p.i32(8),
                 };
                 self.home = Some(Timed { value, at: now });
                 self.next_home_request = None;
@@ -746,9 +734,11 @@ impl crate::proto::machine::Machine for FlightTelemetry {
         id::EKF_STATUS_REPORT,
         id::HOME_POSITION,
     ]);
+    /// None: every one is read from its payload.
+    const DECODES: crate::proto::machine::Ids = crate::proto::machine::Ids::Only(&[]);
 
     fn on_message(&mut self, m: &crate::proto::machine::Incoming, _: &mut Vec<Out>) {
-        FlightTelemetry::on_message(self, m.now, m.id, m.msg, m.payload);
+        FlightTelemetry::on_message(self, m.now, m.id, m.payload);
     }
 
     /// HOME_POSITION requests are mavterm's own: spared on high-latency links.
@@ -786,7 +776,7 @@ mod tests {
 
     fn feed(t: &mut FlightTelemetry, now: Micros, msg: &MavMessage) {
         let f = wire(msg);
-        t.on_message(now, f.msgid, f.message.as_deref(), f.payload());
+        t.on_message(now, f.msgid, f.payload());
     }
 
     fn position(lat: f64, lon: f64, rel_m: f64) -> MavMessage {
@@ -884,13 +874,17 @@ mod tests {
         let mut payload = ok.payload().to_vec();
         payload[28] = 200;
         let mut t = FlightTelemetry::new(KEY, true);
-        t.on_message(0, id::GPS_RAW_INT, None, &payload);
+        t.on_message(0, id::GPS_RAW_INT, &payload);
         let g = t.gps.unwrap().value;
         assert_eq!((g.fix_type, g.satellites), (200, Some(10)));
         assert_eq!(fix_name(g.fix_type), "fix 200");
-        // The decoded path agrees with the hand reader.
-        t.on_message(1, id::GPS_RAW_INT, ok.message.as_deref(), ok.payload());
-        assert_eq!(t.gps.unwrap().value, gps_from_payload(ok.payload()));
+        // The message as the dialect encodes it.
+        t.on_message(1, id::GPS_RAW_INT, ok.payload());
+        let g = t.gps.unwrap().value;
+        assert_eq!(
+            (g.fix_type, g.satellites, g.hdop_e2),
+            (3, Some(10), Some(0))
+        );
         // BATTERY_STATUS with battery_function 200.
         let mut voltages = [u16::MAX; 10];
         voltages[0] = 16_800;
@@ -902,11 +896,149 @@ mod tests {
         }));
         let mut payload = ok.payload().to_vec();
         payload[33] = 200;
-        t.on_message(2, id::BATTERY_STATUS, None, &payload);
+        t.on_message(2, id::BATTERY_STATUS, &payload);
         let b = t.battery.unwrap().value;
         assert_eq!(
             (b.voltage_mv, b.current_ca, b.remaining_pct),
             (Some(16_800), Some(1234), Some(55))
+        );
+    }
+
+    /// Every field read from a payload, each message encoded by the dialect's own serializer
+    /// (MAVLink 2: trailing zeros cut) with a distinct value in every field it has: read at the
+    /// right offsets, signs and widths.
+    #[test]
+    fn every_field_is_read_at_its_wire_offset() {
+        let mut t = FlightTelemetry::new(KEY, false);
+        feed(
+            &mut t,
+            1,
+            &MavMessage::GLOBAL_POSITION_INT(dialect::GLOBAL_POSITION_INT_DATA {
+                time_boot_ms: 0xDEAD_BEEF,
+                lat: -353_632_610,
+                lon: 1_491_652_300,
+                alt: 584_070,
+                relative_alt: -1_234,
+                vx: -300,
+                vy: 400,
+                vz: -250,
+                hdg: 27_100,
+            }),
+        );
+        let p = t.position.unwrap().value;
+        assert_eq!(
+            (p.lat_e7, p.lon_e7, p.alt_mm, p.relative_alt_mm),
+            (-353_632_610, 1_491_652_300, 584_070, -1_234)
+        );
+        let m = t.motion.unwrap().value;
+        assert_eq!((m.groundspeed, m.climb, m.heading), (5.0, 2.5, 271));
+        feed(
+            &mut t,
+            2,
+            &MavMessage::VFR_HUD(dialect::VFR_HUD_DATA {
+                airspeed: 11.5,
+                groundspeed: 12.25,
+                alt: 99.0,
+                climb: -1.5,
+                heading: 359,
+                throttle: 42,
+            }),
+        );
+        let m = t.motion.unwrap().value;
+        assert_eq!((m.groundspeed, m.climb, m.heading), (12.25, -1.5, 359));
+        feed(
+            &mut t,
+            3,
+            &MavMessage::VIBRATION(dialect::VIBRATION_DATA {
+                time_usec: u64::MAX,
+                vibration_x: 1.5,
+                vibration_y: 2.5,
+                vibration_z: 3.5,
+                clipping_0: 7,
+                clipping_1: 70_000,
+                clipping_2: 9,
+            }),
+        );
+        assert_eq!(
+            t.vibration.unwrap().value,
+            Vibration {
+                x: 1.5,
+                y: 2.5,
+                z: 3.5,
+                clipping: [7, 70_000, 9]
+            }
+        );
+        feed(
+            &mut t,
+            4,
+            &MavMessage::RADIO_STATUS(dialect::RADIO_STATUS_DATA {
+                rssi: 201,
+                remrssi: 202,
+                txbuf: 93,
+                noise: 44,
+                remnoise: 45,
+                rxerrors: 1_001,
+                fixed: 2_002,
+            }),
+        );
+        assert_eq!(
+            t.radio.unwrap().value,
+            Radio {
+                rssi: 201,
+                remrssi: 202,
+                noise: 44,
+                remnoise: 45,
+                txbuf: 93,
+                rxerrors: 1_001,
+                fixed: 2_002
+            }
+        );
+        feed(
+            &mut t,
+            5,
+            &MavMessage::SYS_STATUS(dialect::SYS_STATUS_DATA {
+                voltage_battery: 15_900,
+                current_battery: -2,
+                battery_remaining: 64,
+                load: 500,
+                ..Default::default()
+            }),
+        );
+        let b = t.battery.unwrap().value;
+        assert_eq!(
+            (b.voltage_mv, b.current_ca, b.remaining_pct),
+            (Some(15_900), Some(-2), Some(64))
+        );
+        feed(
+            &mut t,
+            6,
+            &MavMessage::EKF_STATUS_REPORT(dialect::EKF_STATUS_REPORT_DATA {
+                velocity_variance: 0.125,
+                pos_horiz_variance: 0.25,
+                pos_vert_variance: 0.375,
+                compass_variance: 0.5,
+                terrain_alt_variance: 0.625,
+                flags: dialect::EkfStatusFlags::from_bits_truncate(0x3FF),
+                ..Default::default()
+            }),
+        );
+        assert_eq!(t.ekf.unwrap().value, 0x3FF);
+        let v = t.ekf_variances.unwrap().value;
+        assert_eq!(
+            (
+                v.velocity,
+                v.pos_horiz,
+                v.pos_vert,
+                v.compass,
+                v.terrain_alt
+            ),
+            (0.125, 0.25, 0.375, 0.5, 0.625)
+        );
+        feed(&mut t, 7, &home(-35.5, 149.25));
+        let h = t.home.unwrap().value;
+        assert_eq!(
+            (h.lat_e7, h.lon_e7, h.alt_mm),
+            (-355_000_000, 1_492_500_000, 584_000)
         );
     }
 
