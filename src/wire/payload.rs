@@ -14,7 +14,12 @@ impl<'a> Payload<'a> {
     }
 
     /// `N` bytes from `at`, zeros beyond the end.
+    #[inline]
     pub fn bytes<const N: usize>(&self, at: usize) -> [u8; N] {
+        // All there (the usual case): a copy of a known length, no call.
+        if let Some(whole) = at.checked_add(N).and_then(|end| self.0.get(at..end)) {
+            return whole.try_into().expect("N bytes");
+        }
         let mut b = [0u8; N];
         if let Some(src) = self.0.get(at..) {
             let n = src.len().min(N);
