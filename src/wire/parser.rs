@@ -631,10 +631,15 @@ impl Sink for Vec<Frame> {
         frame: impl FnOnce() -> Frame,
         decode: impl FnOnce(&mut Option<Box<MavMessage>>),
     ) {
-        self.push(frame());
-        if let Some(last) = self.last_mut() {
-            decode(&mut last.message);
-        }
+        self.reserve(1);
+        // Built where it is to lie: a frame made on the stack and copied in is read back a word
+        // at a time over the bytes just stored one by one (its header fields), which the CPU
+        // cannot forward from its store buffer and waits for.
+        let len = self.len();
+        let last = self.spare_capacity_mut()[0].write(frame());
+        decode(&mut last.message);
+        // SAFETY: the slot after the last was just written with a frame.
+        unsafe { self.set_len(len + 1) };
     }
 }
 
