@@ -1221,7 +1221,8 @@ impl App {
             if quiet && s.quiet.len() < 256 {
                 s.quiet.insert(key.1);
             }
-            let out = s.on_message(&incoming);
+            let mut out = Vec::new();
+            s.on_message(&incoming, &mut out);
             if !out.is_empty() {
                 outs.push((*k, out));
             }

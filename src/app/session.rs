@@ -336,7 +336,9 @@ impl Session {
     /// A message of this system, for us or broadcast: each machine reading its id is handed it
     /// (the autopilot's machines only what the autopilot sent; parameters, cameras, gimbals and
     /// the ACKs of commands from any component of the system).
-    pub fn on_message(&mut self, m: &Incoming) -> Vec<SessionOut> {
+    /// What comes of it is pushed on `out` (not returned: a Vec handed back through the stack
+    /// for every frame is stored and read back in pieces, which the CPU waits for).
+    pub fn on_message(&mut self, m: &Incoming, out: &mut Vec<SessionOut>) {
         let (now, from) = (m.now, m.from.1);
         match self.heard.get_mut(&m.link) {
             Some(h) => *h = (now, m.profile),
@@ -358,54 +360,53 @@ impl Session {
             | Dispatch::COMMANDS
             | Dispatch::COMP_META
             | Dispatch::CALIBRATION;
-        let mut out = Vec::new();
         let mut buf = Vec::new();
         if w & Dispatch::PARAMS != 0 {
             Machine::on_message(&mut self.params, m, &mut buf);
-            self.deliver(now, &mut buf, &mut out);
+            self.deliver(now, &mut buf, out);
         }
         // Cameras: no automatic discovery for components first heard in a heartbeat flood.
         if w & Dispatch::CAMERAS != 0 && !self.quiet.contains(&from) {
             Machine::on_message(&mut self.cameras, m, &mut buf);
-            self.deliver(now, &mut buf, &mut out);
+            self.deliver(now, &mut buf, out);
         }
         if w & Dispatch::GIMBALS != 0 {
             Machine::on_message(&mut self.gimbals, m, &mut buf);
-            self.deliver(now, &mut buf, &mut out);
+            self.deliver(now, &mut buf, out);
         }
         // The first message starts its automatic request; files may come from another
         // component.
         if w & Dispatch::COMP_META != 0 || self.comp_meta.waits_to_start() {
             Machine::on_message(&mut self.comp_meta, m, &mut buf);
-            self.deliver(now, &mut buf, &mut out);
+            self.deliver(now, &mut buf, out);
         }
         if from != self.key.1 {
             // Another component of this system (a camera, a gimbal): the answers to commands
             // sent to it through this session's queue.
             if w & Dispatch::COMMANDS != 0 {
                 Machine::on_message(&mut self.commands, m, &mut buf);
-                self.deliver(now, &mut buf, &mut out);
+                self.deliver(now, &mut buf, out);
             }
             if w & offers != 0 || !out.is_empty() || self.sequence.is_some() {
-                self.offer_requests(now, &mut out);
+                self.offer_requests(now, out);
                 self.hold_streams();
             }
-            return out;
+            return;
         }
         if w & Dispatch::MISSION != 0 {
             Machine::on_message(&mut self.mission, m, &mut buf);
-            self.deliver(now, &mut buf, &mut out);
+            self.deliver(now, &mut buf, out);
         }
         if w & Dispatch::LOGS != 0 {
             Machine::on_message(&mut self.logs, m, &mut buf);
-            self.deliver(now, &mut buf, &mut out);
+            self.deliver(now, &mut buf, out);
         }
         if w & Dispatch::PREARM != 0 {
             Machine::on_message(&mut self.prearm, m, &mut buf);
         }
         if w & Dispatch::CALIBRATION != 0 {
             Machine::on_message(&mut self.calibration, m, &mut buf);
-            self.deliver(now, &mut buf, &mut out);
+            self.deliver(now, &mut buf, out);
         }
         // A SET_MESSAGE_INTERVAL's ACK is the stream machine's while one of its own waits,
         // else the command queue's. The messages it measures are counted here, the rest of it
@@ -418,13 +419,13 @@ impl Session {
         if w & Dispatch::FLIGHT != 0 {
             Machine::on_message(&mut self.flight, m, &mut buf);
         }
-        self.deliver(now, &mut buf, &mut out);
+        self.deliver(now, &mut buf, out);
         if w & Dispatch::COMMANDS != 0 && !claimed {
             Machine::on_message(&mut self.commands, m, &mut buf);
-            self.deliver(now, &mut buf, &mut out);
+            self.deliver(now, &mut buf, out);
         }
         if let Some(hb) = m.heartbeat() {
-            self.on_mode_seen(hb.custom_mode, &mut out);
+            self.on_mode_seen(hb.custom_mode, out);
         }
         if let Some(seq) = self
             .sequence
@@ -432,15 +433,14 @@ impl Session {
             .filter(|_| w & Dispatch::SEQUENCE != 0)
         {
             Machine::on_message(seq, m, &mut buf);
-            self.deliver(now, &mut buf, &mut out);
+            self.deliver(now, &mut buf, out);
         }
         // The command queue changed only if a command was answered, something came out, or
         // requests were offered: only then can an operator's rate request have opened or ended.
         if w & offers != 0 || !out.is_empty() || self.sequence.is_some() {
-            self.offer_requests(now, &mut out);
+            self.offer_requests(now, out);
             self.hold_streams();
         }
-        out
     }
 
     /// Operate camera `compid` of this system: the command goes through the queue, or the
