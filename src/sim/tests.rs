@@ -334,15 +334,7 @@ fn prearm_refusal_until_position_then_arm() {
     assert_eq!(g.arm(false), MAV_RESULT_ACCEPTED);
     assert!(g.v().armed());
     g.run_for(1_000_000);
-    let hb = g
-        .frames
-        .iter()
-        .rev()
-        .find_map(|f| match f.message.as_deref() {
-            Some(MavMessage::HEARTBEAT(h)) => Some(h.clone()),
-            _ => None,
-        });
-    let hb = hb.unwrap();
+    let hb = g.last_heartbeat();
     assert!(hb
         .base_mode
         .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED));
@@ -354,16 +346,8 @@ fn prearm_refusal_until_position_then_arm() {
     g.set_mode(mode::GUIDED);
     g.takeoff(5.0);
     g.run_for(1_000_000);
-    let hb = g
-        .frames
-        .iter()
-        .rev()
-        .find_map(|f| match f.message.as_deref() {
-            Some(MavMessage::HEARTBEAT(h)) => Some(h.clone()),
-            _ => None,
-        });
     assert_eq!(
-        hb.unwrap().system_status,
+        g.last_heartbeat().system_status,
         MavState::MAV_STATE_ACTIVE,
         "flying"
     );
