@@ -306,15 +306,26 @@ impl ParamSet {
         if !self.note_index(key, index) {
             return None;
         }
-        let slot = match self.params.slot(&key, None) {
-            Some(s) => s,
-            None => self
-                .params
-                .insert_at(key, Param::heard(ptype, raw, index, v)),
-        };
+        let slot = self.place(key, index, || Param::heard(ptype, raw, index, v));
         self.params
             .at_mut(slot)
             .apply(index, ptype, raw, v, download)
+    }
+
+    /// The slot of `key`, heard at `index`: found by the slot that index had (no search) when
+    /// that still holds it, else by name; made with `heard` when new. The slot is remembered for
+    /// the index.
+    fn place(&mut self, key: ParamName, index: Option<u16>, heard: impl FnOnce() -> Param) -> u32 {
+        let at = index.map(|i| i as usize).filter(|&i| i < self.slots.len());
+        let hint = at.map(|i| self.slots[i]).filter(|&s| s != u32::MAX);
+        let slot = match self.params.slot(&key, hint) {
+            Some(s) => s,
+            None => self.params.insert_at(key, heard()),
+        };
+        if let Some(i) = at {
+            self.slots[i] = slot;
+        }
+        slot
     }
 
     /// `name` heard at `index`: the index taken (another name there before is gone). False when
@@ -1217,18 +1228,14 @@ impl ParamMachine {
         // Recorded, and the parameter found for what follows: by the slot its index had (no
         // search) when that still holds it.
         let recorded = set.note_index(key, index);
-        let at = index.map(|i| i as usize).filter(|&i| i < set.slots.len());
-        let hint = at.map(|i| set.slots[i]).filter(|&s| s != u32::MAX);
-        let slot = match set.params.slot(&key, hint) {
-            Some(s) => s,
-            None if recorded => set
-                .params
-                .insert_at(key, Param::heard(ptype, Some(m.raw), index, v)),
-            None => return out,
+        let slot = if recorded {
+            Some(set.place(key, index, || Param::heard(ptype, Some(m.raw), index, v)))
+        } else {
+            set.params.slot(&key, None)
         };
-        if let Some(i) = at.filter(|_| recorded) {
-            set.slots[i] = slot;
-        }
+        let Some(slot) = slot else {
+            return out;
+        };
         let p = set.params.at_mut(slot);
         let before = recorded
             .then(|| p.apply(index, ptype, Some(m.raw), v, downloading))
