@@ -315,6 +315,9 @@ fn a_missing_file_on_the_vehicle_falls_back_to_the_web() {
         ])
     );
     assert_eq!(*asked.lock().unwrap(), ["/px4/parameters.json.xz"]);
+    // Written on a blocking task: it may land a moment after the metadata is in use.
+    let cached = cache_file(&cache, crc);
+    run.until(10.0, "the metadata cache written", |_| cached.exists());
     assert_eq!(
         std::fs::read(cache_file(&cache, crc)).unwrap(),
         std::fs::read(files.join("parameters.json")).unwrap()
